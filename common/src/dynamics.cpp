@@ -1,0 +1,118 @@
+#include "delta/dynamics.hpp"
+
+#include <cmath>
+
+namespace delta {
+
+namespace {
+
+struct PoseKinematics {
+  Vec3<double> p{};
+  VelocityKinematics<double> vk{};
+};
+
+KinematicsStatus pose_kinematics(const Geometry& g, const Joint3& q, const Joint3& qd,
+                                 PoseKinematics& out) {
+  const auto fk = forward_kinematics(g, q);
+  if (fk.status != KinematicsStatus::kOk) return fk.status;
+  out.p = fk.position_m;
+  out.vk = velocity_kinematics(g, q, qd, out.p);
+  return out.vk.status;
+}
+
+Joint3 transpose_times(const Mat3<double>& J, const Vec3<double>& v) {
+  const Vec3<double> r = J.transposed() * v;
+  return {r.x, r.y, r.z};
+}
+
+}  // namespace
+
+KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
+                                double coulomb_smoothing_rad_s, DynamicsBasis& out) {
+  PoseKinematics pk;
+  const auto status = pose_kinematics(g, s.q_rad, s.qd_rad_s, pk);
+  if (status != KinematicsStatus::kOk) return status;
+  const Vec3<double> qdd{s.qdd_rad_s2[0], s.qdd_rad_s2[1], s.qdd_rad_s2[2]};
+  // pdd - g with g = (0, 0, -gravity).
+  const Vec3<double> pdd_minus_g =
+      pk.vk.jacobian * qdd + pk.vk.jacobian_dot_qdot + Vec3<double>{0.0, 0.0, gravity_m_s2};
+  out.platform = transpose_times(pk.vk.jacobian, pdd_minus_g);
+  for (unsigned i = 0; i < 3; ++i) {
+    out.inertia[i] = s.qdd_rad_s2[i];
+    out.gravity[i] = -std::cos(s.q_rad[i]);
+    out.viscous[i] = s.qd_rad_s[i];
+    out.coulomb[i] = std::tanh(s.qd_rad_s[i] / coulomb_smoothing_rad_s);
+  }
+  return KinematicsStatus::kOk;
+}
+
+Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p) {
+  Joint3 tau{};
+  for (unsigned i = 0; i < 3; ++i) {
+    tau[i] = p.arm_inertia_kg_m2[i] * b.inertia[i] + p.arm_gravity_moment_Nm[i] * b.gravity[i] +
+             p.platform_mass_kg * b.platform[i] + p.viscous_friction_Nm_s_per_rad[i] * b.viscous[i] +
+             p.coulomb_friction_Nm[i] * b.coulomb[i] + p.torque_offset_Nm[i];
+  }
+  return tau;
+}
+
+KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p,
+                                  const JointState& s, Joint3& tau_Nm) {
+  DynamicsBasis b;
+  const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
+  if (status != KinematicsStatus::kOk) return status;
+  tau_Nm = torque_from_basis(b, p);
+  return KinematicsStatus::kOk;
+}
+
+KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p,
+                                  const Joint3& q_rad, const Joint3& qd_rad_s,
+                                  const Joint3& tau_Nm, Joint3& qdd_rad_s2) {
+  // The torque at qdd = 0 is the bias h(q, qd); the mass matrix is
+  // diag(I) + m_p J^T J.
+  JointState s{q_rad, qd_rad_s, {}};
+  DynamicsBasis b;
+  const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
+  if (status != KinematicsStatus::kOk) return status;
+  const Joint3 bias = torque_from_basis(b, p);
+  PoseKinematics pk;
+  pose_kinematics(g, q_rad, qd_rad_s, pk);
+  const Mat3<double>& J = pk.vk.jacobian;
+  Mat3<double> M{};
+  for (unsigned r = 0; r < 3; ++r) {
+    Vec3<double> row{};
+    const Vec3<double> col_r{J(0, r), J(1, r), J(2, r)};
+    row.x = p.platform_mass_kg * col_r.dot(Vec3<double>{J(0, 0), J(1, 0), J(2, 0)});
+    row.y = p.platform_mass_kg * col_r.dot(Vec3<double>{J(0, 1), J(1, 1), J(2, 1)});
+    row.z = p.platform_mass_kg * col_r.dot(Vec3<double>{J(0, 2), J(1, 2), J(2, 2)});
+    M.row[r] = row;
+  }
+  M.row[0].x += p.arm_inertia_kg_m2[0];
+  M.row[1].y += p.arm_inertia_kg_m2[1];
+  M.row[2].z += p.arm_inertia_kg_m2[2];
+  const double det = M.determinant();
+  if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return KinematicsStatus::kSingular;
+  const Vec3<double> rhs{tau_Nm[0] - bias[0], tau_Nm[1] - bias[1], tau_Nm[2] - bias[2]};
+  const Vec3<double> qdd = (M.adjugate() * rhs) * (1.0 / det);
+  qdd_rad_s2 = {qdd.x, qdd.y, qdd.z};
+  return KinematicsStatus::kOk;
+}
+
+LumpedParameters default_lumped_parameters() {
+  LumpedParameters p;
+  // Arm: 0.35 kg aluminium tube over 0.2 m (I = m a^2 / 3 = 4.7e-3), elbow
+  // share of two forearms 0.05 kg (2e-3), reflected rotor 5e-4 kg m^2.
+  p.arm_inertia_kg_m2 = {7.2e-3, 7.2e-3, 7.2e-3};
+  // 9.81 * (0.35 * 0.1 + 0.05 * 0.2) = 0.441 N m.
+  p.arm_gravity_moment_Nm = {0.441, 0.441, 0.441};
+  // Platform 0.25 kg plus the forearms' platform share 0.15 kg.
+  p.platform_mass_kg = 0.40;
+  p.viscous_friction_Nm_s_per_rad = {0.020, 0.025, 0.018};
+  p.coulomb_friction_Nm = {0.060, 0.050, 0.070};
+  p.torque_offset_Nm = {0.0, 0.0, 0.0};
+  p.coulomb_smoothing_rad_s = 0.01;
+  p.gravity_m_s2 = 9.81;
+  return p;
+}
+
+}  // namespace delta
