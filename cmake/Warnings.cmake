@@ -4,7 +4,7 @@ function(delta_set_warnings target)
   target_compile_options(${target} PRIVATE
     -Wall -Wextra -Wpedantic -Wconversion -Wsign-conversion -Wshadow
     -Wdouble-promotion -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
-    -Wnull-dereference -Wimplicit-fallthrough)
+    -Wimplicit-fallthrough)
   if(DELTA_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()

@@ -1,0 +1,71 @@
+// The delta-log/1 file format (../shared/spec/conventions.md, docs/log-format.md):
+// a strict reader that rejects every breach of the contract with
+// file:line:column, and a writer that round-trips every double exactly.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "delta/geometry.hpp"
+
+namespace host_id {
+
+using Series = std::vector<double>;
+using Series3 = std::array<Series, 3>;
+
+// A place where samples are not contiguous: samples [0, index) and
+// [index, ...) must never be bridged by filtering or differentiation.
+struct SampleGap {
+  std::size_t index{};  // first sample after the gap
+  std::size_t line{};   // its line in the file
+  std::string what;     // e.g. "seq jumps from 41 to 45 (3 samples lost)"
+};
+
+struct DeltaLog {
+  std::string name;  // the file it came from, for messages
+  delta::Geometry geometry{};
+  double gravity_m_s2{9.81};
+  std::optional<double> sample_rate_hz;
+  // Every metadata key in file order, required, optional and unknown alike.
+  std::vector<std::pair<std::string, std::string>> metadata;
+
+  Series t;  // s
+  Series3 q;    // rad
+  Series3 tau;  // N m
+  bool has_qd{false};
+  bool has_qdd{false};
+  Series3 qd;   // rad/s, when has_qd
+  Series3 qdd;  // rad/s^2, when has_qdd
+  std::vector<std::uint64_t> seq;  // empty when the log has no seq column
+  // Further columns, kept by name.
+  std::vector<std::pair<std::string, Series>> extra_columns;
+
+  std::vector<SampleGap> gaps;
+  std::size_t first_data_line{0};
+
+  std::size_t size() const { return t.size(); }
+  // The value of a metadata key, if present.
+  std::optional<std::string> metadata_value(std::string_view key) const;
+};
+
+// Parses text as delta-log/1; name is used in messages ("name:line:col: ...").
+// Throws InputError on any breach of the contract.
+DeltaLog parse_delta_log(std::string_view text, const std::string& name);
+
+// Reads and parses a file.
+DeltaLog read_delta_log(const std::string& path);
+
+// Formats a log as delta-log/1 text. Numbers are written in the shortest form
+// that reads back to the same double.
+std::string format_delta_log(const DeltaLog& log);
+
+// Shortest round-trip decimal form of a double.
+std::string format_number(double v);
+
+}  // namespace host_id

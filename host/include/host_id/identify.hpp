@@ -1,0 +1,84 @@
+// One identification run: prepare the samples, build the regression, solve
+// least squares (always: it is the exact reference and gives the
+// covariance), and with --method pso run the swarm on the same cost.
+#pragma once
+
+#include <Eigen/Dense>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "host_id/delta_log.hpp"
+#include "host_id/least_squares.hpp"
+#include "host_id/model.hpp"
+#include "host_id/pso.hpp"
+#include "host_id/samples.hpp"
+
+namespace host_id {
+
+enum class Method { kPso, kLeastSquares };
+
+struct FitOptions {
+  ModelOptions model;
+  Method method{Method::kPso};
+  LsSolver solver{LsSolver::kQr};
+  LsWeights weights{LsWeights::kNone};
+  PsoOptions pso;
+  // PSO box: |beta_j| <= bound_factor * rms(tau) / rms(Psi column j), and
+  // beta_j >= 0 where the physics says so.
+  double bound_factor{10.0};
+  PrepareOptions prepare;
+  unsigned threads{0};
+};
+
+struct ParameterEstimate {
+  ParameterInfo info;
+  double value{0};           // the chosen method's estimate
+  double ls_value{0};        // the least-squares optimum
+  double std_dev{0};         // from the least-squares covariance
+  double rel_std_percent{0};
+  double lower{0}, upper{0};  // the PSO bounds
+};
+
+struct LogRmse {
+  std::string log;
+  std::size_t samples{0};
+  std::array<double, 3> rmse_Nm{};
+};
+
+struct FitResult {
+  FitOptions options;
+  LogRmse fit;
+  std::size_t samples_in_log{0};
+  std::string derivatives;
+  std::vector<SampleGap> gaps;
+  std::size_t segments_used{0}, segments_dropped{0};
+  std::vector<ParameterEstimate> parameters;
+  Eigen::VectorXd beta;
+  double cost_Nm2{0};     // of the chosen estimate
+  double ls_cost_Nm2{0};  // of the least-squares optimum
+  double condition_number{0};
+  double condition_number_scaled{0};
+  std::array<double, 3> joint_weights{1, 1, 1};
+  std::optional<PsoResult> pso;
+  std::vector<std::string> ls_outside_bounds;  // parameters whose LS value is outside
+  double seconds_estimator{0};
+  double seconds_total{0};
+  std::vector<LogRmse> validation;
+};
+
+FitResult fit_log(const DeltaLog& log, const FitOptions& options);
+
+// Measured and predicted torques of one log under fitted parameters.
+struct Prediction {
+  std::string log;
+  std::vector<double> t_s;
+  std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
+  std::array<double, 3> rmse_Nm{};
+};
+
+Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
+                   const PrepareOptions& prepare, unsigned threads);
+
+}  // namespace host_id

@@ -1,0 +1,37 @@
+// Least squares: the exact optimum of the mean squared torque error, with the
+// parameters' covariance.
+#pragma once
+
+#include <Eigen/Dense>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "host_id/model.hpp"
+#include "host_id/regression.hpp"
+
+namespace host_id {
+
+enum class LsSolver { kQr, kSvd };
+enum class LsWeights { kNone, kJoint };
+
+struct LeastSquaresResult {
+  Eigen::VectorXd beta;
+  Eigen::VectorXd std_dev;       // sqrt of the covariance's diagonal
+  double cost{0};                // mean squared error of the (weighted) rows
+  double condition_number{0};    // of Psi, raw units
+  double condition_number_scaled{0};  // of Psi with unit-norm columns
+  std::array<double, 3> joint_weights{1, 1, 1};
+};
+
+// Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
+Regression weighted(const Regression& r, const std::array<double, 3>& w);
+
+// Solves min |tau - Psi beta|^2. With kJoint, two steps: ordinary least
+// squares, then weights 1 / sigma_j^2 from each joint's residual variance.
+// Throws InputError when Psi is rank-deficient, naming the parameters that
+// the data cannot tell apart.
+LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, LsSolver solver,
+                                       LsWeights weights, const std::string& log_name);
+
+}  // namespace host_id

@@ -1,0 +1,50 @@
+// Particle swarm optimisation with Clerc's constriction coefficients
+// (chi = 0.7298, c1 = c2 = 2.05), global-best or ring topology, in
+// coordinates normalised to the bounds. A particle that leaves the box is put
+// back on the bound it crossed, with that velocity component set to zero
+// ("absorbing walls").
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace host_id {
+
+enum class PsoTopology { kGlobal, kRing };
+
+struct PsoOptions {
+  std::size_t particles{40};
+  std::size_t iterations{10000};  // as in the paper
+  PsoTopology topology{PsoTopology::kGlobal};
+  std::uint64_t seed{1};
+  // Stall: no relative improvement of the best cost by more than
+  // stall_tolerance within stall_iterations iterations.
+  std::size_t stall_iterations{1000};
+  double stall_tolerance{1e-12};
+  // On a stall, restart the swarm around the best point this many times
+  // before stopping.
+  std::size_t restarts{2};
+  // Called every progress_every iterations (and at the end) when set.
+  std::function<void(std::size_t iteration, std::size_t max_iterations, double best_cost)> progress;
+  std::size_t progress_every{100};
+};
+
+struct PsoResult {
+  Eigen::VectorXd best;
+  double best_cost{0};
+  std::size_t iterations{0};
+  std::size_t evaluations{0};
+  std::size_t restarts_done{0};
+  std::string stop_reason;  // "iterations" or "stall"
+  std::size_t particles_on_bound{0};  // particles with a coordinate on a bound at the end
+};
+
+using CostFunction = std::function<double(const Eigen::VectorXd&)>;
+
+// Minimises cost over lower <= beta <= upper (every lower < upper, finite).
+PsoResult run_pso(const CostFunction& cost, const Eigen::VectorXd& lower,
+                  const Eigen::VectorXd& upper, const PsoOptions& options);
+
+}  // namespace host_id

@@ -1,0 +1,58 @@
+// The stacked linear regression tau = Psi beta of a model over samples, and
+// the two ways to evaluate its cost, the mean squared torque error
+//   cost(beta) = |tau - Psi beta|^2 / rows:
+// directly (O(rows * p)) and from precomputed normal-equation terms (O(p^2)).
+#pragma once
+
+#include <Eigen/Dense>
+#include <cstddef>
+#include <vector>
+
+#include "host_id/model.hpp"
+#include "host_id/samples.hpp"
+
+namespace host_id {
+
+struct Regression {
+  Eigen::MatrixXd psi;  // rows 3k..3k+2 belong to sample k, joints 1..3
+  Eigen::VectorXd tau;  // N m
+  std::vector<double> t_s;  // time of sample k
+  std::size_t samples() const { return static_cast<std::size_t>(tau.size()) / 3; }
+};
+
+// Builds the regression, in parallel over `threads` threads (0: all cores).
+// Where samples.parallel_filter is set, every column of Psi and tau are run
+// through the same zero-phase filter per segment and joint ("parallel
+// filtering": filtering is linear, so filt(tau) = filt(Psi) beta holds
+// exactly), and samples.trim samples are then dropped at each segment end.
+// Throws InputError naming the log and the sample time of a pose without
+// kinematics.
+Regression build_regression(const Model& model, const delta::Geometry& g, double gravity_m_s2,
+                            const Samples& samples, const std::string& log_name,
+                            unsigned threads = 0);
+
+// Direct evaluation: one pass over all rows.
+double direct_cost(const Regression& r, const Eigen::VectorXd& beta);
+
+// Precomputed Psi^T Psi, Psi^T tau and tau^T tau:
+//   cost(beta) = (tau^T tau - 2 beta^T Psi^T tau + beta^T Psi^T Psi beta) / rows.
+class NormalEquationCost {
+ public:
+  explicit NormalEquationCost(const Regression& r);
+  double operator()(const Eigen::VectorXd& beta) const;
+  const Eigen::MatrixXd& psi_t_psi() const { return psi_t_psi_; }
+  const Eigen::VectorXd& psi_t_tau() const { return psi_t_tau_; }
+  double tau_t_tau() const { return tau_t_tau_; }
+  double rows() const { return rows_; }
+
+ private:
+  Eigen::MatrixXd psi_t_psi_;
+  Eigen::VectorXd psi_t_tau_;
+  double tau_t_tau_{0};
+  double rows_{1};
+};
+
+// Root mean square error per joint of the prediction Psi beta.
+std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta);
+
+}  // namespace host_id

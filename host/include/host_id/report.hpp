@@ -1,0 +1,30 @@
+// What `host_id fit` and `host_id validate` print and save: a readable text
+// report and the same content as JSON (format host_id-result/1).
+#pragma once
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "host_id/identify.hpp"
+
+namespace host_id {
+
+std::string text_report(const FitResult& r);
+nlohmann::json json_report(const FitResult& r);
+
+// A saved result, as read back by `host_id validate`.
+struct SavedResult {
+  ModelOptions model;
+  PrepareOptions prepare;
+  Eigen::VectorXd beta;  // in the model's parameter order
+};
+
+// Throws InputError naming the file and the key that is missing or wrong.
+SavedResult read_saved_result(const std::string& path);
+
+// The RMSE table of validation runs, as text and JSON.
+std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string& first_label);
+nlohmann::json json_rmse(const LogRmse& r);
+
+}  // namespace host_id

@@ -1,0 +1,37 @@
+// Zero-phase low-pass filtering and numerical differentiation of sampled
+// signals, for logs without qd and qdd columns.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+namespace host_id {
+
+// One second-order section, direct form II transposed:
+// y = b0 x + z1; z1 = b1 x - a1 y + z2; z2 = b2 x - a2 y.
+struct Biquad {
+  double b0{1}, b1{0}, b2{0}, a1{0}, a2{0};
+};
+
+// A 4th-order Butterworth low-pass as two sections (bilinear transform with
+// pre-warping). Requires 0 < cutoff_hz < sample_rate_hz / 2.
+std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz);
+
+// Runs the filter forward and backward (zero phase, magnitude squared). The
+// ends are extended by odd reflection over pad samples and the filter starts
+// in its steady state, so that the ends carry no start-up transient.
+std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,
+                             std::size_t pad);
+
+// First and second derivatives of uniformly sampled x with spacing h: the
+// five-point central stencils (error O(h^4)) inside, three-point and
+// one-sided stencils at the two samples of each end.
+void differentiate_uniform(const std::vector<double>& x, double h, std::vector<double>& dx,
+                           std::vector<double>& ddx);
+
+// The same on non-uniform times t: three-point stencils (error O(h^2)).
+void differentiate_nonuniform(const std::vector<double>& t, const std::vector<double>& x,
+                              std::vector<double>& dx, std::vector<double>& ddx);
+
+}  // namespace host_id

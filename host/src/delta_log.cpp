@@ -1,0 +1,416 @@
+#include "host_id/delta_log.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "host_id/atomic_file.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+
+namespace {
+
+constexpr std::string_view kFormat = "delta-log/1";
+
+struct Cursor {
+  const std::string& name;
+  std::size_t line{0};
+  [[noreturn]] void fail(std::size_t column, const std::string& message) const {
+    std::ostringstream s;
+    s << name << ':' << line << ':' << column << ": " << message;
+    throw InputError(s.str());
+  }
+};
+
+bool is_space(char c) { return c == ' ' || c == '\t'; }
+
+std::string_view trim(std::string_view s, std::size_t* leading = nullptr) {
+  std::size_t b = 0;
+  while (b < s.size() && is_space(s[b])) ++b;
+  std::size_t e = s.size();
+  while (e > b && is_space(s[e - 1])) --e;
+  if (leading) *leading = b;
+  return s.substr(b, e - b);
+}
+
+bool is_key_char(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+// Parses a decimal number; false if the text is not exactly one number.
+bool parse_double(std::string_view s, double& out) {
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  if (s.empty()) return false;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), out, std::chars_format::general);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+std::string quoted(std::string_view s) {
+  std::string r = "'";
+  r.append(s.substr(0, 40));
+  if (s.size() > 40) r += "...";
+  return r + "'";
+}
+
+enum class Role { kT, kQ, kTau, kQd, kQdd, kSeq, kExtra };
+
+struct Column {
+  std::string name;
+  Role role{Role::kExtra};
+  unsigned joint{0};
+  Series* target{nullptr};
+};
+
+}  // namespace
+
+std::optional<std::string> DeltaLog::metadata_value(std::string_view key) const {
+  for (const auto& [k, v] : metadata) {
+    if (k == key) return v;
+  }
+  return std::nullopt;
+}
+
+DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
+  DeltaLog log;
+  log.name = name;
+  Cursor cur{name};
+  if (text.size() >= 3 && text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // BOM
+
+  std::map<std::string, std::size_t> key_line;
+  std::vector<Column> columns;
+  std::vector<Series> extra_storage;
+  std::vector<std::string> extra_names;
+  bool header_seen = false;
+  std::size_t header_line = 0;
+  std::size_t pos = 0;
+  std::vector<double> row;
+  double nominal_dt = 0.0;
+  std::size_t blank_line = 0;  // first blank line seen, only allowed at the end
+
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++cur.line;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+
+    if (trim(line).empty()) {
+      if (blank_line == 0) blank_line = cur.line;
+      continue;
+    }
+    if (blank_line != 0) {
+      cur.line = blank_line;
+      cur.fail(1, "empty line inside the file (only allowed at the end)");
+    }
+
+    if (line.front() == '#') {
+      if (header_seen) continue;  // a comment
+      // "# key = value" is metadata; anything else is a comment.
+      std::string_view body = line.substr(1);
+      const std::size_t eq = body.find('=');
+      if (eq == std::string_view::npos) continue;
+      std::size_t key_lead = 0;
+      const std::string_view key = trim(body.substr(0, eq), &key_lead);
+      if (key.empty() || !std::all_of(key.begin(), key.end(), is_key_char)) continue;
+      std::size_t value_lead = 0;
+      const std::string_view value = trim(body.substr(eq + 1), &value_lead);
+      const std::size_t value_col = 1 + 1 + eq + 1 + value_lead;
+      if (value.empty()) cur.fail(value_col, "metadata key '" + std::string(key) + "' has no value");
+      const std::string k(key);
+      if (const auto it = key_line.find(k); it != key_line.end()) {
+        cur.fail(2 + key_lead, "metadata key '" + k + "' appears twice (first on line " +
+                                   std::to_string(it->second) + ")");
+      }
+      key_line[k] = cur.line;
+      log.metadata.emplace_back(k, std::string(value));
+
+      const auto number = [&](const char* unit) {
+        double v = 0.0;
+        if (!parse_double(value, v)) {
+          cur.fail(value_col, "metadata key '" + k + "' must be a number in " + unit + ", got " +
+                                  quoted(value));
+        }
+        if (!std::isfinite(v)) cur.fail(value_col, "metadata key '" + k + "' is not finite");
+        return v;
+      };
+      if (k == "format") {
+        if (value != kFormat) {
+          cur.fail(value_col, "unsupported format " + quoted(value) + "; this reader reads " +
+                                  std::string(kFormat));
+        }
+      } else if (k == "upper_arm_length_m") {
+        log.geometry.upper_arm_length_m = number("m");
+      } else if (k == "forearm_length_m") {
+        log.geometry.forearm_length_m = number("m");
+      } else if (k == "base_radius_m") {
+        log.geometry.base_radius_m = number("m");
+      } else if (k == "platform_radius_m") {
+        log.geometry.platform_radius_m = number("m");
+      } else if (k == "gravity_m_s2") {
+        log.gravity_m_s2 = number("m/s^2");
+        if (!(log.gravity_m_s2 > 0.0)) cur.fail(value_col, "gravity_m_s2 must be positive");
+      } else if (k == "sample_rate_hz") {
+        log.sample_rate_hz = number("Hz");
+        if (!(*log.sample_rate_hz > 0.0)) cur.fail(value_col, "sample_rate_hz must be positive");
+      }
+      continue;
+    }
+
+    if (!header_seen) {
+      // Check the metadata before the header.
+      header_seen = true;
+      header_line = cur.line;
+      for (const char* required : {"format", "upper_arm_length_m", "forearm_length_m",
+                                   "base_radius_m", "platform_radius_m"}) {
+        if (!key_line.count(required)) {
+          cur.fail(1, std::string("required metadata key '") + required +
+                          "' is missing before the header (expected a line '# " + required +
+                          " = ...')");
+        }
+      }
+      if (delta::check_geometry(log.geometry) != delta::GeometryFault::kOk) {
+        cur.line = key_line["upper_arm_length_m"];
+        cur.fail(1, "invalid geometry in the metadata: " + delta::describe_geometry_fault(log.geometry));
+      }
+      // Header: column names.
+      std::size_t start = 0;
+      std::map<std::string, std::size_t> seen;
+      while (true) {
+        const std::size_t comma = line.find(',', start);
+        const std::string_view field =
+            line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+        std::size_t lead = 0;
+        const std::string col_name(trim(field, &lead));
+        const std::size_t col = start + lead + 1;
+        if (col_name.empty()) cur.fail(col, "empty column name in the header");
+        if (seen.count(col_name)) cur.fail(col, "column '" + col_name + "' appears twice in the header");
+        seen[col_name] = col;
+        columns.push_back(Column{col_name});
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+      }
+      const auto has = [&](const std::string& n) { return seen.count(n) > 0; };
+      for (const char* required : {"t", "q1", "q2", "q3", "tau1", "tau2", "tau3"}) {
+        if (!has(required)) {
+          cur.fail(1, std::string("required column '") + required + "' is missing from the header");
+        }
+      }
+      for (const char* group : {"qd", "qdd"}) {
+        int n = 0;
+        for (int j = 1; j <= 3; ++j) n += has(group + std::to_string(j)) ? 1 : 0;
+        if (n != 0 && n != 3) {
+          cur.fail(1, std::string("columns ") + group + "1.." + group +
+                          "3 must be given all three or none");
+        }
+      }
+      log.has_qd = has("qd1");
+      log.has_qdd = has("qdd1");
+      for (Column& c : columns) {
+        const auto joint_of = [&](std::string_view prefix) -> int {
+          if (c.name.size() == prefix.size() + 1 && c.name.compare(0, prefix.size(), prefix) == 0 &&
+              c.name.back() >= '1' && c.name.back() <= '3') {
+            return c.name.back() - '1';
+          }
+          return -1;
+        };
+        if (c.name == "t") {
+          c.role = Role::kT;
+          c.target = &log.t;
+        } else if (c.name == "seq") {
+          c.role = Role::kSeq;
+        } else if (int j = joint_of("q"); j >= 0) {
+          c.role = Role::kQ;
+          c.target = &log.q[static_cast<unsigned>(j)];
+        } else if (int j2 = joint_of("tau"); j2 >= 0) {
+          c.role = Role::kTau;
+          c.target = &log.tau[static_cast<unsigned>(j2)];
+        } else if (int j3 = joint_of("qd"); j3 >= 0) {
+          c.role = Role::kQd;
+          c.target = &log.qd[static_cast<unsigned>(j3)];
+        } else if (int j4 = joint_of("qdd"); j4 >= 0) {
+          c.role = Role::kQdd;
+          c.target = &log.qdd[static_cast<unsigned>(j4)];
+        } else {
+          c.role = Role::kExtra;
+          extra_names.push_back(c.name);
+        }
+      }
+      extra_storage.resize(extra_names.size());
+      std::size_t e = 0;
+      for (Column& c : columns) {
+        if (c.role == Role::kExtra) c.target = &extra_storage[e++];
+      }
+      if (log.sample_rate_hz) nominal_dt = 1.0 / *log.sample_rate_hz;
+      row.resize(columns.size());
+      continue;
+    }
+
+    // A data row.
+    if (log.first_data_line == 0) log.first_data_line = cur.line;
+    std::size_t start = 0;
+    double seq_value = 0.0;
+    std::size_t t_col = 1, seq_col = 1;
+    for (std::size_t i = 0; i < columns.size(); ++i) {
+      const std::size_t comma = line.find(',', start);
+      if (comma == std::string_view::npos && i + 1 < columns.size()) {
+        cur.fail(line.size() + 1, "row has " + std::to_string(i + 1) + " fields, the header has " +
+                                      std::to_string(columns.size()));
+      }
+      if (comma != std::string_view::npos && i + 1 == columns.size()) {
+        std::size_t fields = columns.size();
+        for (std::size_t p = comma; p != std::string_view::npos; p = line.find(',', p + 1)) ++fields;
+        cur.fail(comma + 1, "row has " + std::to_string(fields) + " fields, the header has " +
+                                std::to_string(columns.size()));
+      }
+      const std::string_view raw =
+          line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+      std::size_t lead = 0;
+      const std::string_view field = trim(raw, &lead);
+      const std::size_t col = start + lead + 1;
+      double v = 0.0;
+      if (!parse_double(field, v)) {
+        cur.fail(col, "column '" + columns[i].name + "': " +
+                          (field.empty() ? std::string("empty field") : "not a number: " + quoted(field)));
+      }
+      if (!std::isfinite(v)) cur.fail(col, "column '" + columns[i].name + "': NaN or Inf is not allowed");
+      if (columns[i].role == Role::kSeq) {
+        seq_value = v;
+        seq_col = col;
+      } else {
+        columns[i].target->push_back(v);
+      }
+      if (columns[i].role == Role::kT) t_col = col;
+      start = comma + 1;
+    }
+    const std::size_t k = log.t.size() - 1;
+    if (std::any_of(columns.begin(), columns.end(), [](const Column& c) { return c.role == Role::kSeq; })) {
+      if (seq_value < 0.0 || seq_value != std::floor(seq_value) || seq_value > 9.007199254740992e15) {
+        cur.fail(seq_col, "column 'seq': must be a non-negative whole number");
+      }
+      const auto s = static_cast<std::uint64_t>(seq_value);
+      if (!log.seq.empty()) {
+        const std::uint64_t prev = log.seq.back();
+        if (s <= prev) {
+          cur.fail(seq_col, "column 'seq': " + std::to_string(s) + " does not increase (previous " +
+                                std::to_string(prev) + ")");
+        }
+        if (s != prev + 1) {
+          log.gaps.push_back({k, cur.line,
+                              "seq jumps from " + std::to_string(prev) + " to " + std::to_string(s) +
+                                  " (" + std::to_string(s - prev - 1) + " samples lost)"});
+        }
+      }
+      log.seq.push_back(s);
+    }
+    if (k > 0) {
+      const double dt = log.t[k] - log.t[k - 1];
+      if (!(dt > 0.0)) {
+        cur.fail(t_col, "column 't': time " + format_number(log.t[k]) +
+                            " s is not after the previous sample's " + format_number(log.t[k - 1]) +
+                            " s");
+      }
+      if (nominal_dt == 0.0) nominal_dt = dt;  // no sample_rate_hz: the first step
+      const bool already = !log.gaps.empty() && log.gaps.back().index == k;
+      if (dt > 1.5 * nominal_dt && !already) {
+        std::ostringstream w;
+        w << "time jumps by " << dt << " s from " << log.t[k - 1] << " s, "
+          << "more than 1.5 sample periods (" << nominal_dt << " s)";
+        log.gaps.push_back({k, cur.line, w.str()});
+      }
+    }
+  }
+  if (!header_seen) {
+    cur.line = std::max<std::size_t>(cur.line, 1);
+    cur.fail(1, "no header row: the file has no line of column names");
+  }
+  if (log.t.empty()) {
+    cur.line = header_line;
+    cur.fail(1, "no data rows after the header");
+  }
+  for (std::size_t i = 0; i < extra_names.size(); ++i) {
+    log.extra_columns.emplace_back(extra_names[i], std::move(extra_storage[i]));
+  }
+  return log;
+}
+
+DeltaLog read_delta_log(const std::string& path) {
+  return parse_delta_log(read_whole_file(path), path);
+}
+
+std::string format_number(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+std::string format_delta_log(const DeltaLog& log) {
+  std::string out;
+  out.reserve(log.size() * 120 + 512);
+  const auto meta = [&](const std::string& k, const std::string& v) {
+    out += "# " + k + " = " + v + "\n";
+  };
+  meta("format", std::string(kFormat));
+  meta("upper_arm_length_m", format_number(log.geometry.upper_arm_length_m));
+  meta("forearm_length_m", format_number(log.geometry.forearm_length_m));
+  meta("base_radius_m", format_number(log.geometry.base_radius_m));
+  meta("platform_radius_m", format_number(log.geometry.platform_radius_m));
+  meta("gravity_m_s2", format_number(log.gravity_m_s2));
+  if (log.sample_rate_hz) meta("sample_rate_hz", format_number(*log.sample_rate_hz));
+  for (const auto& [k, v] : log.metadata) {
+    if (k == "format" || k == "upper_arm_length_m" || k == "forearm_length_m" ||
+        k == "base_radius_m" || k == "platform_radius_m" || k == "gravity_m_s2" ||
+        k == "sample_rate_hz") {
+      continue;
+    }
+    meta(k, v);
+  }
+  const bool has_seq = !log.seq.empty();
+  if (has_seq) out += "seq,";
+  out += "t,q1,q2,q3,tau1,tau2,tau3";
+  if (log.has_qd) out += ",qd1,qd2,qd3";
+  if (log.has_qdd) out += ",qdd1,qdd2,qdd3";
+  for (const auto& [n, s] : log.extra_columns) out += "," + n;
+  out += '\n';
+  char buf[32];
+  const auto put = [&](double v) {
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    out.append(buf, r.ptr);
+  };
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    if (has_seq) {
+      out += std::to_string(log.seq[k]);
+      out += ',';
+    }
+    put(log.t[k]);
+    for (const auto* group : {&log.q, &log.tau}) {
+      for (unsigned j = 0; j < 3; ++j) {
+        out += ',';
+        put((*group)[j][k]);
+      }
+    }
+    if (log.has_qd) {
+      for (unsigned j = 0; j < 3; ++j) {
+        out += ',';
+        put(log.qd[j][k]);
+      }
+    }
+    if (log.has_qdd) {
+      for (unsigned j = 0; j < 3; ++j) {
+        out += ',';
+        put(log.qdd[j][k]);
+      }
+    }
+    for (const auto& [n, s] : log.extra_columns) {
+      out += ',';
+      put(s[k]);
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+}  // namespace host_id

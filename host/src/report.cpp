@@ -1,0 +1,227 @@
+#include "host_id/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "host_id/atomic_file.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+
+namespace {
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+std::string model_summary(const ModelOptions& m, std::size_t p) {
+  std::ostringstream s;
+  s << m.name;
+  if (m.name == "delta") {
+    s << " (" << (m.per_joint ? "per-joint" : "shared") << " arm inertia and gravity moment, "
+      << (m.offsets ? "with" : "no") << " torque offsets)";
+  } else {
+    s << " (the paper's regressor, constant lambda)";
+  }
+  s << ", " << p << " parameters";
+  return s.str();
+}
+
+const char* topology_name(PsoTopology t) { return t == PsoTopology::kGlobal ? "gbest" : "ring"; }
+
+}  // namespace
+
+nlohmann::json json_rmse(const LogRmse& r) {
+  return {{"log", r.log}, {"samples", r.samples}, {"rmse_Nm", r.rmse_Nm}};
+}
+
+std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string& first_label) {
+  std::ostringstream s;
+  s << "  torque RMSE [N m]            joint 1    joint 2    joint 3   samples\n";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::string label = i == 0 ? first_label : "validate";
+    std::string name = rows[i].log;
+    if (name.size() > 18) name = "..." + name.substr(name.size() - 15);
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "  %-8s %-18s %10.5f %10.5f %10.5f %9zu\n", label.c_str(),
+                  name.c_str(), rows[i].rmse_Nm[0], rows[i].rmse_Nm[1], rows[i].rmse_Nm[2],
+                  rows[i].samples);
+    s << buf;
+  }
+  return s.str();
+}
+
+std::string text_report(const FitResult& r) {
+  std::ostringstream s;
+  const auto& o = r.options;
+  s << "host_id fit: " << r.fit.log << "\n";
+  s << "  samples   " << r.fit.samples << " of " << r.samples_in_log << " used, in "
+    << r.segments_used << " segment(s)";
+  if (r.segments_dropped) s << ", " << r.segments_dropped << " too short and dropped";
+  s << "\n            " << r.derivatives << "\n";
+  for (const auto& g : r.gaps) s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
+  s << "  model     " << model_summary(o.model, r.parameters.size()) << "\n";
+  if (r.pso) {
+    const auto& p = *r.pso;
+    s << "  method    pso: " << o.pso.particles << " particles, " << topology_name(o.pso.topology)
+      << " topology, seed " << o.pso.seed << ", " << p.iterations << " of " << o.pso.iterations
+      << " iterations (stopped on " << p.stop_reason << "), " << p.restarts_done << " restart(s), "
+      << p.evaluations << " cost evaluations\n";
+    s << "            " << p.particles_on_bound << " of " << o.pso.particles
+      << " particles ended on a bound\n";
+  } else {
+    s << "  method    ls: " << (o.solver == LsSolver::kQr ? "QR" : "SVD")
+      << (o.weights == LsWeights::kJoint ? ", weighted per joint" : ", ordinary") << "\n";
+  }
+  if (o.weights == LsWeights::kJoint) {
+    s << "  weights   " << fmt("%.3f", r.joint_weights[0]) << " " << fmt("%.3f", r.joint_weights[1])
+      << " " << fmt("%.3f", r.joint_weights[2]) << " (1 / residual variance, mean 1)\n";
+  }
+  s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
+    << fmt("%.3f", r.seconds_total) << " s in all\n\n";
+
+  s << "  parameter                      value     std dev   rel std   unit\n";
+  for (const auto& e : r.parameters) {
+    char buf[200];
+    const std::string rel =
+        std::isfinite(e.rel_std_percent) ? fmt("%8.3f %%", e.rel_std_percent) : "       - ";
+    std::snprintf(buf, sizeof buf, "  %-22s %14.6g %11.3g  %s  %s\n", e.info.name.c_str(), e.value,
+                  e.std_dev, rel.c_str(), e.info.unit.c_str());
+    s << buf;
+  }
+  s << "\n  cost (mean squared torque error) " << fmt("%.6e", r.cost_Nm2) << " N^2 m^2";
+  if (r.pso) {
+    s << "\n  least-squares optimum            " << fmt("%.6e", r.ls_cost_Nm2) << " N^2 m^2 (pso/ls "
+      << fmt("%.9f", r.ls_cost_Nm2 > 0 ? r.cost_Nm2 / r.ls_cost_Nm2 : 1.0) << ")";
+  }
+  s << "\n  condition number of regressor    " << fmt("%.3g", r.condition_number)
+    << " (columns scaled to unit norm: " << fmt("%.3g", r.condition_number_scaled) << ")\n";
+  if (!r.ls_outside_bounds.empty()) {
+    s << "  note      the least-squares values of";
+    for (const auto& n : r.ls_outside_bounds) s << " " << n;
+    s << " lie outside the physical bounds; the PSO estimate is the bounded optimum\n";
+  }
+  s << "\n";
+  std::vector<LogRmse> rows{r.fit};
+  rows.insert(rows.end(), r.validation.begin(), r.validation.end());
+  s << text_rmse_table(rows, "fit");
+  return s.str();
+}
+
+nlohmann::json json_report(const FitResult& r) {
+  using nlohmann::json;
+  const auto& o = r.options;
+  json params = json::object();
+  json details = json::array();
+  for (const auto& e : r.parameters) {
+    params[e.info.name] = e.value;
+    details.push_back({{"name", e.info.name},
+                       {"unit", e.info.unit},
+                       {"value", e.value},
+                       {"least_squares_value", e.ls_value},
+                       {"std_dev", e.std_dev},
+                       {"rel_std_percent", e.rel_std_percent},
+                       {"lower_bound", e.lower},
+                       {"upper_bound", e.upper},
+                       {"meaning", e.info.meaning}});
+  }
+  json fit = json_rmse(r.fit);
+  fit["cost_Nm2"] = r.cost_Nm2;
+  json validation = json::array();
+  for (const auto& v : r.validation) validation.push_back(json_rmse(v));
+  json gaps = json::array();
+  for (const auto& g : r.gaps) gaps.push_back({{"line", g.line}, {"what", g.what}});
+  json j = {
+      {"format", "host_id-result/1"},
+      {"model",
+       {{"name", o.model.name},
+        {"per_joint", o.model.per_joint},
+        {"offsets", o.model.offsets},
+        {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s}}},
+      {"method", o.method == Method::kPso ? "pso" : "ls"},
+      {"preprocessing",
+       {{"cutoff_hz", o.prepare.cutoff_hz},
+        {"trim_samples", o.prepare.trim_samples},
+        {"derivatives", r.derivatives},
+        {"samples_in_log", r.samples_in_log},
+        {"segments_used", r.segments_used},
+        {"segments_dropped", r.segments_dropped},
+        {"gaps", gaps}}},
+      {"parameters", params},
+      {"parameter_details", details},
+      {"fit", fit},
+      {"least_squares",
+       {{"cost_Nm2", r.ls_cost_Nm2},
+        {"solver", o.solver == LsSolver::kQr ? "qr" : "svd"},
+        {"weights", o.weights == LsWeights::kJoint ? "joint" : "none"},
+        {"joint_weights", r.joint_weights},
+        {"condition_number", r.condition_number},
+        {"condition_number_scaled", r.condition_number_scaled},
+        {"outside_pso_bounds", r.ls_outside_bounds}}},
+      {"validation", validation},
+      {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
+  };
+  if (r.pso) {
+    const auto& p = *r.pso;
+    j["pso"] = {{"particles", o.pso.particles},
+                {"topology", topology_name(o.pso.topology)},
+                {"seed", o.pso.seed},
+                {"max_iterations", o.pso.iterations},
+                {"iterations", p.iterations},
+                {"evaluations", p.evaluations},
+                {"restarts", p.restarts_done},
+                {"stop_reason", p.stop_reason},
+                {"particles_on_bound", p.particles_on_bound},
+                {"bound_factor", o.bound_factor}};
+  } else {
+    j["pso"] = nullptr;
+  }
+  return j;
+}
+
+SavedResult read_saved_result(const std::string& path) {
+  using nlohmann::json;
+  json j;
+  try {
+    j = json::parse(read_whole_file(path));
+  } catch (const json::parse_error& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+  const auto need = [&](const json& parent, const char* key, const char* where) -> const json& {
+    if (!parent.is_object() || !parent.contains(key)) {
+      throw InputError(path + ": missing key '" + std::string(where) + key + "'");
+    }
+    return parent[key];
+  };
+  if (!j.is_object() || need(j, "format", "") != "host_id-result/1") {
+    throw InputError(path + ": not a host_id result (expected \"format\": \"host_id-result/1\")");
+  }
+  SavedResult s;
+  try {
+    const json& m = need(j, "model", "");
+    s.model.name = need(m, "name", "model.").get<std::string>();
+    s.model.per_joint = need(m, "per_joint", "model.").get<bool>();
+    s.model.offsets = need(m, "offsets", "model.").get<bool>();
+    s.model.coulomb_smoothing_rad_s = need(m, "coulomb_smoothing_rad_s", "model.").get<double>();
+    const json& pre = need(j, "preprocessing", "");
+    s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
+    s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();
+  } catch (const json::type_error& e) {
+    throw InputError(path + ": a model or preprocessing value has the wrong type: " + e.what());
+  }
+  const auto model = make_model(s.model);
+  const json& params = need(j, "parameters", "");
+  s.beta.resize(static_cast<Eigen::Index>(model->size()));
+  for (std::size_t i = 0; i < model->size(); ++i) {
+    const std::string& name = model->parameters()[i].name;
+    const json& v = need(params, name.c_str(), "parameters.");
+    if (!v.is_number()) throw InputError(path + ": parameters." + name + " must be a number");
+    s.beta(static_cast<Eigen::Index>(i)) = v.get<double>();
+  }
+  return s;
+}
+
+}  // namespace host_id

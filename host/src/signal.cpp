@@ -1,0 +1,114 @@
+#include "host_id/signal.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace host_id {
+
+std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz) {
+  // Analog prototype poles of a 4th-order Butterworth: quality factors
+  // 1 / (2 cos(pi/8)) and 1 / (2 cos(3 pi/8)).
+  const double pi = 3.14159265358979323846;
+  const double k = std::tan(pi * cutoff_hz / sample_rate_hz);  // pre-warped
+  std::array<Biquad, 2> sections{};
+  const double qs[2] = {1.0 / (2.0 * std::cos(pi / 8.0)), 1.0 / (2.0 * std::cos(3.0 * pi / 8.0))};
+  for (int i = 0; i < 2; ++i) {
+    const double q = qs[i];
+    const double norm = 1.0 / (1.0 + k / q + k * k);
+    Biquad& s = sections[static_cast<unsigned>(i)];
+    s.b0 = k * k * norm;
+    s.b1 = 2.0 * s.b0;
+    s.b2 = s.b0;
+    s.a1 = 2.0 * (k * k - 1.0) * norm;
+    s.a2 = (1.0 - k / q + k * k) * norm;
+  }
+  return sections;
+}
+
+namespace {
+
+// Filters x in place with one section, starting in the steady state for a
+// constant input equal to x[0] (unity DC gain: output = input).
+void run_section(const Biquad& s, std::vector<double>& x) {
+  if (x.empty()) return;
+  const double x0 = x.front();
+  double z1 = x0 - s.b0 * x0;
+  double z2 = s.b2 * x0 - s.a2 * x0;
+  for (double& v : x) {
+    const double in = v;
+    const double out = s.b0 * in + z1;
+    z1 = s.b1 * in - s.a1 * out + z2;
+    z2 = s.b2 * in - s.a2 * out;
+    v = out;
+  }
+}
+
+}  // namespace
+
+std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,
+                             std::size_t pad) {
+  const std::size_t n = x.size();
+  if (n < 2) return x;
+  pad = std::min(pad, n - 1);
+  std::vector<double> ext;
+  ext.reserve(n + 2 * pad);
+  // Odd reflection: 2 x[0] - x[pad..1], x, 2 x[n-1] - x[n-2..n-1-pad].
+  for (std::size_t i = pad; i >= 1; --i) ext.push_back(2.0 * x[0] - x[i]);
+  ext.insert(ext.end(), x.begin(), x.end());
+  for (std::size_t i = 1; i <= pad; ++i) ext.push_back(2.0 * x[n - 1] - x[n - 1 - i]);
+  for (const Biquad& s : filter) run_section(s, ext);
+  std::reverse(ext.begin(), ext.end());
+  for (const Biquad& s : filter) run_section(s, ext);
+  std::reverse(ext.begin(), ext.end());
+  return std::vector<double>(ext.begin() + static_cast<std::ptrdiff_t>(pad),
+                             ext.begin() + static_cast<std::ptrdiff_t>(pad + n));
+}
+
+void differentiate_uniform(const std::vector<double>& x, double h, std::vector<double>& dx,
+                           std::vector<double>& ddx) {
+  const std::size_t n = x.size();
+  dx.assign(n, 0.0);
+  ddx.assign(n, 0.0);
+  if (n < 3) return;
+  for (std::size_t i = 2; i + 2 < n; ++i) {
+    dx[i] = (-x[i + 2] + 8.0 * x[i + 1] - 8.0 * x[i - 1] + x[i - 2]) / (12.0 * h);
+    ddx[i] = (-x[i + 2] + 16.0 * x[i + 1] - 30.0 * x[i] + 16.0 * x[i - 1] - x[i - 2]) / (12.0 * h * h);
+  }
+  // Near the ends: three-point central, then one-sided.
+  const auto central3 = [&](std::size_t i) {
+    dx[i] = (x[i + 1] - x[i - 1]) / (2.0 * h);
+    ddx[i] = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (h * h);
+  };
+  if (n >= 5) {
+    central3(1);
+    central3(n - 2);
+  } else {
+    for (std::size_t i = 1; i + 1 < n; ++i) central3(i);
+  }
+  dx[0] = (-3.0 * x[0] + 4.0 * x[1] - x[2]) / (2.0 * h);
+  ddx[0] = ddx[1];
+  dx[n - 1] = (3.0 * x[n - 1] - 4.0 * x[n - 2] + x[n - 3]) / (2.0 * h);
+  ddx[n - 1] = ddx[n - 2];
+}
+
+void differentiate_nonuniform(const std::vector<double>& t, const std::vector<double>& x,
+                              std::vector<double>& dx, std::vector<double>& ddx) {
+  const std::size_t n = x.size();
+  dx.assign(n, 0.0);
+  ddx.assign(n, 0.0);
+  if (n < 3) return;
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const double hm = t[i] - t[i - 1];
+    const double hp = t[i + 1] - t[i];
+    // Exact for quadratics on uneven spacing.
+    dx[i] = (x[i + 1] * hm * hm - x[i - 1] * hp * hp + x[i] * (hp * hp - hm * hm)) /
+            (hm * hp * (hm + hp));
+    ddx[i] = 2.0 * ((x[i + 1] - x[i]) / hp - (x[i] - x[i - 1]) / hm) / (hm + hp);
+  }
+  dx[0] = (x[1] - x[0]) / (t[1] - t[0]);
+  ddx[0] = ddx[1];
+  dx[n - 1] = (x[n - 1] - x[n - 2]) / (t[n - 1] - t[n - 2]);
+  ddx[n - 1] = ddx[n - 2];
+}
+
+}  // namespace host_id

@@ -1,0 +1,168 @@
+#include "host_id/simulate.hpp"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "delta/trajectory.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+
+namespace {
+
+// SplitMix64 with Box-Muller normals: the same noise for a seed everywhere.
+class Noise {
+ public:
+  explicit Noise(std::uint64_t seed) : state_(seed ^ 0x5DEECE66Dull) {}
+  double normal() {
+    const double u1 = (static_cast<double>(next() >> 11) + 0.5) * 0x1.0p-53;
+    const double u2 = static_cast<double>(next() >> 11) * 0x1.0p-53;
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.28318530717958647692 * u2);
+  }
+
+ private:
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  std::uint64_t state_;
+};
+
+}  // namespace
+
+DeltaLog simulate_log(const SimulateOptions& o) {
+  delta::require_valid_geometry(o.geometry);
+  if (!(o.duration_s > 0.0) || !(o.duration_s <= 3600.0)) {
+    throw InputError("--duration must be between 0 and 3600 s");
+  }
+  if (!(o.sample_rate_hz >= 1.0) || !(o.sample_rate_hz <= 100000.0)) {
+    throw InputError("--rate must be between 1 and 100000 Hz");
+  }
+  if (!(o.torque_noise >= 0.0) || !(o.torque_noise < 1.0)) {
+    throw InputError("--torque-noise is a fraction of the RMS torque, between 0 and 1");
+  }
+  if (o.encoder_bits > 32) throw InputError("--encoder-bits must be between 0 (off) and 32");
+
+  delta::FourierTrajectory fourier;
+  delta::PickAndPlaceTrajectory pnp;
+  const bool is_fourier = o.trajectory == "fourier";
+  if (is_fourier) {
+    if (o.harmonics == 0 || o.harmonics > 20) throw InputError("--harmonics must be between 1 and 20");
+    if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
+      throw InputError("--base-hz must be between 0 and 5 Hz");
+    }
+    const delta::Vec3<double> centre{0.0, 0.0, -0.42};
+    if (!delta::make_fourier_excitation(o.geometry, centre, o.harmonics, o.base_frequency_hz,
+                                        o.amplitude_rad, o.seed, fourier)) {
+      throw InputError("no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
+    }
+  } else if (o.trajectory == "pick-and-place") {
+    pnp = delta::default_pick_and_place(o.geometry);
+  } else {
+    throw InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" + o.trajectory + "'");
+  }
+
+  DeltaLog log;
+  log.name = "simulate";
+  log.geometry = o.geometry;
+  log.gravity_m_s2 = o.parameters.gravity_m_s2;
+  log.sample_rate_hz = o.sample_rate_hz;
+  log.metadata.emplace_back("source", "sim");
+  log.metadata.emplace_back("robot", "default-delta");
+  log.metadata.emplace_back("trajectory", o.name.empty() ? o.trajectory : o.name);
+  const auto n = static_cast<std::size_t>(std::floor(o.duration_s * o.sample_rate_hz)) + 1;
+  log.has_qd = log.has_qdd = o.with_derivatives;
+  for (unsigned j = 0; j < 3; ++j) {
+    log.q[j].reserve(n);
+    log.tau[j].reserve(n);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) / o.sample_rate_hz;
+    delta::JointState s;
+    if (is_fourier) {
+      s = fourier.at(t);
+    } else if (pnp.at(t, s) != delta::KinematicsStatus::kOk) {
+      throw InputError("the pick-and-place path leaves the workspace of this geometry");
+    }
+    delta::Joint3 tau{};
+    if (delta::inverse_dynamics(o.geometry, o.parameters, s, tau) != delta::KinematicsStatus::kOk) {
+      std::ostringstream m;
+      m << "the trajectory reaches a pose without kinematics at t = " << t << " s";
+      throw InputError(m.str());
+    }
+    log.t.push_back(t);
+    log.seq.push_back(k);
+    for (unsigned j = 0; j < 3; ++j) {
+      log.q[j].push_back(s.q_rad[j]);
+      log.tau[j].push_back(tau[j]);
+      if (o.with_derivatives) {
+        log.qd[j].push_back(s.qd_rad_s[j]);
+        log.qdd[j].push_back(s.qdd_rad_s2[j]);
+      }
+    }
+  }
+  Noise noise(o.seed);
+  if (o.torque_noise > 0.0) {
+    for (unsigned j = 0; j < 3; ++j) {
+      double ss = 0.0;
+      for (double v : log.tau[j]) ss += v * v;
+      const double sigma = o.torque_noise * std::sqrt(ss / static_cast<double>(n));
+      for (double& v : log.tau[j]) v += sigma * noise.normal();
+    }
+    log.metadata.emplace_back("torque_noise_fraction", format_number(o.torque_noise));
+  }
+  if (o.encoder_bits > 0) {
+    const double step = 6.28318530717958647692 / std::ldexp(1.0, static_cast<int>(o.encoder_bits));
+    for (unsigned j = 0; j < 3; ++j) {
+      for (double& v : log.q[j]) v = std::round(v / step) * step;
+    }
+    log.metadata.emplace_back("encoder_bits", std::to_string(o.encoder_bits));
+  }
+  return log;
+}
+
+delta::LumpedParameters read_lumped_parameters(const std::string& path) {
+  delta::LumpedParameters p = delta::default_lumped_parameters();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_whole_file(path));
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+  if (j.contains("parameters")) j = j["parameters"];  // a saved fit result
+  if (!j.is_object()) throw InputError(path + ": expected a JSON object of parameters");
+  const auto get = [&](const std::string& key, double& target) {
+    if (!j.contains(key)) return;
+    if (!j[key].is_number()) throw InputError(path + ": parameter '" + key + "' must be a number");
+    target = j[key].get<double>();
+  };
+  const char* suffix[3] = {"_1", "_2", "_3"};
+  for (unsigned i = 0; i < 3; ++i) {
+    get("arm_inertia", p.arm_inertia_kg_m2[i]);
+    get("arm_gravity_moment", p.arm_gravity_moment_Nm[i]);
+    get(std::string("arm_inertia") + suffix[i], p.arm_inertia_kg_m2[i]);
+    get(std::string("arm_gravity_moment") + suffix[i], p.arm_gravity_moment_Nm[i]);
+    get(std::string("viscous_friction") + suffix[i], p.viscous_friction_Nm_s_per_rad[i]);
+    get(std::string("coulomb_friction") + suffix[i], p.coulomb_friction_Nm[i]);
+    get(std::string("torque_offset") + suffix[i], p.torque_offset_Nm[i]);
+  }
+  get("platform_mass", p.platform_mass_kg);
+  get("gravity_m_s2", p.gravity_m_s2);
+  for (const auto& [key, value] : j.items()) {
+    (void)value;
+    static const char* known[] = {"arm_inertia", "arm_gravity_moment", "platform_mass", "gravity_m_s2"};
+    bool ok = false;
+    for (const char* k : known) ok = ok || key == k;
+    for (const char* base : {"arm_inertia", "arm_gravity_moment", "viscous_friction", "coulomb_friction", "torque_offset"}) {
+      for (const char* s : suffix) ok = ok || key == std::string(base) + s;
+    }
+    if (!ok) throw InputError(path + ": unknown parameter '" + key + "'");
+  }
+  return p;
+}
+
+}  // namespace host_id

@@ -1,0 +1,136 @@
+#include "host_id/svg_plot.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+namespace host_id {
+
+namespace {
+
+constexpr double kWidth = 960, kLeft = 70, kRight = 20, kPanelH = 150, kResidH = 60, kGap = 34;
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", v);
+  return buf;
+}
+
+std::string esc(const std::string& s) {
+  std::string r;
+  for (char c : s) {
+    if (c == '<') r += "&lt;";
+    else if (c == '>') r += "&gt;";
+    else if (c == '&') r += "&amp;";
+    else r += c;
+  }
+  return r;
+}
+
+// Min/max decimation into at most `buckets` columns keeps every peak.
+std::string polyline(const std::vector<double>& t, const std::vector<double>& y, double t0,
+                     double t1, double lo, double hi, double x0, double w, double y0, double h,
+                     const char* color, double width) {
+  std::ostringstream s;
+  s << "<polyline fill=\"none\" stroke=\"" << color << "\" stroke-width=\"" << width
+    << "\" points=\"";
+  const std::size_t n = y.size();
+  const std::size_t buckets = 1200;
+  const auto X = [&](double tt) { return x0 + (tt - t0) / (t1 - t0) * w; };
+  const auto Y = [&](double v) { return y0 + h - (v - lo) / (hi - lo) * h; };
+  if (n <= 2 * buckets) {
+    for (std::size_t i = 0; i < n; ++i) s << num(X(t[i])) << ',' << num(Y(y[i])) << ' ';
+  } else {
+    for (std::size_t b = 0; b < buckets; ++b) {
+      const std::size_t i0 = n * b / buckets, i1 = n * (b + 1) / buckets;
+      const auto [mn, mx] = std::minmax_element(y.begin() + static_cast<std::ptrdiff_t>(i0),
+                                                y.begin() + static_cast<std::ptrdiff_t>(i1));
+      const bool min_first = mn < mx;
+      const auto a = min_first ? mn : mx, c = min_first ? mx : mn;
+      s << num(X(t[static_cast<std::size_t>(a - y.begin())])) << ',' << num(Y(*a)) << ' ';
+      s << num(X(t[static_cast<std::size_t>(c - y.begin())])) << ',' << num(Y(*c)) << ' ';
+    }
+  }
+  s << "\"/>\n";
+  return s.str();
+}
+
+void axis(std::ostringstream& s, double x0, double w, double y0, double h, double lo, double hi,
+          const std::string& label) {
+  s << "<rect x=\"" << num(x0) << "\" y=\"" << num(y0) << "\" width=\"" << num(w) << "\" height=\""
+    << num(h) << "\" fill=\"none\" stroke=\"#999\"/>\n";
+  for (int i = 0; i <= 2; ++i) {
+    const double v = lo + (hi - lo) * i / 2.0;
+    const double y = y0 + h - h * i / 2.0;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    s << "<text x=\"" << num(x0 - 6) << "\" y=\"" << num(y + 4)
+      << "\" font-size=\"11\" text-anchor=\"end\">" << buf << "</text>\n";
+    s << "<line x1=\"" << num(x0) << "\" x2=\"" << num(x0 + w) << "\" y1=\"" << num(y) << "\" y2=\""
+      << num(y) << "\" stroke=\"#eee\"/>\n";
+  }
+  s << "<text x=\"14\" y=\"" << num(y0 + h / 2) << "\" font-size=\"12\" transform=\"rotate(-90 14 "
+    << num(y0 + h / 2) << ")\" text-anchor=\"middle\">" << esc(label) << "</text>\n";
+}
+
+}  // namespace
+
+std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::string& title) {
+  const double block = 3 * (kPanelH + kResidH + kGap) + 30;
+  const double height = 40 + block * static_cast<double>(logs.size());
+  const double w = kWidth - kLeft - kRight;
+  std::ostringstream s;
+  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kWidth << "\" height=\""
+    << num(height) << "\" font-family=\"sans-serif\">\n";
+  s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  s << "<text x=\"" << kLeft << "\" y=\"24\" font-size=\"16\">" << esc(title)
+    << " - measured (blue) and predicted (orange) joint torque, residual (red)</text>\n";
+  double y = 40;
+  for (const Prediction& p : logs) {
+    s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 16) << "\" font-size=\"14\">" << esc(p.log)
+      << "</text>\n";
+    y += 30;
+    const double t0 = p.t_s.empty() ? 0.0 : p.t_s.front();
+    const double t1 = p.t_s.empty() ? 1.0 : std::max(p.t_s.back(), t0 + 1e-9);
+    for (unsigned j = 0; j < 3; ++j) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo, rmax = 0;
+      std::vector<double> resid(p.measured_Nm[j].size());
+      for (std::size_t k = 0; k < resid.size(); ++k) {
+        lo = std::min({lo, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
+        hi = std::max({hi, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
+        resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
+        rmax = std::max(rmax, std::abs(resid[k]));
+      }
+      if (!(hi > lo)) {
+        lo -= 1;
+        hi += 1;
+      }
+      if (!(rmax > 0)) rmax = 1e-9;
+      char label[64];
+      std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_Nm[j]);
+      axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
+      s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
+        << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
+      s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#1f77b4", 1.2);
+      s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#ff7f0e", 1.0);
+      y += kPanelH + 4;
+      axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid.");
+      s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, "#d62728", 0.8);
+      y += kResidH;
+      char tl[64];
+      std::snprintf(tl, sizeof tl, "%.3g s", t0);
+      s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 14) << "\" font-size=\"11\">" << tl
+        << "</text>\n";
+      std::snprintf(tl, sizeof tl, "t = %.3g s", t1);
+      s << "<text x=\"" << num(kLeft + w) << "\" y=\"" << num(y + 14)
+        << "\" font-size=\"11\" text-anchor=\"end\">" << tl << "</text>\n";
+      y += kGap;
+    }
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+}  // namespace host_id
