@@ -45,7 +45,7 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
   const std::size_t trim =
       logged ? 0
              : (options.trim_samples >= 0 ? static_cast<std::size_t>(options.trim_samples)
-                                          : static_cast<std::size_t>(std::ceil(fs / options.cutoff_hz)));
+                                          : static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz)));
   const std::size_t pad = static_cast<std::size_t>(std::ceil(3.0 * fs / std::max(options.cutoff_hz, 1e-9)));
   const auto filter = logged ? std::array<Biquad, 2>{} : butterworth4_lowpass(options.cutoff_hz, fs);
 

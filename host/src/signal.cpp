@@ -45,17 +45,44 @@ void run_section(const Biquad& s, std::vector<double>& x) {
 
 }  // namespace
 
+namespace {
+
+// The value at sample `end` of the least-squares line through the m samples
+// x[first .. first + m) (in sample units), so that a noisy end sample does
+// not pin the filtered signal.
+double line_end_value(const std::vector<double>& x, std::size_t first, std::size_t m, double at) {
+  double st = 0, sx = 0, stt = 0, stx = 0;
+  for (std::size_t i = 0; i < m; ++i) {
+    const double t = static_cast<double>(first + i);
+    st += t;
+    sx += x[first + i];
+    stt += t * t;
+    stx += t * x[first + i];
+  }
+  const double md = static_cast<double>(m);
+  const double den = md * stt - st * st;
+  if (!(den > 0.0)) return x[first];
+  const double slope = (md * stx - st * sx) / den;
+  return (sx - slope * st) / md + slope * at;
+}
+
+}  // namespace
+
 std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,
                              std::size_t pad) {
   const std::size_t n = x.size();
   if (n < 2) return x;
   pad = std::min(pad, n - 1);
+  // Odd reflection about robust end values: 2 x0 - x[pad..1], x,
+  // 2 xn - x[n-2..n-1-pad], with x0 and xn from lines through the ends.
+  const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
+  const double x0 = line_end_value(x, 0, m, 0.0);
+  const double xn = line_end_value(x, n - m, m, static_cast<double>(n - 1));
   std::vector<double> ext;
   ext.reserve(n + 2 * pad);
-  // Odd reflection: 2 x[0] - x[pad..1], x, 2 x[n-1] - x[n-2..n-1-pad].
-  for (std::size_t i = pad; i >= 1; --i) ext.push_back(2.0 * x[0] - x[i]);
+  for (std::size_t i = pad; i >= 1; --i) ext.push_back(2.0 * x0 - x[i]);
   ext.insert(ext.end(), x.begin(), x.end());
-  for (std::size_t i = 1; i <= pad; ++i) ext.push_back(2.0 * x[n - 1] - x[n - 1 - i]);
+  for (std::size_t i = 1; i <= pad; ++i) ext.push_back(2.0 * xn - x[n - 1 - i]);
   for (const Biquad& s : filter) run_section(s, ext);
   std::reverse(ext.begin(), ext.end());
   for (const Biquad& s : filter) run_section(s, ext);

@@ -22,7 +22,10 @@ constexpr double kDefaultCutoffHz = 20.0;
 struct PrepareOptions {
   double cutoff_hz{kDefaultCutoffHz};
   // Samples dropped at each end of every segment after filtering; negative:
-  // automatic, one period of the cut-off frequency (50 samples at 1 kHz).
+  // automatic, three periods of the cut-off frequency (150 samples at 1 kHz
+  // and 20 Hz). Measured on a noise-free 8 s log: one period leaves errors
+  // of 1e-3 in the friction parameters from the filters' end transients
+  // (q, then the regressor columns), three periods 4e-5.
   long trim_samples{-1};
 };
 

@@ -1,0 +1,172 @@
+// The command line end to end, through run_cli() with real files.
+#include "host_id/cli.hpp"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "host_id/atomic_file.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+namespace {
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/host_id_cli_XXXXXX";
+    ASSERT_NE(mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  int run(const std::vector<std::string>& args) {
+    out_.str("");
+    err_.str("");
+    return run_cli(args, out_, err_);
+  }
+  std::string path(const std::string& name) const { return dir_ + "/" + name; }
+  bool exists(const std::string& name) const { return std::filesystem::exists(path(name)); }
+  void simulate(const std::string& name, const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args{"simulate", "-o", path(name), "--duration", "4"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    ASSERT_EQ(run(args), 0) << err_.str();
+  }
+
+  std::string dir_;
+  std::ostringstream out_, err_;
+};
+
+TEST_F(CliTest, NoArgumentsPrintsUsageAndFails) {
+  EXPECT_EQ(run({}), 2);
+  EXPECT_NE(err_.str().find("usage: host_id <command>"), std::string::npos);
+  EXPECT_EQ(run({"--help"}), 0);
+  EXPECT_EQ(run({"fit", "--help"}), 0);
+  EXPECT_NE(out_.str().find("--validate LOG2.csv"), std::string::npos);
+}
+
+TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
+  simulate("a.csv");
+  EXPECT_EQ(run({"frobnicate"}), 2);
+  EXPECT_NE(err_.str().find("unknown command 'frobnicate'"), std::string::npos);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--itertions", "5"}), 2);
+  EXPECT_EQ(err_.str(), "host_id: error: fit: unknown option '--itertions' (see host_id fit --help)\n");
+  EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "many"}), 2);
+  EXPECT_EQ(err_.str(),
+            "host_id: error: fit: option --iterations expects a whole number from 1 to 100000000, "
+            "got 'many'\n");
+  EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper"}), 2);
+  EXPECT_NE(err_.str().find("--model must be one of delta, paper14, got 'paper'"), std::string::npos);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--seed"}), 2);
+  EXPECT_NE(err_.str().find("option --seed needs a value"), std::string::npos);
+  EXPECT_EQ(run({"fit"}), 2);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--plot", path("p.png")}), 2);
+  EXPECT_NE(err_.str().find("--plot writes SVG"), std::string::npos);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--offsets"}), 1);
+  EXPECT_NE(err_.str().find("--offsets applies to --model delta only"), std::string::npos);
+}
+
+TEST_F(CliTest, BadLogFailsWithFileLineColumnAndWritesNothing) {
+  std::ofstream(path("bad.csv")) << "# format = delta-log/1\n# upper_arm_length_m = 0.2\n"
+                                    "# forearm_length_m = 0.46\n# base_radius_m = 0.1\n"
+                                    "# platform_radius_m = 0.035\nt,q1,q2,q3,tau1,tau2,tau3\n"
+                                    "0,0.3,0.3,0.3,-1,-1,-1\n0.001,0.3,0.3,0.3,-1,NaN,-1\n";
+  EXPECT_EQ(run({"fit", path("bad.csv"), "--out", path("r.json"), "--plot", path("p.svg")}), 1);
+  EXPECT_EQ(err_.str(),
+            "host_id: error: " + path("bad.csv") + ":8:22: column 'tau2': NaN or Inf is not allowed\n");
+  EXPECT_FALSE(exists("r.json"));
+  EXPECT_FALSE(exists("p.svg"));
+  // A bad validation log fails before any work is done.
+  simulate("a.csv");
+  EXPECT_EQ(run({"fit", path("a.csv"), "--validate", path("missing.csv"), "--out", path("r.json")}), 1);
+  EXPECT_NE(err_.str().find("missing.csv: cannot open"), std::string::npos);
+  EXPECT_FALSE(exists("r.json"));
+}
+
+TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
+  simulate("p1.csv", {"--torque-noise", "0.01", "--seed", "1"});
+  simulate("p2.csv", {"--torque-noise", "0.01", "--seed", "2"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--validate", path("p2.csv"), "--out", path("r.json"),
+                 "--plot", path("p.svg"), "--quiet"}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("torque RMSE [N m]"), std::string::npos);
+  const auto j = nlohmann::json::parse(read_whole_file(path("r.json")));
+  EXPECT_EQ(j["format"], "host_id-result/1");
+  EXPECT_EQ(j["parameters"].size(), 9u);
+  EXPECT_NEAR(j["parameters"]["platform_mass"].get<double>(), 0.40, 0.02);
+  ASSERT_EQ(j["fit"]["rmse_Nm"].size(), 3u);
+  ASSERT_EQ(j["validation"].size(), 1u);
+  EXPECT_EQ(j["validation"][0]["log"], path("p2.csv"));
+  const std::string svg = read_whole_file(path("p.svg"));
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("<polyline"), std::string::npos);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+
+  ASSERT_EQ(run({"validate", path("r.json"), path("p2.csv"), "--json"}), 0) << err_.str();
+  const auto v = nlohmann::json::parse(out_.str());
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(v["validation"][0]["rmse_Nm"][k].get<double>(),
+                     j["validation"][0]["rmse_Nm"][k].get<double>());
+  }
+}
+
+TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--json", "--method", "ls", "--model", "paper14"}), 0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["method"], "ls");
+  EXPECT_EQ(j["model"]["name"], "paper14");
+  EXPECT_EQ(j["parameters"].size(), 14u);
+  EXPECT_TRUE(j["parameters"].contains("beta1"));
+  EXPECT_TRUE(j["pso"].is_null());
+  EXPECT_TRUE(j["validation"].is_array());
+  EXPECT_GT(j["least_squares"]["condition_number"].get<double>(), 1.0);
+}
+
+TEST_F(CliTest, ValidateRejectsWhatIsNotAResult) {
+  simulate("p1.csv");
+  std::ofstream(path("x.json")) << "{\"format\": \"something-else\"}";
+  EXPECT_EQ(run({"validate", path("x.json"), path("p1.csv")}), 1);
+  EXPECT_NE(err_.str().find("not a host_id result"), std::string::npos);
+  std::ofstream(path("y.json")) << "{not json";
+  EXPECT_EQ(run({"validate", path("y.json"), path("p1.csv")}), 1);
+  EXPECT_NE(err_.str().find("y.json: not valid JSON"), std::string::npos);
+}
+
+TEST_F(CliTest, SimulateValidatesItsOptions) {
+  EXPECT_EQ(run({"simulate"}), 2);
+  EXPECT_NE(err_.str().find("-o LOG.csv is required"), std::string::npos);
+  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--torque-noise", "2"}), 1);
+  EXPECT_NE(err_.str().find("--torque-noise is a fraction"), std::string::npos);
+  EXPECT_FALSE(exists("s.csv"));
+  ASSERT_EQ(run({"simulate", "-o", path("s.csv"), "--trajectory", "pick-and-place", "--duration",
+                 "1", "--with-derivatives"}),
+            0);
+  const std::string text = read_whole_file(path("s.csv"));
+  EXPECT_NE(text.find("seq,t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n"), std::string::npos);
+}
+
+TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {
+  std::ofstream(path("keep.txt")) << "old";
+  write_file_atomically(path("keep.txt"), "new");
+  EXPECT_EQ(read_whole_file(path("keep.txt")), "new");
+  EXPECT_THROW(write_file_atomically(path("no/such/dir/f.txt"), "x"), InputError);
+  // Only the written file is left: no temporary files.
+  std::size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir_)) {
+    (void)e;
+    ++files;
+  }
+  EXPECT_EQ(files, 1u);
+}
+
+}  // namespace
+}  // namespace host_id

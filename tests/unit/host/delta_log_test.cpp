@@ -1,0 +1,197 @@
+#include "host_id/delta_log.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+namespace {
+
+const std::string kMeta =
+    "# format = delta-log/1\n"
+    "# upper_arm_length_m = 0.2\n"
+    "# forearm_length_m = 0.46\n"
+    "# base_radius_m = 0.1\n"
+    "# platform_radius_m = 0.035\n";
+
+// The message of the InputError that parsing text throws, or "" if none.
+std::string error_of(const std::string& text) {
+  try {
+    parse_delta_log(text, "log.csv");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(DeltaLogTest, ReadsTheContractExample) {
+  const std::string text = kMeta +
+                           "# sample_rate_hz = 1000\n"
+                           "t,q1,q2,q3,tau1,tau2,tau3\n"
+                           "0.000,0.3121,0.2987,0.3050,0.8123,0.7990,0.8042\n"
+                           "0.001,0.3122,0.2986,0.3051,0.8131,0.7985,0.8049\n";
+  const DeltaLog log = parse_delta_log(text, "log.csv");
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_DOUBLE_EQ(log.geometry.forearm_length_m, 0.46);
+  EXPECT_DOUBLE_EQ(log.gravity_m_s2, 9.81);
+  EXPECT_DOUBLE_EQ(*log.sample_rate_hz, 1000.0);
+  EXPECT_DOUBLE_EQ(log.q[1][1], 0.2986);
+  EXPECT_DOUBLE_EQ(log.tau[2][0], 0.8042);
+  EXPECT_FALSE(log.has_qd);
+  EXPECT_TRUE(log.gaps.empty());
+  EXPECT_EQ(log.first_data_line, 8u);
+}
+
+TEST(DeltaLogTest, ColumnsInAnyOrderCrLfUnknownKeysAndExtraColumnsAreKept) {
+  const std::string text =
+      "# format = delta-log/1\r\n# robot = cell7\r\n# upper_arm_length_m = 0.2\r\n"
+      "# forearm_length_m = 0.46\r\n# a comment without equals sign\r\n"
+      "# base_radius_m = 0.1\r\n# platform_radius_m = 0.035\r\n# colour = blue\r\n"
+      "tau3,q3,x,tau1,q1,t,tau2,q2,seq\r\n"
+      "3,0.3,9,1,0.1,0.5,2,0.2,7\r\n"
+      "6,0.6,8,4,0.4,0.6,5,0.5,8\r\n";
+  const DeltaLog log = parse_delta_log(text, "log.csv");
+  ASSERT_EQ(log.size(), 2u);
+  EXPECT_DOUBLE_EQ(log.t[1], 0.6);
+  EXPECT_DOUBLE_EQ(log.q[0][1], 0.4);
+  EXPECT_DOUBLE_EQ(log.tau[2][0], 3.0);
+  ASSERT_EQ(log.seq.size(), 2u);
+  EXPECT_EQ(log.seq[1], 8u);
+  EXPECT_EQ(log.metadata_value("colour").value_or(""), "blue");
+  EXPECT_EQ(log.metadata_value("robot").value_or(""), "cell7");
+  ASSERT_EQ(log.extra_columns.size(), 1u);
+  EXPECT_EQ(log.extra_columns[0].first, "x");
+  EXPECT_DOUBLE_EQ(log.extra_columns[0].second[1], 8.0);
+}
+
+TEST(DeltaLogTest, WriterRoundTripsEveryDoubleExactly) {
+  DeltaLog log;
+  log.geometry = delta::kDefaultGeometry;
+  log.sample_rate_hz = 1000.0;
+  log.has_qd = log.has_qdd = true;
+  for (int k = 0; k < 50; ++k) {
+    log.t.push_back(k * 1e-3);
+    log.seq.push_back(static_cast<std::uint64_t>(k));
+    for (unsigned j = 0; j < 3; ++j) {
+      log.q[j].push_back(0.1 * j + 1.0 / (3.0 + k));
+      log.tau[j].push_back(-0.7 + 1e-17 * k + j / 7.0);
+      log.qd[j].push_back(1.0 / (k + 1.0));
+      log.qdd[j].push_back(-3.3e-5 * k);
+    }
+  }
+  const DeltaLog back = parse_delta_log(format_delta_log(log), "round.csv");
+  ASSERT_EQ(back.size(), log.size());
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    EXPECT_EQ(back.t[k], log.t[k]);
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_EQ(back.q[j][k], log.q[j][k]);
+      EXPECT_EQ(back.tau[j][k], log.tau[j][k]);
+      EXPECT_EQ(back.qd[j][k], log.qd[j][k]);
+      EXPECT_EQ(back.qdd[j][k], log.qdd[j][k]);
+    }
+  }
+}
+
+TEST(DeltaLogTest, MissingRequiredKeyIsNamed) {
+  const std::string text =
+      "# format = delta-log/1\n# upper_arm_length_m = 0.2\n# forearm_length_m = 0.46\n"
+      "# base_radius_m = 0.1\nt,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n";
+  EXPECT_EQ(error_of(text),
+            "log.csv:5:1: required metadata key 'platform_radius_m' is missing before the header "
+            "(expected a line '# platform_radius_m = ...')");
+}
+
+TEST(DeltaLogTest, WrongFormatAndBadMetadataNumbers) {
+  EXPECT_EQ(error_of("# format = delta-log/2\n"),
+            "log.csv:1:12: unsupported format 'delta-log/2'; this reader reads delta-log/1");
+  const std::string bad = "# format = delta-log/1\n# upper_arm_length_m = 0.2m\n";
+  EXPECT_EQ(error_of(bad),
+            "log.csv:2:24: metadata key 'upper_arm_length_m' must be a number in m, got '0.2m'");
+  const std::string twice = kMeta + "# forearm_length_m = 0.5\n";
+  EXPECT_NE(error_of(twice).find("log.csv:6:3: metadata key 'forearm_length_m' appears twice"),
+            std::string::npos)
+      << error_of(twice);
+}
+
+TEST(DeltaLogTest, InvalidGeometryIsRejectedWithTheReason) {
+  const std::string text =
+      "# format = delta-log/1\n# upper_arm_length_m = -0.2\n# forearm_length_m = 0.46\n"
+      "# base_radius_m = 0.1\n# platform_radius_m = 0.035\nt,q1,q2,q3,tau1,tau2,tau3\n";
+  EXPECT_NE(error_of(text).find("log.csv:2:1: invalid geometry in the metadata: upper_arm_length_m "
+                                "must be a positive length, got -0.2"),
+            std::string::npos)
+      << error_of(text);
+}
+
+TEST(DeltaLogTest, MissingColumnAndPartialGroups) {
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau3\n"),
+            "log.csv:6:1: required column 'tau2' is missing from the header");
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2\n"),
+            "log.csv:6:1: columns qd1..qd3 must be given all three or none");
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3,q1\n"),
+            "log.csv:6:27: column 'q1' appears twice in the header");
+}
+
+TEST(DeltaLogTest, NonNumbersNanInfAndFieldCountsNameLineAndColumn) {
+  const std::string h = kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n";
+  EXPECT_EQ(error_of(h + "0.001,0.1,abc,0,0,0,0\n"),
+            "log.csv:8:11: column 'q2': not a number: 'abc'");
+  EXPECT_EQ(error_of(h + "0.001,0.1,0.2,0,nan,0,0\n"),
+            "log.csv:8:17: column 'tau1': NaN or Inf is not allowed");
+  EXPECT_EQ(error_of(h + "0.001,0.1,0.2,0,0,inf,0\n"),
+            "log.csv:8:19: column 'tau2': NaN or Inf is not allowed");
+  EXPECT_EQ(error_of(h + "0.001,0.1,0.2,0,0,0\n"),
+            "log.csv:8:20: row has 6 fields, the header has 7");
+  EXPECT_EQ(error_of(h + "0.001,0.1,0.2,0,0,0,0,9\n"),
+            "log.csv:8:22: row has 8 fields, the header has 7");
+  EXPECT_EQ(error_of(h + "0.001,0.1,,0,0,0,0\n"), "log.csv:8:11: column 'q2': empty field");
+  EXPECT_EQ(error_of(h + "0.001,0.1,0x10,0,0,0,0\n"),
+            "log.csv:8:11: column 'q2': not a number: '0x10'");
+}
+
+TEST(DeltaLogTest, TimeMustIncrease) {
+  const std::string h = kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0.5,0,0,0,0,0,0\n";
+  EXPECT_EQ(error_of(h + "0.5,0,0,0,0,0,0\n"),
+            "log.csv:8:1: column 't': time 0.5 s is not after the previous sample's 0.5 s");
+  EXPECT_EQ(error_of(h + "0.4,0,0,0,0,0,0\n"),
+            "log.csv:8:1: column 't': time 0.4 s is not after the previous sample's 0.5 s");
+}
+
+TEST(DeltaLogTest, SeqAndTimeGapsAreReportedNotBridged) {
+  const std::string text = kMeta + "# sample_rate_hz = 1000\nseq,t,q1,q2,q3,tau1,tau2,tau3\n" +
+                           "10,0.000,0,0,0,0,0,0\n11,0.001,0,0,0,0,0,0\n"
+                           "15,0.005,0,0,0,0,0,0\n16,0.006,0,0,0,0,0,0\n"
+                           "17,0.010,0,0,0,0,0,0\n";
+  const DeltaLog log = parse_delta_log(text, "log.csv");
+  ASSERT_EQ(log.gaps.size(), 2u);
+  EXPECT_EQ(log.gaps[0].index, 2u);
+  EXPECT_EQ(log.gaps[0].line, 10u);
+  EXPECT_EQ(log.gaps[0].what, "seq jumps from 11 to 15 (3 samples lost)");
+  EXPECT_EQ(log.gaps[1].index, 4u);
+  EXPECT_NE(log.gaps[1].what.find("time jumps by 0.004 s"), std::string::npos) << log.gaps[1].what;
+  EXPECT_EQ(error_of(kMeta + "seq,t,q1,q2,q3,tau1,tau2,tau3\n5,0,0,0,0,0,0,0\n5,1,0,0,0,0,0,0\n"),
+            "log.csv:8:1: column 'seq': 5 does not increase (previous 5)");
+}
+
+TEST(DeltaLogTest, EmptyAndTruncatedFiles) {
+  EXPECT_EQ(error_of(""), "log.csv:1:1: no header row: the file has no line of column names");
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n"), "log.csv:6:1: no data rows after the header");
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n\n1,0,0,0,0,0,0\n"),
+            "log.csv:8:1: empty line inside the file (only allowed at the end)");
+  // Blank lines at the end are fine.
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n\n\n"), "");
+}
+
+TEST(DeltaLogTest, MissingFileIsNamed) {
+  try {
+    read_delta_log("/nonexistent/dir/log.csv");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "/nonexistent/dir/log.csv: cannot open: No such file or directory");
+  }
+}
+
+}  // namespace
+}  // namespace host_id
