@@ -40,13 +40,15 @@ nlohmann::json json_rmse(const LogRmse& r) {
 
 std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string& first_label) {
   std::ostringstream s;
-  s << "  torque RMSE [N m]            joint 1    joint 2    joint 3   samples\n";
+  s << "  torque RMSE [N m]                  joint 1    joint 2    joint 3   samples\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const std::string label = i == 0 ? first_label : "validate";
+    // The file name; the folder only when it fits.
     std::string name = rows[i].log;
-    if (name.size() > 18) name = "..." + name.substr(name.size() - 15);
+    if (name.size() > 24) name = name.substr(name.find_last_of('/') + 1);
+    if (name.size() > 24) name = name.substr(0, 21) + "...";
     char buf[160];
-    std::snprintf(buf, sizeof buf, "  %-8s %-18s %10.5f %10.5f %10.5f %9zu\n", label.c_str(),
+    std::snprintf(buf, sizeof buf, "  %-8s %-24s %10.5f %10.5f %10.5f %9zu\n", label.c_str(),
                   name.c_str(), rows[i].rmse_Nm[0], rows[i].rmse_Nm[1], rows[i].rmse_Nm[2],
                   rows[i].samples);
     s << buf;

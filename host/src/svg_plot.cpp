@@ -78,7 +78,7 @@ void axis(std::ostringstream& s, double x0, double w, double y0, double h, doubl
 }  // namespace
 
 std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::string& title) {
-  const double block = 3 * (kPanelH + kResidH + kGap) + 30;
+  const double block = 3 * (kPanelH + 16 + kResidH + kGap) + 30;
   const double height = 40 + block * static_cast<double>(logs.size());
   const double w = kWidth - kLeft - kRight;
   std::ostringstream s;
@@ -115,7 +115,7 @@ std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::stri
         << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
       s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#1f77b4", 1.2);
       s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#ff7f0e", 1.0);
-      y += kPanelH + 4;
+      y += kPanelH + 16;
       axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid.");
       s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, "#d62728", 0.8);
       y += kResidH;
