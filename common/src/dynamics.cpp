@@ -50,14 +50,15 @@ Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p) {
   Joint3 tau{};
   for (unsigned i = 0; i < 3; ++i) {
     tau[i] = p.arm_inertia_kg_m2[i] * b.inertia[i] + p.arm_gravity_moment_Nm[i] * b.gravity[i] +
-             p.platform_mass_kg * b.platform[i] + p.viscous_friction_Nm_s_per_rad[i] * b.viscous[i] +
+             p.platform_mass_kg * b.platform[i] +
+             p.viscous_friction_Nm_s_per_rad[i] * b.viscous[i] +
              p.coulomb_friction_Nm[i] * b.coulomb[i] + p.torque_offset_Nm[i];
   }
   return tau;
 }
 
-KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p,
-                                  const JointState& s, Joint3& tau_Nm) {
+KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p, const JointState& s,
+                                  Joint3& tau_Nm) {
   DynamicsBasis b;
   const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
   if (status != KinematicsStatus::kOk) return status;
@@ -65,9 +66,9 @@ KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p,
   return KinematicsStatus::kOk;
 }
 
-KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p,
-                                  const Joint3& q_rad, const Joint3& qd_rad_s,
-                                  const Joint3& tau_Nm, Joint3& qdd_rad_s2) {
+KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, const Joint3& q_rad,
+                                  const Joint3& qd_rad_s, const Joint3& tau_Nm,
+                                  Joint3& qdd_rad_s2) {
   // The torque at qdd = 0 is the bias h(q, qd); the mass matrix is
   // diag(I) + m_p J^T J.
   JointState s{q_rad, qd_rad_s, {}};

@@ -67,7 +67,8 @@ output:
   --quiet                   no progress bar
 )";
 
-constexpr const char* kValidateHelp = R"(usage: host_id validate RESULT.json LOG.csv [LOG.csv...] [--json]
+constexpr const char* kValidateHelp =
+    R"(usage: host_id validate RESULT.json LOG.csv [LOG.csv...] [--json]
 
 Prints the torque RMSE per joint of the parameters saved by
 'host_id fit --out RESULT.json' on each log.
@@ -133,7 +134,8 @@ std::vector<Prediction> predictions(const Model& model, const Eigen::VectorXd& b
 
 void check_plot_path(const std::string& command, const std::string& path) {
   if (path.size() < 4 || path.substr(path.size() - 4) != ".svg") {
-    throw UsageError(command + ": --plot writes SVG; give a file name ending in .svg, got '" + path + "'");
+    throw UsageError(command + ": --plot writes SVG; give a file name ending in .svg, got '" +
+                     path + "'");
   }
 }
 
@@ -143,12 +145,28 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     return 0;
   }
   const ParsedOptions o("fit",
-                        {{"--model"}, {"--per-joint", false}, {"--offsets", false},
-                         {"--coulomb-smoothing"}, {"--method"}, {"--particles"}, {"--iterations"},
-                         {"--topology"}, {"--seed"}, {"--stall-iterations"}, {"--restarts"},
-                         {"--bound-factor"}, {"--solver"}, {"--weights"}, {"--threads"},
-                         {"--cutoff-hz"}, {"--trim"}, {"--validate", true, true}, {"--out"},
-                         {"--json", false}, {"--plot"}, {"--quiet", false}},
+                        {{"--model"},
+                         {"--per-joint", false},
+                         {"--offsets", false},
+                         {"--coulomb-smoothing"},
+                         {"--method"},
+                         {"--particles"},
+                         {"--iterations"},
+                         {"--topology"},
+                         {"--seed"},
+                         {"--stall-iterations"},
+                         {"--restarts"},
+                         {"--bound-factor"},
+                         {"--solver"},
+                         {"--weights"},
+                         {"--threads"},
+                         {"--cutoff-hz"},
+                         {"--trim"},
+                         {"--validate", true, true},
+                         {"--out"},
+                         {"--json", false},
+                         {"--plot"},
+                         {"--quiet", false}},
                         args);
   if (o.positional().size() != 1) {
     throw UsageError("fit: expected one log file, got " + std::to_string(o.positional().size()) +
@@ -159,11 +177,13 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   f.model.per_joint = o.flag("--per-joint");
   f.model.offsets = o.flag("--offsets");
   f.model.coulomb_smoothing_rad_s = o.number("--coulomb-smoothing", 0.01);
-  f.method = o.choice("--method", "pso", {"pso", "ls"}) == "pso" ? Method::kPso : Method::kLeastSquares;
+  f.method =
+      o.choice("--method", "pso", {"pso", "ls"}) == "pso" ? Method::kPso : Method::kLeastSquares;
   f.pso.particles = o.whole("--particles", 40, 2, 100000);
   f.pso.iterations = o.whole("--iterations", 10000, 1, 100000000);
-  f.pso.topology = o.choice("--topology", "gbest", {"gbest", "ring"}) == "gbest" ? PsoTopology::kGlobal
-                                                                                 : PsoTopology::kRing;
+  f.pso.topology = o.choice("--topology", "gbest", {"gbest", "ring"}) == "gbest"
+                       ? PsoTopology::kGlobal
+                       : PsoTopology::kRing;
   f.pso.seed = o.whole("--seed", 1, 0, UINT64_MAX);
   f.pso.stall_iterations = o.whole("--stall-iterations", 1000, 1, 100000000);
   f.pso.restarts = o.whole("--restarts", 2, 0, 1000);
@@ -171,10 +191,11 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   if (!(f.bound_factor > 0)) throw UsageError("fit: --bound-factor must be positive");
   f.solver = o.choice("--solver", "qr", {"qr", "svd"}) == "qr" ? LsSolver::kQr : LsSolver::kSvd;
   f.weights = o.choice("--weights", "none", {"none", "joint"}) == "none" ? LsWeights::kNone
-                                                                       : LsWeights::kJoint;
+                                                                         : LsWeights::kJoint;
   f.threads = static_cast<unsigned>(o.whole("--threads", 0, 0, 256));
   f.prepare.cutoff_hz = o.number("--cutoff-hz", kDefaultCutoffHz);
-  f.prepare.trim_samples = o.value("--trim") ? static_cast<long>(o.whole("--trim", 0, 0, 1000000)) : -1;
+  f.prepare.trim_samples =
+      o.value("--trim") ? static_cast<long>(o.whole("--trim", 0, 0, 1000000)) : -1;
   if (const auto p = o.value("--plot")) check_plot_path("fit", *p);
   const bool as_json = o.flag("--json");
   const ProgressBar bar(!o.flag("--quiet") && isatty(STDERR_FILENO) && f.method == Method::kPso);
@@ -187,7 +208,8 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   for (const auto& v : o.values("--validate")) validation_logs.push_back(read_delta_log(v));
   for (const auto& l : {&log}) {
     for (const auto& g : l->gaps) {
-      err << l->name << ":" << g.line << ": warning: " << g.what << "; segments are fitted separately\n";
+      err << l->name << ":" << g.line << ": warning: " << g.what
+          << "; segments are fitted separately\n";
     }
   }
 
@@ -203,8 +225,9 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const nlohmann::json j = json_report(r);
   if (const auto path = o.value("--out")) write_file_atomically(*path, j.dump(2) + "\n");
   if (const auto path = o.value("--plot")) {
-    write_file_atomically(*path, svg_torque_plot(predictions(*model, r.beta, all, f.prepare, f.threads),
-                                                 "host_id fit, model " + f.model.name));
+    write_file_atomically(*path,
+                          svg_torque_plot(predictions(*model, r.beta, all, f.prepare, f.threads),
+                                          "host_id fit, model " + f.model.name));
   }
   if (as_json) {
     out << j.dump(2) << "\n";
@@ -223,13 +246,16 @@ int cmd_validate(const std::vector<std::string>& args, std::ostream& out) {
   }
   const ParsedOptions o("validate", {{"--json", false}, {"--plot"}}, args);
   if (o.positional().size() < 2) {
-    throw UsageError("validate: expected RESULT.json and at least one log (usage: host_id validate RESULT.json LOG.csv...)");
+    throw UsageError(
+        "validate: expected RESULT.json and at least one log (usage: host_id validate RESULT.json "
+        "LOG.csv...)");
   }
   if (const auto p = o.value("--plot")) check_plot_path("validate", *p);
   const SavedResult saved = read_saved_result(o.positional()[0]);
   const auto model = make_model(saved.model);
   std::vector<DeltaLog> logs;
-  for (std::size_t i = 1; i < o.positional().size(); ++i) logs.push_back(read_delta_log(o.positional()[i]));
+  for (std::size_t i = 1; i < o.positional().size(); ++i)
+    logs.push_back(read_delta_log(o.positional()[i]));
   std::vector<LogRmse> rows;
   std::vector<Prediction> preds;
   for (const auto& l : logs) {
@@ -256,13 +282,23 @@ int cmd_simulate(const std::vector<std::string>& args, std::ostream& out) {
     return 0;
   }
   const ParsedOptions o("simulate",
-                        {{"--out", true, false, "-o"}, {"--trajectory"}, {"--duration"}, {"--rate"},
-                         {"--seed"}, {"--harmonics"}, {"--base-hz"}, {"--amplitude"},
-                         {"--torque-noise"}, {"--encoder-bits"}, {"--with-derivatives", false},
-                         {"--params"}, {"--name"}},
+                        {{"--out", true, false, "-o"},
+                         {"--trajectory"},
+                         {"--duration"},
+                         {"--rate"},
+                         {"--seed"},
+                         {"--harmonics"},
+                         {"--base-hz"},
+                         {"--amplitude"},
+                         {"--torque-noise"},
+                         {"--encoder-bits"},
+                         {"--with-derivatives", false},
+                         {"--params"},
+                         {"--name"}},
                         args);
   if (!o.positional().empty()) {
-    throw UsageError("simulate: unexpected argument '" + o.positional()[0] + "' (the output goes with -o)");
+    throw UsageError("simulate: unexpected argument '" + o.positional()[0] +
+                     "' (the output goes with -o)");
   }
   const auto path = o.value("--out");
   if (!path) throw UsageError("simulate: -o LOG.csv is required");
@@ -281,8 +317,8 @@ int cmd_simulate(const std::vector<std::string>& args, std::ostream& out) {
   if (const auto p = o.value("--params")) s.parameters = read_lumped_parameters(*p);
   const DeltaLog log = simulate_log(s);
   write_file_atomically(*path, format_delta_log(log));
-  out << "host_id simulate: wrote " << *path << " (" << log.size() << " samples, "
-      << s.trajectory << ")\n";
+  out << "host_id simulate: wrote " << *path << " (" << log.size() << " samples, " << s.trajectory
+      << ")\n";
   return 0;
 }
 
@@ -299,7 +335,8 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (cmd == "fit") return cmd_fit(rest, out, err);
     if (cmd == "validate") return cmd_validate(rest, out);
     if (cmd == "simulate") return cmd_simulate(rest, out);
-    throw UsageError("unknown command '" + cmd + "' (commands: fit, validate, simulate; see host_id --help)");
+    throw UsageError("unknown command '" + cmd +
+                     "' (commands: fit, validate, simulate; see host_id --help)");
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 2;

@@ -25,7 +25,9 @@ struct Cursor {
   }
 };
 
-bool is_space(char c) { return c == ' ' || c == '\t'; }
+bool is_space(char c) {
+  return c == ' ' || c == '\t';
+}
 
 std::string_view trim(std::string_view s, std::size_t* leading = nullptr) {
   std::size_t b = 0;
@@ -119,7 +121,8 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       std::size_t value_lead = 0;
       const std::string_view value = trim(body.substr(eq + 1), &value_lead);
       const std::size_t value_col = 1 + 1 + eq + 1 + value_lead;
-      if (value.empty()) cur.fail(value_col, "metadata key '" + std::string(key) + "' has no value");
+      if (value.empty())
+        cur.fail(value_col, "metadata key '" + std::string(key) + "' has no value");
       const std::string k(key);
       if (const auto it = key_line.find(k); it != key_line.end()) {
         cur.fail(2 + key_lead, "metadata key '" + k + "' appears twice (first on line " +
@@ -174,7 +177,8 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       }
       if (delta::check_geometry(log.geometry) != delta::GeometryFault::kOk) {
         cur.line = key_line["upper_arm_length_m"];
-        cur.fail(1, "invalid geometry in the metadata: " + delta::describe_geometry_fault(log.geometry));
+        cur.fail(
+            1, "invalid geometry in the metadata: " + delta::describe_geometry_fault(log.geometry));
       }
       // Header: column names.
       std::size_t start = 0;
@@ -187,7 +191,8 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
         const std::string col_name(trim(field, &lead));
         const std::size_t col = start + lead + 1;
         if (col_name.empty()) cur.fail(col, "empty column name in the header");
-        if (seen.count(col_name)) cur.fail(col, "column '" + col_name + "' appears twice in the header");
+        if (seen.count(col_name))
+          cur.fail(col, "column '" + col_name + "' appears twice in the header");
         seen[col_name] = col;
         columns.push_back(Column{col_name});
         if (comma == std::string_view::npos) break;
@@ -262,7 +267,8 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       }
       if (comma != std::string_view::npos && i + 1 == columns.size()) {
         std::size_t fields = columns.size();
-        for (std::size_t p = comma; p != std::string_view::npos; p = line.find(',', p + 1)) ++fields;
+        for (std::size_t p = comma; p != std::string_view::npos; p = line.find(',', p + 1))
+          ++fields;
         cur.fail(comma + 1, "row has " + std::to_string(fields) + " fields, the header has " +
                                 std::to_string(columns.size()));
       }
@@ -274,9 +280,11 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       double v = 0.0;
       if (!parse_double(field, v)) {
         cur.fail(col, "column '" + columns[i].name + "': " +
-                          (field.empty() ? std::string("empty field") : "not a number: " + quoted(field)));
+                          (field.empty() ? std::string("empty field")
+                                         : "not a number: " + quoted(field)));
       }
-      if (!std::isfinite(v)) cur.fail(col, "column '" + columns[i].name + "': NaN or Inf is not allowed");
+      if (!std::isfinite(v))
+        cur.fail(col, "column '" + columns[i].name + "': NaN or Inf is not allowed");
       if (columns[i].role == Role::kSeq) {
         seq_value = v;
         seq_col = col;
@@ -287,8 +295,10 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       start = comma + 1;
     }
     const std::size_t k = log.t.size() - 1;
-    if (std::any_of(columns.begin(), columns.end(), [](const Column& c) { return c.role == Role::kSeq; })) {
-      if (seq_value < 0.0 || seq_value != std::floor(seq_value) || seq_value > 9.007199254740992e15) {
+    if (std::any_of(columns.begin(), columns.end(),
+                    [](const Column& c) { return c.role == Role::kSeq; })) {
+      if (seq_value < 0.0 || seq_value != std::floor(seq_value) ||
+          seq_value > 9.007199254740992e15) {
         cur.fail(seq_col, "column 'seq': must be a non-negative whole number");
       }
       const auto s = static_cast<std::uint64_t>(seq_value);
@@ -300,8 +310,9 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
         }
         if (s != prev + 1) {
           log.gaps.push_back({k, cur.line,
-                              "seq jumps from " + std::to_string(prev) + " to " + std::to_string(s) +
-                                  " (" + std::to_string(s - prev - 1) + " samples lost)"});
+                              "seq jumps from " + std::to_string(prev) + " to " +
+                                  std::to_string(s) + " (" + std::to_string(s - prev - 1) +
+                                  " samples lost)"});
         }
       }
       log.seq.push_back(s);

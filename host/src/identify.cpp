@@ -43,7 +43,8 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
 
   // Bounds from physical priors and the data's scale.
   const Eigen::Index p = reg.psi.cols();
-  const double tau_rms = std::sqrt(cost_reg.tau.squaredNorm() / static_cast<double>(cost_reg.tau.size()));
+  const double tau_rms =
+      std::sqrt(cost_reg.tau.squaredNorm() / static_cast<double>(cost_reg.tau.size()));
   Eigen::VectorXd lower(p), upper(p);
   for (Eigen::Index c = 0; c < p; ++c) {
     const double col_rms =
@@ -58,7 +59,8 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
 
   if (options.method == Method::kPso) {
     const NormalEquationCost cost(cost_reg);
-    r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, lower, upper, options.pso);
+    r.pso =
+        run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, lower, upper, options.pso);
     r.beta = r.pso->best;
     r.cost_Nm2 = direct_cost(cost_reg, r.beta);
   } else {
@@ -73,7 +75,8 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
     e.value = r.beta(c);
     e.ls_value = ls.beta(c);
     e.std_dev = ls.std_dev(c);
-    e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * ls.std_dev(c) / std::abs(ls.beta(c)) : std::numeric_limits<double>::infinity();
+    e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * ls.std_dev(c) / std::abs(ls.beta(c))
+                                          : std::numeric_limits<double>::infinity();
     e.lower = lower(c);
     e.upper = upper(c);
     r.parameters.push_back(e);

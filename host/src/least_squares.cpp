@@ -27,7 +27,8 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
   for (Eigen::Index c = 0; c < p; ++c) {
     if (!(col_norm(c) > 0.0)) {
-      throw InputError(log_name + ": parameter '" + model.parameters()[static_cast<unsigned>(c)].name +
+      throw InputError(log_name + ": parameter '" +
+                       model.parameters()[static_cast<unsigned>(c)].name +
                        "' is not excited at all by this log (its regressor column is zero)");
     }
   }
@@ -44,7 +45,8 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
     s << log_name << ": the regressor is rank-deficient (smallest scaled singular value "
       << sv(p - 1) / sv(0) << " of the largest): this trajectory cannot tell apart";
     for (Eigen::Index c = 0; c < p; ++c) {
-      if (std::abs(v(c)) > 0.2) s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
+      if (std::abs(v(c)) > 0.2)
+        s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
     }
     s << "; use a richer excitation or a model with fewer parameters";
     throw InputError(s.str());

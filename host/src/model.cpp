@@ -25,8 +25,8 @@ class DeltaModel final : public Model {
     } else {
       parameters_.push_back({"arm_inertia", "kg m^2", true,
                              "arm inertia about the motor axis, at the joint (all arms)"});
-      parameters_.push_back({"arm_gravity_moment", "N m", true,
-                             "gravity moment of an arm at theta = 0 (all arms)"});
+      parameters_.push_back(
+          {"arm_gravity_moment", "N m", true, "gravity moment of an arm at theta = 0 (all arms)"});
     }
     parameters_.push_back({"platform_mass", "kg", true,
                            "equivalent platform mass: platform, payload, forearm share"});
@@ -35,8 +35,8 @@ class DeltaModel final : public Model {
                              "viscous friction at the joint"});
     }
     for (const char* s : kJointSuffix) {
-      parameters_.push_back({std::string("coulomb_friction") + s, "N m", true,
-                             "Coulomb friction at the joint"});
+      parameters_.push_back(
+          {std::string("coulomb_friction") + s, "N m", true, "Coulomb friction at the joint"});
     }
     if (options_.offsets) {
       for (const char* s : kJointSuffix) {

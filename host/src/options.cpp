@@ -24,7 +24,8 @@ ParsedOptions::ParsedOptions(const std::string& command, const std::vector<Optio
       if (s.name == a || (!s.short_name.empty() && s.short_name == a)) spec = &s;
     }
     if (!spec) {
-      throw UsageError(command_ + ": unknown option '" + a + "' (see host_id " + command_ + " --help)");
+      throw UsageError(command_ + ": unknown option '" + a + "' (see host_id " + command_ +
+                       " --help)");
     }
     if (values_.count(spec->name) && !spec->repeatable) {
       throw UsageError(command_ + ": option " + spec->name + " is given twice");
@@ -89,7 +90,8 @@ std::string ParsedOptions::choice(const std::string& name, const std::string& fa
   }
   std::string list;
   for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-  throw UsageError(command_ + ": option " + name + " must be one of " + list + ", got '" + *v + "'");
+  throw UsageError(command_ + ": option " + name + " must be one of " + list + ", got '" + *v +
+                   "'");
 }
 
 }  // namespace host_id

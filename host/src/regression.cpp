@@ -76,7 +76,8 @@ Regression build_regression(const Model& model, const delta::Geometry& g, double
   std::vector<std::size_t> keep;
   keep.reserve(n);
   for (const Segment& seg : samples.segments) {
-    for (std::size_t k = seg.begin + samples.trim; k + samples.trim < seg.end; ++k) keep.push_back(k);
+    for (std::size_t k = seg.begin + samples.trim; k + samples.trim < seg.end; ++k)
+      keep.push_back(k);
   }
   Regression r;
   const auto m = static_cast<Eigen::Index>(3 * keep.size());
@@ -89,7 +90,8 @@ Regression build_regression(const Model& model, const delta::Geometry& g, double
     for (unsigned j = 0; j < 3; ++j) {
       const auto row = static_cast<Eigen::Index>(3 * i + j);
       r.tau(row) = tau[3 * k + j];
-      for (std::size_t c = 0; c < p; ++c) r.psi(row, static_cast<Eigen::Index>(c)) = rows[(3 * k + j) * p + c];
+      for (std::size_t c = 0; c < p; ++c)
+        r.psi(row, static_cast<Eigen::Index>(c)) = rows[(3 * k + j) * p + c];
     }
   }
   return r;

@@ -30,7 +30,9 @@ std::string model_summary(const ModelOptions& m, std::size_t p) {
   return s.str();
 }
 
-const char* topology_name(PsoTopology t) { return t == PsoTopology::kGlobal ? "gbest" : "ring"; }
+const char* topology_name(PsoTopology t) {
+  return t == PsoTopology::kGlobal ? "gbest" : "ring";
+}
 
 }  // namespace
 
@@ -64,7 +66,8 @@ std::string text_report(const FitResult& r) {
     << r.segments_used << " segment(s)";
   if (r.segments_dropped) s << ", " << r.segments_dropped << " too short and dropped";
   s << "\n            " << r.derivatives << "\n";
-  for (const auto& g : r.gaps) s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
+  for (const auto& g : r.gaps)
+    s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
   s << "  model     " << model_summary(o.model, r.parameters.size()) << "\n";
   if (r.pso) {
     const auto& p = *r.pso;
@@ -96,8 +99,9 @@ std::string text_report(const FitResult& r) {
   }
   s << "\n  cost (mean squared torque error) " << fmt("%.6e", r.cost_Nm2) << " N^2 m^2";
   if (r.pso) {
-    s << "\n  least-squares optimum            " << fmt("%.6e", r.ls_cost_Nm2) << " N^2 m^2 (pso/ls "
-      << fmt("%.9f", r.ls_cost_Nm2 > 0 ? r.cost_Nm2 / r.ls_cost_Nm2 : 1.0) << ")";
+    s << "\n  least-squares optimum            " << fmt("%.6e", r.ls_cost_Nm2)
+      << " N^2 m^2 (pso/ls " << fmt("%.9f", r.ls_cost_Nm2 > 0 ? r.cost_Nm2 / r.ls_cost_Nm2 : 1.0)
+      << ")";
   }
   s << "\n  condition number of regressor    " << fmt("%.3g", r.condition_number)
     << " (columns scaled to unit norm: " << fmt("%.3g", r.condition_number_scaled) << ")\n";

@@ -31,7 +31,8 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
   Samples out;
   out.samples_in_log = log.size();
   const double h_median = median_step(log.t);
-  const double fs = log.sample_rate_hz ? *log.sample_rate_hz : (h_median > 0 ? 1.0 / h_median : 0.0);
+  const double fs =
+      log.sample_rate_hz ? *log.sample_rate_hz : (h_median > 0 ? 1.0 / h_median : 0.0);
   out.sample_rate_hz = fs;
   const bool logged = log.has_qd && log.has_qdd;
   if (!logged) {
@@ -44,10 +45,13 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
   }
   const std::size_t trim =
       logged ? 0
-             : (options.trim_samples >= 0 ? static_cast<std::size_t>(options.trim_samples)
-                                          : static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz)));
-  const std::size_t pad = static_cast<std::size_t>(std::ceil(3.0 * fs / std::max(options.cutoff_hz, 1e-9)));
-  const auto filter = logged ? std::array<Biquad, 2>{} : butterworth4_lowpass(options.cutoff_hz, fs);
+             : (options.trim_samples >= 0
+                    ? static_cast<std::size_t>(options.trim_samples)
+                    : static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz)));
+  const std::size_t pad =
+      static_cast<std::size_t>(std::ceil(3.0 * fs / std::max(options.cutoff_hz, 1e-9)));
+  const auto filter =
+      logged ? std::array<Biquad, 2>{} : butterworth4_lowpass(options.cutoff_hz, fs);
 
   // Segment boundaries: the gaps.
   std::vector<std::size_t> bounds{0};
@@ -109,9 +113,9 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
   out.trim = trim;
   if (out.states.empty()) {
     std::ostringstream s;
-    s << log.name << ": nothing left to fit: " << log.size() << " samples in "
-      << bounds.size() - 1 << " segment(s), each shorter than the " << 2 * trim + 5
-      << " samples needed after trimming " << trim << " at each end";
+    s << log.name << ": nothing left to fit: " << log.size() << " samples in " << bounds.size() - 1
+      << " segment(s), each shorter than the " << 2 * trim + 5 << " samples needed after trimming "
+      << trim << " at each end";
     throw InputError(s.str());
   }
   std::ostringstream d;

@@ -99,7 +99,8 @@ void differentiate_uniform(const std::vector<double>& x, double h, std::vector<d
   if (n < 3) return;
   for (std::size_t i = 2; i + 2 < n; ++i) {
     dx[i] = (-x[i + 2] + 8.0 * x[i + 1] - 8.0 * x[i - 1] + x[i - 2]) / (12.0 * h);
-    ddx[i] = (-x[i + 2] + 16.0 * x[i + 1] - 30.0 * x[i] + 16.0 * x[i - 1] - x[i - 2]) / (12.0 * h * h);
+    ddx[i] =
+        (-x[i + 2] + 16.0 * x[i + 1] - 30.0 * x[i] + 16.0 * x[i - 1] - x[i - 2]) / (12.0 * h * h);
   }
   // Near the ends: three-point central, then one-sided.
   const auto central3 = [&](std::size_t i) {

@@ -51,19 +51,22 @@ DeltaLog simulate_log(const SimulateOptions& o) {
   delta::PickAndPlaceTrajectory pnp;
   const bool is_fourier = o.trajectory == "fourier";
   if (is_fourier) {
-    if (o.harmonics == 0 || o.harmonics > 20) throw InputError("--harmonics must be between 1 and 20");
+    if (o.harmonics == 0 || o.harmonics > 20)
+      throw InputError("--harmonics must be between 1 and 20");
     if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
       throw InputError("--base-hz must be between 0 and 5 Hz");
     }
     const delta::Vec3<double> centre{0.0, 0.0, -0.42};
     if (!delta::make_fourier_excitation(o.geometry, centre, o.harmonics, o.base_frequency_hz,
                                         o.amplitude_rad, o.seed, fourier)) {
-      throw InputError("no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
+      throw InputError(
+          "no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
     }
   } else if (o.trajectory == "pick-and-place") {
     pnp = delta::default_pick_and_place(o.geometry);
   } else {
-    throw InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" + o.trajectory + "'");
+    throw InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" + o.trajectory +
+                     "'");
   }
 
   DeltaLog log;
@@ -154,10 +157,12 @@ delta::LumpedParameters read_lumped_parameters(const std::string& path) {
   get("gravity_m_s2", p.gravity_m_s2);
   for (const auto& [key, value] : j.items()) {
     (void)value;
-    static const char* known[] = {"arm_inertia", "arm_gravity_moment", "platform_mass", "gravity_m_s2"};
+    static const char* known[] = {"arm_inertia", "arm_gravity_moment", "platform_mass",
+                                  "gravity_m_s2"};
     bool ok = false;
     for (const char* k : known) ok = ok || key == k;
-    for (const char* base : {"arm_inertia", "arm_gravity_moment", "viscous_friction", "coulomb_friction", "torque_offset"}) {
+    for (const char* base : {"arm_inertia", "arm_gravity_moment", "viscous_friction",
+                             "coulomb_friction", "torque_offset"}) {
       for (const char* s : suffix) ok = ok || key == std::string(base) + s;
     }
     if (!ok) throw InputError(path + ": unknown parameter '" + key + "'");

@@ -64,14 +64,13 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p);
 
 // Inverse dynamics: the joint torques that produce s.
-KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p,
-                                  const JointState& s, Joint3& tau_Nm);
+KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p, const JointState& s,
+                                  Joint3& tau_Nm);
 
 // Forward dynamics: the joint accelerations under tau at (q, qd):
 //   (diag(I) + m_p J^T J) qdd = tau - [-G cos q + m_p J^T (Jdot qd - g) + friction + o].
-KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p,
-                                  const Joint3& q_rad, const Joint3& qd_rad_s,
-                                  const Joint3& tau_Nm, Joint3& qdd_rad_s2);
+KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, const Joint3& q_rad,
+                                  const Joint3& qd_rad_s, const Joint3& tau_Nm, Joint3& qdd_rad_s2);
 
 // Parameters of the default robot (kDefaultGeometry): a plausible small delta
 // with 0.2 m arms, used by `host_id simulate` and the emulator's plant.

@@ -9,10 +9,10 @@ namespace delta {
 
 template <class T>
 struct BasicGeometry {
-  T upper_arm_length_m{};   // motor axis to elbow
-  T forearm_length_m{};     // elbow to platform joint
-  T base_radius_m{};        // base centre to motor axis
-  T platform_radius_m{};    // platform centre to platform joint
+  T upper_arm_length_m{};  // motor axis to elbow
+  T forearm_length_m{};    // elbow to platform joint
+  T base_radius_m{};       // base centre to motor axis
+  T platform_radius_m{};   // platform centre to platform joint
 };
 
 using Geometry = BasicGeometry<double>;

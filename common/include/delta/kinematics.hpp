@@ -42,8 +42,8 @@ struct ForwardKinematicsResult {
 template <class T>
 struct VelocityKinematics {
   KinematicsStatus status{KinematicsStatus::kSingular};
-  Mat3<T> jacobian{};            // m/rad
-  Vec3<T> jacobian_dot_qdot{};   // m/s^2
+  Mat3<T> jacobian{};           // m/rad
+  Vec3<T> jacobian_dot_qdot{};  // m/s^2
 };
 
 namespace detail {
@@ -74,8 +74,8 @@ Vec3<T> elbow_position(const BasicGeometry<T>& g, int chain, T theta_rad) {
 // Joint angle of one chain for platform position p, on the working branch
 // (elbow farther from the base's z axis).
 template <class T>
-KinematicsStatus inverse_kinematics_chain(const BasicGeometry<T>& g, int chain,
-                                          const Vec3<T>& p, T& theta_rad) {
+KinematicsStatus inverse_kinematics_chain(const BasicGeometry<T>& g, int chain, const Vec3<T>& p,
+                                          T& theta_rad) {
   using std::atan2;
   using std::sqrt;
   const T a = g.upper_arm_length_m;
@@ -218,9 +218,9 @@ VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const Joint
 // Where a target lies with respect to the usable workspace.
 enum class WorkspaceStatus : int {
   kInside = 0,
-  kUnreachable = 1,    // inverse kinematics has no solution
-  kJointLimit = 2,     // a joint angle lies outside [min, max]
-  kNearSingular = 3,   // too close to a serial or parallel singularity
+  kUnreachable = 1,   // inverse kinematics has no solution
+  kJointLimit = 2,    // a joint angle lies outside [min, max]
+  kNearSingular = 3,  // too close to a serial or parallel singularity
 };
 
 template <class T>

@@ -35,13 +35,13 @@ struct DeltaLog {
   // Every metadata key in file order, required, optional and unknown alike.
   std::vector<std::pair<std::string, std::string>> metadata;
 
-  Series t;  // s
+  Series t;     // s
   Series3 q;    // rad
   Series3 tau;  // N m
   bool has_qd{false};
   bool has_qdd{false};
-  Series3 qd;   // rad/s, when has_qd
-  Series3 qdd;  // rad/s^2, when has_qdd
+  Series3 qd;                      // rad/s, when has_qd
+  Series3 qdd;                     // rad/s^2, when has_qdd
   std::vector<std::uint64_t> seq;  // empty when the log has no seq column
   // Further columns, kept by name.
   std::vector<std::pair<std::string, Series>> extra_columns;

@@ -34,9 +34,9 @@ struct FitOptions {
 
 struct ParameterEstimate {
   ParameterInfo info;
-  double value{0};           // the chosen method's estimate
-  double ls_value{0};        // the least-squares optimum
-  double std_dev{0};         // from the least-squares covariance
+  double value{0};     // the chosen method's estimate
+  double ls_value{0};  // the least-squares optimum
+  double std_dev{0};   // from the least-squares covariance
   double rel_std_percent{0};
   double lower{0}, upper{0};  // the PSO bounds
 };

@@ -17,9 +17,9 @@ enum class LsWeights { kNone, kJoint };
 
 struct LeastSquaresResult {
   Eigen::VectorXd beta;
-  Eigen::VectorXd std_dev;       // sqrt of the covariance's diagonal
-  double cost{0};                // mean squared error of the (weighted) rows
-  double condition_number{0};    // of Psi, raw units
+  Eigen::VectorXd std_dev;            // sqrt of the covariance's diagonal
+  double cost{0};                     // mean squared error of the (weighted) rows
+  double condition_number{0};         // of Psi, raw units
   double condition_number_scaled{0};  // of Psi with unit-norm columns
   std::array<double, 3> joint_weights{1, 1, 1};
 };

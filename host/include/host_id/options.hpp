@@ -20,8 +20,11 @@ class UsageError : public InputError {
 
 struct OptionSpec {
   OptionSpec(std::string n, bool takes = true, bool repeat = false, std::string short_n = {})
-      : name(std::move(n)), takes_value(takes), repeatable(repeat), short_name(std::move(short_n)) {}
-  std::string name;        // "--seed"
+      : name(std::move(n)),
+        takes_value(takes),
+        repeatable(repeat),
+        short_name(std::move(short_n)) {}
+  std::string name;  // "--seed"
   bool takes_value;
   bool repeatable;
   std::string short_name;  // "-o", optional

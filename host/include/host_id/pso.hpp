@@ -37,7 +37,7 @@ struct PsoResult {
   std::size_t iterations{0};
   std::size_t evaluations{0};
   std::size_t restarts_done{0};
-  std::string stop_reason;  // "iterations" or "stall"
+  std::string stop_reason;            // "iterations" or "stall"
   std::size_t particles_on_bound{0};  // particles with a coordinate on a bound at the end
 };
 

@@ -14,8 +14,8 @@
 namespace host_id {
 
 struct Regression {
-  Eigen::MatrixXd psi;  // rows 3k..3k+2 belong to sample k, joints 1..3
-  Eigen::VectorXd tau;  // N m
+  Eigen::MatrixXd psi;      // rows 3k..3k+2 belong to sample k, joints 1..3
+  Eigen::VectorXd tau;      // N m
   std::vector<double> t_s;  // time of sample k
   std::size_t samples() const { return static_cast<std::size_t>(tau.size()) / 3; }
 };

@@ -18,11 +18,11 @@ struct SimulateOptions {
   std::uint64_t seed{1};
   unsigned harmonics{5};
   double base_frequency_hz{0.2};
-  double amplitude_rad{0.35};        // worst-case joint amplitude of the Fourier path
-  double torque_noise{0.0};          // Gaussian, as a fraction of each joint's RMS torque
-  unsigned encoder_bits{0};          // quantise q to 2 pi / 2^bits; 0: off
-  bool with_derivatives{false};      // write exact qd, qdd columns
-  std::string name;                  // the log's `trajectory` metadata
+  double amplitude_rad{0.35};    // worst-case joint amplitude of the Fourier path
+  double torque_noise{0.0};      // Gaussian, as a fraction of each joint's RMS torque
+  unsigned encoder_bits{0};      // quantise q to 2 pi / 2^bits; 0: off
+  bool with_derivatives{false};  // write exact qd, qdd columns
+  std::string name;              // the log's `trajectory` metadata
   delta::Geometry geometry{delta::kDefaultGeometry};
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};
 };

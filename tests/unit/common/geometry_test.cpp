@@ -24,8 +24,9 @@ TEST(GeometryTest, NonPositiveLengthsAreRejectedByName) {
   g = kDefaultGeometry;
   g.forearm_length_m = -0.46;
   EXPECT_EQ(check_geometry(g), GeometryFault::kForearmNotPositive);
-  EXPECT_NE(describe_geometry_fault(g).find("forearm_length_m must be a positive length, got -0.46"),
-            std::string::npos);
+  EXPECT_NE(
+      describe_geometry_fault(g).find("forearm_length_m must be a positive length, got -0.46"),
+      std::string::npos);
 
   g = kDefaultGeometry;
   g.base_radius_m = std::numeric_limits<double>::quiet_NaN();

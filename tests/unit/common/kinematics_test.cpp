@@ -142,9 +142,9 @@ TEST(KinematicsTest, JacobianDotTimesQdotMatchesSecondDifferenceAlongAPath) {
   };
   const double h = 1e-4;
   const V p0 = forward_kinematics(g, q_at(0.0)).position_m;
-  const V pddot_fd =
-      (forward_kinematics(g, q_at(h)).position_m - p0 * 2.0 + forward_kinematics(g, q_at(-h)).position_m) *
-      (1.0 / (h * h));
+  const V pddot_fd = (forward_kinematics(g, q_at(h)).position_m - p0 * 2.0 +
+                      forward_kinematics(g, q_at(-h)).position_m) *
+                     (1.0 / (h * h));
   const auto vk = velocity_kinematics(g, q0, v, p0);
   ASSERT_EQ(vk.status, KinematicsStatus::kOk);
   const V pddot = vk.jacobian * V{w[0], w[1], w[2]} + vk.jacobian_dot_qdot;
@@ -189,10 +189,8 @@ TEST(KinematicsTest, WorkspaceCheckNamesTheReason) {
   WorkspaceLimits<double> wide = limits;
   wide.joint_min_rad = -3.0;
   wide.joint_max_rad = 3.0;
-  EXPECT_EQ(check_workspace(g, V{0.0, 0.0, -0.6565}, wide).status,
-            WorkspaceStatus::kNearSingular);
-  EXPECT_EQ(check_workspace(g, V{0.0, 0.0, -0.6565}, limits).status,
-            WorkspaceStatus::kJointLimit);
+  EXPECT_EQ(check_workspace(g, V{0.0, 0.0, -0.6565}, wide).status, WorkspaceStatus::kNearSingular);
+  EXPECT_EQ(check_workspace(g, V{0.0, 0.0, -0.6565}, limits).status, WorkspaceStatus::kJointLimit);
 }
 
 }  // namespace

@@ -56,13 +56,15 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_EQ(run({"frobnicate"}), 2);
   EXPECT_NE(err_.str().find("unknown command 'frobnicate'"), std::string::npos);
   EXPECT_EQ(run({"fit", path("a.csv"), "--itertions", "5"}), 2);
-  EXPECT_EQ(err_.str(), "host_id: error: fit: unknown option '--itertions' (see host_id fit --help)\n");
+  EXPECT_EQ(err_.str(),
+            "host_id: error: fit: unknown option '--itertions' (see host_id fit --help)\n");
   EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "many"}), 2);
   EXPECT_EQ(err_.str(),
             "host_id: error: fit: option --iterations expects a whole number from 1 to 100000000, "
             "got 'many'\n");
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper"}), 2);
-  EXPECT_NE(err_.str().find("--model must be one of delta, paper14, got 'paper'"), std::string::npos);
+  EXPECT_NE(err_.str().find("--model must be one of delta, paper14, got 'paper'"),
+            std::string::npos);
   EXPECT_EQ(run({"fit", path("a.csv"), "--seed"}), 2);
   EXPECT_NE(err_.str().find("option --seed needs a value"), std::string::npos);
   EXPECT_EQ(run({"fit"}), 2);
@@ -78,13 +80,14 @@ TEST_F(CliTest, BadLogFailsWithFileLineColumnAndWritesNothing) {
                                     "# platform_radius_m = 0.035\nt,q1,q2,q3,tau1,tau2,tau3\n"
                                     "0,0.3,0.3,0.3,-1,-1,-1\n0.001,0.3,0.3,0.3,-1,NaN,-1\n";
   EXPECT_EQ(run({"fit", path("bad.csv"), "--out", path("r.json"), "--plot", path("p.svg")}), 1);
-  EXPECT_EQ(err_.str(),
-            "host_id: error: " + path("bad.csv") + ":8:22: column 'tau2': NaN or Inf is not allowed\n");
+  EXPECT_EQ(err_.str(), "host_id: error: " + path("bad.csv") +
+                            ":8:22: column 'tau2': NaN or Inf is not allowed\n");
   EXPECT_FALSE(exists("r.json"));
   EXPECT_FALSE(exists("p.svg"));
   // A bad validation log fails before any work is done.
   simulate("a.csv");
-  EXPECT_EQ(run({"fit", path("a.csv"), "--validate", path("missing.csv"), "--out", path("r.json")}), 1);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--validate", path("missing.csv"), "--out", path("r.json")}),
+            1);
   EXPECT_NE(err_.str().find("missing.csv: cannot open"), std::string::npos);
   EXPECT_FALSE(exists("r.json"));
 }
@@ -151,7 +154,8 @@ TEST_F(CliTest, SimulateValidatesItsOptions) {
                  "1", "--with-derivatives"}),
             0);
   const std::string text = read_whole_file(path("s.csv"));
-  EXPECT_NE(text.find("seq,t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n"), std::string::npos);
+  EXPECT_NE(text.find("seq,t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n"),
+            std::string::npos);
 }
 
 TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {

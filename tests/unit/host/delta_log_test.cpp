@@ -177,7 +177,8 @@ TEST(DeltaLogTest, SeqAndTimeGapsAreReportedNotBridged) {
 
 TEST(DeltaLogTest, EmptyAndTruncatedFiles) {
   EXPECT_EQ(error_of(""), "log.csv:1:1: no header row: the file has no line of column names");
-  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n"), "log.csv:6:1: no data rows after the header");
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n"),
+            "log.csv:6:1: no data rows after the header");
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n\n1,0,0,0,0,0,0\n"),
             "log.csv:8:1: empty line inside the file (only allowed at the end)");
   // Blank lines at the end are fine.
@@ -189,7 +190,8 @@ TEST(DeltaLogTest, MissingFileIsNamed) {
     read_delta_log("/nonexistent/dir/log.csv");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "/nonexistent/dir/log.csv: cannot open: No such file or directory");
+    EXPECT_EQ(std::string(e.what()),
+              "/nonexistent/dir/log.csv: cannot open: No such file or directory");
   }
 }
 

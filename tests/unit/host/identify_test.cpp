@@ -87,13 +87,15 @@ TEST(IdentifyTest, RealisticNoiseGivesParametersWithinAFewPercentAndValidationHo
   for (std::size_t i = 0; i < truth.size(); ++i) {
     EXPECT_NEAR(r.parameters[i].value, truth[i], 0.03 * truth[i]) << r.parameters[i].info.name;
     // The reported standard deviation is honest: the error is within 5 sigma.
-    EXPECT_LT(std::abs(r.parameters[i].value - truth[i]), 5.0 * r.parameters[i].std_dev + 1e-3 * truth[i])
+    EXPECT_LT(std::abs(r.parameters[i].value - truth[i]),
+              5.0 * r.parameters[i].std_dev + 1e-3 * truth[i])
         << r.parameters[i].info.name;
   }
   const auto model = make_model({});
   for (const auto& [seed, trajectory] :
        std::vector<std::pair<int, std::string>>{{2, "fourier"}, {3, "pick-and-place"}}) {
-    const DeltaLog v = simulated(static_cast<std::uint64_t>(seed), 0.015, 17, false, trajectory, 10.0);
+    const DeltaLog v =
+        simulated(static_cast<std::uint64_t>(seed), 0.015, 17, false, trajectory, 10.0);
     const Prediction p = predict(*model, r.beta, v, FitOptions{}.prepare, 0);
     for (unsigned j = 0; j < 3; ++j) {
       EXPECT_LT(p.rmse_Nm[j], 1.5 * r.fit.rmse_Nm[j]) << trajectory << " joint " << j + 1;

@@ -17,7 +17,8 @@ TEST(PsoTest, FindsTheMinimumOfAnIllConditionedQuadratic) {
   };
   PsoOptions o;
   o.iterations = 5000;
-  const PsoResult r = run_pso(cost, Eigen::VectorXd::Constant(4, -5.0), Eigen::VectorXd::Constant(4, 5.0), o);
+  const PsoResult r =
+      run_pso(cost, Eigen::VectorXd::Constant(4, -5.0), Eigen::VectorXd::Constant(4, 5.0), o);
   EXPECT_NEAR(r.best_cost, 2.5, 1e-12);
   for (Eigen::Index i = 0; i < 4; ++i) EXPECT_NEAR(r.best(i), target(i), 1e-5);
   EXPECT_EQ(r.evaluations, o.particles * (r.iterations + 1) + o.particles * r.restarts_done);
