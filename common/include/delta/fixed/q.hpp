@@ -1,0 +1,166 @@
+// Fixed-point numbers with the Q format in the type: Q<I, F> holds a signed
+// 32-bit value with a sign bit, I integer bits and F fractional bits
+// (I + F = 31, ARM's Qm.n notation), so Q<7, 24> spans [-128, 128) with a
+// step of 2^-24 and Q<1, 30> spans [-2, 2).
+//
+// - Add and subtract saturate at the type's range.
+// - mul<R>() and div<R>() compute through 64-bit intermediates, round to the
+//   nearest (ties away from zero) and saturate to the result format R.
+// - Conversion from a floating-point literal exists only at compile time
+//   (consteval): no float or double reaches the object code.
+//
+// No heap, no exceptions, no floating point: this header builds for the
+// host and for Cortex-M alike, and gives bit-identical results on both.
+#pragma once
+
+#include <compare>
+#include <cstdint>
+
+namespace delta::fx {
+
+namespace detail {
+
+// Not constexpr: calling it from a consteval function is a compile error,
+// which is how an out-of-range constant is reported.
+inline void fixed_point_constant_out_of_range() {}
+
+constexpr std::int32_t saturate32(std::int64_t v) {
+  if (v > INT32_MAX) return INT32_MAX;
+  if (v < INT32_MIN) return INT32_MIN;
+  return static_cast<std::int32_t>(v);
+}
+
+// v / 2^shift rounded to nearest, ties away from zero; shift may be <= 0
+// (a left shift, saturating later).
+constexpr std::int64_t shift_round(std::int64_t v, int shift) {
+  if (shift <= 0) {
+    const int left = -shift;
+    if (left >= 62) return v > 0 ? INT64_MAX : (v < 0 ? INT64_MIN : 0);
+    const std::int64_t limit = INT64_MAX >> left;
+    if (v > limit) return INT64_MAX;
+    if (v < -limit) return INT64_MIN;
+    return v * (std::int64_t{1} << left);
+  }
+  if (shift >= 63) return 0;
+  const std::int64_t half = std::int64_t{1} << (shift - 1);
+  return v >= 0 ? (v + half) >> shift : -((-v + half) >> shift);
+}
+
+}  // namespace detail
+
+template <int IntBits, int FracBits>
+class Q {
+  static_assert(IntBits >= 0 && FracBits >= 0 && IntBits + FracBits == 31,
+                "Q<I, F> is a 32-bit format: sign + I + F bits, so I + F must be 31");
+
+ public:
+  static constexpr int kIntBits = IntBits;
+  static constexpr int kFracBits = FracBits;
+
+  constexpr Q() = default;
+
+  // The value with this raw representation (value = raw / 2^F).
+  static constexpr Q from_raw(std::int32_t raw) {
+    Q q;
+    q.raw_ = raw;
+    return q;
+  }
+  // A whole number, saturated.
+  static constexpr Q from_int(std::int32_t v) {
+    return from_raw(detail::saturate32(detail::shift_round(v, -FracBits)));
+  }
+  // A compile-time constant from a floating-point literal, rounded to
+  // nearest; out of range does not compile.
+  static consteval Q from(long double v) {
+    const long double scaled = v * static_cast<long double>(std::int64_t{1} << FracBits);
+    const long double r = scaled >= 0 ? scaled + 0.5L : scaled - 0.5L;
+    if (r >= 2147483648.0L || r <= -2147483649.0L) detail::fixed_point_constant_out_of_range();
+    return from_raw(static_cast<std::int32_t>(static_cast<std::int64_t>(r)));
+  }
+  static constexpr Q max() { return from_raw(INT32_MAX); }
+  static constexpr Q min() { return from_raw(INT32_MIN); }
+  static constexpr Q zero() { return from_raw(0); }
+
+  constexpr std::int32_t raw() const { return raw_; }
+
+  friend constexpr Q operator+(Q a, Q b) {
+    return from_raw(detail::saturate32(std::int64_t{a.raw_} + b.raw_));
+  }
+  friend constexpr Q operator-(Q a, Q b) {
+    return from_raw(detail::saturate32(std::int64_t{a.raw_} - b.raw_));
+  }
+  constexpr Q operator-() const { return from_raw(detail::saturate32(-std::int64_t{raw_})); }
+  constexpr Q& operator+=(Q o) { return *this = *this + o; }
+  constexpr Q& operator-=(Q o) { return *this = *this - o; }
+  friend constexpr auto operator<=>(Q a, Q b) = default;
+  friend constexpr bool operator==(Q a, Q b) = default;
+
+  // Multiplication by a whole number, saturated.
+  constexpr Q scaled_by(std::int32_t k) const {
+    return from_raw(detail::saturate32(std::int64_t{raw_} * k));
+  }
+  // Division by 2^n, rounded.
+  constexpr Q halved(int n) const {
+    return from_raw(static_cast<std::int32_t>(detail::shift_round(raw_, n)));
+  }
+
+ private:
+  std::int32_t raw_{0};
+};
+
+// The formats the project uses, with the quantity they hold.
+using Q1_30 = Q<1, 30>;    // sines, cosines, unit vectors, ratios in [-2, 2)
+using Q3_28 = Q<3, 28>;    // angles [rad], up to +/- 8 rad
+using Q7_24 = Q<7, 24>;    // lengths [m], positions, squared lengths [m^2]
+using Q10_21 = Q<10, 21>;  // angular velocities [rad/s], up to +/- 1024
+using Q14_17 = Q<14, 17>;  // angular accelerations [rad/s^2], up to +/- 16384
+using Q12_19 = Q<12, 19>;  // torques [N m], currents [A], gains, up to +/- 4096
+using Q16_15 = Q<16, 15>;  // controller gains [N m/rad], up to +/- 65536
+
+template <class T>
+constexpr T abs(T v) {
+  return v < T::zero() ? -v : v;
+}
+
+// r = a * b in format R, rounded to nearest and saturated.
+template <class R, int IA, int FA, int IB, int FB>
+constexpr R mul(Q<IA, FA> a, Q<IB, FB> b) {
+  const std::int64_t p = std::int64_t{a.raw()} * b.raw();
+  return R::from_raw(detail::saturate32(detail::shift_round(p, FA + FB - R::kFracBits)));
+}
+
+// r = a / b in format R, rounded to nearest and saturated; b = 0 gives the
+// format's extreme of a's sign (callers check divisors first).
+template <class R, int IA, int FA, int IB, int FB>
+constexpr R div(Q<IA, FA> a, Q<IB, FB> b) {
+  if (b.raw() == 0) return a.raw() >= 0 ? R::max() : R::min();
+  // a / b * 2^FR = a_raw * 2^shift / b_raw with shift = FR - FA + FB.
+  const int shift = R::kFracBits - FA + FB;
+  std::int64_t num = a.raw();
+  std::int64_t den = b.raw();
+  if (den < 0) {
+    num = -num;
+    den = -den;
+  }
+  int post = 0;  // a left shift of the quotient when shift > 31
+  if (shift >= 0) {
+    const int s = shift > 31 ? 31 : shift;
+    post = shift - s;
+    num *= std::int64_t{1} << s;
+  } else {
+    if (-shift > 31) return R::zero();
+    den *= std::int64_t{1} << -shift;
+  }
+  std::int64_t q = num / den;
+  const std::int64_t rem = num % den;
+  if (2 * (rem < 0 ? -rem : rem) >= den) q += num < 0 ? -1 : 1;  // nearest, ties away
+  return R::from_raw(detail::saturate32(detail::shift_round(q, -post)));
+}
+
+// The same value in another format, rounded to nearest and saturated.
+template <class R, int I, int F>
+constexpr R convert(Q<I, F> a) {
+  return R::from_raw(detail::saturate32(detail::shift_round(a.raw(), F - R::kFracBits)));
+}
+
+}  // namespace delta::fx

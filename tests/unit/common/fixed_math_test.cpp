@@ -1,0 +1,99 @@
+// Worst-case errors of the fixed-point math against double, over the whole
+// input domain. The bounds asserted here are the ones documented in
+// common/include/delta/fixed/math.hpp and docs/firmware.md.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "delta/fixed/math.hpp"
+
+namespace delta::fx {
+namespace {
+
+constexpr double kQ30 = 1073741824.0;  // 2^30
+constexpr double kQ28 = 268435456.0;   // 2^28
+
+TEST(FixedMathTest, SinCosWorstErrorOverTheWholeQ3_28Range) {
+  // Every 997th raw angle from -2^31 to 2^31 (about 4.3 million angles),
+  // plus the quadrant boundaries.
+  double worst = 0.0;
+  std::int64_t worst_raw = 0;
+  const auto check = [&](std::int32_t raw) {
+    const SinCos sc = sincos(Q3_28::from_raw(raw));
+    const double a = raw / kQ28;
+    const double es = std::abs(sc.sin.raw() / kQ30 - std::sin(a));
+    const double ec = std::abs(sc.cos.raw() / kQ30 - std::cos(a));
+    if (std::max(es, ec) > worst) {
+      worst = std::max(es, ec);
+      worst_raw = raw;
+    }
+  };
+  for (std::int64_t raw = INT32_MIN; raw <= INT32_MAX; raw += 997)
+    check(static_cast<std::int32_t>(raw));
+  for (int k = -5; k <= 5; ++k) {
+    for (int d = -2; d <= 2; ++d) {
+      const std::int64_t r = k * static_cast<std::int64_t>(kHalfPi.raw()) + d;
+      if (r >= INT32_MIN && r <= INT32_MAX) check(static_cast<std::int32_t>(r));
+    }
+  }
+  std::printf("sincos: worst error %.3g (%.2f LSB of Q1.30) at raw %lld\n", worst, worst * kQ30,
+              static_cast<long long>(worst_raw));
+  EXPECT_LE(worst, 2.0 / kQ30);
+}
+
+TEST(FixedMathTest, SinCosOfExactAngles) {
+  EXPECT_EQ(sincos(Q3_28::zero()).sin.raw(), 0);
+  EXPECT_EQ(sincos(Q3_28::zero()).cos.raw(), 1 << 30);
+  EXPECT_NEAR(sincos(kHalfPi).sin.raw(), 1 << 30, 1);
+  EXPECT_NEAR(sincos(kPi).cos.raw(), -(1 << 30), 1);
+  EXPECT_NEAR(sincos(Q3_28::from(0.5235987755982988)).sin.raw(), 1 << 29, 2);  // sin 30 deg
+}
+
+TEST(FixedMathTest, Atan2WorstErrorOverAllDirectionsAndMagnitudes) {
+  double worst = 0.0;
+  int cases = 0;
+  for (int k = 0; k < 200000; ++k) {
+    const double angle = -3.14159265358979 + 6.28318530717958 * (k + 0.37) / 200000.0;
+    for (const double radius : {3.0, 1e4, 2.1e9}) {  // small to near-int32 magnitudes
+      const auto x = static_cast<std::int64_t>(std::llround(radius * std::cos(angle)));
+      const auto y = static_cast<std::int64_t>(std::llround(radius * std::sin(angle)));
+      if (x == 0 && y == 0) continue;
+      const double got = atan2_raw(y, x).raw() / kQ28;
+      double err = std::abs(got - std::atan2(static_cast<double>(y), static_cast<double>(x)));
+      err = std::min(err, std::abs(err - 6.283185307179586));  // +pi vs -pi
+      worst = std::max(worst, err);
+      ++cases;
+    }
+  }
+  std::printf("atan2: worst error %.3g rad (%.2f LSB of Q3.28) over %d cases\n", worst,
+              worst * kQ28, cases);
+  EXPECT_LE(worst, 1.0 / kQ28);
+  // Axes and the (0, 0) convention.
+  EXPECT_EQ(atan2_raw(0, 0).raw(), 0);
+  EXPECT_EQ(atan2_raw(0, 5).raw(), 0);
+  EXPECT_NEAR(atan2_raw(5, 0).raw(), kHalfPi.raw(), 1);
+  EXPECT_NEAR(atan2_raw(0, -5).raw(), kPi.raw(), 1);
+  EXPECT_NEAR(atan2_raw(-5, 0).raw(), -kHalfPi.raw(), 1);
+}
+
+TEST(FixedMathTest, SqrtIsExactToTheNearestLsb) {
+  for (std::uint64_t v : {0ull, 1ull, 2ull, 3ull, 4ull, 15ull, 16ull, 17ull, 1ull << 40,
+                          (1ull << 62) - 1, 18446744073709551615ull}) {
+    const long double exact = std::sqrt(static_cast<long double>(v));
+    EXPECT_LE(std::abs(static_cast<long double>(isqrt_round(v)) - exact), 0.5L + 1e-9L) << v;
+  }
+  // Over Q7.24: every 9973rd positive raw value.
+  double worst_lsb = 0.0;
+  for (std::int64_t raw = 1; raw <= INT32_MAX; raw += 9973) {
+    const Q7_24 r = sqrt<Q7_24>(Q7_24::from_raw(static_cast<std::int32_t>(raw)));
+    const double exact = std::sqrt(static_cast<double>(raw) / 16777216.0) * 16777216.0;
+    worst_lsb = std::max(worst_lsb, std::abs(r.raw() - exact));
+  }
+  EXPECT_LE(worst_lsb, 0.5 + 1e-6);
+  EXPECT_EQ(sqrt<Q7_24>(Q7_24::from(-1.0)).raw(), 0);
+  EXPECT_EQ(sqrt<Q7_24>(Q7_24::from(0.25)).raw(), Q7_24::from(0.5).raw());
+}
+
+}  // namespace
+}  // namespace delta::fx
