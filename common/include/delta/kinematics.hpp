@@ -12,15 +12,10 @@
 #include <cmath>
 
 #include "delta/geometry.hpp"
+#include "delta/kinematics_status.hpp"
 #include "delta/vec3.hpp"
 
 namespace delta {
-
-enum class KinematicsStatus : int {
-  kOk = 0,
-  kUnreachable = 1,  // no joint angle / platform position satisfies the chain
-  kSingular = 2,     // the pose is (numerically) singular
-};
 
 template <class T>
 using JointVector = std::array<T, 3>;

@@ -1,0 +1,140 @@
+#include "delta/fixed/kinematics.hpp"
+
+#include "delta/fixed/math.hpp"
+
+namespace delta::fx {
+
+namespace {
+
+// Chain azimuths 0, 120, 240 degrees: cos and sin in Q1.30.
+constexpr Q1_30 kCos[3] = {Q1_30::from(1.0), Q1_30::from(-0.5), Q1_30::from(-0.5)};
+constexpr Q1_30 kSin[3] = {Q1_30::from(0.0), Q1_30::from(0.86602540378443864676),
+                           Q1_30::from(-0.86602540378443864676)};
+
+using i64 = std::int64_t;
+
+// Products of two Q7.24 lengths, exact in Q.48.
+constexpr i64 prod48(Q7_24 a, Q7_24 b) {
+  return i64{a.raw()} * b.raw();
+}
+
+// Shifts a, b, c right together until all magnitudes are below 2^30, so
+// that squares and their sums fit in 64 bits. Ratios are unchanged.
+void normalise(i64& a, i64& b, i64& c) {
+  const auto mag = [](i64 v) { return v < 0 ? -v : v; };
+  int shift = 0;
+  i64 m = mag(a) | mag(b) | mag(c);
+  while ((m >> shift) >= (i64{1} << 30)) ++shift;
+  if (shift > 0) {
+    a = detail::shift_round(a, shift);
+    b = detail::shift_round(b, shift);
+    c = detail::shift_round(c, shift);
+  }
+}
+
+Q7_24 length(i64 squared_q48) {
+  return Q7_24::from_raw(
+      static_cast<std::int32_t>(isqrt_round(static_cast<std::uint64_t>(squared_q48))));
+}
+
+}  // namespace
+
+Vec3Q elbow_position(const GeometryQ& g, int chain, Q3_28 theta_rad) {
+  const SinCos sc = sincos(theta_rad);
+  const auto k = static_cast<unsigned>(chain);
+  const Q7_24 radial = g.base_radius_m + mul<Q7_24>(g.upper_arm_length_m, sc.cos);
+  return {mul<Q7_24>(radial, kCos[k]), mul<Q7_24>(radial, kSin[k]),
+          -mul<Q7_24>(g.upper_arm_length_m, sc.sin)};
+}
+
+InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
+  InverseKinematicsQ r;
+  const Q7_24 a = g.upper_arm_length_m;
+  const Q7_24 b = g.forearm_length_m;
+  for (unsigned k = 0; k < 3; ++k) {
+    // The platform joint in the chain's frame: radial X, tangential Y, Z.
+    const Q7_24 X = mul<Q7_24>(p.x_m, kCos[k]) + mul<Q7_24>(p.y_m, kSin[k]) + g.platform_radius_m -
+                    g.base_radius_m;
+    const Q7_24 Y = mul<Q7_24>(p.y_m, kCos[k]) - mul<Q7_24>(p.x_m, kSin[k]);
+    const Q7_24 Z = p.z_m;
+    // E cos(theta) + F sin(theta) + G = 0, all exact in Q.48.
+    i64 E = -2 * prod48(a, X);
+    i64 F = 2 * prod48(a, Z);
+    i64 G = prod48(X, X) + prod48(Y, Y) + prod48(Z, Z) + prod48(a, a) - prod48(b, b);
+    normalise(E, F, G);
+    const i64 disc = E * E + F * F - G * G;  // rho^2 - G^2
+    if (disc <= 0) {
+      r.status = KinematicsStatus::kUnreachable;
+      r.failed_chain = static_cast<int>(k);
+      r.theta_rad = {};
+      return r;
+    }
+    const i64 root = static_cast<i64>(isqrt_round(static_cast<std::uint64_t>(disc)));
+    const Q3_28 alpha = atan2_raw(F, E);
+    const Q3_28 delta = atan2_raw(root, -G);  // acos(-G / rho)
+    // Of alpha +/- delta, the larger cos(theta) puts the elbow farther out.
+    Q3_28 theta = F > 0 ? alpha - delta : alpha + delta;
+    if (theta > kPi) theta = theta - kTwoPi;
+    if (theta <= -kPi) theta = theta + kTwoPi;
+    r.theta_rad[k] = theta;
+  }
+  r.status = KinematicsStatus::kOk;
+  return r;
+}
+
+ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const JointAnglesQ& q) {
+  ForwardKinematicsQ r;
+  // Sphere centres C_i = B_i - r u_i, radius b.
+  Vec3Q c[3];
+  for (unsigned k = 0; k < 3; ++k) {
+    const Vec3Q e = elbow_position(g, static_cast<int>(k), q[k]);
+    c[k] = {e.x_m - mul<Q7_24>(g.platform_radius_m, kCos[k]),
+            e.y_m - mul<Q7_24>(g.platform_radius_m, kSin[k]), e.z_m};
+  }
+  const Vec3Q d21{c[1].x_m - c[0].x_m, c[1].y_m - c[0].y_m, c[1].z_m - c[0].z_m};
+  const Vec3Q d31{c[2].x_m - c[0].x_m, c[2].y_m - c[0].y_m, c[2].z_m - c[0].z_m};
+  const Q7_24 d =
+      length(prod48(d21.x_m, d21.x_m) + prod48(d21.y_m, d21.y_m) + prod48(d21.z_m, d21.z_m));
+  if (d.raw() == 0) {
+    r.status = KinematicsStatus::kSingular;
+    return r;
+  }
+  // Unit vectors in Q1.30.
+  const Q1_30 ex[3] = {div<Q1_30>(d21.x_m, d), div<Q1_30>(d21.y_m, d), div<Q1_30>(d21.z_m, d)};
+  const Q7_24 i =
+      mul<Q7_24>(ex[0], d31.x_m) + mul<Q7_24>(ex[1], d31.y_m) + mul<Q7_24>(ex[2], d31.z_m);
+  const Vec3Q ey_raw{d31.x_m - mul<Q7_24>(ex[0], i), d31.y_m - mul<Q7_24>(ex[1], i),
+                     d31.z_m - mul<Q7_24>(ex[2], i)};
+  const Q7_24 j = length(prod48(ey_raw.x_m, ey_raw.x_m) + prod48(ey_raw.y_m, ey_raw.y_m) +
+                         prod48(ey_raw.z_m, ey_raw.z_m));
+  if (j.raw() < 64) {  // collinear centres (j < 4 um)
+    r.status = KinematicsStatus::kSingular;
+    return r;
+  }
+  const Q1_30 ey[3] = {div<Q1_30>(ey_raw.x_m, j), div<Q1_30>(ey_raw.y_m, j),
+                       div<Q1_30>(ey_raw.z_m, j)};
+  Q1_30 ez[3] = {mul<Q1_30>(ex[1], ey[2]) - mul<Q1_30>(ex[2], ey[1]),
+                 mul<Q1_30>(ex[2], ey[0]) - mul<Q1_30>(ex[0], ey[2]),
+                 mul<Q1_30>(ex[0], ey[1]) - mul<Q1_30>(ex[1], ey[0])};
+  if (ez[2] > Q1_30::zero()) {  // the solution below
+    for (Q1_30& v : ez) v = -v;
+  }
+  // Equal radii: x = d / 2, y = (i^2 + j^2 - 2 i x) / (2 j), z = sqrt(b^2 - x^2 - y^2).
+  const Q7_24 x = d.halved(1);
+  const i64 num48 = prod48(i, i) + prod48(j, j) - 2 * prod48(i, x);
+  const Q7_24 y = Q7_24::from_raw(
+      detail::saturate32((num48 >= 0 ? num48 + j.raw() : num48 - j.raw()) / (2 * i64{j.raw()})));
+  const i64 z_sq48 = prod48(g.forearm_length_m, g.forearm_length_m) - prod48(x, x) - prod48(y, y);
+  if (z_sq48 < 0) {
+    r.status = KinematicsStatus::kUnreachable;
+    return r;
+  }
+  const Q7_24 z = length(z_sq48);
+  r.position = {c[0].x_m + mul<Q7_24>(ex[0], x) + mul<Q7_24>(ey[0], y) + mul<Q7_24>(ez[0], z),
+                c[0].y_m + mul<Q7_24>(ex[1], x) + mul<Q7_24>(ey[1], y) + mul<Q7_24>(ez[1], z),
+                c[0].z_m + mul<Q7_24>(ex[2], x) + mul<Q7_24>(ey[2], y) + mul<Q7_24>(ez[2], z)};
+  r.status = KinematicsStatus::kOk;
+  return r;
+}
+
+}  // namespace delta::fx
