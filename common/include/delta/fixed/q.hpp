@@ -157,6 +157,14 @@ constexpr R div(Q<IA, FA> a, Q<IB, FB> b) {
   return R::from_raw(detail::saturate32(detail::shift_round(q, -post)));
 }
 
+// n / d as a Q1.30 fraction, rounded to nearest (d > 0, n <= d): tick ratios
+// of any length, without a detour through a format that could saturate.
+constexpr Q<1, 30> ratio(std::uint32_t n, std::uint32_t d) {
+  if (d == 0) return Q<1, 30>::zero();
+  const std::int64_t num = std::int64_t{n} << 30;
+  return Q<1, 30>::from_raw(detail::saturate32((num + d / 2) / d));
+}
+
 // The same value in another format, rounded to nearest and saturated.
 template <class R, int I, int F>
 constexpr R convert(Q<I, F> a) {

@@ -1,0 +1,302 @@
+// The controller: a state machine and the control loop, driven by step()
+// once per tick. A template over the hardware (fw/hardware.hpp), so that the
+// same code runs on Linux, on Cortex-M and against the tests' fakes.
+//
+//   boot -> configuring -> ready -> running -> stopping -> ready
+//   any fault (e-stop, drive fault, lost feedback, limit, tracking error,
+//   configuration failure, log overflow) -> fault; drives stay disabled
+//   and braked there until reset(), which starts again at boot.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "delta/fixed/math.hpp"
+#include "fw/faults.hpp"
+#include "fw/hardware.hpp"
+#include "fw/joint_controller.hpp"
+#include "fw/torque_from_current.hpp"
+#include "fw/trajectory.hpp"
+
+namespace fw {
+
+enum class State : std::uint8_t {
+  kBoot = 0,
+  kConfiguring = 1,
+  kReady = 2,
+  kRunning = 3,
+  kStopping = 4,
+  kFault = 5,
+};
+
+const char* state_name(State s);
+
+struct ControllerConfig {
+  GeometryQ geometry{};
+  std::uint32_t tick_period_us{1000};
+  JointLimits limits{};
+  JointGains gains{};
+  NominalDynamics nominal{};
+  std::array<JointTorqueConfig, 3> torque{};
+  Q3_28 max_tracking_error_rad{Q3_28::from(0.1)};
+  std::uint32_t approach_ticks{1000};  // move from rest to the trajectory's start
+  std::uint32_t stop_ticks{200};       // hold still before disabling
+  std::uint32_t configure_timeout_ticks{5000};
+  std::uint32_t lost_feedback_ticks{3};  // consecutive cycles without fresh feedback
+};
+
+// Why start() refused, if it did.
+struct StartResult {
+  bool accepted{false};
+  TrajectoryCheck check{};
+  bool wrong_state{false};
+};
+
+template <class Hardware>
+class Controller {
+ public:
+  Controller(Hardware& hw, const ControllerConfig& config)
+      : hw_(hw),
+        config_(config),
+        joint_(config.gains, config.nominal, config.tick_period_us),
+        trajectory_(config.geometry, TrajectoryConfig{}) {}
+
+  // Checks the whole trajectory against the limits (before any motion, in
+  // the caller's context, not in step()) and arms it.
+  StartResult start(const TrajectoryConfig& trajectory) {
+    StartResult r;
+    if (state_ != State::kReady) {
+      r.wrong_state = true;
+      return r;
+    }
+    r.check = check_trajectory(config_.geometry, trajectory, config_.limits);
+    if (r.check.fault != TrajectoryFault::kOk) return r;
+    trajectory_ = Trajectory(config_.geometry, trajectory);
+    start_requested_ = true;
+    r.accepted = true;
+    return r;
+  }
+  void stop() { stop_requested_ = true; }
+  void reset() { reset_requested_ = true; }
+
+  // One control cycle.
+  void step() {
+    hw_.read_feedback(feedback_);
+    // The e-stop and drive faults are checked first in every state, so the
+    // drives are disabled within the cycle that sees them.
+    if (state_ != State::kFault) {
+      if (hw_.estop_open()) {
+        enter_fault(Fault::kEStop);
+      } else if (state_ == State::kRunning || state_ == State::kStopping ||
+                 state_ == State::kReady) {
+        supervise_drives();
+      }
+    }
+    switch (state_) {
+      case State::kBoot:
+        state_ = State::kConfiguring;
+        state_ticks_ = 0;
+        break;
+      case State::kConfiguring:
+        configure();
+        break;
+      case State::kReady:
+        if (start_requested_) begin_run();
+        break;
+      case State::kRunning:
+      case State::kStopping:
+        control();
+        break;
+      case State::kFault:
+        if (reset_requested_ && !hw_.estop_open()) {
+          fault_ = Fault::kNone;
+          state_ = State::kBoot;
+        }
+        break;
+    }
+    start_requested_ = state_ == State::kReady && start_requested_;
+    stop_requested_ = false;
+    reset_requested_ = false;
+    apply_outputs();
+    ++cycles_;
+    ++state_ticks_;
+  }
+
+  State state() const { return state_; }
+  Fault fault() const { return fault_; }
+  std::uint32_t cycles() const { return cycles_; }
+  std::uint32_t run_tick() const { return run_tick_; }
+  const JointReference& reference() const { return reference_; }
+  const std::array<Q12_19, 3>& measured_torque() const { return measured_torque_; }
+  const std::array<Q12_19, 3>& commanded_torque() const { return command_; }
+
+ private:
+  void enter_fault(Fault f) {
+    if (state_ != State::kFault) fault_ = f;
+    state_ = State::kFault;
+    command_ = {};
+    hw_.command_torque(command_);
+    hw_.enable_drives(false);
+    joint_.reset();
+  }
+
+  void supervise_drives() {
+    bool all_fresh = true;
+    for (unsigned j = 0; j < 3; ++j) {
+      if (feedback_[j].fault) {
+        enter_fault(Fault::kDriveFault);
+        return;
+      }
+      all_fresh = all_fresh && feedback_[j].fresh;
+    }
+    stale_cycles_ = all_fresh ? 0 : stale_cycles_ + 1;
+    if (stale_cycles_ >= config_.lost_feedback_ticks) enter_fault(Fault::kHeartbeatLost);
+  }
+
+  void configure() {
+    switch (hw_.configure_drives()) {
+      case DriveConfigProgress::kDone:
+        state_ = State::kReady;
+        state_ticks_ = 0;
+        break;
+      case DriveConfigProgress::kFailed:
+        enter_fault(Fault::kDriveConfigFailed);
+        break;
+      case DriveConfigProgress::kInProgress:
+        if (state_ticks_ >= config_.configure_timeout_ticks) enter_fault(Fault::kDriveConfigFailed);
+        break;
+    }
+  }
+
+  void begin_run() {
+    start_requested_ = false;
+    for (unsigned j = 0; j < 3; ++j) approach_from_[j] = feedback_[j].position_rad;
+    run_tick_ = 0;
+    joint_.reset();
+    hw_.enable_drives(true);
+    state_ = State::kRunning;
+    state_ticks_ = 0;
+  }
+
+  // The reference: an approach from rest to the trajectory's first point,
+  // then the trajectory; while stopping, the last reference held still.
+  bool next_reference() {
+    if (state_ == State::kStopping) {
+      reference_.qd_rad_s = {};
+      reference_.qdd_rad_s2 = {};
+      return true;
+    }
+    const std::uint32_t approach = config_.approach_ticks;
+    if (run_tick_ < approach) {
+      JointReference start;
+      if (trajectory_.reference(0, start) != KinematicsStatus::kOk) return false;
+      approach_reference(start);
+      return true;
+    }
+    return trajectory_.reference(run_tick_ - approach, reference_) == KinematicsStatus::kOk;
+  }
+
+  // Minimum-jerk joint move from approach_from_ to start over approach_ticks.
+  void approach_reference(const JointReference& start) {
+    using delta::fx::mul;
+    const Q1_30 s = delta::fx::ratio(run_tick_, config_.approach_ticks);
+    const Q1_30 s2 = mul<Q1_30>(s, s);
+    const Q1_30 u = Q1_30::from(1.0) - s;
+    const delta::fx::Q7_24 poly = delta::fx::Q7_24::from(10.0) -
+                                  mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(15.0), s) +
+                                  mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(6.0), s2);
+    const Q1_30 w = mul<Q1_30>(mul<Q1_30>(s2, s), poly);
+    const Q1_30 dw =
+        mul<Q1_30>(mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
+    const std::int64_t approach_us = std::int64_t{config_.approach_ticks} * config_.tick_period_us;
+    for (unsigned j = 0; j < 3; ++j) {
+      const Q3_28 span = start.q_rad[j] - approach_from_[j];
+      reference_.q_rad[j] = approach_from_[j] + mul<Q3_28>(w, span);
+      const std::int64_t v = delta::fx::detail::shift_round(
+          std::int64_t{mul<Q3_28>(dw, span).raw()} * 1000000 / approach_us, 7);
+      reference_.qd_rad_s[j] = Q10_21::from_raw(delta::fx::detail::saturate32(v));
+      reference_.qdd_rad_s2[j] = {};  // the feedback tracks the small approach accelerations
+    }
+  }
+
+  void control() {
+    if (stop_requested_ && state_ == State::kRunning) {
+      state_ = State::kStopping;
+      state_ticks_ = 0;
+    }
+    if (!next_reference()) {
+      enter_fault(Fault::kTrajectoryRejected);
+      return;
+    }
+    JointAnglesQ q{};
+    std::array<Q10_21, 3> qd{};
+    for (unsigned j = 0; j < 3; ++j) {
+      q[j] = feedback_[j].position_rad;
+      qd[j] = feedback_[j].velocity_rad_s;
+      if (q[j] < config_.limits.min_rad || q[j] > config_.limits.max_rad) {
+        enter_fault(Fault::kJointLimit);
+        return;
+      }
+      if (delta::fx::abs(qd[j]) > config_.limits.max_velocity_rad_s) {
+        enter_fault(Fault::kVelocityLimit);
+        return;
+      }
+      if (delta::fx::abs(reference_.q_rad[j] - q[j]) > config_.max_tracking_error_rad) {
+        enter_fault(Fault::kTrackingError);
+        return;
+      }
+      measured_torque_[j] = torque_from_current(config_.torque[j], feedback_[j].current_A);
+    }
+    std::array<bool, 3> saturated{};
+    command_ = joint_.update(reference_, q, qd, saturated);
+    hw_.command_torque(command_);
+    LogRecord rec;
+    rec.seq = log_seq_++;
+    rec.q_rad = q;
+    rec.tau_Nm = measured_torque_;
+    if (!hw_.log(rec)) {
+      enter_fault(Fault::kLogOverflow);
+      return;
+    }
+    if (state_ == State::kRunning) {
+      ++run_tick_;
+      if (run_tick_ > config_.approach_ticks + trajectory_.length_ticks()) {
+        state_ = State::kStopping;
+        state_ticks_ = 0;
+      }
+    } else if (state_ticks_ >= config_.stop_ticks) {
+      command_ = {};
+      hw_.command_torque(command_);
+      hw_.enable_drives(false);
+      state_ = State::kReady;
+      state_ticks_ = 0;
+    }
+  }
+
+  void apply_outputs() {
+    const bool moving = state_ == State::kRunning || state_ == State::kStopping;
+    hw_.set_outputs(SafetyOutputs{moving, moving, state_ != State::kFault});
+  }
+
+  Hardware& hw_;
+  ControllerConfig config_;
+  JointController joint_;
+  Trajectory trajectory_;
+  State state_{State::kBoot};
+  Fault fault_{Fault::kNone};
+  std::array<DriveFeedback, 3> feedback_{};
+  JointReference reference_{};
+  JointAnglesQ approach_from_{};
+  std::array<Q12_19, 3> measured_torque_{};
+  std::array<Q12_19, 3> command_{};
+  std::uint32_t cycles_{0};
+  std::uint32_t state_ticks_{0};
+  std::uint32_t run_tick_{0};
+  std::uint32_t stale_cycles_{0};
+  std::uint32_t log_seq_{0};
+  bool start_requested_{false};
+  bool stop_requested_{false};
+  bool reset_requested_{false};
+};
+
+}  // namespace fw

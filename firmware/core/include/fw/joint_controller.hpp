@@ -1,0 +1,50 @@
+// Joint control in fixed point: PID per joint with feed-forward of the arm
+// inertia and gravity moment from the configured nominal parameters,
+//   tau = Kp e + Kd e' + integral + I_nom qdd_ref - G_nom cos(q_ref),
+// saturated at +/- max torque. Anti-windup: the integral only grows while
+// the output is not saturated in the direction of the error, and is clamped.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "fw/trajectory.hpp"
+
+namespace fw {
+
+using delta::fx::Q12_19;
+using delta::fx::Q16_15;
+
+struct JointGains {
+  Q16_15 kp_Nm_per_rad{Q16_15::from(60.0)};
+  Q12_19 kd_Nm_s_per_rad{Q12_19::from(1.5)};
+  Q16_15 ki_Nm_per_rad_s{Q16_15::from(0.0)};  // 0: PD
+  Q12_19 max_torque_Nm{Q12_19::from(8.0)};
+  Q12_19 integral_limit_Nm{Q12_19::from(1.0)};
+};
+
+struct NominalDynamics {
+  Q12_19 arm_inertia_kg_m2{Q12_19::from(0.0)};
+  Q12_19 gravity_moment_Nm{Q12_19::from(0.0)};  // includes the platform's share
+};
+
+class JointController {
+ public:
+  JointController(const JointGains& gains, const NominalDynamics& nominal,
+                  std::uint32_t tick_period_us)
+      : gains_(gains), nominal_(nominal), tick_period_us_(tick_period_us) {}
+
+  // One control update; `saturated` tells whether a joint hit max torque.
+  std::array<Q12_19, 3> update(const JointReference& ref, const JointAnglesQ& q,
+                               const std::array<Q10_21, 3>& qd, std::array<bool, 3>& saturated);
+  void reset() { integral_ = {}; }
+  const std::array<Q12_19, 3>& integral() const { return integral_; }
+
+ private:
+  JointGains gains_;
+  NominalDynamics nominal_;
+  std::uint32_t tick_period_us_;
+  std::array<Q12_19, 3> integral_{};
+};
+
+}  // namespace fw

@@ -1,0 +1,112 @@
+// Excitation trajectories in fixed point, evaluated per control tick:
+//   - a Fourier series per joint around q0, with exact derivatives, faded in
+//     from rest and out to rest by a quintic window;
+//   - a Cartesian pick-and-place cycle of minimum-jerk segments through the
+//     inverse kinematics (3 IK per tick: q at t - dt, t, t + dt give qd, qdd).
+// Before any motion, check_trajectory() walks every tick against the joint,
+// velocity, acceleration and workspace limits.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "delta/fixed/kinematics.hpp"
+
+namespace fw {
+
+using delta::KinematicsStatus;
+using delta::fx::GeometryQ;
+using delta::fx::JointAnglesQ;
+using delta::fx::Q10_21;
+using delta::fx::Q14_17;
+using delta::fx::Q1_30;
+using delta::fx::Q3_28;
+using delta::fx::Q7_24;
+using delta::fx::Vec3Q;
+
+inline constexpr int kMaxHarmonics = 6;
+inline constexpr int kMaxWaypoints = 8;
+
+// The reference the controller tracks at one tick.
+struct JointReference {
+  JointAnglesQ q_rad{};
+  std::array<Q10_21, 3> qd_rad_s{};
+  std::array<Q14_17, 3> qdd_rad_s2{};
+};
+
+// q_j(t) = q0_j + sum_k [ A_jk sin(k w t) + B_jk cos(k w t) ],  w = 2 pi f.
+struct FourierConfig {
+  std::uint32_t base_frequency_mHz{200};
+  std::uint8_t harmonics{0};  // 1..kMaxHarmonics
+  JointAnglesQ q0_rad{};
+  std::array<std::array<Q3_28, kMaxHarmonics>, 3> sin_amplitude_rad{};  // A
+  std::array<std::array<Q3_28, kMaxHarmonics>, 3> cos_amplitude_rad{};  // B
+  std::uint32_t periods{1};  // whole periods between the blends
+};
+
+struct PickAndPlaceConfig {
+  std::uint8_t waypoints{0};  // 2..kMaxWaypoints, visited in a cycle
+  std::array<Vec3Q, kMaxWaypoints> points{};
+  std::uint32_t segment_ticks{400};
+  std::uint32_t cycles{1};
+};
+
+enum class TrajectoryKind : std::uint8_t { kFourier = 0, kPickAndPlace = 1 };
+
+struct TrajectoryConfig {
+  TrajectoryKind kind{TrajectoryKind::kFourier};
+  std::uint32_t tick_period_us{1000};
+  std::uint32_t blend_ticks{1000};  // Fourier: fade in and out from rest
+  FourierConfig fourier{};
+  PickAndPlaceConfig pick_and_place{};
+};
+
+struct JointLimits {
+  Q3_28 min_rad{Q3_28::from(-1.2)};
+  Q3_28 max_rad{Q3_28::from(1.4)};
+  Q10_21 max_velocity_rad_s{Q10_21::from(6.0)};
+  Q14_17 max_acceleration_rad_s2{Q14_17::from(150.0)};
+};
+
+enum class TrajectoryFault : std::uint8_t {
+  kOk = 0,
+  kInvalidConfig = 1,  // zero harmonics, too few waypoints, zero period...
+  kJointLimit = 2,
+  kVelocityLimit = 3,
+  kAccelerationLimit = 4,
+  kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
+};
+
+struct TrajectoryCheck {
+  TrajectoryFault fault{TrajectoryFault::kOk};
+  std::uint32_t tick{0};
+  int joint{-1};
+};
+
+class Trajectory {
+ public:
+  Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config);
+  // Ticks from the start to the end at rest (the last tick is included).
+  std::uint32_t length_ticks() const { return length_ticks_; }
+  // The reference at tick (0 <= tick <= length_ticks()); kUnreachable for a
+  // Cartesian point outside the workspace.
+  KinematicsStatus reference(std::uint32_t tick, JointReference& out) const;
+  const TrajectoryConfig& config() const { return config_; }
+
+ private:
+  void fourier(std::uint32_t tick, JointReference& out) const;
+  KinematicsStatus pick_and_place(std::uint32_t tick, JointReference& out) const;
+  KinematicsStatus cartesian_ik(std::int64_t tick, JointAnglesQ& q) const;
+
+  GeometryQ geometry_;
+  TrajectoryConfig config_;
+  std::uint32_t length_ticks_{0};
+  Q10_21 base_omega_rad_s_{};
+};
+
+// Walks every tick of the trajectory (a rejected configuration gives
+// kInvalidConfig at tick 0).
+TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
+                                 const JointLimits& limits);
+
+}  // namespace fw

@@ -1,0 +1,52 @@
+#include "fw/controller.hpp"
+#include "fw/faults.hpp"
+
+namespace fw {
+
+const char* fault_name(Fault f) {
+  switch (f) {
+    case Fault::kNone:
+      return "none";
+    case Fault::kEStop:
+      return "e-stop";
+    case Fault::kDriveFault:
+      return "drive fault";
+    case Fault::kHeartbeatLost:
+      return "heartbeat lost";
+    case Fault::kJointLimit:
+      return "joint limit";
+    case Fault::kVelocityLimit:
+      return "velocity limit";
+    case Fault::kTrackingError:
+      return "tracking error";
+    case Fault::kTrajectoryRejected:
+      return "trajectory rejected";
+    case Fault::kConfigInvalid:
+      return "configuration invalid";
+    case Fault::kLogOverflow:
+      return "log overflow";
+    case Fault::kDriveConfigFailed:
+      return "drive configuration failed";
+  }
+  return "unknown";
+}
+
+const char* state_name(State s) {
+  switch (s) {
+    case State::kBoot:
+      return "boot";
+    case State::kConfiguring:
+      return "configuring";
+    case State::kReady:
+      return "ready";
+    case State::kRunning:
+      return "running";
+    case State::kStopping:
+      return "stopping";
+    case State::kFault:
+      return "fault";
+  }
+  return "unknown";
+}
+
+}  // namespace fw

@@ -1,0 +1,230 @@
+#include "fw/trajectory.hpp"
+
+#include "delta/fixed/math.hpp"
+
+namespace fw {
+
+using delta::fx::convert;
+using delta::fx::div;
+using delta::fx::kTwoPi;
+using delta::fx::mul;
+using delta::fx::sincos;
+using delta::fx::detail::saturate32;
+using delta::fx::detail::shift_round;
+using i64 = std::int64_t;
+using u64 = std::uint64_t;
+
+namespace {
+
+constexpr u64 kNanoPerSecondMilli = 1000000000ull;  // mHz * us = 1e-9 turns
+
+bool fourier_valid(const TrajectoryConfig& c) {
+  const auto& f = c.fourier;
+  return f.harmonics >= 1 && f.harmonics <= kMaxHarmonics && f.base_frequency_mHz > 0 &&
+         f.base_frequency_mHz <= 10000 && f.periods >= 1 && c.blend_ticks >= 1;
+}
+
+bool pick_and_place_valid(const TrajectoryConfig& c) {
+  const auto& p = c.pick_and_place;
+  return p.waypoints >= 2 && p.waypoints <= kMaxWaypoints && p.segment_ticks >= 2 && p.cycles >= 1;
+}
+
+bool config_valid(const TrajectoryConfig& c) {
+  if (c.tick_period_us == 0 || c.tick_period_us > 100000) return false;
+  return c.kind == TrajectoryKind::kFourier ? fourier_valid(c) : pick_and_place_valid(c);
+}
+
+// The angle of phase (k * tick * f * dt) in (-pi, pi], exactly from integers.
+Q3_28 harmonic_phase(std::uint32_t tick, unsigned k, std::uint32_t f_mHz, std::uint32_t dt_us) {
+  const u64 turns_e9 = (u64{tick} * k * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
+  const auto phase32 = static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
+  const i64 signed_turns = static_cast<std::int32_t>(phase32);  // (-1/2, 1/2] turn
+  return Q3_28::from_raw(static_cast<std::int32_t>(shift_round(signed_turns * kTwoPi.raw(), 32)));
+}
+
+// Minimum-jerk blend w(s) = 10 s^3 - 15 s^4 + 6 s^5 and its s-derivatives.
+struct Window {
+  Q1_30 w;
+  Q1_30 dw;   // 30 s^2 (1 - s)^2, at most 1.875
+  Q3_28 ddw;  // 60 s (1 - s)(1 - 2 s), at most 5.8
+};
+
+Window window(Q1_30 s) {
+  const Q1_30 one = Q1_30::from(1.0);
+  const Q1_30 s2 = mul<Q1_30>(s, s);
+  const Q1_30 s3 = mul<Q1_30>(s2, s);
+  const Q1_30 u = one - s;
+  // 10 - 15 s + 6 s^2 lies in [0.625, 10]: in Q7.24.
+  const Q7_24 poly =
+      Q7_24::from(10.0) - mul<Q7_24>(Q7_24::from(15.0), s) + mul<Q7_24>(Q7_24::from(6.0), s2);
+  Window r;
+  r.w = mul<Q1_30>(s3, poly);
+  r.dw = mul<Q1_30>(mul<Q7_24>(Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
+  r.ddw = mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, u)), one - s.scaled_by(2));
+  return r;
+}
+
+// x * 1e6 / dt_us, saturating: a per-tick difference to a per-second rate.
+i64 per_second(i64 x, std::uint32_t dt_us) {
+  constexpr i64 kLimit = INT64_MAX / 1000000;
+  if (x > kLimit) return INT64_MAX / dt_us;
+  if (x < -kLimit) return INT64_MIN / dt_us;
+  return x * 1000000 / dt_us;
+}
+
+}  // namespace
+
+Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config)
+    : geometry_(geometry), config_(config) {
+  if (!config_valid(config_)) return;
+  if (config_.kind == TrajectoryKind::kFourier) {
+    const auto& f = config_.fourier;
+    // Whole periods of the base frequency, rounded to ticks, plus the blends.
+    const u64 period_ticks_e3 =
+        kNanoPerSecondMilli * 1000 / (u64{f.base_frequency_mHz} * config_.tick_period_us);
+    length_ticks_ = static_cast<std::uint32_t>(2 * u64{config_.blend_ticks} +
+                                               (period_ticks_e3 * f.periods + 500) / 1000);
+    // w = 2 pi f: Q3.28 * mHz / 1000 -> Q10.21.
+    base_omega_rad_s_ = Q10_21::from_raw(
+        saturate32(shift_round(i64{kTwoPi.raw()} * f.base_frequency_mHz, 7) / 1000));
+  } else {
+    const auto& p = config_.pick_and_place;
+    length_ticks_ = p.waypoints * p.segment_ticks * p.cycles;
+  }
+}
+
+KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out) const {
+  if (length_ticks_ == 0) return KinematicsStatus::kUnreachable;
+  if (tick > length_ticks_) tick = length_ticks_;
+  if (config_.kind == TrajectoryKind::kFourier) {
+    fourier(tick, out);
+    return KinematicsStatus::kOk;
+  }
+  return pick_and_place(tick, out);
+}
+
+void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
+  const auto& f = config_.fourier;
+  std::array<Q3_28, 3> d{};     // delta(t)
+  std::array<Q10_21, 3> dd{};   // delta'(t)
+  std::array<Q14_17, 3> ddd{};  // delta''(t)
+  for (unsigned k = 1; k <= f.harmonics; ++k) {
+    const auto sc = sincos(harmonic_phase(tick, k, f.base_frequency_mHz, config_.tick_period_us));
+    const Q10_21 kw = base_omega_rad_s_.scaled_by(static_cast<std::int32_t>(k));
+    for (unsigned j = 0; j < 3; ++j) {
+      const Q3_28 A = f.sin_amplitude_rad[j][k - 1];
+      const Q3_28 B = f.cos_amplitude_rad[j][k - 1];
+      d[j] += mul<Q3_28>(A, sc.sin) + mul<Q3_28>(B, sc.cos);
+      const Q10_21 vA = mul<Q10_21>(A, kw), vB = mul<Q10_21>(B, kw);
+      dd[j] += mul<Q10_21>(vA, sc.cos) - mul<Q10_21>(vB, sc.sin);
+      const Q14_17 aA = mul<Q14_17>(vA, kw), aB = mul<Q14_17>(vB, kw);
+      ddd[j] -= mul<Q14_17>(aA, sc.sin) + mul<Q14_17>(aB, sc.cos);
+    }
+  }
+  // The window: rising over the first blend, falling over the last.
+  const std::uint32_t nb = config_.blend_ticks;
+  Q1_30 w = Q1_30::from(1.0);
+  Q10_21 dw_dt{};
+  Q14_17 ddw_dt2{};
+  const bool rising = tick < nb;
+  const bool falling = tick + nb > length_ticks_;
+  if (rising || falling) {
+    const std::uint32_t n = rising ? tick : length_ticks_ - tick;
+    const Window win = window(delta::fx::ratio(n, nb));
+    const i64 blend_us = i64{nb} * config_.tick_period_us;
+    // d/dt = (d/ds) / T_blend; d2/dt2 = (d2/ds2) / T_blend^2.
+    const i64 dw = shift_round(win.dw.raw() * i64{1000000} / blend_us, 9);
+    const i64 ddw = shift_round(win.ddw.raw() * i64{1000000} / blend_us * 1000000 / blend_us, 11);
+    w = win.w;
+    dw_dt = Q10_21::from_raw(saturate32(falling && !rising ? -dw : dw));
+    ddw_dt2 = Q14_17::from_raw(saturate32(ddw));
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    out.q_rad[j] = f.q0_rad[j] + mul<Q3_28>(w, d[j]);
+    out.qd_rad_s[j] = mul<Q10_21>(w, dd[j]) + mul<Q10_21>(dw_dt, d[j]);
+    out.qdd_rad_s2[j] = mul<Q14_17>(w, ddd[j]) + mul<Q14_17>(dw_dt, dd[j]).scaled_by(2) +
+                        mul<Q14_17>(ddw_dt2, d[j]);
+  }
+}
+
+KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) const {
+  const auto& p = config_.pick_and_place;
+  if (tick < 0) tick = 0;
+  if (tick > length_ticks_) tick = length_ticks_;
+  const auto t = static_cast<std::uint32_t>(tick);
+  const std::uint32_t seg = (t / p.segment_ticks) % p.waypoints;
+  const std::uint32_t in_seg = t % p.segment_ticks;
+  const Q1_30 s = delta::fx::ratio(in_seg, p.segment_ticks);
+  const Q1_30 f = window(s).w;
+  const Vec3Q& a = p.points[seg];
+  const Vec3Q& b = p.points[(seg + 1) % p.waypoints];
+  const Vec3Q pos{a.x_m + mul<Q7_24>(b.x_m - a.x_m, f), a.y_m + mul<Q7_24>(b.y_m - a.y_m, f),
+                  a.z_m + mul<Q7_24>(b.z_m - a.z_m, f)};
+  const auto ik = delta::fx::inverse_kinematics(geometry_, pos);
+  q = ik.theta_rad;
+  return ik.status;
+}
+
+KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& out) const {
+  JointAnglesQ before{}, now{}, after{};
+  for (const auto& [t, q] : {std::pair<i64, JointAnglesQ*>{i64{tick} - 1, &before},
+                             std::pair<i64, JointAnglesQ*>{i64{tick}, &now},
+                             std::pair<i64, JointAnglesQ*>{i64{tick} + 1, &after}}) {
+    const auto st = cartesian_ik(t, *q);
+    if (st != KinematicsStatus::kOk) return st;
+  }
+  const std::uint32_t dt = config_.tick_period_us;
+  for (unsigned j = 0; j < 3; ++j) {
+    out.q_rad[j] = now[j];
+    // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).
+    const i64 d1 = i64{after[j].raw()} - before[j].raw();
+    const i64 d2 = i64{after[j].raw()} - 2 * i64{now[j].raw()} + before[j].raw();
+    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(per_second(d1, dt) / 2, 7)));
+    out.qdd_rad_s2[j] =
+        Q14_17::from_raw(saturate32(shift_round(per_second(per_second(d2, dt), dt), 11)));
+  }
+  return KinematicsStatus::kOk;
+}
+
+TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
+                                 const JointLimits& limits) {
+  TrajectoryCheck c;
+  if (!config_valid(config)) {
+    c.fault = TrajectoryFault::kInvalidConfig;
+    return c;
+  }
+  const Trajectory traj(geometry, config);
+  JointReference ref;
+  for (std::uint32_t tick = 0; tick <= traj.length_ticks(); ++tick) {
+    c.tick = tick;
+    if (traj.reference(tick, ref) != KinematicsStatus::kOk) {
+      c.fault = TrajectoryFault::kOutsideWorkspace;
+      return c;
+    }
+    for (unsigned j = 0; j < 3; ++j) {
+      c.joint = static_cast<int>(j);
+      if (ref.q_rad[j] < limits.min_rad || ref.q_rad[j] > limits.max_rad) {
+        c.fault = TrajectoryFault::kJointLimit;
+        return c;
+      }
+      if (delta::fx::abs(ref.qd_rad_s[j]) > limits.max_velocity_rad_s) {
+        c.fault = TrajectoryFault::kVelocityLimit;
+        return c;
+      }
+      if (delta::fx::abs(ref.qdd_rad_s2[j]) > limits.max_acceleration_rad_s2) {
+        c.fault = TrajectoryFault::kAccelerationLimit;
+        return c;
+      }
+    }
+    c.joint = -1;
+    if (config.kind == TrajectoryKind::kFourier &&
+        delta::fx::forward_kinematics(geometry, ref.q_rad).status != KinematicsStatus::kOk) {
+      c.fault = TrajectoryFault::kOutsideWorkspace;
+      return c;
+    }
+  }
+  c.tick = 0;
+  return c;
+}
+
+}  // namespace fw

@@ -1,0 +1,261 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "delta/kinematics.hpp"
+#include "fw/joint_controller.hpp"
+#include "fw/torque_from_current.hpp"
+#include "fw/trajectory.hpp"
+#include "q_convert.hpp"
+
+namespace fw {
+namespace {
+
+using delta::fx::Q7_24;
+using testq::to_d;
+using testq::to_q;
+
+constexpr double kTwoPi = 6.283185307179586;
+
+GeometryQ default_geometry() {
+  const delta::Geometry g = delta::kDefaultGeometry;
+  return {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
+          to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
+}
+
+TEST(TorqueFromCurrentTest, GearRatioTorqueConstantEfficiencySignAndOffset) {
+  JointTorqueConfig c;
+  c.gear_ratio = Q12_19::from(10.0);
+  c.torque_constant_Nm_per_A = Q7_24::from(0.05);
+  c.efficiency = Q1_30::from(0.9);
+  c.offset_Nm = Q12_19::from(0.02);
+  // 10 * 0.05 * 0.9 * 2 A + 0.02 = 0.92 N m.
+  EXPECT_NEAR(to_d(torque_from_current(c, Q12_19::from(2.0))), 0.92, 4e-6);
+  c.inverted = true;
+  EXPECT_NEAR(to_d(torque_from_current(c, Q12_19::from(2.0))), -0.88, 4e-6);
+  // The inverse gives back the current.
+  EXPECT_NEAR(to_d(current_from_torque(c, Q12_19::from(-0.88))), 2.0, 1e-5);
+  c.gear_ratio = Q12_19::zero();
+  EXPECT_EQ(current_from_torque(c, Q12_19::from(1.0)).raw(), 0);
+}
+
+TrajectoryConfig fourier_config() {
+  TrajectoryConfig c;
+  c.kind = TrajectoryKind::kFourier;
+  c.tick_period_us = 1000;
+  c.blend_ticks = 1000;
+  auto& f = c.fourier;
+  f.base_frequency_mHz = 250;
+  f.harmonics = 3;
+  f.periods = 2;
+  f.q0_rad = {to_q<Q3_28>(0.45), to_q<Q3_28>(0.45), to_q<Q3_28>(0.45)};
+  const double amp[3][3][2] = {{{0.10, 0.05}, {-0.04, 0.03}, {0.02, -0.01}},
+                               {{-0.08, 0.06}, {0.05, 0.02}, {-0.01, 0.02}},
+                               {{0.07, -0.09}, {0.03, -0.03}, {0.015, 0.01}}};
+  for (unsigned j = 0; j < 3; ++j) {
+    for (unsigned k = 0; k < 3; ++k) {
+      f.sin_amplitude_rad[j][k] = to_q<Q3_28>(amp[j][k][0]);
+      f.cos_amplitude_rad[j][k] = to_q<Q3_28>(amp[j][k][1]);
+    }
+  }
+  return c;
+}
+
+// The same trajectory in double: window * Fourier series.
+void fourier_double(const TrajectoryConfig& c, double t, double length_s, double out[3][3]) {
+  const auto& f = c.fourier;
+  const double w0 = kTwoPi * f.base_frequency_mHz / 1000.0;
+  const double tb = c.blend_ticks * c.tick_period_us * 1e-6;
+  double w = 1, dw = 0, ddw = 0;
+  const auto win = [&](double s, double sign) {
+    w = s * s * s * (10 - 15 * s + 6 * s * s);
+    dw = sign * 30 * s * s * (1 - s) * (1 - s) / tb;
+    ddw = 60 * s * (1 - s) * (1 - 2 * s) / (tb * tb);
+  };
+  if (t < tb) win(t / tb, 1.0);
+  if (t > length_s - tb) win((length_s - t) / tb, -1.0);
+  for (unsigned j = 0; j < 3; ++j) {
+    double d = 0, dd = 0, ddd = 0;
+    for (unsigned k = 1; k <= f.harmonics; ++k) {
+      const double A = to_d(f.sin_amplitude_rad[j][k - 1]), B = to_d(f.cos_amplitude_rad[j][k - 1]);
+      const double kw = k * w0;
+      d += A * std::sin(kw * t) + B * std::cos(kw * t);
+      dd += kw * (A * std::cos(kw * t) - B * std::sin(kw * t));
+      ddd += -kw * kw * (A * std::sin(kw * t) + B * std::cos(kw * t));
+    }
+    out[j][0] = to_d(f.q0_rad[j]) + w * d;
+    out[j][1] = w * dd + dw * d;
+    out[j][2] = w * ddd + 2 * dw * dd + ddw * d;
+  }
+}
+
+TEST(TrajectoryTest, FourierMatchesItsDoubleEvaluationWithExactDerivatives) {
+  const TrajectoryConfig c = fourier_config();
+  const Trajectory traj(default_geometry(), c);
+  // 2 blends of 1 s + 2 periods of 4 s.
+  ASSERT_EQ(traj.length_ticks(), 10000u);
+  double worst[3] = {0, 0, 0};
+  for (std::uint32_t tick = 0; tick <= traj.length_ticks(); tick += 7) {
+    JointReference r;
+    ASSERT_EQ(traj.reference(tick, r), KinematicsStatus::kOk);
+    double d[3][3];
+    fourier_double(c, tick * 1e-3, 10.0, d);
+    for (unsigned j = 0; j < 3; ++j) {
+      worst[0] = std::max(worst[0], std::abs(to_d(r.q_rad[j]) - d[j][0]));
+      worst[1] = std::max(worst[1], std::abs(to_d(r.qd_rad_s[j]) - d[j][1]));
+      worst[2] = std::max(worst[2], std::abs(to_d(r.qdd_rad_s2[j]) - d[j][2]));
+    }
+  }
+  EXPECT_LT(worst[0], 1e-7);  // rad
+  EXPECT_LT(worst[1], 2e-5);  // rad/s
+  EXPECT_LT(worst[2], 2e-4);  // rad/s^2
+}
+
+TEST(TrajectoryTest, FourierStartsAndEndsAtRestAtQ0) {
+  const TrajectoryConfig c = fourier_config();
+  const Trajectory traj(default_geometry(), c);
+  for (const std::uint32_t tick : {0u, traj.length_ticks()}) {
+    JointReference r;
+    ASSERT_EQ(traj.reference(tick, r), KinematicsStatus::kOk);
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_EQ(r.q_rad[j], c.fourier.q0_rad[j]);
+      EXPECT_EQ(r.qd_rad_s[j].raw(), 0);
+      EXPECT_EQ(r.qdd_rad_s2[j].raw(), 0);
+    }
+  }
+}
+
+TEST(TrajectoryTest, VelocityIsTheDerivativeOfPositionThroughTheBlends) {
+  const TrajectoryConfig c = fourier_config();
+  const Trajectory traj(default_geometry(), c);
+  JointReference a, b, m;
+  double worst = 0;
+  for (std::uint32_t tick = 1; tick + 1 < traj.length_ticks(); tick += 13) {
+    traj.reference(tick - 1, a);
+    traj.reference(tick, m);
+    traj.reference(tick + 1, b);
+    for (unsigned j = 0; j < 3; ++j) {
+      const double fd = (to_d(b.q_rad[j]) - to_d(a.q_rad[j])) / 2e-3;
+      worst = std::max(worst, std::abs(fd - to_d(m.qd_rad_s[j])));
+    }
+  }
+  EXPECT_LT(worst, 1e-4);
+}
+
+TEST(TrajectoryTest, LimitCheckNamesTheBrokenLimitTickAndJoint) {
+  const GeometryQ g = default_geometry();
+  TrajectoryConfig c = fourier_config();
+  EXPECT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kOk);
+
+  JointLimits tight;
+  tight.max_rad = to_q<Q3_28>(0.5);
+  TrajectoryCheck r = check_trajectory(g, c, tight);
+  EXPECT_EQ(r.fault, TrajectoryFault::kJointLimit);
+  EXPECT_GT(r.tick, 0u);
+  EXPECT_GE(r.joint, 0);
+
+  JointLimits slow;
+  slow.max_velocity_rad_s = to_q<Q10_21>(0.1);
+  EXPECT_EQ(check_trajectory(g, c, slow).fault, TrajectoryFault::kVelocityLimit);
+
+  JointLimits gentle;
+  gentle.max_acceleration_rad_s2 = to_q<Q14_17>(0.2);
+  EXPECT_EQ(check_trajectory(g, c, gentle).fault, TrajectoryFault::kAccelerationLimit);
+
+  // Forearms of 0.25 m cannot close over elbows 0.265 m out: no platform pose.
+  GeometryQ short_forearms = g;
+  short_forearms.forearm_length_m = to_q<Q7_24>(0.25);
+  TrajectoryConfig flat = c;
+  for (auto& q : flat.fourier.q0_rad) q = Q3_28::zero();
+  const TrajectoryCheck w = check_trajectory(short_forearms, flat, JointLimits{});
+  EXPECT_EQ(w.fault, TrajectoryFault::kOutsideWorkspace);
+  EXPECT_EQ(w.tick, 0u);
+
+  TrajectoryConfig bad = c;
+  bad.fourier.harmonics = 0;
+  EXPECT_EQ(check_trajectory(g, bad, JointLimits{}).fault, TrajectoryFault::kInvalidConfig);
+  bad = c;
+  bad.tick_period_us = 0;
+  EXPECT_EQ(check_trajectory(g, bad, JointLimits{}).fault, TrajectoryFault::kInvalidConfig);
+}
+
+TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) {
+  const GeometryQ g = default_geometry();
+  TrajectoryConfig c;
+  c.kind = TrajectoryKind::kPickAndPlace;
+  auto& p = c.pick_and_place;
+  p.waypoints = 3;
+  p.points[0] = {to_q<Q7_24>(-0.08), to_q<Q7_24>(0.0), to_q<Q7_24>(-0.48)};
+  p.points[1] = {to_q<Q7_24>(0.08), to_q<Q7_24>(0.05), to_q<Q7_24>(-0.42)};
+  p.points[2] = {to_q<Q7_24>(0.0), to_q<Q7_24>(-0.08), to_q<Q7_24>(-0.5)};
+  p.segment_ticks = 500;
+  p.cycles = 2;
+  ASSERT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kOk);
+  const Trajectory traj(g, c);
+  ASSERT_EQ(traj.length_ticks(), 3000u);
+  // At a waypoint the robot is at rest on the IK of that point.
+  JointReference r;
+  ASSERT_EQ(traj.reference(500, r), KinematicsStatus::kOk);
+  const auto ik =
+      delta::inverse_kinematics(delta::kDefaultGeometry, delta::Vec3<double>{0.08, 0.05, -0.42});
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_NEAR(to_d(r.q_rad[j]), ik.theta_rad[j], 2e-6);
+    EXPECT_NEAR(to_d(r.qd_rad_s[j]), 0.0, 1e-3);
+  }
+  // Mid-segment: qd is the central difference of q.
+  JointReference a, b;
+  traj.reference(1249, a);
+  traj.reference(1250, r);
+  traj.reference(1251, b);
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_NEAR(to_d(r.qd_rad_s[j]), (to_d(b.q_rad[j]) - to_d(a.q_rad[j])) / 2e-3, 1e-5);
+    EXPECT_GT(std::abs(to_d(r.qd_rad_s[j])), 0.01);
+  }
+  // A path towards a point out of reach breaks the velocity limit near the
+  // singularity before it leaves the workspace: the first broken limit is named.
+  p.points[1].z_m = to_q<Q7_24>(-0.9);
+  const TrajectoryCheck towards = check_trajectory(g, c, JointLimits{});
+  EXPECT_EQ(towards.fault, TrajectoryFault::kVelocityLimit);
+  EXPECT_GT(towards.tick, 0u);  // within segment 0, which heads to point 1
+  EXPECT_LT(towards.tick, 500u);
+  // Starting out of reach fails at tick 0.
+  p.points[0].z_m = to_q<Q7_24>(-0.9);
+  const TrajectoryCheck start = check_trajectory(g, c, JointLimits{});
+  EXPECT_EQ(start.fault, TrajectoryFault::kOutsideWorkspace);
+  EXPECT_EQ(start.tick, 0u);
+}
+
+TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
+  JointGains gains;
+  gains.kp_Nm_per_rad = Q16_15::from(50.0);
+  gains.kd_Nm_s_per_rad = Q12_19::from(2.0);
+  gains.ki_Nm_per_rad_s = Q16_15::from(100.0);
+  gains.max_torque_Nm = Q12_19::from(3.0);
+  gains.integral_limit_Nm = Q12_19::from(0.5);
+  NominalDynamics nominal{Q12_19::from(0.01), Q12_19::from(0.4)};
+  JointController ctl(gains, nominal, 1000);
+  JointReference ref;
+  ref.q_rad = {to_q<Q3_28>(0.30), to_q<Q3_28>(0.30), to_q<Q3_28>(0.30)};
+  ref.qd_rad_s = {to_q<Q10_21>(0.5), {}, {}};
+  ref.qdd_rad_s2 = {to_q<Q14_17>(10.0), {}, {}};
+  const JointAnglesQ q = {to_q<Q3_28>(0.29), to_q<Q3_28>(0.30), to_q<Q3_28>(0.0)};
+  const std::array<Q10_21, 3> qd = {to_q<Q10_21>(0.4), {}, {}};
+  std::array<bool, 3> sat{};
+  const auto tau = ctl.update(ref, q, qd, sat);
+  // Joint 1: 50 * 0.01 + 2 * 0.1 + 0.01 * 10 - 0.4 cos(0.3); the integral
+  // (Ki e dt = 1e-3 per cycle) acts from the next cycle on.
+  EXPECT_NEAR(to_d(tau[0]), 0.5 + 0.2 + 0.1 - 0.4 * std::cos(0.3), 1e-5);
+  EXPECT_NEAR(to_d(ctl.integral()[0]), 0.001, 1e-5);
+  EXPECT_FALSE(sat[0]);
+  // Joint 3: 50 * 0.3 = 15 N m -> saturated at 3 N m.
+  EXPECT_NEAR(to_d(tau[2]), 3.0, 1e-6);
+  EXPECT_TRUE(sat[2]);
+  // While saturated the integral of joint 3 does not wind up.
+  for (int i = 0; i < 1000; ++i) ctl.update(ref, q, qd, sat);
+  EXPECT_EQ(ctl.integral()[2].raw(), 0);
+  // Joint 1's integral grows, but stops at its limit.
+  EXPECT_NEAR(to_d(ctl.integral()[0]), 0.5, 1e-6);
+}
+
+}  // namespace
+}  // namespace fw
