@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "delta/dynamics.hpp"
+#include "host_id/identify.hpp"
 #include "q_convert.hpp"
 
 namespace fw {
@@ -234,6 +235,34 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   }
   EXPECT_LT(worst_tau, 2e-5);
   EXPECT_GT(std::abs(to_d(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
+}
+
+TEST_F(ControllerTest, TheCoreLogOfAnExcitationIdentifiesThePlant) {
+  // The firmware core drives the simulated delta; its log records (seq, q,
+  // tau from current) become a delta-log and host_id fits them: the chain
+  // without the bus, against the plant's true parameters.
+  to_running();
+  while (ctl.state() == State::kRunning) tick();
+  host_id::DeltaLog log;
+  log.name = "sil";
+  log.geometry = delta::kDefaultGeometry;
+  log.sample_rate_hz = 1000.0;
+  for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
+    const LogRecord& r = hw.log_records[i];
+    log.t.push_back(static_cast<double>(r.seq) * 1e-3);
+    log.seq.push_back(r.seq);
+    for (unsigned j = 0; j < 3; ++j) {
+      log.q[j].push_back(to_d(r.q_rad[j]));
+      log.tau[j].push_back(to_d(r.tau_Nm[j]));
+    }
+  }
+  host_id::FitOptions f;
+  f.method = host_id::Method::kLeastSquares;
+  const host_id::FitResult r = host_id::fit_log(log, f);
+  const auto truth = host_id::delta_parameter_vector({}, delta::default_lumped_parameters());
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    EXPECT_NEAR(r.parameters[i].value, truth[i], 0.03 * truth[i]) << r.parameters[i].info.name;
+  }
 }
 
 TEST_F(ControllerTest, StopCommandHoldsThenDisables) {
