@@ -11,6 +11,8 @@ packages=(
   libeigen3-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the firmware core on Cortex-M4, run on qemu
+  gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi qemu-system-arm
   # code hygiene
   clang-format clang-tidy
 )

@@ -1,0 +1,212 @@
+#include "golden_vectors.hpp"
+
+#include "delta/fixed/kinematics.hpp"
+#include "delta/fixed/math.hpp"
+#include "fw/joint_controller.hpp"
+#include "fw/torque_from_current.hpp"
+#include "fw/trajectory.hpp"
+
+namespace fw::golden {
+
+namespace {
+
+using delta::fx::Q10_21;
+using delta::fx::Q12_19;
+using delta::fx::Q14_17;
+using delta::fx::Q16_15;
+using delta::fx::Q1_30;
+using delta::fx::Q3_28;
+using delta::fx::Q7_24;
+
+// A line builder with integer formatting only.
+class Line {
+ public:
+  explicit Line(TextSink& sink) : sink_(sink) {}
+  Line& word(const char* w) {
+    sep();
+    while (*w && len_ + 1 < sizeof buf_) buf_[len_++] = *w++;
+    return *this;
+  }
+  Line& num(std::int64_t v) {
+    sep();
+    char digits[24];
+    int n = 0;
+    const bool neg = v < 0;
+    std::uint64_t u =
+        neg ? static_cast<std::uint64_t>(-(v + 1)) + 1 : static_cast<std::uint64_t>(v);
+    do {
+      digits[n++] = static_cast<char>('0' + u % 10);
+      u /= 10;
+    } while (u != 0);
+    if (neg && len_ + 1 < sizeof buf_) buf_[len_++] = '-';
+    while (n > 0 && len_ + 1 < sizeof buf_) buf_[len_++] = digits[--n];
+    return *this;
+  }
+  void end(std::uint32_t& lines) {
+    buf_[len_++] = '\n';
+    buf_[len_] = '\0';
+    sink_.write(buf_);
+    len_ = 0;
+    ++lines;
+  }
+
+ private:
+  void sep() {
+    if (len_ > 0 && len_ + 1 < sizeof buf_) buf_[len_++] = ' ';
+  }
+  TextSink& sink_;
+  char buf_[256]{};
+  std::size_t len_{0};
+};
+
+// A fixed LCG for reproducible inputs (Numerical Recipes constants).
+struct Lcg {
+  std::uint32_t state;
+  std::uint32_t next() { return state = state * 1664525u + 1013904223u; }
+  std::int32_t in(std::int32_t lo, std::int32_t hi) {
+    return lo + static_cast<std::int32_t>(next() % static_cast<std::uint32_t>(hi - lo));
+  }
+};
+
+constexpr GeometryQ kGeometry{Q7_24::from(0.20), Q7_24::from(0.46), Q7_24::from(0.10),
+                              Q7_24::from(0.035)};
+
+TrajectoryConfig fourier_config() {
+  TrajectoryConfig c;
+  c.blend_ticks = 500;
+  auto& f = c.fourier;
+  f.base_frequency_mHz = 250;
+  f.harmonics = 3;
+  f.periods = 1;
+  f.q0_rad = {Q3_28::from(0.45), Q3_28::from(0.40), Q3_28::from(0.50)};
+  f.sin_amplitude_rad[0] = {Q3_28::from(0.10), Q3_28::from(-0.04), Q3_28::from(0.02)};
+  f.cos_amplitude_rad[0] = {Q3_28::from(0.05), Q3_28::from(0.03), Q3_28::from(-0.01)};
+  f.sin_amplitude_rad[1] = {Q3_28::from(-0.08), Q3_28::from(0.05), Q3_28::from(-0.01)};
+  f.cos_amplitude_rad[1] = {Q3_28::from(0.06), Q3_28::from(0.02), Q3_28::from(0.02)};
+  f.sin_amplitude_rad[2] = {Q3_28::from(0.07), Q3_28::from(0.03), Q3_28::from(0.015)};
+  f.cos_amplitude_rad[2] = {Q3_28::from(-0.09), Q3_28::from(-0.03), Q3_28::from(0.01)};
+  return c;
+}
+
+TrajectoryConfig pick_and_place_config() {
+  TrajectoryConfig c;
+  c.kind = TrajectoryKind::kPickAndPlace;
+  auto& p = c.pick_and_place;
+  p.waypoints = 3;
+  p.points[0] = {Q7_24::from(-0.08), Q7_24::from(0.0), Q7_24::from(-0.48)};
+  p.points[1] = {Q7_24::from(0.08), Q7_24::from(0.05), Q7_24::from(-0.42)};
+  p.points[2] = {Q7_24::from(0.0), Q7_24::from(-0.08), Q7_24::from(-0.50)};
+  p.segment_ticks = 400;
+  p.cycles = 1;
+  return c;
+}
+
+void reference_line(Line& l, const char* name, std::uint32_t tick, const JointReference& r,
+                    std::uint32_t& lines) {
+  l.word(name).num(tick);
+  for (unsigned j = 0; j < 3; ++j)
+    l.num(r.q_rad[j].raw()).num(r.qd_rad_s[j].raw()).num(r.qdd_rad_s2[j].raw());
+  l.end(lines);
+}
+
+}  // namespace
+
+std::uint32_t write_golden_vectors(TextSink& out) {
+  std::uint32_t lines = 0;
+  Line l(out);
+  l.word("delta-golden/1").end(lines);
+  Lcg rng{12345u};
+
+  for (int i = 0; i < 64; ++i) {
+    const Q3_28 a = Q3_28::from_raw(static_cast<std::int32_t>(rng.next()));
+    const auto sc = delta::fx::sincos(a);
+    l.word("sincos").num(a.raw()).num(sc.sin.raw()).num(sc.cos.raw()).end(lines);
+  }
+  for (int i = 0; i < 64; ++i) {
+    const std::int64_t y = rng.in(-2000000000, 2000000000) >> (i % 20);
+    const std::int64_t x = rng.in(-2000000000, 2000000000) >> (i % 17);
+    l.word("atan2").num(y).num(x).num(delta::fx::atan2_raw(y, x).raw()).end(lines);
+  }
+  for (int i = 0; i < 32; ++i) {
+    const Q7_24 v = Q7_24::from_raw(rng.in(0, 2147483647));
+    l.word("sqrt").num(v.raw()).num(delta::fx::sqrt<Q7_24>(v).raw()).end(lines);
+  }
+  for (int i = 0; i < 96; ++i) {
+    const delta::fx::Vec3Q p{Q7_24::from_raw(rng.in(-2500000, 2500000)),
+                             Q7_24::from_raw(rng.in(-2500000, 2500000)),
+                             Q7_24::from_raw(rng.in(-10000000, -4000000))};
+    const auto ik = delta::fx::inverse_kinematics(kGeometry, p);
+    l.word("ik")
+        .num(p.x_m.raw())
+        .num(p.y_m.raw())
+        .num(p.z_m.raw())
+        .num(static_cast<int>(ik.status));
+    for (const Q3_28 t : ik.theta_rad) l.num(t.raw());
+    l.end(lines);
+    if (ik.status == delta::KinematicsStatus::kOk) {
+      const auto fk = delta::fx::forward_kinematics(kGeometry, ik.theta_rad);
+      l.word("fk")
+          .num(static_cast<int>(fk.status))
+          .num(fk.position.x_m.raw())
+          .num(fk.position.y_m.raw())
+          .num(fk.position.z_m.raw())
+          .end(lines);
+    }
+  }
+  const Trajectory fourier(kGeometry, fourier_config());
+  for (std::uint32_t tick = 0; tick <= fourier.length_ticks(); tick += 97) {
+    JointReference r;
+    fourier.reference(tick, r);
+    reference_line(l, "fourier", tick, r, lines);
+  }
+  const TrajectoryCheck check = check_trajectory(kGeometry, fourier_config(), JointLimits{});
+  l.word("check").num(static_cast<int>(check.fault)).num(check.tick).num(check.joint).end(lines);
+  const Trajectory pnp(kGeometry, pick_and_place_config());
+  for (std::uint32_t tick = 0; tick <= pnp.length_ticks(); tick += 61) {
+    JointReference r;
+    l.word("pnp-status").num(static_cast<int>(pnp.reference(tick, r))).end(lines);
+    reference_line(l, "pnp", tick, r, lines);
+  }
+  JointTorqueConfig tc;
+  tc.gear_ratio = Q12_19::from(9.0);
+  tc.torque_constant_Nm_per_A = Q7_24::from(0.08);
+  tc.efficiency = Q1_30::from(0.95);
+  tc.offset_Nm = Q12_19::from(-0.013);
+  for (int i = 0; i < 32; ++i) {
+    const Q12_19 amps = Q12_19::from_raw(rng.in(-6000000, 6000000));
+    tc.inverted = (i % 3) == 0;
+    l.word("torque")
+        .num(amps.raw())
+        .num(torque_from_current(tc, amps).raw())
+        .num(current_from_torque(tc, torque_from_current(tc, amps)).raw())
+        .end(lines);
+  }
+  JointGains gains;
+  gains.ki_Nm_per_rad_s = Q16_15::from(20.0);
+  JointController ctl(gains, NominalDynamics{Q12_19::from(0.0125), Q12_19::from(0.7026)}, 1000);
+  for (std::uint32_t tick = 0; tick < 200; tick += 7) {
+    JointReference r;
+    fourier.reference(tick + 600, r);
+    JointAnglesQ q{};
+    std::array<Q10_21, 3> qd{};
+    for (unsigned j = 0; j < 3; ++j) {
+      q[j] = r.q_rad[j] + Q3_28::from_raw(rng.in(-500000, 500000));
+      qd[j] = r.qd_rad_s[j] + Q10_21::from_raw(rng.in(-200000, 200000));
+    }
+    std::array<bool, 3> sat{};
+    const auto tau = ctl.update(r, q, qd, sat);
+    l.word("control")
+        .num(tick)
+        .num(tau[0].raw())
+        .num(tau[1].raw())
+        .num(tau[2].raw())
+        .num(sat[0])
+        .num(sat[1])
+        .num(sat[2])
+        .end(lines);
+  }
+  l.word("end").num(lines + 1).end(lines);
+  return lines;
+}
+
+}  // namespace fw::golden
