@@ -70,12 +70,14 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
       return r;
     }
     const i64 root = static_cast<i64>(isqrt_round(static_cast<std::uint64_t>(disc)));
-    const Q3_28 alpha = atan2_raw(F, E);
-    const Q3_28 delta = atan2_raw(root, -G);  // acos(-G / rho)
-    // Of alpha +/- delta, the larger cos(theta) puts the elbow farther out.
-    Q3_28 theta = F > 0 ? alpha - delta : alpha + delta;
-    if (theta > kPi) theta = theta - kTwoPi;
-    if (theta <= -kPi) theta = theta + kTwoPi;
+    // theta = alpha +/- delta with cos(alpha) = E/rho, sin(alpha) = F/rho,
+    // cos(delta) = -G/rho, sin(delta) = root/rho: one atan2 of the angle-sum
+    // products (the common factor rho^2 cancels). Of the two, the larger
+    // cos(theta) puts the elbow farther out: alpha - delta when F > 0.
+    const i64 sign = F > 0 ? -1 : 1;
+    const i64 sin_theta = -F * G + sign * E * root;
+    const i64 cos_theta = -E * G - sign * F * root;
+    const Q3_28 theta = atan2_raw(sin_theta, cos_theta);
     r.theta_rad[k] = theta;
   }
   r.status = KinematicsStatus::kOk;

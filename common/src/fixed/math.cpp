@@ -4,52 +4,17 @@ namespace delta::fx {
 
 namespace {
 
-// pi / 2 in Q3.60 (for atan2) and Q3.58 (for the quadrant reduction, whose
-// operand angle * 2^30 must leave headroom in 64 bits).
-constexpr std::int64_t kHalfPiQ60 = 1811004864519280711LL;
+// pi / 2 in Q3.58, for the quadrant reduction (its operand angle * 2^30
+// must leave headroom in 64 bits).
 constexpr std::int64_t kHalfPiQ58 = 452751216129820178LL;
 
-// atan(2^-i) in Q3.60, i = 0..39.
-constexpr std::int64_t kAtanTableQ60[40] = {905502432259640355LL,
-                                            534549298976576474LL,
-                                            282441168888798124LL,
-                                            143371547418228444LL,
-                                            71963988336308046LL,
-                                            36017075762092179LL,
-                                            18012932708689205LL,
-                                            9007016009513623LL,
-                                            4503576721087964LL,
-                                            2251796950380271LL,
-                                            1125899548928887LL,
-                                            562949908682076LL,
-                                            281474971118251LL,
-                                            140737487656277LL,
-                                            70368744090283LL,
-                                            35184372077909LL,
-                                            17592186043051LL,
-                                            8796093022037LL,
-                                            4398046511083LL,
-                                            2199023255549LL,
-                                            1099511627776LL,
-                                            549755813888LL,
-                                            274877906944LL,
-                                            137438953472LL,
-                                            68719476736LL,
-                                            34359738368LL,
-                                            17179869184LL,
-                                            8589934592LL,
-                                            4294967296LL,
-                                            2147483648LL,
-                                            1073741824LL,
-                                            536870912LL,
-                                            268435456LL,
-                                            134217728LL,
-                                            67108864LL,
-                                            33554432LL,
-                                            16777216LL,
-                                            8388608LL,
-                                            4194304LL,
-                                            2097152LL};
+// atan(2^-i) in Q2.29, i = 0..29, and pi, for the 32-bit CORDIC.
+constexpr std::int32_t kAtanTableQ29[30] = {
+    421657428, 248918915, 131521918, 66762579, 33510843, 16771758, 8387925, 4194219,
+    2097141,   1048575,   524288,    262144,   131072,   65536,    32768,   16384,
+    8192,      4096,      2048,      1024,     512,      256,      128,     64,
+    32,        16,        8,         4,        2,        1};
+constexpr std::int32_t kPiQ29 = 1686629713;
 
 // Taylor coefficients 1/k! in Q1.30.
 constexpr std::int64_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
@@ -108,51 +73,44 @@ SinCos sincos(Q3_28 angle_rad) {
 
 Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
   if (x == 0 && y == 0) return Q3_28::zero();
-  // Scale so that max(|x|, |y|) lies in [2^59, 2^60): CORDIC's gain of 1.65
-  // then stays below 2^61.
-  std::uint64_t m =
+  // Scale so that max(|x|, |y|) lies in [2^28, 2^29): 32-bit CORDIC, whose
+  // gain of 1.65 then stays below 2^30. One count-leading-zeros, no loop.
+  const std::uint64_t m =
       static_cast<std::uint64_t>(x < 0 ? -x : x) | static_cast<std::uint64_t>(y < 0 ? -y : y);
-  int lead = 0;
-  while (m >= (std::uint64_t{1} << 60)) {
-    m >>= 1;
-    --lead;
-  }
-  while (m < (std::uint64_t{1} << 59)) {
-    m <<= 1;
-    ++lead;
-  }
-  std::int64_t xs = lead >= 0 ? x * (std::int64_t{1} << lead) : (x >> -lead);
-  std::int64_t ys = lead >= 0 ? y * (std::int64_t{1} << lead) : (y >> -lead);
-  // Into the right half plane: rotate by pi.
-  std::int64_t z = 0;  // Q3.60
+  const int lead = __builtin_clzll(m) - 35;  // bit 28 becomes the top bit
+  auto xs = static_cast<std::int32_t>(lead >= 0 ? x * (std::int64_t{1} << lead) : (x >> -lead));
+  auto ys = static_cast<std::int32_t>(lead >= 0 ? y * (std::int64_t{1} << lead) : (y >> -lead));
+  // Into the right half plane: rotate by pi. The angle accumulates in Q2.29.
+  std::int32_t z = 0;
   if (xs < 0) {
-    z = ys >= 0 ? 2 * kHalfPiQ60 : -2 * kHalfPiQ60;
+    z = ys >= 0 ? kPiQ29 : -kPiQ29;
     xs = -xs;
     ys = -ys;
   }
   // Vectoring: drive y to zero, accumulating the angle.
-  for (int i = 0; i < 40; ++i) {
-    const std::int64_t dx = xs >> i;
-    const std::int64_t dy = ys >> i;
+  for (int i = 0; i < 30; ++i) {
+    const std::int32_t dx = xs >> i;
+    const std::int32_t dy = ys >> i;
     if (ys > 0) {
       xs += dy;
       ys -= dx;
-      z += kAtanTableQ60[i];
+      z += kAtanTableQ29[i];
     } else {
       xs -= dy;
       ys += dx;
-      z -= kAtanTableQ60[i];
+      z -= kAtanTableQ29[i];
     }
   }
-  return Q3_28::from_raw(static_cast<std::int32_t>(detail::shift_round(z, 32)));
+  return Q3_28::from_raw(static_cast<std::int32_t>(detail::shift_round(z, 1)));
 }
 
 std::uint64_t isqrt_round(std::uint64_t v) {
   // Bit by bit: the largest r with r^2 <= v.
+  if (v == 0) return 0;
   std::uint64_t rem = v;
   std::uint64_t root = 0;
-  std::uint64_t bit = std::uint64_t{1} << 62;
-  while (bit > rem) bit >>= 2;
+  // The highest power of four <= v, from one count-leading-zeros.
+  std::uint64_t bit = std::uint64_t{1} << ((63 - __builtin_clzll(v)) & ~1);
   while (bit != 0) {
     if (rem >= root + bit) {
       rem -= root + bit;

@@ -151,6 +151,12 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
   const auto& p = config_.pick_and_place;
   if (tick < 0) tick = 0;
   if (tick > length_ticks_) tick = length_ticks_;
+  for (const IkCacheEntry& e : ik_cache_) {
+    if (e.tick == tick) {
+      q = e.q;
+      return e.status;
+    }
+  }
   const auto t = static_cast<std::uint32_t>(tick);
   const std::uint32_t seg = (t / p.segment_ticks) % p.waypoints;
   const std::uint32_t in_seg = t % p.segment_ticks;
@@ -162,6 +168,8 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
                   a.z_m + mul<Q7_24>(b.z_m - a.z_m, f)};
   const auto ik = delta::fx::inverse_kinematics(geometry_, pos);
   q = ik.theta_rad;
+  ik_cache_[ik_cache_next_] = {tick, ik.status, ik.theta_rad};
+  ik_cache_next_ = (ik_cache_next_ + 1) % 3;
   return ik.status;
 }
 

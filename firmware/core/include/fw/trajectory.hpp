@@ -102,6 +102,16 @@ class Trajectory {
   TrajectoryConfig config_;
   std::uint32_t length_ticks_{0};
   Q10_21 base_omega_rad_s_{};
+  // The IK of the last three ticks asked for: stepping tick by tick, each
+  // reference() then solves one new IK instead of three. (Single-threaded
+  // use, as everything in the core.)
+  struct IkCacheEntry {
+    std::int64_t tick{-2};
+    KinematicsStatus status{KinematicsStatus::kUnreachable};
+    JointAnglesQ q{};
+  };
+  mutable std::array<IkCacheEntry, 3> ik_cache_{};
+  mutable unsigned ik_cache_next_{0};
 };
 
 // Walks every tick of the trajectory (a rejected configuration gives

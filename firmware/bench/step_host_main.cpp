@@ -1,0 +1,21 @@
+// Runs the measured control steps on the host, for
+//   valgrind --tool=callgrind --toggle-collect='*measured_control_steps*' step_host
+// (tests/bench/count_step_instructions.sh divides by the step count).
+#include <cstdio>
+#include <cstdlib>
+
+#include "step_bench.hpp"
+
+namespace fw::bench {
+extern int last_state;
+extern int last_fault;
+}  // namespace fw::bench
+
+int main(int argc, char** argv) {
+  const auto n = static_cast<std::uint32_t>(argc > 1 ? std::strtoul(argv[1], nullptr, 10) : 1000);
+  const std::uint32_t done = fw::bench::run_control_steps(
+      n, [] {}, [] {});
+  std::printf("%u control steps (state %d, fault %d)\n", done, fw::bench::last_state,
+              fw::bench::last_fault);
+  return done == n ? 0 : 1;
+}

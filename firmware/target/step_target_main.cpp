@@ -1,0 +1,71 @@
+// The Cortex-M image that counts instructions per control step on qemu run
+// with -icount shift=0 (one instruction = 1 ns of virtual time): SysTick,
+// clocked by the CPU clock, is calibrated on a loop of known length, then
+// read around 200 control steps.
+#include <cstdint>
+
+#include "semihosting.hpp"
+#include "step_bench.hpp"
+
+extern "C" int firmware_main();
+
+namespace {
+
+volatile std::uint32_t& reg(std::uint32_t address) {
+  return *reinterpret_cast<volatile std::uint32_t*>(address);
+}
+constexpr std::uint32_t kSysTickCtrl = 0xE000E010u, kSysTickLoad = 0xE000E014u,
+                        kSysTickVal = 0xE000E018u;
+
+std::uint32_t begin_ticks = 0, end_ticks = 0;
+
+void restart() {
+  reg(kSysTickCtrl) = 0;
+  reg(kSysTickLoad) = 0x00FFFFFFu;
+  reg(kSysTickVal) = 0;
+  reg(kSysTickCtrl) = 0x5u;  // enable, CPU clock, no interrupt
+}
+void mark_begin() {
+  restart();  // writing VAL clears it; the counter then reloads from LOAD
+  begin_ticks = 0x00FFFFFFu;
+}
+void mark_end() {
+  end_ticks = reg(kSysTickVal);
+}
+
+void print_number(const char* label, std::uint32_t v) {
+  char buf[48];
+  int n = 0;
+  for (const char* p = label; *p;) buf[n++] = *p++;
+  char digits[12];
+  int d = 0;
+  do {
+    digits[d++] = static_cast<char>('0' + v % 10);
+    v /= 10;
+  } while (v != 0);
+  while (d > 0) buf[n++] = digits[--d];
+  buf[n++] = '\n';
+  buf[n] = '\0';
+  semihosting::write(buf);
+}
+
+}  // namespace
+
+extern "C" int firmware_main() {
+  // Calibration: 2 instructions per iteration (subs, bne) x 1,000,000.
+  mark_begin();
+  std::uint32_t count = 1000000;
+  asm volatile("1: subs %0, %0, #1\n bne 1b" : "+r"(count) : : "cc");
+  mark_end();
+  const std::uint32_t calib_ticks = begin_ticks - end_ticks;
+  const std::uint32_t steps = 200;
+  const std::uint32_t done = fw::bench::run_control_steps(steps, mark_begin, mark_end);
+  const std::uint32_t step_ticks = begin_ticks - end_ticks;
+  // instructions = ticks * (2,000,000 / calib_ticks)
+  const auto per_step = static_cast<std::uint32_t>(
+      (std::uint64_t{step_ticks} * 2000000u / calib_ticks) / (done ? done : 1));
+  print_number("steps ", done);
+  print_number("calibration_ticks_per_2e6_instructions ", calib_ticks);
+  print_number("instructions_per_step ", per_step);
+  return done == steps ? 0 : 1;
+}
