@@ -4,6 +4,8 @@
 // read around 200 control steps.
 #include <cstdint>
 
+#include "delta/fixed/kinematics.hpp"
+#include "delta/fixed/math.hpp"
 #include "semihosting.hpp"
 #include "step_bench.hpp"
 
@@ -67,5 +69,35 @@ extern "C" int firmware_main() {
   print_number("steps ", done);
   print_number("calibration_ticks_per_2e6_instructions ", calib_ticks);
   print_number("instructions_per_step ", per_step);
+  // The primitives, 1000 calls each, for where the step's instructions go.
+  const auto per_call = [&](const char* label, auto&& body) {
+    mark_begin();
+    for (std::uint32_t i = 0; i < 1000; ++i) body(i);
+    mark_end();
+    print_number(label,
+                 static_cast<std::uint32_t>(
+                     (std::uint64_t{begin_ticks - end_ticks} * 2000000u / calib_ticks) / 1000));
+  };
+  volatile std::int32_t sink = 0;
+  per_call("instructions_per_atan2 ", [&](std::uint32_t i) {
+    sink = delta::fx::atan2_raw(std::int64_t{123456789} + i * 7919,
+                                std::int64_t{987654321} - i * 104729)
+               .raw();
+  });
+  per_call("instructions_per_isqrt ", [&](std::uint32_t i) {
+    sink = static_cast<std::int32_t>(
+        delta::fx::isqrt_round((std::uint64_t{1} << 60) + i * 1234567891u));
+  });
+  per_call("instructions_per_sincos ", [&](std::uint32_t i) {
+    sink = delta::fx::sincos(delta::fx::Q3_28::from_raw(static_cast<std::int32_t>(i * 2654435u)))
+               .cos.raw();
+  });
+  const delta::fx::GeometryQ g{delta::fx::Q7_24::from(0.2), delta::fx::Q7_24::from(0.46),
+                               delta::fx::Q7_24::from(0.1), delta::fx::Q7_24::from(0.035)};
+  per_call("instructions_per_ik ", [&](std::uint32_t i) {
+    const delta::fx::Vec3Q p{delta::fx::Q7_24::from_raw(static_cast<std::int32_t>(i * 1000)),
+                             delta::fx::Q7_24::from(0.01), delta::fx::Q7_24::from(-0.45)};
+    sink = delta::fx::inverse_kinematics(g, p).theta_rad[0].raw();
+  });
   return done == steps ? 0 : 1;
 }

@@ -21,10 +21,10 @@ constexpr i64 prod48(Q7_24 a, Q7_24 b) {
 // Shifts a, b, c right together until all magnitudes are below 2^30, so
 // that squares and their sums fit in 64 bits. Ratios are unchanged.
 void normalise(i64& a, i64& b, i64& c) {
-  const auto mag = [](i64 v) { return v < 0 ? -v : v; };
-  int shift = 0;
-  i64 m = mag(a) | mag(b) | mag(c);
-  while ((m >> shift) >= (i64{1} << 30)) ++shift;
+  const auto mag = [](i64 v) { return static_cast<std::uint64_t>(v < 0 ? -v : v); };
+  const std::uint64_t m = mag(a) | mag(b) | mag(c);
+  // The shift that brings the top set bit below bit 30 (one clz, no loop).
+  const int shift = m == 0 ? 0 : 34 - __builtin_clzll(m);
   if (shift > 0) {
     a = detail::shift_round(a, shift);
     b = detail::shift_round(b, shift);
@@ -62,21 +62,24 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
     i64 F = 2 * prod48(a, Z);
     i64 G = prod48(X, X) + prod48(Y, Y) + prod48(Z, Z) + prod48(a, a) - prod48(b, b);
     normalise(E, F, G);
-    const i64 disc = E * E + F * F - G * G;  // rho^2 - G^2
+    // Below 2^30 now: 32 x 32 -> 64 products.
+    const auto e = static_cast<std::int32_t>(E), f = static_cast<std::int32_t>(F),
+               gg = static_cast<std::int32_t>(G);
+    const i64 disc = i64{e} * e + i64{f} * f - i64{gg} * gg;  // rho^2 - G^2
     if (disc <= 0) {
       r.status = KinematicsStatus::kUnreachable;
       r.failed_chain = static_cast<int>(k);
       r.theta_rad = {};
       return r;
     }
-    const i64 root = static_cast<i64>(isqrt_round(static_cast<std::uint64_t>(disc)));
+    const auto root = static_cast<std::int32_t>(isqrt_round(static_cast<std::uint64_t>(disc)));
     // theta = alpha +/- delta with cos(alpha) = E/rho, sin(alpha) = F/rho,
     // cos(delta) = -G/rho, sin(delta) = root/rho: one atan2 of the angle-sum
     // products (the common factor rho^2 cancels). Of the two, the larger
     // cos(theta) puts the elbow farther out: alpha - delta when F > 0.
-    const i64 sign = F > 0 ? -1 : 1;
-    const i64 sin_theta = -F * G + sign * E * root;
-    const i64 cos_theta = -E * G - sign * F * root;
+    const std::int32_t signed_root = F > 0 ? -root : root;
+    const i64 sin_theta = -(i64{f} * gg) + i64{e} * signed_root;
+    const i64 cos_theta = -(i64{e} * gg) - i64{f} * signed_root;
     const Q3_28 theta = atan2_raw(sin_theta, cos_theta);
     r.theta_rad[k] = theta;
   }

@@ -15,9 +15,8 @@ std::array<Q12_19, 3> JointController::update(const JointReference& ref, const J
   for (unsigned j = 0; j < 3; ++j) {
     const Q3_28 e = ref.q_rad[j] - q[j];
     const Q10_21 ed = ref.qd_rad_s[j] - qd[j];
-    const auto sc = delta::fx::sincos(ref.q_rad[j]);
     const Q12_19 ff = mul<Q12_19>(nominal_.arm_inertia_kg_m2, ref.qdd_rad_s2[j]) -
-                      mul<Q12_19>(nominal_.gravity_moment_Nm, sc.cos);
+                      mul<Q12_19>(nominal_.gravity_moment_Nm, delta::fx::cos(ref.q_rad[j]));
     const Q12_19 pd =
         mul<Q12_19>(gains_.kp_Nm_per_rad, e) + mul<Q12_19>(gains_.kd_Nm_s_per_rad, ed);
     const Q12_19 unsat = pd + integral_[j] + ff;
@@ -36,8 +35,8 @@ std::array<Q12_19, 3> JointController::update(const JointReference& ref, const J
         saturated[j] && ((unsat > lim && e.raw() > 0) || (unsat < -lim && e.raw() < 0));
     if (gains_.ki_Nm_per_rad_s.raw() != 0 && !pushing_out) {
       const Q12_19 rate = mul<Q12_19>(gains_.ki_Nm_per_rad_s, e);  // N m per second
-      const Q12_19 step = Q12_19::from_raw(
-          saturate32(shift_round(std::int64_t{rate.raw()} * tick_period_us_, 0) / 1000000));
+      const Q12_19 step = Q12_19::from_raw(saturate32(
+          shift_round(std::int64_t{rate.raw()} * static_cast<std::int64_t>(tick_period_q32_), 32)));
       Q12_19 i = integral_[j] + step;
       if (i > gains_.integral_limit_Nm) i = gains_.integral_limit_Nm;
       if (i < -gains_.integral_limit_Nm) i = -gains_.integral_limit_Nm;

@@ -30,7 +30,9 @@ bool pick_and_place_valid(const TrajectoryConfig& c) {
 }
 
 bool config_valid(const TrajectoryConfig& c) {
-  if (c.tick_period_us == 0 || c.tick_period_us > 100000) return false;
+  if (c.tick_period_us == 0 || c.tick_period_us > 100000 || 1000000 % c.tick_period_us != 0) {
+    return false;
+  }
   return c.kind == TrajectoryKind::kFourier ? fourier_valid(c) : pick_and_place_valid(c);
 }
 
@@ -64,12 +66,14 @@ Window window(Q1_30 s) {
   return r;
 }
 
-// x * 1e6 / dt_us, saturating: a per-tick difference to a per-second rate.
-i64 per_second(i64 x, std::uint32_t dt_us) {
-  constexpr i64 kLimit = INT64_MAX / 1000000;
-  if (x > kLimit) return INT64_MAX / dt_us;
-  if (x < -kLimit) return INT64_MIN / dt_us;
-  return x * 1000000 / dt_us;
+// x * ticks_per_second, saturating: a per-tick difference to a per-second
+// rate (a multiply: the tick period divides one second exactly). Inputs
+// beyond 2^40 saturate; real differences of Q3.28 angles stay far below.
+i64 per_second(i64 x, std::uint32_t ticks_per_second) {
+  constexpr i64 kLimit = i64{1} << 40;  // * (at most 1e6 ticks/s) < 2^60
+  if (x > kLimit) return INT64_MAX;
+  if (x < -kLimit) return INT64_MIN;
+  return x * ticks_per_second;
 }
 
 }  // namespace
@@ -77,6 +81,7 @@ i64 per_second(i64 x, std::uint32_t dt_us) {
 Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config)
     : geometry_(geometry), config_(config) {
   if (!config_valid(config_)) return;
+  ticks_per_second_ = 1000000u / config_.tick_period_us;
   if (config_.kind == TrajectoryKind::kFourier) {
     const auto& f = config_.fourier;
     // Whole periods of the base frequency, rounded to ticks, plus the blends.
@@ -181,15 +186,15 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
     const auto st = cartesian_ik(t, *q);
     if (st != KinematicsStatus::kOk) return st;
   }
-  const std::uint32_t dt = config_.tick_period_us;
+  const std::uint32_t rate = ticks_per_second_;
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).
     const i64 d1 = i64{after[j].raw()} - before[j].raw();
     const i64 d2 = i64{after[j].raw()} - 2 * i64{now[j].raw()} + before[j].raw();
-    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(per_second(d1, dt) / 2, 7)));
+    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(per_second(d1, rate), 8)));
     out.qdd_rad_s2[j] =
-        Q14_17::from_raw(saturate32(shift_round(per_second(per_second(d2, dt), dt), 11)));
+        Q14_17::from_raw(saturate32(shift_round(per_second(per_second(d2, rate), rate), 11)));
   }
   return KinematicsStatus::kOk;
 }

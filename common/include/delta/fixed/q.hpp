@@ -161,6 +161,13 @@ constexpr R div(Q<IA, FA> a, Q<IB, FB> b) {
 // of any length, without a detour through a format that could saturate.
 constexpr Q<1, 30> ratio(std::uint32_t n, std::uint32_t d) {
   if (d == 0) return Q<1, 30>::zero();
+  if (n < d && d < (1u << 16)) {
+    // Two 32-bit divisions of 15 bits each (a hardware UDIV on Cortex-M4)
+    // instead of a 64-bit one: n * 2^30 / d = (q1 * 2^15 + q2), rounded.
+    const std::uint32_t q1 = (n << 15) / d, r1 = (n << 15) % d;
+    const std::uint32_t q2 = (r1 << 15) / d, r2 = (r1 << 15) % d;
+    return Q<1, 30>::from_raw(static_cast<std::int32_t>((q1 << 15) + q2 + (2 * r2 >= d ? 1u : 0u)));
+  }
   const std::int64_t num = std::int64_t{n} << 30;
   return Q<1, 30>::from_raw(detail::saturate32((num + d / 2) / d));
 }

@@ -32,7 +32,9 @@ class JointController {
  public:
   JointController(const JointGains& gains, const NominalDynamics& nominal,
                   std::uint32_t tick_period_us)
-      : gains_(gains), nominal_(nominal), tick_period_us_(tick_period_us) {}
+      : gains_(gains),
+        nominal_(nominal),
+        tick_period_q32_((std::uint64_t{tick_period_us} << 32) / 1000000u) {}
 
   // One control update; `saturated` tells whether a joint hit max torque.
   std::array<Q12_19, 3> update(const JointReference& ref, const JointAnglesQ& q,
@@ -43,7 +45,7 @@ class JointController {
  private:
   JointGains gains_;
   NominalDynamics nominal_;
-  std::uint32_t tick_period_us_;
+  std::uint64_t tick_period_q32_;  // the tick period in seconds, Q0.32
   std::array<Q12_19, 3> integral_{};
 };
 

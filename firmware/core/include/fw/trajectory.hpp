@@ -55,8 +55,8 @@ enum class TrajectoryKind : std::uint8_t { kFourier = 0, kPickAndPlace = 1 };
 
 struct TrajectoryConfig {
   TrajectoryKind kind{TrajectoryKind::kFourier};
-  std::uint32_t tick_period_us{1000};
-  std::uint32_t blend_ticks{1000};  // Fourier: fade in and out from rest
+  std::uint32_t tick_period_us{1000};  // must divide one second exactly
+  std::uint32_t blend_ticks{1000};     // Fourier: fade in and out from rest
   FourierConfig fourier{};
   PickAndPlaceConfig pick_and_place{};
 };
@@ -101,6 +101,7 @@ class Trajectory {
   GeometryQ geometry_;
   TrajectoryConfig config_;
   std::uint32_t length_ticks_{0};
+  std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
   // The IK of the last three ticks asked for: stepping tick by tick, each
   // reference() then solves one new IK instead of three. (Single-threaded
