@@ -13,6 +13,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # the firmware core on Cortex-M4, run on qemu
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi qemu-system-arm
+  # real vcan for the HIL tests (hil/vcan-run: a qemu VM where the kernel has no CAN)
+  qemu-system-x86 busybox-static iproute2 can-utils
   # code hygiene
   clang-format clang-tidy
 )
