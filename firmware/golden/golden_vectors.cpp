@@ -63,8 +63,10 @@ class Line {
 struct Lcg {
   std::uint32_t state;
   std::uint32_t next() { return state = state * 1664525u + 1013904223u; }
+  // Uniform in [lo, hi), in 64-bit so that wide ranges cannot overflow.
   std::int32_t in(std::int32_t lo, std::int32_t hi) {
-    return lo + static_cast<std::int32_t>(next() % static_cast<std::uint32_t>(hi - lo));
+    const auto range = static_cast<std::uint32_t>(std::int64_t{hi} - lo);
+    return static_cast<std::int32_t>(std::int64_t{lo} + next() % range);
   }
 };
 
