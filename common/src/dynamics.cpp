@@ -99,6 +99,34 @@ KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, 
   return KinematicsStatus::kOk;
 }
 
+KinematicsStatus integrate_rk4(const Geometry& g, const LumpedParameters& p, const Joint3& tau_Nm,
+                               double dt_s, int substeps, Joint3& q_rad, Joint3& qd_rad_s) {
+  const double h = dt_s / substeps;
+  const auto add = [](const Joint3& x, const Joint3& y, double s) {
+    return Joint3{x[0] + s * y[0], x[1] + s * y[1], x[2] + s * y[2]};
+  };
+  for (int i = 0; i < substeps; ++i) {
+    Joint3 k1v{}, k2v{}, k3v{}, k4v{};
+    const Joint3 k1q = qd_rad_s;
+    auto st = forward_dynamics(g, p, q_rad, qd_rad_s, tau_Nm, k1v);
+    if (st != KinematicsStatus::kOk) return st;
+    const Joint3 k2q = add(qd_rad_s, k1v, h / 2);
+    st = forward_dynamics(g, p, add(q_rad, k1q, h / 2), k2q, tau_Nm, k2v);
+    if (st != KinematicsStatus::kOk) return st;
+    const Joint3 k3q = add(qd_rad_s, k2v, h / 2);
+    st = forward_dynamics(g, p, add(q_rad, k2q, h / 2), k3q, tau_Nm, k3v);
+    if (st != KinematicsStatus::kOk) return st;
+    const Joint3 k4q = add(qd_rad_s, k3v, h);
+    st = forward_dynamics(g, p, add(q_rad, k3q, h), k4q, tau_Nm, k4v);
+    if (st != KinematicsStatus::kOk) return st;
+    for (unsigned j = 0; j < 3; ++j) {
+      q_rad[j] += h / 6 * (k1q[j] + 2 * k2q[j] + 2 * k3q[j] + k4q[j]);
+      qd_rad_s[j] += h / 6 * (k1v[j] + 2 * k2v[j] + 2 * k3v[j] + k4v[j]);
+    }
+  }
+  return KinematicsStatus::kOk;
+}
+
 LumpedParameters default_lumped_parameters() {
   LumpedParameters p;
   // Arm: 0.35 kg aluminium tube over 0.2 m (I = m a^2 / 3 = 4.7e-3), elbow

@@ -72,6 +72,12 @@ KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p, 
 KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, const Joint3& q_rad,
                                   const Joint3& qd_rad_s, const Joint3& tau_Nm, Joint3& qdd_rad_s2);
 
+// Advances (q, qd) by dt under the constant torque tau: classical RK4 over
+// `substeps` equal sub-steps (the emulator's plant and the tests). Stops and
+// returns the status at the first pose without kinematics.
+KinematicsStatus integrate_rk4(const Geometry& g, const LumpedParameters& p, const Joint3& tau_Nm,
+                               double dt_s, int substeps, Joint3& q_rad, Joint3& qd_rad_s);
+
 // Parameters of the default robot (kDefaultGeometry): a plausible small delta
 // with 0.2 m arms, used by `host_id simulate` and the emulator's plant.
 LumpedParameters default_lumped_parameters();

@@ -44,28 +44,6 @@ Q3_28 harmonic_phase(std::uint32_t tick, unsigned k, std::uint32_t f_mHz, std::u
   return Q3_28::from_raw(static_cast<std::int32_t>(shift_round(signed_turns * kTwoPi.raw(), 32)));
 }
 
-// Minimum-jerk blend w(s) = 10 s^3 - 15 s^4 + 6 s^5 and its s-derivatives.
-struct Window {
-  Q1_30 w;
-  Q1_30 dw;   // 30 s^2 (1 - s)^2, at most 1.875
-  Q3_28 ddw;  // 60 s (1 - s)(1 - 2 s), at most 5.8
-};
-
-Window window(Q1_30 s) {
-  const Q1_30 one = Q1_30::from(1.0);
-  const Q1_30 s2 = mul<Q1_30>(s, s);
-  const Q1_30 s3 = mul<Q1_30>(s2, s);
-  const Q1_30 u = one - s;
-  // 10 - 15 s + 6 s^2 lies in [0.625, 10]: in Q7.24.
-  const Q7_24 poly =
-      Q7_24::from(10.0) - mul<Q7_24>(Q7_24::from(15.0), s) + mul<Q7_24>(Q7_24::from(6.0), s2);
-  Window r;
-  r.w = mul<Q1_30>(s3, poly);
-  r.dw = mul<Q1_30>(mul<Q7_24>(Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
-  r.ddw = mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, u)), one - s.scaled_by(2));
-  return r;
-}
-
 // x * ticks_per_second, saturating: a per-tick difference to a per-second
 // rate (a multiply: the tick period divides one second exactly). Inputs
 // beyond 2^40 saturate; real differences of Q3.28 angles stay far below.
@@ -77,6 +55,21 @@ i64 per_second(i64 x, std::uint32_t ticks_per_second) {
 }
 
 }  // namespace
+
+MinJerk min_jerk(Q1_30 s) {
+  const Q1_30 one = Q1_30::from(1.0);
+  const Q1_30 s2 = mul<Q1_30>(s, s);
+  const Q1_30 s3 = mul<Q1_30>(s2, s);
+  const Q1_30 u = one - s;
+  // 10 - 15 s + 6 s^2 lies in [0.625, 10]: in Q7.24.
+  const Q7_24 poly =
+      Q7_24::from(10.0) - mul<Q7_24>(Q7_24::from(15.0), s) + mul<Q7_24>(Q7_24::from(6.0), s2);
+  MinJerk r;
+  r.w = mul<Q1_30>(s3, poly);
+  r.dw = mul<Q1_30>(mul<Q7_24>(Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
+  r.ddw = mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, u)), one - s.scaled_by(2));
+  return r;
+}
 
 Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config)
     : geometry_(geometry), config_(config) {
@@ -135,7 +128,7 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   const bool falling = tick + nb > length_ticks_;
   if (rising || falling) {
     const std::uint32_t n = rising ? tick : length_ticks_ - tick;
-    const Window win = window(delta::fx::ratio(n, nb));
+    const MinJerk win = min_jerk(delta::fx::ratio(n, nb));
     const i64 blend_us = i64{nb} * config_.tick_period_us;
     // d/dt = (d/ds) / T_blend; d2/dt2 = (d2/ds2) / T_blend^2.
     const i64 dw = shift_round(win.dw.raw() * i64{1000000} / blend_us, 9);
@@ -166,7 +159,7 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
   const std::uint32_t seg = (t / p.segment_ticks) % p.waypoints;
   const std::uint32_t in_seg = t % p.segment_ticks;
   const Q1_30 s = delta::fx::ratio(in_seg, p.segment_ticks);
-  const Q1_30 f = window(s).w;
+  const Q1_30 f = min_jerk(s).w;
   const Vec3Q& a = p.points[seg];
   const Vec3Q& b = p.points[(seg + 1) % p.waypoints];
   const Vec3Q pos{a.x_m + mul<Q7_24>(b.x_m - a.x_m, f), a.y_m + mul<Q7_24>(b.y_m - a.y_m, f),

@@ -65,22 +65,7 @@ TEST(DynamicsTest, FreeMotionWithoutFrictionConservesEnergy) {
   const double dt = 1e-4;
   double max_drift = 0.0;
   for (int step = 0; step < 5000; ++step) {
-    const auto accel = [&](const Joint3& qq, const Joint3& vv) {
-      Joint3 a{};
-      EXPECT_EQ(forward_dynamics(g, p, qq, vv, tau_hold, a), KinematicsStatus::kOk);
-      return a;
-    };
-    const auto add = [](const Joint3& x, const Joint3& y, double s) {
-      return Joint3{x[0] + s * y[0], x[1] + s * y[1], x[2] + s * y[2]};
-    };
-    const Joint3 k1v = accel(q, qd), k1q = qd;
-    const Joint3 k2v = accel(add(q, k1q, dt / 2), add(qd, k1v, dt / 2)), k2q = add(qd, k1v, dt / 2);
-    const Joint3 k3v = accel(add(q, k2q, dt / 2), add(qd, k2v, dt / 2)), k3q = add(qd, k2v, dt / 2);
-    const Joint3 k4v = accel(add(q, k3q, dt), add(qd, k3v, dt)), k4q = add(qd, k3v, dt);
-    for (unsigned i = 0; i < 3; ++i) {
-      q[i] += dt / 6 * (k1q[i] + 2 * k2q[i] + 2 * k3q[i] + k4q[i]);
-      qd[i] += dt / 6 * (k1v[i] + 2 * k2v[i] + 2 * k3v[i] + k4v[i]);
-    }
+    ASSERT_EQ(integrate_rk4(g, p, tau_hold, dt, 1, q, qd), KinematicsStatus::kOk);
     max_drift = std::max(max_drift, std::abs(total(q, qd) - e0));
   }
   // The motion is lively (kinetic energy ~ 1e-2 J); RK4 drift stays tiny.

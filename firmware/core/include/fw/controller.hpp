@@ -199,15 +199,9 @@ class Controller {
   // Minimum-jerk joint move from approach_from_ to start over approach_ticks.
   void approach_reference(const JointReference& start) {
     using delta::fx::mul;
-    const Q1_30 s = delta::fx::ratio(run_tick_, config_.approach_ticks);
-    const Q1_30 s2 = mul<Q1_30>(s, s);
-    const Q1_30 u = Q1_30::from(1.0) - s;
-    const delta::fx::Q7_24 poly = delta::fx::Q7_24::from(10.0) -
-                                  mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(15.0), s) +
-                                  mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(6.0), s2);
-    const Q1_30 w = mul<Q1_30>(mul<Q1_30>(s2, s), poly);
-    const Q1_30 dw =
-        mul<Q1_30>(mul<delta::fx::Q7_24>(delta::fx::Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
+    const MinJerk mj = min_jerk(delta::fx::ratio(run_tick_, config_.approach_ticks));
+    const Q1_30 w = mj.w;
+    const Q1_30 dw = mj.dw;
     const std::int64_t approach_us = std::int64_t{config_.approach_ticks} * config_.tick_period_us;
     for (unsigned j = 0; j < 3; ++j) {
       const Q3_28 span = start.q_rad[j] - approach_from_[j];

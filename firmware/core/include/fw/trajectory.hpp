@@ -27,6 +27,16 @@ using delta::fx::Vec3Q;
 inline constexpr int kMaxHarmonics = 6;
 inline constexpr int kMaxWaypoints = 8;
 
+// The minimum-jerk profile w(s) = 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]
+// and its s-derivatives: the blends, the Cartesian segments and the
+// controller's approach all use it.
+struct MinJerk {
+  Q1_30 w;
+  Q1_30 dw;   // 30 s^2 (1 - s)^2, at most 1.875
+  Q3_28 ddw;  // 60 s (1 - s)(1 - 2 s), at most 5.8
+};
+MinJerk min_jerk(Q1_30 s);
+
 // The reference the controller tracks at one tick.
 struct JointReference {
   JointAnglesQ q_rad{};
