@@ -13,4 +13,8 @@ namespace fw::bench {
 // the calls to mark_begin() and mark_end().
 std::uint32_t run_control_steps(std::uint32_t n, void (*mark_begin)(), void (*mark_end)());
 
+// The controller's state and fault after the last run (for messages).
+extern int last_state;
+extern int last_fault;
+
 }  // namespace fw::bench

@@ -6,11 +6,6 @@
 
 #include "step_bench.hpp"
 
-namespace fw::bench {
-extern int last_state;
-extern int last_fault;
-}  // namespace fw::bench
-
 int main(int argc, char** argv) {
   const auto n = static_cast<std::uint32_t>(argc > 1 ? std::strtoul(argv[1], nullptr, 10) : 1000);
   const std::uint32_t done = fw::bench::run_control_steps(

@@ -53,12 +53,6 @@ struct Samples {
   std::string derivatives;  // how qd and qdd were obtained, for the report
   double sample_rate_hz{0};
   std::size_t size() const { return states.size(); }
-  // Samples left after trimming.
-  std::size_t used() const {
-    std::size_t n = 0;
-    for (const Segment& g : segments) n += g.end - g.begin - 2 * trim;
-    return n;
-  }
 };
 
 // Throws InputError (naming the log) if the options do not suit the log, or
