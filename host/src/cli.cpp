@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host_id/atomic_file.hpp"
+#include "host_id/dbc.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/options.hpp"
@@ -27,6 +28,7 @@ commands:
   fit LOG.csv [options]            estimate the parameters (PSO by default)
   validate RESULT.json LOG.csv...  torque RMSE of a saved fit on other logs
   simulate -o LOG.csv [options]    write a log from known parameters
+  dbc [-o FILE.dbc]                the bus's DBC description (for CAN tools)
 
 'host_id <command> --help' describes a command's options.
 )";
@@ -322,6 +324,24 @@ int cmd_simulate(const std::vector<std::string>& args, std::ostream& out) {
   return 0;
 }
 
+int cmd_dbc(const std::vector<std::string>& args, std::ostream& out) {
+  if (wants_help(args)) {
+    out << "usage: host_id dbc [-o FILE.dbc]\n\nWrites the DBC description of the controller's CAN "
+           "bus (the "
+           "protocol table in common/include/delta/can/protocol.hpp) to FILE or stdout.\n";
+    return 0;
+  }
+  const ParsedOptions o("dbc", {{"--out", true, false, "-o"}}, args);
+  if (!o.positional().empty())
+    throw UsageError("dbc: unexpected argument '" + o.positional()[0] + "'");
+  if (const auto path = o.value("--out")) {
+    write_file_atomically(*path, make_dbc());
+  } else {
+    out << make_dbc();
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -335,8 +355,9 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (cmd == "fit") return cmd_fit(rest, out, err);
     if (cmd == "validate") return cmd_validate(rest, out);
     if (cmd == "simulate") return cmd_simulate(rest, out);
+    if (cmd == "dbc") return cmd_dbc(rest, out);
     throw UsageError("unknown command '" + cmd +
-                     "' (commands: fit, validate, simulate; see host_id --help)");
+                     "' (commands: fit, validate, simulate, dbc; see host_id --help)");
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 2;

@@ -158,6 +158,16 @@ TEST_F(CliTest, SimulateValidatesItsOptions) {
             std::string::npos);
 }
 
+TEST_F(CliTest, TheShippedDbcIsTheOneTheProtocolTableGives) {
+  ASSERT_EQ(run({"dbc"}), 0);
+  EXPECT_EQ(out_.str(), read_whole_file("docs/delta.dbc"))
+      << "docs/delta.dbc is stale: regenerate it with host_id dbc -o docs/delta.dbc";
+  EXPECT_NE(out_.str().find("BO_ 400 LOG_A: 8 Controller"), std::string::npos);
+  EXPECT_NE(out_.str().find(" SG_ q1 : 16|24@1- (9.5367431640625e-07,0)"), std::string::npos);
+  ASSERT_EQ(run({"dbc", "-o", path("bus.dbc")}), 0);
+  EXPECT_EQ(read_whole_file(path("bus.dbc")), read_whole_file("docs/delta.dbc"));
+}
+
 TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {
   std::ofstream(path("keep.txt")) << "old";
   write_file_atomically(path("keep.txt"), "new");

@@ -1,0 +1,251 @@
+// The CAN protocol, defined once: every message's ID, layout and scaling.
+// The firmware, the emulator, `host_id record` and the DBC file
+// (docs/delta.dbc, written by `host_id dbc`) all take them from this table.
+// Integer only (scalings are rationals times powers of two), no heap: it
+// serves the firmware core as well as the host.
+//
+// CANopen (CiA 301) predefined connection set; the three drives are nodes
+// 1..3 (CiA 402 drive profile), the controller is node 16.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace delta::can::protocol {
+
+inline constexpr std::uint8_t kControllerNode = 16;
+inline constexpr std::uint8_t kFirstDriveNode = 1;
+inline constexpr std::uint8_t kDriveCount = 3;
+
+// value = raw * numerator / denominator * 2^power2, in `unit`.
+struct Scale {
+  std::int32_t numerator{1};
+  std::int32_t denominator{1};
+  std::int8_t power2{0};
+};
+
+struct Signal {
+  const char* name;
+  std::uint8_t start_bit;  // little endian (Intel), bit 0 = LSB of byte 0
+  std::uint8_t length;     // bits
+  bool is_signed;
+  Scale scale;
+  const char* unit;
+  const char* comment;
+};
+
+enum class Sender : std::uint8_t { kController, kDrive };
+// Who consumes a message besides the recorder, which listens to everything.
+enum class Receiver : std::uint8_t { kDrives, kController, kRecorderOnly };
+
+struct Message {
+  const char* name;
+  std::uint16_t base_id;  // 11-bit COB-ID; + node ID when per_node
+  bool per_node;          // one message per drive (or for the controller, node 16)
+  std::uint8_t dlc;
+  Sender sender;
+  Receiver receiver;
+  std::uint8_t signal_count;
+  std::array<Signal, 5> signals;
+  const char* comment;
+};
+
+// Scalings used below.
+inline constexpr Scale kRaw{1, 1, 0};
+inline constexpr Scale kPerMille{1, 1000, 0};  // of the drive's rated value
+inline constexpr Scale kLogAngle{1, 1, -20};   // 2^-20 rad (9.5e-7 rad), +/- 8 rad
+inline constexpr Scale kLogTorque{1, 1, -16};  // 2^-16 N m (1.5e-5 N m), +/- 128 N m
+
+inline constexpr std::array<Message, 12> kMessages{{
+    {"NMT",
+     0x000,
+     false,
+     2,
+     Sender::kController,
+     Receiver::kDrives,
+     2,
+     {{{"command", 0, 8, false, kRaw, "",
+        "1 start, 2 stop, 128 pre-operational, 129 reset node, 130 reset communication"},
+       {"node", 8, 8, false, kRaw, "", "target node, 0 = all"}}},
+     "network management"},
+    {"SYNC",
+     0x080,
+     false,
+     0,
+     Sender::kController,
+     Receiver::kDrives,
+     0,
+     {},
+     "starts a control cycle; drives answer with TPDOs"},
+    {"EMCY",
+     0x080,
+     true,
+     8,
+     Sender::kDrive,
+     Receiver::kController,
+     3,
+     {{{"error_code", 0, 16, false, kRaw, "", "CiA 301/402 emergency error code"},
+       {"error_register", 16, 8, false, kRaw, "", "object 0x1001"},
+       {"vendor", 24, 40, false, kRaw, "", "manufacturer-specific"}}},
+     "emergency from a drive"},
+    {"TPDO1",
+     0x180,
+     true,
+     8,
+     Sender::kDrive,
+     Receiver::kController,
+     3,
+     {{{"statusword", 0, 16, false, kRaw, "", "CiA 402 object 0x6041"},
+       {"position_actual", 16, 32, true, kRaw, "counts",
+        "object 0x6064, encoder counts at the motor"},
+       {"current_actual", 48, 16, true, kPerMille, "rated current", "object 0x6078"}}},
+     "drive feedback on SYNC"},
+    {"TPDO2",
+     0x280,
+     true,
+     4,
+     Sender::kDrive,
+     Receiver::kController,
+     1,
+     {{{"velocity_actual", 0, 32, true, kRaw, "counts/s", "object 0x606C"}}},
+     "drive velocity on SYNC"},
+    {"RPDO1",
+     0x200,
+     true,
+     8,
+     Sender::kController,
+     Receiver::kDrives,
+     3,
+     {{{"controlword", 0, 16, false, kRaw, "", "CiA 402 object 0x6040"},
+       {"target_torque", 16, 16, true, kPerMille, "rated torque",
+        "object 0x6071 (cyclic synchronous torque)"},
+       {"target_position", 32, 32, true, kRaw, "counts",
+        "object 0x607A (cyclic synchronous position)"}}},
+     "drive command, applied on the next SYNC"},
+    {"SDO_RX",
+     0x600,
+     true,
+     8,
+     Sender::kController,
+     Receiver::kDrives,
+     4,
+     {{{"command", 0, 8, false, kRaw, "", "SDO command specifier"},
+       {"index", 8, 16, false, kRaw, "", "object index"},
+       {"subindex", 24, 8, false, kRaw, "", "object sub-index"},
+       {"data", 32, 32, false, kRaw, "", "expedited data or abort code"}}},
+     "SDO request to a drive"},
+    {"SDO_TX",
+     0x580,
+     true,
+     8,
+     Sender::kDrive,
+     Receiver::kController,
+     4,
+     {{{"command", 0, 8, false, kRaw, "", "SDO command specifier"},
+       {"index", 8, 16, false, kRaw, "", "object index"},
+       {"subindex", 24, 8, false, kRaw, "", "object sub-index"},
+       {"data", 32, 32, false, kRaw, "", "expedited data or abort code"}}},
+     "SDO response from a drive"},
+    {"HEARTBEAT",
+     0x700,
+     true,
+     1,
+     Sender::kDrive,
+     Receiver::kController,
+     1,
+     {{{"nmt_state", 0, 8, false, kRaw, "",
+        "0 boot-up, 4 stopped, 5 operational, 127 pre-operational"}}},
+     "heartbeat of a drive"},
+    {"LOG_A",
+     0x190,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     3,
+     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+       {"q1", 16, 24, true, kLogAngle, "rad", "joint 1 angle"},
+       {"q2", 40, 24, true, kLogAngle, "rad", "joint 2 angle"}}},
+     "controller log, part 1 of 3 (TPDO1 of node 16)"},
+    {"LOG_B",
+     0x290,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     3,
+     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+       {"q3", 16, 24, true, kLogAngle, "rad", "joint 3 angle"},
+       {"tau1", 40, 24, true, kLogTorque, "N m", "joint 1 torque from current"}}},
+     "controller log, part 2 of 3 (TPDO2 of node 16)"},
+    {"LOG_C",
+     0x390,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     3,
+     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+       {"tau2", 16, 24, true, kLogTorque, "N m", "joint 2 torque from current"},
+       {"tau3", 40, 24, true, kLogTorque, "N m", "joint 3 torque from current"}}},
+     "controller log, part 3 of 3 (TPDO3 of node 16)"},
+}};
+
+// The COB-ID of a message for a node (node ignored unless per_node).
+constexpr std::uint16_t cob_id(const Message& m, std::uint8_t node) {
+  return static_cast<std::uint16_t>(m.per_node ? m.base_id + node : m.base_id);
+}
+
+// Writes the low `length` bits of raw into data at start_bit (little endian).
+constexpr void pack(std::array<std::uint8_t, 8>& data, const Signal& s, std::int64_t raw) {
+  const auto u = static_cast<std::uint64_t>(raw);
+  for (unsigned i = 0; i < s.length; ++i) {
+    const unsigned bit = s.start_bit + i;
+    const auto byte = static_cast<std::uint8_t>(1u << (bit % 8));
+    if ((u >> i) & 1u) {
+      data[bit / 8] = static_cast<std::uint8_t>(data[bit / 8] | byte);
+    } else {
+      data[bit / 8] = static_cast<std::uint8_t>(data[bit / 8] & ~byte);
+    }
+  }
+}
+
+// Reads a signal's raw value, sign-extended when the signal is signed.
+constexpr std::int64_t unpack(const std::array<std::uint8_t, 8>& data, const Signal& s) {
+  std::uint64_t u = 0;
+  for (unsigned i = 0; i < s.length; ++i) {
+    const unsigned bit = s.start_bit + i;
+    if ((data[bit / 8] >> (bit % 8)) & 1u) u |= std::uint64_t{1} << i;
+  }
+  if (s.is_signed && s.length < 64 && ((u >> (s.length - 1)) & 1u)) {
+    u |= ~std::uint64_t{0} << s.length;
+  }
+  return static_cast<std::int64_t>(u);
+}
+
+// Worst-case length of a classical CAN data frame with bit stuffing,
+// interframe space included: 47 + 8 n + floor((33 + 8 n) / 4) bits with an
+// 11-bit ID, 67 + 8 n + floor((53 + 8 n) / 4) with a 29-bit ID.
+constexpr std::uint32_t worst_case_frame_bits(std::uint8_t dlc, bool extended = false) {
+  const std::uint32_t n = dlc;
+  return extended ? 67 + 8 * n + (53 + 8 * n) / 4 : 47 + 8 * n + (33 + 8 * n) / 4;
+}
+
+// The frames of one control cycle: SYNC, an RPDO1 and a TPDO1 per drive,
+// a TPDO2 per drive when velocity is mapped, and the three log frames.
+constexpr std::uint32_t cycle_bits(bool with_velocity_pdo, bool with_log) {
+  std::uint32_t bits = worst_case_frame_bits(kMessages[1].dlc);  // SYNC
+  bits += kDriveCount *
+          (worst_case_frame_bits(kMessages[5].dlc) + worst_case_frame_bits(kMessages[3].dlc));
+  if (with_velocity_pdo) bits += kDriveCount * worst_case_frame_bits(kMessages[4].dlc);
+  if (with_log) bits += 3 * worst_case_frame_bits(8);
+  return bits;
+}
+
+// Bus load in per mille at a cycle rate and bit rate.
+constexpr std::uint32_t bus_load_per_mille(std::uint32_t cycle_bits_, std::uint32_t rate_hz,
+                                           std::uint32_t bitrate) {
+  return static_cast<std::uint32_t>(std::uint64_t{cycle_bits_} * rate_hz * 1000 / bitrate);
+}
+
+}  // namespace delta::can::protocol

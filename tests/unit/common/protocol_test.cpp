@@ -1,0 +1,90 @@
+#include "delta/can/protocol.hpp"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace delta::can::protocol {
+namespace {
+
+TEST(ProtocolTest, EveryCobIdOnTheBusIsUnique) {
+  std::set<std::uint16_t> ids;
+  std::size_t count = 0;
+  for (const Message& m : kMessages) {
+    const int nodes = m.per_node ? kDriveCount : 1;
+    for (int k = 0; k < nodes; ++k) {
+      const auto id = cob_id(m, static_cast<std::uint8_t>(kFirstDriveNode + k));
+      EXPECT_LE(id, 0x7FF) << m.name;
+      EXPECT_TRUE(ids.insert(id).second) << m.name << " reuses 0x" << std::hex << id;
+      ++count;
+    }
+  }
+  EXPECT_EQ(count, 26u);
+  // The log frames are TPDO1..3 of the controller's node 16.
+  EXPECT_EQ(kMessages[9].base_id, 0x180 + kControllerNode);
+}
+
+TEST(ProtocolTest, SignalsFitTheirFrameAndDoNotOverlap) {
+  for (const Message& m : kMessages) {
+    std::uint64_t used = 0;
+    for (std::uint8_t i = 0; i < m.signal_count; ++i) {
+      const Signal& s = m.signals[i];
+      EXPECT_LE(s.start_bit + s.length, 8 * m.dlc) << m.name << "." << s.name;
+      for (unsigned b = s.start_bit; b < s.start_bit + s.length; ++b) {
+        EXPECT_FALSE((used >> b) & 1u) << m.name << "." << s.name << " overlaps at bit " << b;
+        used |= std::uint64_t{1} << b;
+      }
+    }
+  }
+}
+
+TEST(ProtocolTest, PackAndUnpackRoundTripWithSignExtension) {
+  const Message& log_a = kMessages[9];
+  std::array<std::uint8_t, 8> d{};
+  pack(d, log_a.signals[0], 65535);
+  pack(d, log_a.signals[1], -3);       // q1, 24-bit signed
+  pack(d, log_a.signals[2], 8388607);  // q2 at its maximum
+  EXPECT_EQ(unpack(d, log_a.signals[0]), 65535);
+  EXPECT_EQ(unpack(d, log_a.signals[1]), -3);
+  EXPECT_EQ(unpack(d, log_a.signals[2]), 8388607);
+  // Little endian: seq in bytes 0-1, q1 in 2-4.
+  EXPECT_EQ(d[0], 0xFF);
+  EXPECT_EQ(d[2], 0xFD);
+  EXPECT_EQ(d[4], 0xFF);
+  // Overwriting one signal leaves its neighbours alone.
+  pack(d, log_a.signals[1], 0x123456);
+  EXPECT_EQ(unpack(d, log_a.signals[0]), 65535);
+  EXPECT_EQ(unpack(d, log_a.signals[1]), 0x123456);
+  EXPECT_EQ(unpack(d, log_a.signals[2]), 8388607);
+  const Message& emcy = kMessages[2];
+  pack(d, emcy.signals[2], 0xABCDEF0123);  // 40-bit vendor field
+  EXPECT_EQ(unpack(d, emcy.signals[2]), 0xABCDEF0123);
+  static_assert([] {
+    std::array<std::uint8_t, 8> c{};
+    pack(c, kMessages[3].signals[1], -123456789);
+    return unpack(c, kMessages[3].signals[1]) == -123456789;
+  }());
+}
+
+TEST(ProtocolTest, WorstCaseFrameLengthsWithBitStuffing) {
+  EXPECT_EQ(worst_case_frame_bits(0), 55u);
+  EXPECT_EQ(worst_case_frame_bits(4), 95u);
+  EXPECT_EQ(worst_case_frame_bits(8), 135u);
+  EXPECT_EQ(worst_case_frame_bits(8, true), 160u);
+}
+
+TEST(ProtocolTest, BusLoadDecidesTheCycleRate) {
+  // SYNC + 3 x (RPDO1 + TPDO1) + the 3 log frames: 55 + 3 * 270 + 405 bits.
+  EXPECT_EQ(cycle_bits(false, true), 1270u);
+  EXPECT_EQ(cycle_bits(true, true), 1555u);
+  constexpr std::uint32_t kMbit = 1000000;
+  // 1 kHz does not fit classical CAN at 1 Mbit/s at all...
+  EXPECT_GT(bus_load_per_mille(cycle_bits(false, true), 1000, kMbit), 1000u);
+  // ...500 Hz fits below 70 % without the velocity PDO (63.5 %), 400 Hz with it (62.2 %).
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true), 500, kMbit), 635u);
+  EXPECT_GT(bus_load_per_mille(cycle_bits(true, true), 500, kMbit), 700u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true), 400, kMbit), 622u);
+}
+
+}  // namespace
+}  // namespace delta::can::protocol
