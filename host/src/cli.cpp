@@ -11,6 +11,7 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/options.hpp"
+#include "host_id/recorder.hpp"
 #include "host_id/report.hpp"
 #include "host_id/simulate.hpp"
 #include "host_id/svg_plot.hpp"
@@ -28,6 +29,7 @@ commands:
   fit LOG.csv [options]            estimate the parameters (PSO by default)
   validate RESULT.json LOG.csv...  torque RMSE of a saved fit on other logs
   simulate -o LOG.csv [options]    write a log from known parameters
+  record --can IFACE -o LOG.csv    record the controller's CAN log frames
   dbc [-o FILE.dbc]                the bus's DBC description (for CAN tools)
 
 'host_id <command> --help' describes a command's options.
@@ -324,6 +326,78 @@ int cmd_simulate(const std::vector<std::string>& args, std::ostream& out) {
   return 0;
 }
 
+constexpr const char* kRecordHelp =
+    R"(usage: host_id record --can IFACE -o LOG.csv [limits] [options]
+
+Records the controller's log frames (LOG_A..LOG_C, docs/protocol.md) from a
+CAN interface into delta-log/1. Samples are paired by their sequence
+counter; a lost sample is reported and the log keeps its seq column, so no
+gap is ever bridged. Exit status 3 when samples were lost (unless
+--allow-gaps).
+limits (at least one):
+  --duration S              stop after S seconds
+  --samples N               stop after N complete samples
+  --idle S                  stop when no log frame came for S seconds
+options:
+  --rate HZ                 the controller's cycle rate, for t (500)
+  --raw FILE.log            also write every frame in candump -L format
+  --allow-gaps              exit 0 even when samples were lost
+  --upper-arm-m, --forearm-m, --base-radius-m, --platform-radius-m
+                            the robot's geometry for the metadata (default robot)
+)";
+
+int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (wants_help(args)) {
+    out << kRecordHelp;
+    return 0;
+  }
+  const ParsedOptions o("record",
+                        {{"--can"},
+                         {"--out", true, false, "-o"},
+                         {"--duration"},
+                         {"--samples"},
+                         {"--idle"},
+                         {"--rate"},
+                         {"--raw"},
+                         {"--allow-gaps", false},
+                         {"--upper-arm-m"},
+                         {"--forearm-m"},
+                         {"--base-radius-m"},
+                         {"--platform-radius-m"}},
+                        args);
+  if (!o.positional().empty())
+    throw UsageError("record: unexpected argument '" + o.positional()[0] + "'");
+  RecordOptions r;
+  r.iface = o.value("--can").value_or("");
+  if (r.iface.empty()) throw UsageError("record: --can IFACE is required");
+  r.out_path = o.value("--out").value_or("");
+  if (r.out_path.empty()) throw UsageError("record: -o LOG.csv is required");
+  r.raw_path = o.value("--raw");
+  r.duration_s = o.number("--duration", 0);
+  r.samples = o.whole("--samples", 0, 0, UINT64_MAX);
+  r.idle_s = o.number("--idle", 0);
+  r.sample_rate_hz = o.number("--rate", 500);
+  r.geometry.upper_arm_length_m = o.number("--upper-arm-m", r.geometry.upper_arm_length_m);
+  r.geometry.forearm_length_m = o.number("--forearm-m", r.geometry.forearm_length_m);
+  r.geometry.base_radius_m = o.number("--base-radius-m", r.geometry.base_radius_m);
+  r.geometry.platform_radius_m = o.number("--platform-radius-m", r.geometry.platform_radius_m);
+  const RecordSummary s = record(r);
+  out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from " << r.iface
+      << " in " << s.seconds << " s -> " << r.out_path << "\n";
+  for (const auto& [first, count] : s.gaps) {
+    err << "host_id record: lost " << count << " sample(s) from seq " << first
+        << " (log frames missing)\n";
+  }
+  if (s.socket_drops)
+    err << "host_id record: the kernel dropped " << s.socket_drops << " frames for this reader\n";
+  if (s.lost > 0 && !o.flag("--allow-gaps")) {
+    err << "host_id record: " << s.lost
+        << " samples lost; the log keeps them as gaps in seq (--allow-gaps to accept)\n";
+    return 3;
+  }
+  return 0;
+}
+
 int cmd_dbc(const std::vector<std::string>& args, std::ostream& out) {
   if (wants_help(args)) {
     out << "usage: host_id dbc [-o FILE.dbc]\n\nWrites the DBC description of the controller's CAN "
@@ -356,8 +430,9 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (cmd == "validate") return cmd_validate(rest, out);
     if (cmd == "simulate") return cmd_simulate(rest, out);
     if (cmd == "dbc") return cmd_dbc(rest, out);
+    if (cmd == "record") return cmd_record(rest, out, err);
     throw UsageError("unknown command '" + cmd +
-                     "' (commands: fit, validate, simulate, dbc; see host_id --help)");
+                     "' (commands: fit, validate, simulate, record, dbc; see host_id --help)");
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 2;

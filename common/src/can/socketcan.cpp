@@ -26,7 +26,8 @@ std::string errno_text(int e) {
 
 }  // namespace
 
-Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters) {
+Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters,
+                    int receive_buffer_bytes) {
   if (iface.empty() || iface.size() >= IFNAMSIZ) {
     throw CanError("CAN interface name '" + iface + "' is empty or longer than " +
                    std::to_string(IFNAMSIZ - 1) + " characters");
@@ -69,6 +70,11 @@ Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters
   const int on = 1;
   if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) {
     throw CanError("CAN interface '" + iface + "': no kernel timestamps: " + errno_text(errno));
+  }
+  if (receive_buffer_bytes > 0 &&
+      ::setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &receive_buffer_bytes,
+                   sizeof receive_buffer_bytes) < 0) {
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer_bytes, sizeof receive_buffer_bytes);
   }
   if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
     throw CanError("CAN interface '" + iface + "': no drop counter: " + errno_text(errno));

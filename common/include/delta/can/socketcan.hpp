@@ -62,7 +62,10 @@ class Socket {
  public:
   // Opens a raw socket on `iface`, non-blocking, with kernel timestamps and
   // error frames enabled. No filters: every frame. Throws CanError.
-  static Socket open(const std::string& iface, const std::vector<Filter>& filters = {});
+  // receive_buffer_bytes > 0 enlarges the kernel's receive buffer (forced
+  // beyond rmem_max when running as root), so a reader can absorb bursts.
+  static Socket open(const std::string& iface, const std::vector<Filter>& filters = {},
+                     int receive_buffer_bytes = 0);
 
   Socket(Socket&& other) noexcept;
   Socket& operator=(Socket&& other) noexcept;

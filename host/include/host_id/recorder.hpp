@@ -1,0 +1,79 @@
+// `host_id record`: the controller's log frames (LOG_A..C, docs/protocol.md)
+// from a CAN bus into delta-log/1. Samples are paired by their 16-bit
+// sequence counter, unwrapped to 64 bits; a cycle with a missing frame is a
+// lost sample, reported and never bridged (the log keeps its seq column).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "delta/can/socketcan.hpp"
+#include "delta/geometry.hpp"
+#include "host_id/delta_log.hpp"
+
+namespace host_id {
+
+struct LogSample {
+  std::uint64_t seq{0};  // unwrapped
+  std::array<double, 3> q_rad{};
+  std::array<double, 3> tau_Nm{};
+};
+
+// Pairs LOG_A, LOG_B and LOG_C frames into samples, in order.
+class LogAssembler {
+ public:
+  // Feeds one frame; other IDs are ignored. Returns true if it was a log frame.
+  bool feed(const delta::can::Frame& f);
+  // Samples completed so far, in sequence order (taken out).
+  std::vector<LogSample> take_complete();
+  // Flushes what is pending at the end: incomplete cycles count as lost.
+  void finish();
+  std::uint64_t lost_samples() const { return lost_; }
+  // (first lost seq, count) for each run of lost samples.
+  const std::vector<std::pair<std::uint64_t, std::uint64_t>>& gaps() const { return gaps_; }
+
+ private:
+  struct Pending {
+    std::uint64_t seq{0};
+    std::uint8_t parts{0};  // bit 0: A, 1: B, 2: C
+    LogSample sample;
+  };
+  std::uint64_t unwrap(std::uint16_t seq16);
+  void emit_up_to(std::uint64_t seq);
+
+  std::vector<Pending> pending_;
+  std::vector<LogSample> complete_;
+  std::optional<std::uint64_t> last_seq_;      // the highest unwrapped seq seen
+  std::optional<std::uint64_t> next_to_emit_;  // the next seq owed to the output
+  std::uint64_t lost_{0};
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps_;
+};
+
+struct RecordOptions {
+  std::string iface;
+  std::string out_path;
+  std::optional<std::string> raw_path;  // candump -L format
+  double duration_s{0};                 // 0: no limit
+  std::uint64_t samples{0};             // 0: no limit
+  double idle_s{0};                     // stop after this long without log frames; 0: never
+  double sample_rate_hz{500};
+  delta::Geometry geometry{delta::kDefaultGeometry};
+};
+
+struct RecordSummary {
+  std::uint64_t samples{0};
+  std::uint64_t lost{0};
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps;
+  std::uint64_t frames{0};
+  std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
+  double seconds{0};
+};
+
+// Records until a limit is reached. `ready` is called once the socket is
+// open (tests start sending then). Writes out_path (and raw_path) atomically.
+RecordSummary record(const RecordOptions& o, const std::function<void()>& ready = {});
+
+}  // namespace host_id

@@ -1,0 +1,234 @@
+#include "host_id/recorder.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "delta/can/protocol.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+
+namespace p = delta::can::protocol;
+
+namespace {
+
+constexpr const p::Message& kLogA = p::kMessages[9];
+constexpr const p::Message& kLogB = p::kMessages[10];
+constexpr const p::Message& kLogC = p::kMessages[11];
+// Samples older than this many cycles behind the newest are given up on.
+constexpr std::uint64_t kReorderWindow = 64;
+
+double scaled(const p::Signal& s, std::int64_t raw) {
+  return static_cast<double>(raw) * s.scale.numerator / s.scale.denominator *
+         std::ldexp(1.0, s.scale.power2);
+}
+
+}  // namespace
+
+std::uint64_t LogAssembler::unwrap(std::uint16_t seq16) {
+  if (!last_seq_) {
+    last_seq_ = seq16;
+    return seq16;
+  }
+  // The unwrapped value nearest to the last one.
+  const std::uint64_t base = *last_seq_ & ~std::uint64_t{0xFFFF};
+  std::uint64_t candidate = base | seq16;
+  if (candidate + 0x8000 < *last_seq_)
+    candidate += 0x10000;
+  else if (candidate > *last_seq_ + 0x8000 && candidate >= 0x10000)
+    candidate -= 0x10000;
+  last_seq_ = std::max(*last_seq_, candidate);
+  return candidate;
+}
+
+bool LogAssembler::feed(const delta::can::Frame& f) {
+  if (f.extended || f.dlc != 8) return false;
+  int part = -1;
+  if (f.id == kLogA.base_id) part = 0;
+  if (f.id == kLogB.base_id) part = 1;
+  if (f.id == kLogC.base_id) part = 2;
+  if (part < 0) return false;
+  const auto seq = unwrap(static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0])));
+  if (!next_to_emit_) next_to_emit_ = seq;
+  if (seq < *next_to_emit_) return true;  // too late: already given up on
+  auto it = std::find_if(pending_.begin(), pending_.end(),
+                         [seq](const Pending& x) { return x.seq == seq; });
+  if (it == pending_.end()) {
+    pending_.push_back(Pending{seq, 0, LogSample{seq, {}, {}}});
+    it = pending_.end() - 1;
+  }
+  LogSample& s = it->sample;
+  if (part == 0) {
+    s.q_rad[0] = scaled(kLogA.signals[1], p::unpack(f.data, kLogA.signals[1]));
+    s.q_rad[1] = scaled(kLogA.signals[2], p::unpack(f.data, kLogA.signals[2]));
+  } else if (part == 1) {
+    s.q_rad[2] = scaled(kLogB.signals[1], p::unpack(f.data, kLogB.signals[1]));
+    s.tau_Nm[0] = scaled(kLogB.signals[2], p::unpack(f.data, kLogB.signals[2]));
+  } else {
+    s.tau_Nm[1] = scaled(kLogC.signals[1], p::unpack(f.data, kLogC.signals[1]));
+    s.tau_Nm[2] = scaled(kLogC.signals[2], p::unpack(f.data, kLogC.signals[2]));
+  }
+  it->parts = static_cast<std::uint8_t>(it->parts | (1u << part));
+  // Emit every complete sample in order; give up on those that fell out of
+  // the reordering window.
+  const std::uint64_t newest = *last_seq_;
+  emit_up_to(newest >= kReorderWindow ? newest - kReorderWindow : 0);
+  return true;
+}
+
+void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
+  std::sort(pending_.begin(), pending_.end(),
+            [](const Pending& a, const Pending& b) { return a.seq < b.seq; });
+  std::size_t i = 0;
+  while (i < pending_.size()) {
+    const Pending& x = pending_[i];
+    const bool complete = x.parts == 7;
+    if (x.seq != *next_to_emit_) {
+      // A seq is missing entirely; wait unless it is out of the window.
+      if (*next_to_emit_ >= give_up_below) break;
+      const std::uint64_t missing = x.seq - *next_to_emit_;
+      gaps_.emplace_back(*next_to_emit_, missing);
+      lost_ += missing;
+      next_to_emit_ = x.seq;
+      continue;
+    }
+    if (!complete) {
+      if (x.seq >= give_up_below) break;
+      gaps_.emplace_back(x.seq, 1);
+      ++lost_;
+    } else {
+      complete_.push_back(x.sample);
+    }
+    next_to_emit_ = x.seq + 1;
+    ++i;
+  }
+  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(i));
+  // Merge adjacent gap entries.
+  if (gaps_.size() >= 2) {
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> merged;
+    for (const auto& g : gaps_) {
+      if (!merged.empty() && merged.back().first + merged.back().second == g.first) {
+        merged.back().second += g.second;
+      } else {
+        merged.push_back(g);
+      }
+    }
+    gaps_ = std::move(merged);
+  }
+}
+
+std::vector<LogSample> LogAssembler::take_complete() {
+  std::vector<LogSample> out;
+  out.swap(complete_);
+  return out;
+}
+
+void LogAssembler::finish() {
+  if (!next_to_emit_) return;
+  emit_up_to(UINT64_MAX);
+  // Whatever is still pending is incomplete.
+  for (const Pending& x : pending_) {
+    gaps_.emplace_back(x.seq, 1);
+    ++lost_;
+  }
+  pending_.clear();
+}
+
+RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
+  delta::require_valid_geometry(o.geometry);
+  if (!(o.sample_rate_hz > 0)) throw InputError("record: --rate must be positive");
+  if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0) {
+    throw InputError("record: give a limit: --duration S, --samples N or --idle S");
+  }
+  delta::can::Socket sock = [&] {
+    try {
+      return delta::can::Socket::open(o.iface,
+                                      {{kLogA.base_id, 0x7FF, false},
+                                       {kLogB.base_id, 0x7FF, false},
+                                       {kLogC.base_id, 0x7FF, false}},
+                                      8 << 20);  // 8 MB: about 10 000 frames of burst
+    } catch (const delta::can::CanError& e) {
+      throw InputError(std::string("record: ") + e.what());
+    }
+  }();
+  if (ready) ready();
+  LogAssembler assembler;
+  std::vector<LogSample> samples;
+  std::string raw;
+  RecordSummary summary;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto last_frame = t0;
+  const auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (;;) {
+    if (o.duration_s > 0 && elapsed() >= o.duration_s) break;
+    if (o.samples > 0 && samples.size() >= o.samples) break;
+    if (o.idle_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_frame).count() >=
+            o.idle_s)
+      break;
+    if (!sock.wait_readable(std::chrono::milliseconds(50))) continue;
+    while (auto r = sock.receive()) {
+      last_frame = std::chrono::steady_clock::now();
+      ++summary.frames;
+      summary.socket_drops = r->socket_drops;
+      if (o.raw_path) {
+        char buf[96];
+        const auto ns = r->kernel_time.count();
+        std::snprintf(
+            buf, sizeof buf, "(%lld.%06lld) %s %03X#", static_cast<long long>(ns / 1000000000),
+            static_cast<long long>((ns % 1000000000) / 1000), o.iface.c_str(), r->frame.id);
+        raw += buf;
+        for (unsigned i = 0; i < r->frame.dlc; ++i) {
+          std::snprintf(buf, sizeof buf, "%02X", r->frame.data[i]);
+          raw += buf;
+        }
+        raw += '\n';
+      }
+      assembler.feed(r->frame);
+      for (auto& s : assembler.take_complete()) samples.push_back(s);
+      if (o.samples > 0 && samples.size() >= o.samples) break;
+    }
+  }
+  assembler.finish();
+  for (auto& s : assembler.take_complete()) samples.push_back(s);
+  if (o.samples > 0 && samples.size() > o.samples) samples.resize(o.samples);
+  summary.seconds = elapsed();
+  summary.samples = samples.size();
+  summary.lost = assembler.lost_samples();  // dropped frames show up as incomplete cycles
+  summary.gaps = assembler.gaps();
+  if (samples.empty()) {
+    throw InputError("record: no complete log sample arrived on " + o.iface +
+                     " (controller log frames 0x" +
+                     [] {
+                       char b[8];
+                       std::snprintf(b, sizeof b, "%03X", kLogA.base_id);
+                       return std::string(b);
+                     }() +
+                     ".. ); nothing written");
+  }
+  DeltaLog log;
+  log.geometry = o.geometry;
+  log.sample_rate_hz = o.sample_rate_hz;
+  log.metadata.emplace_back("source", "robot");
+  log.metadata.emplace_back("can_interface", o.iface);
+  const std::uint64_t first = samples.front().seq;
+  for (const LogSample& s : samples) {
+    log.seq.push_back(s.seq - first);
+    log.t.push_back(static_cast<double>(s.seq - first) / o.sample_rate_hz);
+    for (unsigned j = 0; j < 3; ++j) {
+      log.q[j].push_back(s.q_rad[j]);
+      log.tau[j].push_back(s.tau_Nm[j]);
+    }
+  }
+  write_file_atomically(o.out_path, format_delta_log(log));
+  if (o.raw_path) write_file_atomically(*o.raw_path, raw);
+  return summary;
+}
+
+}  // namespace host_id

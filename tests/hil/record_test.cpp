@@ -1,0 +1,155 @@
+// host_id record on a real vcan interface: frames sent as the controller
+// sends them, recorded, and read back as delta-log/1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <regex>
+#include <thread>
+
+#include "delta/can/protocol.hpp"
+#include "delta/can/socketcan.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/delta_log.hpp"
+#include "host_id/recorder.hpp"
+
+namespace host_id {
+namespace {
+
+namespace p = delta::can::protocol;
+
+void send_cycle(delta::can::Socket& s, std::uint16_t seq, double q, double tau,
+                int skip_part = -1) {
+  for (int i = 0; i < 3; ++i) {
+    const p::Message& m = p::kMessages[static_cast<std::size_t>(9 + i)];
+    delta::can::Frame f;
+    f.id = m.base_id;
+    f.dlc = 8;
+    p::pack(f.data, m.signals[0], seq);
+    p::pack(f.data, m.signals[1],
+            std::llround((i == 2 ? tau : q) * (i == 2 ? 65536.0 : 1048576.0)));
+    p::pack(f.data, m.signals[2], std::llround(tau * 65536.0));
+    if (i == skip_part) continue;
+    ASSERT_EQ(s.send(f), delta::can::SendResult::kOk);
+  }
+}
+
+struct Recording {
+  RecordSummary summary;
+  std::string error;
+};
+
+// Runs record() in a thread and calls `send` once its socket is open.
+Recording record_while(const RecordOptions& o, const std::function<void()>& send) {
+  std::mutex m;
+  std::condition_variable cv;
+  bool ready = false;
+  Recording r;
+  std::thread t([&] {
+    try {
+      r.summary = record(o, [&] {
+        std::lock_guard<std::mutex> lock(m);
+        ready = true;
+        cv.notify_one();
+      });
+    } catch (const std::exception& e) {
+      r.error = e.what();
+      std::lock_guard<std::mutex> lock(m);
+      ready = true;
+      cv.notify_one();
+    }
+  });
+  {
+    std::unique_lock<std::mutex> lock(m);
+    cv.wait(lock, [&] { return ready; });
+  }
+  if (r.error.empty()) send();
+  t.join();
+  return r;
+}
+
+class RecordHilTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/record_hil_XXXXXX";
+    ASSERT_NE(mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string dir_;
+};
+
+TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
+  RecordOptions o;
+  o.iface = "vcan0";
+  o.out_path = dir_ + "/run.csv";
+  o.raw_path = dir_ + "/run.log";
+  o.samples = 500;
+  o.duration_s = 30;  // a bound in case frames never come
+  o.sample_rate_hz = 500;
+  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  const Recording r = record_while(o, [&] {
+    for (int k = 0; k < 500; ++k) {
+      send_cycle(tx, static_cast<std::uint16_t>(65400 + k), 0.001 * k - 0.2, -0.5 + 0.0005 * k);
+    }
+  });
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.summary.samples, 500u);
+  EXPECT_EQ(r.summary.lost, 0u);
+  EXPECT_EQ(r.summary.frames, 1500u);
+  const DeltaLog log = read_delta_log(o.out_path);
+  ASSERT_EQ(log.size(), 500u);
+  EXPECT_TRUE(log.gaps.empty());
+  EXPECT_EQ(log.metadata_value("can_interface").value_or(""), "vcan0");
+  EXPECT_DOUBLE_EQ(*log.sample_rate_hz, 500.0);
+  for (std::size_t k = 0; k < 500; ++k) {
+    EXPECT_NEAR(log.t[k], static_cast<double>(k) / 500.0, 1e-12);  // through the 16-bit wrap
+    EXPECT_NEAR(log.q[0][k], 0.001 * static_cast<double>(k) - 0.2, 1e-6);
+    EXPECT_NEAR(log.tau[2][k], -0.5 + 0.0005 * static_cast<double>(k), 2e-5);
+  }
+  // The raw log is candump -L: one line per frame.
+  const std::string raw = read_whole_file(*o.raw_path);
+  EXPECT_EQ(std::count(raw.begin(), raw.end(), '\n'), 1500);
+  EXPECT_TRUE(std::regex_search(raw, std::regex(R"(^\(\d+\.\d{6}\) vcan0 190#[0-9A-F]{16}\n)")))
+      << raw.substr(0, 80);
+}
+
+TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
+  RecordOptions o;
+  o.iface = "vcan0";
+  o.out_path = dir_ + "/gappy.csv";
+  o.idle_s = 0.5;  // the run ends when frames stop
+  o.duration_s = 30;
+  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  const Recording r = record_while(o, [&] {
+    for (int k = 0; k < 300; ++k) {
+      if (k >= 100 && k < 103) continue;  // three cycles lost
+      send_cycle(tx, static_cast<std::uint16_t>(k), 0.1, 0.2, k == 200 ? 1 : -1);  // one frame lost
+    }
+  });
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.summary.samples, 296u);
+  EXPECT_EQ(r.summary.lost, 4u);
+  ASSERT_EQ(r.summary.gaps.size(), 2u);
+  EXPECT_EQ(r.summary.gaps[0].first, 100u);
+  EXPECT_EQ(r.summary.gaps[0].second, 3u);
+  // Any reader sees the gaps: the seq column jumps there.
+  const DeltaLog log = read_delta_log(o.out_path);
+  ASSERT_EQ(log.gaps.size(), 2u);
+  EXPECT_EQ(log.gaps[0].what, "seq jumps from 99 to 103 (3 samples lost)");
+}
+
+TEST_F(RecordHilTest, NothingArrivingWritesNothing) {
+  RecordOptions o;
+  o.iface = "vcan0";
+  o.out_path = dir_ + "/empty.csv";
+  o.duration_s = 0.3;
+  const Recording r = record_while(o, [] {});
+  EXPECT_NE(r.error.find("no complete log sample arrived on vcan0"), std::string::npos) << r.error;
+  EXPECT_FALSE(std::filesystem::exists(o.out_path));
+}
+
+}  // namespace
+}  // namespace host_id

@@ -1,0 +1,114 @@
+// The log assembler without a bus: pairing, wrap-around, reordering, loss.
+#include "host_id/recorder.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "delta/can/protocol.hpp"
+
+namespace host_id {
+namespace {
+
+namespace p = delta::can::protocol;
+
+// The three log frames of one cycle, as the controller sends them.
+std::array<delta::can::Frame, 3> log_frames(std::uint16_t seq, const std::array<double, 3>& q,
+                                            const std::array<double, 3>& tau) {
+  std::array<delta::can::Frame, 3> f{};
+  const auto angle = [](double v) {
+    return static_cast<std::int64_t>(std::llround(v * 1048576.0));
+  };
+  const auto torque = [](double v) { return static_cast<std::int64_t>(std::llround(v * 65536.0)); };
+  for (int i = 0; i < 3; ++i) {
+    const p::Message& m = p::kMessages[static_cast<std::size_t>(9 + i)];
+    f[static_cast<std::size_t>(i)].id = m.base_id;
+    f[static_cast<std::size_t>(i)].dlc = 8;
+    p::pack(f[static_cast<std::size_t>(i)].data, m.signals[0], seq);
+  }
+  p::pack(f[0].data, p::kMessages[9].signals[1], angle(q[0]));
+  p::pack(f[0].data, p::kMessages[9].signals[2], angle(q[1]));
+  p::pack(f[1].data, p::kMessages[10].signals[1], angle(q[2]));
+  p::pack(f[1].data, p::kMessages[10].signals[2], torque(tau[0]));
+  p::pack(f[2].data, p::kMessages[11].signals[1], torque(tau[1]));
+  p::pack(f[2].data, p::kMessages[11].signals[2], torque(tau[2]));
+  return f;
+}
+
+TEST(LogAssemblerTest, PairsTheThreeFramesOfACycleWithTheirScaling) {
+  LogAssembler a;
+  for (const auto& f : log_frames(7, {0.3, -0.25, 1.1}, {-0.7, 0.05, -1.234}))
+    EXPECT_TRUE(a.feed(f));
+  delta::can::Frame other;
+  other.id = 0x181;
+  other.dlc = 8;
+  EXPECT_FALSE(a.feed(other));
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s[0].seq, 7u);
+  EXPECT_NEAR(s[0].q_rad[1], -0.25, 1e-6);
+  EXPECT_NEAR(s[0].q_rad[2], 1.1, 1e-6);
+  EXPECT_NEAR(s[0].tau_Nm[2], -1.234, 1e-5);
+  EXPECT_EQ(a.lost_samples(), 0u);
+}
+
+TEST(LogAssemblerTest, TheSixteenBitCounterWrapsWithoutAGap) {
+  LogAssembler a;
+  for (std::uint32_t k = 65530; k < 65540; ++k) {
+    for (const auto& f : log_frames(static_cast<std::uint16_t>(k), {}, {})) a.feed(f);
+  }
+  a.finish();
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 10u);
+  for (std::size_t i = 0; i < s.size(); ++i) EXPECT_EQ(s[i].seq, 65530u + i);
+  EXPECT_EQ(a.lost_samples(), 0u);
+}
+
+TEST(LogAssemblerTest, PartsArrivingOutOfOrderStillPair) {
+  LogAssembler a;
+  const auto f1 = log_frames(1, {0.1, 0.1, 0.1}, {});
+  const auto f2 = log_frames(2, {0.2, 0.2, 0.2}, {});
+  a.feed(f1[0]);
+  a.feed(f2[0]);
+  a.feed(f2[1]);
+  a.feed(f1[2]);
+  a.feed(f1[1]);
+  a.feed(f2[2]);
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s[0].seq, 1u);
+  EXPECT_NEAR(s[1].q_rad[0], 0.2, 1e-6);
+}
+
+TEST(LogAssemblerTest, AMissingFrameOrCycleIsALostSampleNeverBridged) {
+  LogAssembler a;
+  for (std::uint16_t k = 0; k < 200; ++k) {
+    const auto f = log_frames(k, {}, {});
+    if (k == 50) continue;  // a whole cycle lost
+    for (int i = 0; i < 3; ++i) {
+      if (k == 120 && i == 1) continue;  // one frame lost
+      a.feed(f[static_cast<std::size_t>(i)]);
+    }
+  }
+  a.finish();
+  const auto s = a.take_complete();
+  EXPECT_EQ(s.size(), 198u);
+  EXPECT_EQ(a.lost_samples(), 2u);
+  ASSERT_EQ(a.gaps().size(), 2u);
+  EXPECT_EQ(a.gaps()[0], (std::pair<std::uint64_t, std::uint64_t>{50, 1}));
+  EXPECT_EQ(a.gaps()[1], (std::pair<std::uint64_t, std::uint64_t>{120, 1}));
+  for (std::size_t i = 1; i < s.size(); ++i) EXPECT_GT(s[i].seq, s[i - 1].seq);
+}
+
+TEST(LogAssemblerTest, AnIncompleteLastCycleCountsAsLostAtTheEnd) {
+  LogAssembler a;
+  const auto f = log_frames(3, {}, {});
+  a.feed(f[0]);
+  a.feed(f[1]);
+  EXPECT_TRUE(a.take_complete().empty());
+  a.finish();
+  EXPECT_EQ(a.lost_samples(), 1u);
+}
+
+}  // namespace
+}  // namespace host_id
