@@ -5,7 +5,8 @@
 file(GLOB_RECURSE files
   ${SOURCE_DIR}/firmware/core/*.hpp ${SOURCE_DIR}/firmware/core/*.cpp
   ${SOURCE_DIR}/firmware/golden/*.hpp ${SOURCE_DIR}/firmware/golden/*.cpp
-  ${SOURCE_DIR}/common/include/delta/fixed/*.hpp ${SOURCE_DIR}/common/src/fixed/*.cpp)
+  ${SOURCE_DIR}/common/include/delta/fixed/*.hpp ${SOURCE_DIR}/common/src/fixed/*.cpp
+  ${SOURCE_DIR}/common/include/delta/can/protocol.hpp ${SOURCE_DIR}/common/include/delta/can/cia402.hpp)
 set(hits "")
 foreach(f IN LISTS files)
   file(STRINGS ${f} lines)

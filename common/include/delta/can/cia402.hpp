@@ -1,0 +1,234 @@
+// CiA 402 (drive profile) power state machine and CiA 301 expedited SDO,
+// written once for both sides: the controller (firmware) and the drives
+// (the emulator). Integer only, constexpr, no heap.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace delta::can::cia402 {
+
+enum class State : std::uint8_t {
+  kNotReadyToSwitchOn,
+  kSwitchOnDisabled,
+  kReadyToSwitchOn,
+  kSwitchedOn,
+  kOperationEnabled,
+  kQuickStopActive,
+  kFaultReactionActive,
+  kFault,
+};
+
+// Controlword values (object 0x6040) of the device-control commands.
+inline constexpr std::uint16_t kShutdown = 0x0006;
+inline constexpr std::uint16_t kSwitchOn = 0x0007;  // also "disable operation"
+inline constexpr std::uint16_t kEnableOperation = 0x000F;
+inline constexpr std::uint16_t kDisableVoltage = 0x0000;
+inline constexpr std::uint16_t kQuickStop = 0x0002;
+inline constexpr std::uint16_t kFaultReset = 0x0080;
+
+// The state a statusword (object 0x6041) shows.
+constexpr State decode_statusword(std::uint16_t sw) {
+  if ((sw & 0x4F) == 0x08) return State::kFault;
+  if ((sw & 0x4F) == 0x0F) return State::kFaultReactionActive;
+  if ((sw & 0x4F) == 0x40) return State::kSwitchOnDisabled;
+  if ((sw & 0x6F) == 0x21) return State::kReadyToSwitchOn;
+  if ((sw & 0x6F) == 0x23) return State::kSwitchedOn;
+  if ((sw & 0x6F) == 0x27) return State::kOperationEnabled;
+  if ((sw & 0x6F) == 0x07) return State::kQuickStopActive;
+  return State::kNotReadyToSwitchOn;
+}
+
+// The statusword bits 0-6 a drive shows in a state (bit 4, voltage enabled,
+// set from ready-to-switch-on on).
+constexpr std::uint16_t encode_statusword(State s) {
+  switch (s) {
+    case State::kNotReadyToSwitchOn:
+      return 0x0000;
+    case State::kSwitchOnDisabled:
+      return 0x0040;
+    case State::kReadyToSwitchOn:
+      return 0x0031;
+    case State::kSwitchedOn:
+      return 0x0033;
+    case State::kOperationEnabled:
+      return 0x0037;
+    case State::kQuickStopActive:
+      return 0x0017;
+    case State::kFaultReactionActive:
+      return 0x001F;
+    case State::kFault:
+      return 0x0018;
+  }
+  return 0;
+}
+
+// The drive's side: the next state for a controlword. `previous_controlword`
+// detects the fault-reset rising edge (bit 7).
+constexpr State drive_transition(State s, std::uint16_t cw, std::uint16_t previous_controlword) {
+  const bool fault_reset_edge = (cw & 0x80) && !(previous_controlword & 0x80);
+  const bool disable_voltage = (cw & 0x02) == 0;
+  const bool quick_stop = (cw & 0x06) == 0x02;
+  const bool shutdown = (cw & 0x87) == 0x06;
+  const bool switch_on = (cw & 0x8F) == 0x07;
+  const bool enable = (cw & 0x8F) == 0x0F;
+  switch (s) {
+    case State::kNotReadyToSwitchOn:
+      return State::kSwitchOnDisabled;  // self-test done
+    case State::kSwitchOnDisabled:
+      return shutdown ? State::kReadyToSwitchOn : s;
+    case State::kReadyToSwitchOn:
+      if (disable_voltage || quick_stop) return State::kSwitchOnDisabled;
+      if (switch_on) return State::kSwitchedOn;
+      if (enable) return State::kOperationEnabled;  // 3 + 4 in one go, as most drives allow
+      return s;
+    case State::kSwitchedOn:
+      if (disable_voltage || quick_stop) return State::kSwitchOnDisabled;
+      if (shutdown) return State::kReadyToSwitchOn;
+      if (enable) return State::kOperationEnabled;
+      return s;
+    case State::kOperationEnabled:
+      if (disable_voltage) return State::kSwitchOnDisabled;
+      if (quick_stop) return State::kQuickStopActive;
+      if (shutdown) return State::kReadyToSwitchOn;
+      if (switch_on) return State::kSwitchedOn;
+      return s;
+    case State::kQuickStopActive:
+      if (disable_voltage) return State::kSwitchOnDisabled;
+      if (enable) return State::kOperationEnabled;
+      return s;
+    case State::kFaultReactionActive:
+      return State::kFault;  // reaction done
+    case State::kFault:
+      return fault_reset_edge ? State::kSwitchOnDisabled : s;
+  }
+  return s;
+}
+
+// The controller's side: the controlword that moves a drive one step
+// towards operation enabled (enable = true) or towards switch-on disabled.
+// From fault, it alternates 0 and the fault-reset bit to make the edge.
+constexpr std::uint16_t controlword_towards(State s, bool enable,
+                                            std::uint16_t previous_controlword) {
+  if (!enable) return kDisableVoltage;
+  switch (s) {
+    case State::kFault:
+      return (previous_controlword & 0x80) ? 0x0000 : kFaultReset;
+    case State::kSwitchOnDisabled:
+      return kShutdown;
+    case State::kReadyToSwitchOn:
+      return kSwitchOn;
+    case State::kSwitchedOn:
+    case State::kOperationEnabled:
+    case State::kQuickStopActive:
+      return kEnableOperation;
+    case State::kNotReadyToSwitchOn:
+    case State::kFaultReactionActive:
+      return kDisableVoltage;  // wait
+  }
+  return kDisableVoltage;
+}
+
+}  // namespace delta::can::cia402
+
+namespace delta::can::sdo {
+
+// Command specifiers of expedited transfers (CiA 301).
+inline constexpr std::uint8_t kUploadRequest = 0x40;
+inline constexpr std::uint8_t kDownloadAck = 0x60;
+inline constexpr std::uint8_t kAbort = 0x80;
+
+// Abort codes used here.
+inline constexpr std::uint32_t kAbortObjectDoesNotExist = 0x06020000;
+inline constexpr std::uint32_t kAbortSubindexDoesNotExist = 0x06090011;
+inline constexpr std::uint32_t kAbortReadOnly = 0x06010002;
+inline constexpr std::uint32_t kAbortValueRange = 0x06090030;
+inline constexpr std::uint32_t kAbortTimeout = 0x05040000;
+inline constexpr std::uint32_t kAbortCommand = 0x05040001;
+
+using Payload = std::array<std::uint8_t, 8>;
+
+constexpr void put_header(Payload& p, std::uint8_t command, std::uint16_t index,
+                          std::uint8_t subindex) {
+  p[0] = command;
+  p[1] = static_cast<std::uint8_t>(index & 0xFF);
+  p[2] = static_cast<std::uint8_t>(index >> 8);
+  p[3] = subindex;
+}
+
+constexpr void put_u32(Payload& p, std::uint32_t v) {
+  for (unsigned i = 0; i < 4; ++i) p[4 + i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+
+constexpr std::uint32_t get_u32(const Payload& p) {
+  std::uint32_t v = 0;
+  for (unsigned i = 0; i < 4; ++i) v |= std::uint32_t{p[4 + i]} << (8 * i);
+  return v;
+}
+
+// Expedited download (write) of 1, 2 or 4 bytes: 0x2F, 0x2B, 0x23.
+constexpr Payload download_request(std::uint16_t index, std::uint8_t subindex, std::uint32_t value,
+                                   std::uint8_t size_bytes) {
+  Payload p{};
+  const auto n = static_cast<std::uint8_t>(size_bytes == 1 ? 3 : (size_bytes == 2 ? 2 : 0));
+  put_header(p, static_cast<std::uint8_t>(0x23 | (n << 2)), index, subindex);
+  put_u32(p, value);
+  return p;
+}
+
+constexpr Payload upload_request(std::uint16_t index, std::uint8_t subindex) {
+  Payload p{};
+  put_header(p, kUploadRequest, index, subindex);
+  return p;
+}
+
+constexpr Payload abort_transfer(std::uint16_t index, std::uint8_t subindex, std::uint32_t code) {
+  Payload p{};
+  put_header(p, kAbort, index, subindex);
+  put_u32(p, code);
+  return p;
+}
+
+constexpr Payload download_response(std::uint16_t index, std::uint8_t subindex) {
+  Payload p{};
+  put_header(p, kDownloadAck, index, subindex);
+  return p;
+}
+
+// An expedited upload response with 4 bytes: 0x43.
+constexpr Payload upload_response(std::uint16_t index, std::uint8_t subindex, std::uint32_t value) {
+  Payload p{};
+  put_header(p, 0x43, index, subindex);
+  put_u32(p, value);
+  return p;
+}
+
+enum class ResponseKind : std::uint8_t { kDownloadDone, kUploadValue, kAborted, kUnexpected };
+
+struct Response {
+  ResponseKind kind{ResponseKind::kUnexpected};
+  std::uint16_t index{0};
+  std::uint8_t subindex{0};
+  std::uint32_t value{0};  // the uploaded value, or the abort code
+};
+
+// Reads a server's (drive's) response.
+constexpr Response parse_response(const Payload& p) {
+  Response r;
+  r.index = static_cast<std::uint16_t>(p[1] | (p[2] << 8));
+  r.subindex = p[3];
+  if (p[0] == kAbort) {
+    r.kind = ResponseKind::kAborted;
+    r.value = get_u32(p);
+  } else if (p[0] == kDownloadAck) {
+    r.kind = ResponseKind::kDownloadDone;
+  } else if ((p[0] & 0xE3) == 0x43) {  // expedited upload, size indicated
+    const unsigned unused = (p[0] >> 2) & 3;
+    const std::uint32_t v = get_u32(p);
+    r.kind = ResponseKind::kUploadValue;
+    r.value = unused == 0 ? v : (v & ((std::uint32_t{1} << (8 * (4 - unused))) - 1));
+  }
+  return r;
+}
+
+}  // namespace delta::can::sdo
