@@ -215,7 +215,7 @@ constexpr std::int64_t unpack(const std::array<std::uint8_t, 8>& data, const Sig
   std::uint64_t u = 0;
   for (unsigned i = 0; i < s.length; ++i) {
     const unsigned bit = s.start_bit + i;
-    if ((data[bit / 8] >> (bit % 8)) & 1u) u |= std::uint64_t{1} << i;
+    if ((static_cast<unsigned>(data[bit / 8]) >> (bit % 8)) & 1u) u |= std::uint64_t{1} << i;
   }
   if (s.is_signed && s.length < 64 && ((u >> (s.length - 1)) & 1u)) {
     u |= ~std::uint64_t{0} << s.length;
