@@ -27,6 +27,12 @@ const char* fault_name(Fault f) {
       return "log overflow";
     case Fault::kDriveConfigFailed:
       return "drive configuration failed";
+    case Fault::kFeedbackMalformed:
+      return "feedback malformed";
+    case Fault::kCanBusError:
+      return "CAN bus error";
+    case Fault::kFeedbackLate:
+      return "feedback late";
   }
   return "unknown";
 }

@@ -51,6 +51,7 @@ struct FakeHardware {
   bool estop = false;
   bool drive_fault = false;
   bool stale_feedback = false;
+  FeedbackProblem problem_on_joint2 = FeedbackProblem::kNone;
   double position_offset_rad = 0.0;  // joint 1 reads off by this much
   double velocity_offset_rad_s = 0.0;
   std::size_t log_capacity = 1000000;
@@ -78,7 +79,8 @@ struct FakeHardware {
       fb[j].velocity_rad_s = to_q<Q10_21>(plant.qd[j] + (j == 0 ? velocity_offset_rad_s : 0.0));
       fb[j].current_A =
           current_from_torque(config->torque[j], drives_enabled ? torque[j] : Q12_19::zero());
-      fb[j].fresh = !stale_feedback;
+      fb[j].problem = j == 1 ? problem_on_joint2 : FeedbackProblem::kNone;
+      fb[j].fresh = !stale_feedback && fb[j].problem != FeedbackProblem::kLate;
       fb[j].fault = drive_fault && j == 1;
     }
   }
@@ -297,6 +299,13 @@ TEST_F(ControllerTest, DriveFaultHeartbeatAndLimitsEachLeadToTheirFault) {
       {"drive fault", [](FakeHardware& h) { h.drive_fault = true; }, Fault::kDriveFault, 1},
       {"stale feedback", [](FakeHardware& h) { h.stale_feedback = true; }, Fault::kHeartbeatLost,
        3},
+      {"malformed frame",
+       [](FakeHardware& h) { h.problem_on_joint2 = FeedbackProblem::kMalformed; },
+       Fault::kFeedbackMalformed, 1},
+      {"bus error", [](FakeHardware& h) { h.problem_on_joint2 = FeedbackProblem::kBusError; },
+       Fault::kCanBusError, 1},
+      {"late feedback", [](FakeHardware& h) { h.problem_on_joint2 = FeedbackProblem::kLate; },
+       Fault::kFeedbackLate, 3},
       {"joint limit", [](FakeHardware& h) { h.position_offset_rad = 2.0; }, Fault::kJointLimit, 1},
       {"velocity limit", [](FakeHardware& h) { h.velocity_offset_rad_s = 50.0; },
        Fault::kVelocityLimit, 1},

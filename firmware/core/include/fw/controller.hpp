@@ -140,17 +140,23 @@ class Controller {
     joint_.reset();
   }
 
+  // A drive fault, a malformed frame or a bus error faults at once; feedback
+  // missing (or late) for lost_feedback_ticks cycles in a row faults then,
+  // as late when the last missing sample did arrive, after the deadline.
   void supervise_drives() {
     bool all_fresh = true;
     for (unsigned j = 0; j < 3; ++j) {
-      if (feedback_[j].fault) {
-        enter_fault(Fault::kDriveFault);
-        return;
-      }
-      all_fresh = all_fresh && feedback_[j].fresh;
+      const DriveFeedback& f = feedback_[j];
+      if (f.fault) return enter_fault(Fault::kDriveFault);
+      if (f.problem == FeedbackProblem::kMalformed) return enter_fault(Fault::kFeedbackMalformed);
+      if (f.problem == FeedbackProblem::kBusError) return enter_fault(Fault::kCanBusError);
+      if (!f.fresh) last_stale_was_late_ = f.problem == FeedbackProblem::kLate;
+      all_fresh = all_fresh && f.fresh;
     }
     stale_cycles_ = all_fresh ? 0 : stale_cycles_ + 1;
-    if (stale_cycles_ >= config_.lost_feedback_ticks) enter_fault(Fault::kHeartbeatLost);
+    if (stale_cycles_ >= config_.lost_feedback_ticks) {
+      enter_fault(last_stale_was_late_ ? Fault::kFeedbackLate : Fault::kHeartbeatLost);
+    }
   }
 
   void configure() {
@@ -288,6 +294,7 @@ class Controller {
   std::uint32_t run_tick_{0};
   std::uint32_t stale_cycles_{0};
   std::uint32_t log_seq_{0};
+  bool last_stale_was_late_{false};
   bool start_requested_{false};
   bool stop_requested_{false};
   bool reset_requested_{false};

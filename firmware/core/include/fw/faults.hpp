@@ -18,6 +18,9 @@ enum class Fault : std::uint16_t {
   kConfigInvalid = 8,       // the configuration is inconsistent
   kLogOverflow = 9,         // the log sink refused a record
   kDriveConfigFailed = 10,  // the drives did not reach operation enabled
+  kFeedbackMalformed = 11,  // a drive's feedback frame had the wrong length
+  kCanBusError = 12,        // the CAN controller went error-passive or bus-off
+  kFeedbackLate = 13,       // a drive's feedback kept arriving after the cycle's deadline
 };
 
 // A short name for logs and the status display.

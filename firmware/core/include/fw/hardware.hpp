@@ -26,12 +26,21 @@ using delta::fx::Q3_28;
 
 enum class DriveConfigProgress : std::uint8_t { kInProgress = 0, kDone = 1, kFailed = 2 };
 
+// What went wrong with a drive's feedback this cycle, as the port saw it.
+enum class FeedbackProblem : std::uint8_t {
+  kNone = 0,
+  kMalformed = 1,  // a frame with the wrong length: faults at once
+  kBusError = 2,   // the bus went error-passive or bus-off: faults at once
+  kLate = 3,       // the sample came after the deadline: counts as not fresh
+};
+
 struct DriveFeedback {
   Q3_28 position_rad{};     // at the joint
   Q10_21 velocity_rad_s{};  // at the joint
   Q12_19 current_A{};       // motor current
   bool fresh{false};        // a new sample arrived this cycle (heartbeat/PDO alive)
   bool fault{false};        // the drive reports a fault
+  FeedbackProblem problem{FeedbackProblem::kNone};
 };
 
 struct SafetyOutputs {

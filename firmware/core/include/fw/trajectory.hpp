@@ -25,7 +25,7 @@ using delta::fx::Q7_24;
 using delta::fx::Vec3Q;
 
 inline constexpr int kMaxHarmonics = 6;
-inline constexpr int kMaxWaypoints = 8;
+inline constexpr int kMaxWaypoints = 10;
 
 // The minimum-jerk profile w(s) = 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]
 // and its s-derivatives: the blends, the Cartesian segments and the
