@@ -113,6 +113,7 @@ SendResult Socket::send(const Frame& f) {
   can_frame k{};
   k.can_id = f.extended ? ((f.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (f.id & CAN_SFF_MASK);
   if (f.remote) k.can_id |= CAN_RTR_FLAG;
+  if (f.error_frame) k.can_id = CAN_ERR_FLAG | (f.id & CAN_ERR_MASK);
   k.can_dlc = f.dlc > 8 ? 8 : f.dlc;
   std::memcpy(k.data, f.data.data(), 8);
   const ssize_t n = ::write(fd_, &k, sizeof k);
@@ -148,7 +149,11 @@ std::optional<Received> Socket::receive() {
       std::memcpy(&r.socket_drops, CMSG_DATA(c), sizeof r.socket_drops);
     }
   }
-  if (k.can_id & CAN_ERR_FLAG) r.error = decode_error_frame(k.can_id & CAN_ERR_MASK, r.frame.data);
+  if (k.can_id & CAN_ERR_FLAG) {
+    r.frame.error_frame = true;
+    r.frame.id = k.can_id & CAN_ERR_MASK;
+    r.error = decode_error_frame(k.can_id & CAN_ERR_MASK, r.frame.data);
+  }
   return r;
 }
 

@@ -19,9 +19,12 @@ TEST(ProtocolTest, EveryCobIdOnTheBusIsUnique) {
       ++count;
     }
   }
-  EXPECT_EQ(count, 26u);
-  // The log frames are TPDO1..3 of the controller's node 16.
-  EXPECT_EQ(kMessages[9].base_id, 0x180 + kControllerNode);
+  EXPECT_EQ(count, 28u);
+  // The log frames are TPDO1..3 of the controller's node 16, its emergency
+  // and heartbeat those of node 16 too.
+  EXPECT_EQ(kLogA.base_id, 0x180 + kControllerNode);
+  EXPECT_EQ(kControllerEmcy.base_id, kEmcy.base_id + kControllerNode);
+  EXPECT_EQ(kControllerHeartbeat.base_id, kHeartbeat.base_id + kControllerNode);
 }
 
 TEST(ProtocolTest, SignalsFitTheirFrameAndDoNotOverlap) {

@@ -129,7 +129,47 @@ constexpr std::uint16_t controlword_towards(State s, bool enable,
   return kDisableVoltage;
 }
 
+// Modes of operation (object 0x6060).
+inline constexpr std::int8_t kModeCyclicSynchronousPosition = 8;
+inline constexpr std::int8_t kModeCyclicSynchronousTorque = 10;
+
 }  // namespace delta::can::cia402
+
+// The object dictionary entries the controller configures or reads on a
+// drive, and the emergency codes used on this bus (CiA 301 / CiA 402).
+namespace delta::can::od {
+
+struct Object {
+  std::uint16_t index;
+  std::uint8_t subindex;
+};
+
+inline constexpr Object kDeviceType{0x1000, 0};               // u32, 0x00020192 for a CiA 402 servo
+inline constexpr Object kErrorRegister{0x1001, 0};            // u8
+inline constexpr Object kCommunicationCycle{0x1006, 0};       // u32 us, the SYNC period
+inline constexpr Object kProducerHeartbeat{0x1017, 0};        // u16 ms, 0 = off
+inline constexpr Object kTpdo2CobId{0x1801, 1};               // u32, bit 31 set = PDO off
+inline constexpr Object kControlword{0x6040, 0};              // u16
+inline constexpr Object kStatusword{0x6041, 0};               // u16
+inline constexpr Object kModesOfOperation{0x6060, 0};         // i8
+inline constexpr Object kModesOfOperationDisplay{0x6061, 0};  // i8
+inline constexpr Object kMaxCurrent{0x6073, 0};               // u16, per mille of rated current
+inline constexpr Object kMotorRatedCurrent{0x6075, 0};        // u32 mA
+inline constexpr Object kMotorRatedTorque{0x6076, 0};         // u32 mN m
+inline constexpr Object kEncoderIncrements{0x608F, 1};        // u32 counts per motor revolution
+inline constexpr Object kEncoderMotorRevolutions{0x608F, 2};  // u32, 1
+
+inline constexpr std::uint32_t kDeviceTypeServo = 0x00020192;  // CiA 402, servo drive
+inline constexpr std::uint32_t kPdoInvalid = 0x80000000u;      // COB-ID bit 31
+
+// Emergency error codes (EMCY error_code).
+inline constexpr std::uint16_t kEmcyErrorReset = 0x0000;
+inline constexpr std::uint16_t kEmcyOvercurrent = 0x2310;  // continuous over-current
+inline constexpr std::uint16_t kEmcyHeartbeat = 0x8130;    // life guard / heartbeat error
+// The controller's faults: 0xFF00 + the firmware's fault code (docs/firmware.md).
+inline constexpr std::uint16_t kEmcyControllerFaultBase = 0xFF00;
+
+}  // namespace delta::can::od
 
 namespace delta::can::sdo {
 

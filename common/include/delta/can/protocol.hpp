@@ -56,7 +56,7 @@ inline constexpr Scale kPerMille{1, 1000, 0};  // of the drive's rated value
 inline constexpr Scale kLogAngle{1, 1, -20};   // 2^-20 rad (9.5e-7 rad), +/- 8 rad
 inline constexpr Scale kLogTorque{1, 1, -16};  // 2^-16 N m (1.5e-5 N m), +/- 128 N m
 
-inline constexpr std::array<Message, 12> kMessages{{
+inline constexpr std::array<Message, 14> kMessages{{
     {"NMT",
      0x000,
      false,
@@ -189,7 +189,56 @@ inline constexpr std::array<Message, 12> kMessages{{
        {"tau2", 16, 24, true, kLogTorque, "N m", "joint 2 torque from current"},
        {"tau3", 40, 24, true, kLogTorque, "N m", "joint 3 torque from current"}}},
      "controller log, part 3 of 3 (TPDO3 of node 16)"},
+    {"CONTROLLER_EMCY",
+     0x090,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     4,
+     {{{"error_code", 0, 16, false, kRaw, "",
+        "0xFF00 + fault code on a fault, 0x0000 when the fault is reset"},
+       {"error_register", 16, 8, false, kRaw, "", "1 while in fault"},
+       {"fault_code", 24, 8, false, kRaw, "", "the firmware's fault code (docs/firmware.md)"},
+       {"cycle", 32, 32, false, kRaw, "", "the controller's cycle counter at the fault"}}},
+     "emergency of the controller (EMCY of node 16)"},
+    {"CONTROLLER_HEARTBEAT",
+     0x710,
+     false,
+     1,
+     Sender::kController,
+     Receiver::kDrives,
+     1,
+     {{{"nmt_state", 0, 8, false, kRaw, "", "5 operational"}}},
+     "heartbeat of the controller (node 16)"},
 }};
+
+// The messages by name.
+inline constexpr const Message& kNmt = kMessages[0];
+inline constexpr const Message& kSync = kMessages[1];
+inline constexpr const Message& kEmcy = kMessages[2];
+inline constexpr const Message& kTpdo1 = kMessages[3];
+inline constexpr const Message& kTpdo2 = kMessages[4];
+inline constexpr const Message& kRpdo1 = kMessages[5];
+inline constexpr const Message& kSdoRx = kMessages[6];
+inline constexpr const Message& kSdoTx = kMessages[7];
+inline constexpr const Message& kHeartbeat = kMessages[8];
+inline constexpr const Message& kLogA = kMessages[9];
+inline constexpr const Message& kLogB = kMessages[10];
+inline constexpr const Message& kLogC = kMessages[11];
+inline constexpr const Message& kControllerEmcy = kMessages[12];
+inline constexpr const Message& kControllerHeartbeat = kMessages[13];
+
+// NMT commands and states (CiA 301).
+inline constexpr std::uint8_t kNmtStart = 1;
+inline constexpr std::uint8_t kNmtStop = 2;
+inline constexpr std::uint8_t kNmtEnterPreOperational = 128;
+inline constexpr std::uint8_t kNmtResetNode = 129;
+inline constexpr std::uint8_t kNmtResetCommunication = 130;
+inline constexpr std::uint8_t kNmtStateBootUp = 0;
+inline constexpr std::uint8_t kNmtStateStopped = 4;
+inline constexpr std::uint8_t kNmtStateOperational = 5;
+inline constexpr std::uint8_t kNmtStatePreOperational = 127;
 
 // The COB-ID of a message for a node (node ignored unless per_node).
 constexpr std::uint16_t cob_id(const Message& m, std::uint8_t node) {
@@ -221,6 +270,32 @@ constexpr std::int64_t unpack(const std::array<std::uint8_t, 8>& data, const Sig
     u |= ~std::uint64_t{0} << s.length;
   }
   return static_cast<std::int64_t>(u);
+}
+
+// The three log frames of one control cycle (LOG_A, LOG_B, LOG_C), from the
+// raw log values: q in 2^-20 rad and tau in 2^-16 N m (saturated to 24 bits).
+struct LogPayloads {
+  std::array<std::array<std::uint8_t, 8>, 3> data{};
+};
+
+constexpr std::int64_t saturate_signal(const Signal& s, std::int64_t v) {
+  const std::int64_t hi = (std::int64_t{1} << (s.length - 1)) - 1;
+  return v > hi ? hi : (v < -hi - 1 ? -hi - 1 : v);
+}
+
+constexpr LogPayloads pack_log(std::uint16_t seq, const std::array<std::int32_t, 3>& q_raw20,
+                               const std::array<std::int32_t, 3>& tau_raw16) {
+  LogPayloads p;
+  pack(p.data[0], kLogA.signals[0], seq);
+  pack(p.data[0], kLogA.signals[1], saturate_signal(kLogA.signals[1], q_raw20[0]));
+  pack(p.data[0], kLogA.signals[2], saturate_signal(kLogA.signals[2], q_raw20[1]));
+  pack(p.data[1], kLogB.signals[0], seq);
+  pack(p.data[1], kLogB.signals[1], saturate_signal(kLogB.signals[1], q_raw20[2]));
+  pack(p.data[1], kLogB.signals[2], saturate_signal(kLogB.signals[2], tau_raw16[0]));
+  pack(p.data[2], kLogC.signals[0], seq);
+  pack(p.data[2], kLogC.signals[1], saturate_signal(kLogC.signals[1], tau_raw16[1]));
+  pack(p.data[2], kLogC.signals[2], saturate_signal(kLogC.signals[2], tau_raw16[2]));
+  return p;
 }
 
 // Worst-case length of a classical CAN data frame with bit stuffing,

@@ -17,7 +17,11 @@ namespace delta::can {
 struct Frame {
   std::uint32_t id{0};  // 11-bit, or 29-bit when extended
   bool extended{false};
-  bool remote{false};   // RTR
+  bool remote{false};  // RTR
+  // An error frame: id holds the CAN_ERR_* class bits. Controllers' drivers
+  // make these; on vcan a program may send one (the emulator's fault
+  // injection).
+  bool error_frame{false};
   std::uint8_t dlc{0};  // 0..8
   std::array<std::uint8_t, 8> data{};
 };
