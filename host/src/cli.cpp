@@ -340,7 +340,8 @@ limits (at least one):
   --idle S                  stop when no log frame came for S seconds
 options:
   --rate HZ                 the controller's cycle rate, for t (500)
-  --raw FILE.log            also write every frame in candump -L format
+  --raw FILE.log            also write every frame of the session (all IDs) in
+                            candump -L format, for canplayer and DBC tools
   --allow-gaps              exit 0 even when samples were lost
   --upper-arm-m, --forearm-m, --base-radius-m, --platform-radius-m
                             the robot's geometry for the metadata (default robot)
@@ -381,7 +382,9 @@ int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ost
   r.geometry.forearm_length_m = o.number("--forearm-m", r.geometry.forearm_length_m);
   r.geometry.base_radius_m = o.number("--base-radius-m", r.geometry.base_radius_m);
   r.geometry.platform_radius_m = o.number("--platform-radius-m", r.geometry.platform_radius_m);
-  const RecordSummary s = record(r);
+  // The line tells scripts and tests that the socket is open.
+  const RecordSummary s =
+      record(r, [&] { err << "host_id record: listening on " << r.iface << std::endl; });
   out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from " << r.iface
       << " in " << s.seconds << " s -> " << r.out_path << "\n";
   for (const auto& [first, count] : s.gaps) {

@@ -16,9 +16,9 @@ namespace p = delta::can::protocol;
 
 namespace {
 
-constexpr const p::Message& kLogA = p::kMessages[9];
-constexpr const p::Message& kLogB = p::kMessages[10];
-constexpr const p::Message& kLogC = p::kMessages[11];
+using p::kLogA;
+using p::kLogB;
+using p::kLogC;
 // Samples older than this many cycles behind the newest are given up on.
 constexpr std::uint64_t kReorderWindow = 64;
 
@@ -146,10 +146,15 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
   }
   delta::can::Socket sock = [&] {
     try {
-      return delta::can::Socket::open(o.iface,
-                                      {{kLogA.base_id, 0x7FF, false},
-                                       {kLogB.base_id, 0x7FF, false},
-                                       {kLogC.base_id, 0x7FF, false}},
+      // With --raw, every frame of the session (a candump of it); else only
+      // the log frames.
+      std::vector<delta::can::Filter> filters;
+      if (!o.raw_path) {
+        filters = {{kLogA.base_id, 0x7FF, false},
+                   {kLogB.base_id, 0x7FF, false},
+                   {kLogC.base_id, 0x7FF, false}};
+      }
+      return delta::can::Socket::open(o.iface, filters,
                                       8 << 20);  // 8 MB: about 10 000 frames of burst
     } catch (const delta::can::CanError& e) {
       throw InputError(std::string("record: ") + e.what());
@@ -174,23 +179,31 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
       break;
     if (!sock.wait_readable(std::chrono::milliseconds(50))) continue;
     while (auto r = sock.receive()) {
-      last_frame = std::chrono::steady_clock::now();
       ++summary.frames;
       summary.socket_drops = r->socket_drops;
       if (o.raw_path) {
         char buf[96];
         const auto ns = r->kernel_time.count();
+        // candump -L: 3 hex digits for a standard ID, 8 for an extended or
+        // error frame (with its flag bit), R for a remote request.
+        const delta::can::Frame& f = r->frame;
+        const std::uint32_t id =
+            f.error_frame ? (0x20000000u | f.id) : (f.extended ? (0x80000000u | f.id) : f.id);
         std::snprintf(
-            buf, sizeof buf, "(%lld.%06lld) %s %03X#", static_cast<long long>(ns / 1000000000),
-            static_cast<long long>((ns % 1000000000) / 1000), o.iface.c_str(), r->frame.id);
+            buf, sizeof buf,
+            (f.error_frame || f.extended) ? "(%lld.%06lld) %s %08X#" : "(%lld.%06lld) %s %03X#",
+            static_cast<long long>(ns / 1000000000),
+            static_cast<long long>((ns % 1000000000) / 1000), o.iface.c_str(),
+            f.extended ? (id & 0x1FFFFFFFu) : id);
         raw += buf;
-        for (unsigned i = 0; i < r->frame.dlc; ++i) {
+        if (f.remote) raw += 'R';
+        for (unsigned i = 0; !f.remote && i < r->frame.dlc; ++i) {
           std::snprintf(buf, sizeof buf, "%02X", r->frame.data[i]);
           raw += buf;
         }
         raw += '\n';
       }
-      assembler.feed(r->frame);
+      if (!r->error && assembler.feed(r->frame)) last_frame = std::chrono::steady_clock::now();
       for (auto& s : assembler.take_complete()) samples.push_back(s);
       if (o.samples > 0 && samples.size() >= o.samples) break;
     }
