@@ -1,0 +1,123 @@
+// The controller's side of the CAN bus: a CANopen master for the three
+// CiA 402 drives (docs/protocol.md). It brings them up by SDO, runs the
+// cyclic exchange (SYNC, TPDOs in, RPDOs out), consumes their heartbeats and
+// emergencies, and converts drive units to the core's Q formats. It is the
+// "drives" part of the core's hardware interface (fw/hardware.hpp).
+//
+// The cycle, driven by the port's loop:
+//   on_frame() for what arrived since the last window (late answers),
+//   begin_cycle()  -> SYNC (once the drives are operational),
+//   on_frame() until exchange_complete() or the deadline,
+//   end_window(),
+//   the core's step(): configure_drives(), read_feedback(), command_torque(),
+//   send_commands() -> RPDOs.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "delta/can/cia402.hpp"
+#include "delta/can/socketcan.hpp"
+#include "fw/hardware.hpp"
+#include "fw_linux/config.hpp"
+#include "fw_linux/drive_units.hpp"
+
+namespace fw_linux {
+
+// Where frames go: the SocketCAN socket in the port, a recorder in tests.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual bool send(const delta::can::Frame& f) = 0;
+};
+
+class CanopenMaster {
+ public:
+  CanopenMaster(const PortConfig& config, FrameSink& bus);
+
+  // --- the cycle ---
+  void begin_cycle(std::uint64_t now_us);
+  void on_frame(const delta::can::Received& r, std::uint64_t now_us);
+  bool exchange_complete() const;
+  void end_window();
+  void send_commands();
+  // The earliest time at which a pending SDO request times out (0: none).
+  std::uint64_t sdo_deadline_us() const;
+
+  // --- the core's hardware interface (drives) ---
+  fw::DriveConfigProgress configure_drives();
+  void enable_drives(bool on) { enable_ = on; }
+  void read_feedback(std::array<fw::DriveFeedback, 3>& out);
+  void command_torque(const std::array<Q12_19, 3>& joint_torque_Nm);
+
+  // Restart the bring-up (after the core's reset).
+  void restart();
+
+  // What went wrong most recently, in words (node, object, value).
+  const std::string& last_problem() const { return problem_; }
+  bool operational() const { return cyclic(); }
+  // The drive's CiA 402 state as its last statusword showed it.
+  delta::can::cia402::State drive_state(unsigned joint) const { return drives_[joint].state; }
+  std::uint16_t last_controlword(unsigned joint) const { return drives_[joint].controlword; }
+  std::uint64_t cycles() const { return cycle_; }
+  std::uint64_t late_frames() const { return late_frames_; }
+
+ private:
+  // kStarting: the drives are operational (cyclic exchange running) and any
+  // drive still in fault gets a fault-reset edge before the core sees them.
+  enum class Phase : std::uint8_t { kIdle, kConfiguring, kStarting, kCyclic, kFailed };
+  bool cyclic() const { return phase_ == Phase::kStarting || phase_ == Phase::kCyclic; }
+  struct Drive {
+    std::uint8_t node{0};
+    JointDrive config{};
+    DriveUnits units{};
+    // bring-up
+    unsigned sdo_step{0};
+    bool sdo_pending{false};
+    std::uint64_t sdo_sent_us{0};
+    unsigned sdo_attempts{0};
+    std::uint32_t rated_current_mA{0};
+    std::uint32_t rated_torque_mNm{0};
+    // cyclic
+    bool got_tpdo1{false};
+    bool got_tpdo2{false};
+    bool late{false};
+    bool malformed{false};
+    bool emergency{false};
+    bool rebooted{false};
+    std::uint16_t statusword{0};
+    delta::can::cia402::State state{delta::can::cia402::State::kNotReadyToSwitchOn};
+    std::int32_t position_counts{0};
+    std::int32_t previous_counts{0};
+    bool have_previous{false};
+    std::int32_t velocity_counts_s{0};
+    std::int16_t current_per_mille{0};
+    std::uint64_t last_heartbeat_cycle{0};
+    bool heartbeat_seen{false};
+    std::uint16_t controlword{0};
+    Q12_19 command_current_A{};
+  };
+
+  bool send_sdo(Drive& d, std::uint64_t now_us);
+  void handle_sdo_response(Drive& d, const delta::can::Frame& f);
+  void handle_tpdo(Drive& d, const delta::can::Frame& f, bool second);
+  void fail(const std::string& why);
+  Drive* drive_for(std::uint8_t node);
+
+  PortConfig config_;
+  fw::ControllerConfig core_;
+  FrameSink& bus_;
+  std::array<Drive, 3> drives_{};
+  Phase phase_{Phase::kIdle};
+  bool window_open_{false};
+  bool bus_error_{false};
+  bool enable_{false};
+  std::uint64_t cycle_{0};
+  std::uint64_t now_us_{0};
+  std::uint64_t late_frames_{0};
+  std::uint64_t heartbeat_timeout_cycles_{1};
+  std::string problem_;
+};
+
+}  // namespace fw_linux

@@ -1,0 +1,88 @@
+// The Linux port's configuration: `key = value` lines (docs/firmware.md
+// lists every key). Values are read in SI units as decimals and converted to
+// the core's Q formats once, here, with range checks; the core never sees a
+// double.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "delta/drive_model.hpp"
+#include "delta/geometry.hpp"
+#include "fw/controller.hpp"
+
+namespace fw_linux {
+
+// A configuration error: the message names the file, line and column.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class CycleMode : std::uint8_t {
+  kRealTime,  // a timerfd tick every period
+  kLockStep,  // the next cycle starts when the last exchange completed
+};
+
+struct JointDrive {
+  std::uint8_t node{1};
+  delta::DriveModel model{delta::kDefaultDrive};
+  double torque_offset_Nm{0.0};
+};
+
+struct PortConfig {
+  std::uint32_t period_us{2000};  // 500 Hz: the bus budget (docs/protocol.md)
+  CycleMode mode{CycleMode::kRealTime};
+  std::uint32_t response_window_us{0};     // real time: wait for the TPDOs; 0 = half the period
+  std::uint32_t lockstep_timeout_ms{200};  // lock-step: give up on a response after this
+  bool velocity_pdo{false};                // map TPDO2 (velocity); else differences of position
+  std::uint16_t heartbeat_ms{50};          // written to the drives (0x1017)
+  std::uint32_t heartbeat_timeout_ms{150};
+  std::uint32_t sdo_timeout_ms{100};
+  std::uint32_t sdo_retries{2};
+  std::array<JointDrive, 3> joints{JointDrive{1}, JointDrive{2}, JointDrive{3}};
+  delta::Geometry geometry{delta::kDefaultGeometry};
+
+  double min_rad{-1.2};
+  double max_rad{1.4};
+  double max_velocity_rad_s{6.0};
+  double max_acceleration_rad_s2{150.0};
+  double max_tracking_error_rad{0.1};
+  double kp_Nm_per_rad{60.0};
+  double kd_Nm_s_per_rad{1.5};
+  double ki_Nm_per_rad_s{0.0};
+  double max_torque_Nm{8.0};
+  double integral_limit_Nm{1.0};
+  double nominal_arm_inertia_kg_m2{-1.0};  // < 0: from the default robot's model
+  double nominal_gravity_moment_Nm{-1.0};
+  double approach_s{2.0};
+  double stop_s{0.4};
+  double blend_s{1.0};  // Fourier excitations fade in and out over this
+  std::uint32_t lost_feedback_cycles{3};
+  std::uint32_t configure_timeout_ms{5000};
+};
+
+// Reads a configuration file over the defaults. Throws ConfigError.
+PortConfig read_port_config(const std::string& path);
+
+// Applies one `key = value` (the file's lines and --set on the command line
+// use it). `where` prefixes error messages ("file:line:column").
+void set_config_value(PortConfig& c, const std::string& key, const std::string& value,
+                      const std::string& where);
+
+// Checks the whole configuration (ranges, distinct nodes, a period that
+// divides one second). Throws ConfigError.
+void validate(const PortConfig& c);
+
+// The core's configuration in Q formats. Throws ConfigError when a value
+// does not fit its format.
+fw::ControllerConfig controller_config(const PortConfig& c);
+
+// A value in a Q format, rounded to nearest; throws ConfigError naming
+// `what` when it does not fit.
+template <class Q>
+Q to_q(double v, const char* what);
+
+}  // namespace fw_linux

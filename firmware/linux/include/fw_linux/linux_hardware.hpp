@@ -1,0 +1,51 @@
+// The core's hardware interface (fw/hardware.hpp) on Linux: the drives are
+// the CANopen master, the safety lines a SafetyIo backend, and the log sink
+// the controller's LOG_A..C frames on the same bus.
+#pragma once
+
+#include "delta/can/protocol.hpp"
+#include "delta/can/socketcan.hpp"
+#include "fw_linux/canopen_master.hpp"
+#include "fw_linux/safety_io.hpp"
+
+namespace fw_linux {
+
+// A FrameSink on a SocketCAN socket.
+class SocketSink : public FrameSink {
+ public:
+  explicit SocketSink(delta::can::Socket& socket) : socket_(socket) {}
+  bool send(const delta::can::Frame& f) override {
+    const bool ok = socket_.send(f) == delta::can::SendResult::kOk;
+    if (!ok) ++failures_;
+    return ok;
+  }
+  std::uint64_t failures() const { return failures_; }
+
+ private:
+  delta::can::Socket& socket_;
+  std::uint64_t failures_{0};
+};
+
+// The log record as the three log frames (docs/protocol.md).
+bool send_log_frames(FrameSink& bus, const fw::LogRecord& r);
+
+class LinuxHardware {
+ public:
+  LinuxHardware(CanopenMaster& drives, SafetyIo& io, FrameSink& log_bus)
+      : drives_(drives), io_(io), log_bus_(log_bus) {}
+
+  fw::DriveConfigProgress configure_drives() { return drives_.configure_drives(); }
+  void enable_drives(bool on) { drives_.enable_drives(on); }
+  void read_feedback(std::array<fw::DriveFeedback, 3>& fb) { drives_.read_feedback(fb); }
+  void command_torque(const std::array<Q12_19, 3>& t) { drives_.command_torque(t); }
+  bool estop_open() { return io_.estop_open(); }
+  void set_outputs(const fw::SafetyOutputs& o) { io_.set_outputs(o); }
+  bool log(const fw::LogRecord& r) { return send_log_frames(log_bus_, r); }
+
+ private:
+  CanopenMaster& drives_;
+  SafetyIo& io_;
+  FrameSink& log_bus_;
+};
+
+}  // namespace fw_linux

@@ -1,0 +1,50 @@
+// The Linux port's main loop: the core's controller on a SocketCAN bus,
+// cycle by cycle, in real time (timerfd) or in lock-step with the drives.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "fw_linux/config.hpp"
+#include "fw_linux/safety_io.hpp"
+
+namespace fw_linux {
+
+struct RunOptions {
+  std::string iface;
+  std::vector<std::string> trajectories;  // run one after the other, from ready
+  bool exit_when_done{false};             // exit after the last one (or a fault)
+  std::uint64_t max_cycles{0};            // 0: no limit
+  int rt_priority{0};                     // SCHED_FIFO priority in real time; 0: none
+};
+
+// Exit codes of delta_fw.
+inline constexpr int kExitDone = 0;
+inline constexpr int kExitCanError = 1;
+inline constexpr int kExitUsage = 2;
+inline constexpr int kExitFault = 3;
+inline constexpr int kExitRejected = 4;
+
+struct CycleStats {
+  std::uint64_t cycles{0};
+  std::uint64_t overruns{0};       // real time: timer expirations missed
+  std::int64_t latency_max_us{0};  // real time: wake-up after the tick
+  std::int64_t latency_p99_us{0};
+  double latency_mean_us{0};
+  std::int64_t step_max_us{0};  // the core's step()
+  double wall_s{0};
+  double simulated_s{0};
+  std::uint64_t late_frames{0};
+  std::uint64_t send_failures{0};
+};
+
+// Runs until `stop` is set, the cycle limit, or (with exit_when_done) the
+// end of the trajectories or a fault. Messages go to `out`. Returns an exit
+// code above; throws delta::can::CanError when the bus cannot be opened.
+int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
+             const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats = nullptr);
+
+}  // namespace fw_linux

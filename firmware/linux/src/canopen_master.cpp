@@ -1,0 +1,430 @@
+#include "fw_linux/canopen_master.hpp"
+
+#include <cstdio>
+
+#include "delta/can/protocol.hpp"
+#include "fw/torque_from_current.hpp"
+
+namespace fw_linux {
+
+namespace p = delta::can::protocol;
+namespace od = delta::can::od;
+namespace sdo = delta::can::sdo;
+using delta::can::Frame;
+using delta::can::cia402::State;
+
+namespace {
+
+// The bring-up of one drive, one expedited SDO transfer per step.
+enum Step : unsigned {
+  kReadDeviceType,
+  kReadRatedCurrent,
+  kReadRatedTorque,
+  kReadEncoderIncrements,
+  kWriteMode,
+  kWriteCyclePeriod,
+  kWriteHeartbeat,
+  kWriteTpdo2,
+  kStepCount,
+};
+
+od::Object object_of(unsigned step) {
+  switch (step) {
+    case kReadDeviceType:
+      return od::kDeviceType;
+    case kReadRatedCurrent:
+      return od::kMotorRatedCurrent;
+    case kReadRatedTorque:
+      return od::kMotorRatedTorque;
+    case kReadEncoderIncrements:
+      return od::kEncoderIncrements;
+    case kWriteMode:
+      return od::kModesOfOperation;
+    case kWriteCyclePeriod:
+      return od::kCommunicationCycle;
+    case kWriteHeartbeat:
+      return od::kProducerHeartbeat;
+    default:
+      return od::kTpdo2CobId;
+  }
+}
+
+std::string hex(std::uint32_t v, int digits) {
+  char b[16];
+  std::snprintf(b, sizeof b, "0x%0*X", digits, v);
+  return b;
+}
+
+std::string object_name(od::Object o) {
+  return hex(o.index, 4) + ":" + hex(o.subindex, 2).substr(2);
+}
+
+Frame frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
+  Frame f;
+  f.id = id;
+  f.dlc = dlc;
+  f.data = data;
+  return f;
+}
+
+std::string abort_text(std::uint32_t code) {
+  switch (code) {
+    case sdo::kAbortObjectDoesNotExist:
+      return "object does not exist";
+    case sdo::kAbortSubindexDoesNotExist:
+      return "sub-index does not exist";
+    case sdo::kAbortReadOnly:
+      return "read only";
+    case sdo::kAbortValueRange:
+      return "value out of range";
+    case sdo::kAbortTimeout:
+      return "SDO timeout";
+    case sdo::kAbortCommand:
+      return "unknown command";
+    default:
+      return "abort";
+  }
+}
+
+}  // namespace
+
+CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
+    : config_(config), core_(controller_config(config)), bus_(bus) {
+  for (unsigned j = 0; j < 3; ++j) {
+    drives_[j].node = config.joints[j].node;
+    drives_[j].config = config.joints[j];
+  }
+  const std::uint64_t timeout_us = std::uint64_t{config.heartbeat_timeout_ms} * 1000;
+  heartbeat_timeout_cycles_ = (timeout_us + config.period_us - 1) / config.period_us;
+}
+
+CanopenMaster::Drive* CanopenMaster::drive_for(std::uint8_t node) {
+  for (Drive& d : drives_) {
+    if (d.node == node) return &d;
+  }
+  return nullptr;
+}
+
+void CanopenMaster::fail(const std::string& why) {
+  phase_ = Phase::kFailed;
+  problem_ = why;
+}
+
+void CanopenMaster::restart() {
+  for (Drive& d : drives_) {
+    const std::uint8_t node = d.node;
+    const JointDrive config = d.config;
+    d = Drive{};
+    d.node = node;
+    d.config = config;
+  }
+  phase_ = Phase::kIdle;
+  bus_error_ = false;
+  problem_.clear();
+}
+
+bool CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
+  const od::Object o = object_of(d.sdo_step);
+  sdo::Payload payload{};
+  switch (d.sdo_step) {
+    case kWriteMode:
+      payload = sdo::download_request(o.index, o.subindex,
+                                      delta::can::cia402::kModeCyclicSynchronousTorque, 1);
+      break;
+    case kWriteCyclePeriod:
+      payload = sdo::download_request(o.index, o.subindex, config_.period_us, 4);
+      break;
+    case kWriteHeartbeat:
+      payload = sdo::download_request(o.index, o.subindex, config_.heartbeat_ms, 2);
+      break;
+    case kWriteTpdo2: {
+      const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);
+      payload = sdo::download_request(o.index, o.subindex,
+                                      config_.velocity_pdo ? cob : (cob | od::kPdoInvalid), 4);
+      break;
+    }
+    default:
+      payload = sdo::upload_request(o.index, o.subindex);
+      break;
+  }
+  d.sdo_pending = true;
+  d.sdo_sent_us = now_us;
+  ++d.sdo_attempts;
+  return bus_.send(frame(p::cob_id(p::kSdoRx, d.node), 8, payload));
+}
+
+fw::DriveConfigProgress CanopenMaster::configure_drives() {
+  if (phase_ == Phase::kStarting) {
+    // Done when every drive answered and none is in fault any more.
+    for (const Drive& d : drives_) {
+      if (!d.got_tpdo1 || d.state == State::kFault || d.state == State::kFaultReactionActive) {
+        problem_ = "node " + std::to_string(d.node) +
+                   (d.got_tpdo1 ? " stays in fault after a fault reset"
+                                : " sends no TPDO1 after the NMT start");
+        return fw::DriveConfigProgress::kInProgress;
+      }
+    }
+    phase_ = Phase::kCyclic;
+    problem_.clear();
+    return fw::DriveConfigProgress::kDone;
+  }
+  if (phase_ == Phase::kCyclic || phase_ == Phase::kFailed) restart();  // the core restarted
+  if (phase_ == Phase::kIdle) {
+    // Every drive to pre-operational (PDOs off), then the SDO bring-up.
+    std::array<std::uint8_t, 8> nmt{};
+    p::pack(nmt, p::kNmt.signals[0], p::kNmtEnterPreOperational);
+    p::pack(nmt, p::kNmt.signals[1], 0);
+    bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
+    phase_ = Phase::kConfiguring;
+    for (Drive& d : drives_) send_sdo(d, now_us_);
+    return fw::DriveConfigProgress::kInProgress;
+  }
+  bool all_done = true;
+  for (Drive& d : drives_) {
+    if (phase_ == Phase::kFailed) break;
+    if (d.sdo_step >= kStepCount) continue;
+    all_done = false;
+    if (d.sdo_pending && now_us_ - d.sdo_sent_us >= std::uint64_t{config_.sdo_timeout_ms} * 1000) {
+      if (d.sdo_attempts > config_.sdo_retries) {
+        const od::Object o = object_of(d.sdo_step);
+        fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
+             object_name(o) + " within " + std::to_string(config_.sdo_timeout_ms) + " ms (" +
+             std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
+        break;
+      }
+      send_sdo(d, now_us_);
+    } else if (!d.sdo_pending) {
+      send_sdo(d, now_us_);
+    }
+  }
+  if (phase_ == Phase::kFailed) return fw::DriveConfigProgress::kFailed;
+  if (!all_done) return fw::DriveConfigProgress::kInProgress;
+  // Every drive configured: start the network; the cyclic exchange begins.
+  std::array<std::uint8_t, 8> nmt{};
+  p::pack(nmt, p::kNmt.signals[0], p::kNmtStart);
+  p::pack(nmt, p::kNmt.signals[1], 0);
+  bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
+  phase_ = Phase::kStarting;
+  for (Drive& d : drives_) d.last_heartbeat_cycle = cycle_;
+  return fw::DriveConfigProgress::kInProgress;
+}
+
+void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
+  if (!d.sdo_pending) return;  // a duplicate or stray answer
+  const od::Object o = object_of(d.sdo_step);
+  const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
+  if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
+  const sdo::Response r = sdo::parse_response(f.data);
+  if (r.index != o.index || r.subindex != o.subindex) {
+    return fail(at + "SDO response for another object, " +
+                object_name(od::Object{r.index, r.subindex}));
+  }
+  if (r.kind == sdo::ResponseKind::kAborted) {
+    return fail(at + "the drive aborted the transfer: " + hex(r.value, 8) + " (" +
+                abort_text(r.value) + ")");
+  }
+  const bool is_upload = d.sdo_step <= kReadEncoderIncrements;
+  if (r.kind != (is_upload ? sdo::ResponseKind::kUploadValue : sdo::ResponseKind::kDownloadDone)) {
+    return fail(at + "unexpected SDO response, command byte " + hex(f.data[0], 2));
+  }
+  switch (d.sdo_step) {
+    case kReadDeviceType:
+      if ((r.value & 0xFFFF) != (od::kDeviceTypeServo & 0xFFFF)) {
+        return fail(at + "device type " + hex(r.value, 8) + " is not a CiA 402 drive (0x....0192)");
+      }
+      break;
+    case kReadRatedCurrent:
+      if (r.value == 0) return fail(at + "the drive reports a rated current of 0 mA");
+      d.rated_current_mA = r.value;
+      break;
+    case kReadRatedTorque:
+      if (r.value == 0) return fail(at + "the drive reports a rated torque of 0 mN m");
+      d.rated_torque_mNm = r.value;
+      break;
+    case kReadEncoderIncrements:
+      if (r.value != d.config.model.counts_per_rev) {
+        return fail(at + "the encoder has " + std::to_string(r.value) +
+                    " counts per revolution; the configuration says " +
+                    std::to_string(d.config.model.counts_per_rev) + " (joint" +
+                    std::to_string(&d - drives_.data() + 1) + ".counts_per_rev)");
+      }
+      d.units = DriveUnits(d.config.model, d.rated_current_mA, d.rated_torque_mNm);
+      break;
+    default:
+      break;
+  }
+  d.sdo_pending = false;
+  d.sdo_attempts = 0;
+  ++d.sdo_step;
+  if (d.sdo_step < kStepCount) send_sdo(d, now_us_);
+}
+
+void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {
+  const std::uint8_t expected = second ? p::kTpdo2.dlc : p::kTpdo1.dlc;
+  if (f.dlc != expected) {
+    d.malformed = true;
+    (second ? d.got_tpdo2 : d.got_tpdo1) = true;  // answered, if badly
+    problem_ = "node " + std::to_string(d.node) + ": " + (second ? "TPDO2" : "TPDO1") + " " +
+               hex(f.id, 3) + " has " + std::to_string(f.dlc) + " bytes, expected " +
+               std::to_string(expected);
+    return;
+  }
+  if (!window_open_) {
+    d.late = true;
+    ++late_frames_;
+    problem_ = "node " + std::to_string(d.node) + ": " + (second ? "TPDO2" : "TPDO1") + " " +
+               hex(f.id, 3) + " arrived after the cycle's deadline";
+    return;
+  }
+  if (second) {
+    d.velocity_counts_s = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2.signals[0]));
+    d.got_tpdo2 = true;
+    return;
+  }
+  d.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1.signals[0]));
+  d.state = delta::can::cia402::decode_statusword(d.statusword);
+  d.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1.signals[1]));
+  d.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1.signals[2]));
+  d.got_tpdo1 = true;
+}
+
+void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us) {
+  now_us_ = now_us;
+  if (r.error) {
+    if (r.error->bus_off || r.error->error_passive) {
+      bus_error_ = true;
+      problem_ = std::string("CAN bus error: ") + (r.error->bus_off ? "bus-off" : "error passive") +
+                 " (error frame class " + hex(r.error->raw_class, 8) + ")";
+    }
+    return;
+  }
+  const Frame& f = r.frame;
+  if (f.extended || f.remote) return;
+  const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
+  const std::uint32_t function = f.id & 0x780;
+  Drive* d = drive_for(node);
+  if (d == nullptr) return;
+  if (function == p::kSdoTx.base_id) {
+    handle_sdo_response(*d, f);
+  } else if (function == p::kTpdo1.base_id) {
+    if (cyclic()) handle_tpdo(*d, f, false);
+  } else if (function == p::kTpdo2.base_id) {
+    if (cyclic()) handle_tpdo(*d, f, true);
+  } else if (function == p::kEmcy.base_id) {
+    const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcy.signals[0]));
+    if (code != od::kEmcyErrorReset) {
+      d->emergency = true;
+      problem_ = "node " + std::to_string(node) + ": emergency " + hex(code, 4) +
+                 (code == od::kEmcyOvercurrent ? " (over-current)" : "");
+    }
+  } else if (function == p::kHeartbeat.base_id) {
+    d->heartbeat_seen = true;
+    d->last_heartbeat_cycle = cycle_;
+    if (f.dlc >= 1 && f.data[0] == p::kNmtStateBootUp && phase_ == Phase::kCyclic) {
+      d->rebooted = true;
+      problem_ = "node " + std::to_string(node) + " restarted (boot-up message)";
+    }
+  }
+}
+
+void CanopenMaster::begin_cycle(std::uint64_t now_us) {
+  now_us_ = now_us;
+  ++cycle_;
+  for (Drive& d : drives_) d.got_tpdo1 = d.got_tpdo2 = false;
+  window_open_ = cyclic();
+  if (window_open_) bus_.send(frame(p::cob_id(p::kSync, 0), 0, {}));
+}
+
+bool CanopenMaster::exchange_complete() const {
+  if (phase_ == Phase::kConfiguring) {
+    for (const Drive& d : drives_) {
+      if (d.sdo_pending) return false;
+    }
+    return true;
+  }
+  if (!window_open_) return true;
+  for (const Drive& d : drives_) {
+    if (!d.got_tpdo1 || (config_.velocity_pdo && !d.got_tpdo2)) return false;
+  }
+  return true;
+}
+
+void CanopenMaster::end_window() {
+  window_open_ = false;
+}
+
+std::uint64_t CanopenMaster::sdo_deadline_us() const {
+  std::uint64_t earliest = 0;
+  for (const Drive& d : drives_) {
+    if (!d.sdo_pending) continue;
+    const std::uint64_t t = d.sdo_sent_us + std::uint64_t{config_.sdo_timeout_ms} * 1000;
+    if (earliest == 0 || t < earliest) earliest = t;
+  }
+  return earliest;
+}
+
+void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
+  for (unsigned j = 0; j < 3; ++j) {
+    Drive& d = drives_[j];
+    fw::DriveFeedback& fb = out[j];
+    const bool heartbeat_ok = cycle_ - d.last_heartbeat_cycle <= heartbeat_timeout_cycles_;
+    if (!heartbeat_ok && phase_ == Phase::kCyclic) {
+      problem_ = "node " + std::to_string(d.node) + ": no heartbeat for " +
+                 std::to_string((cycle_ - d.last_heartbeat_cycle) * config_.period_us / 1000) +
+                 " ms (timeout " + std::to_string(config_.heartbeat_timeout_ms) + " ms)";
+    } else if (!d.got_tpdo1 && phase_ == Phase::kCyclic && !d.late) {
+      problem_ = "node " + std::to_string(d.node) + ": no TPDO1 answered the SYNC of cycle " +
+                 std::to_string(cycle_);
+    }
+    const bool sample = d.got_tpdo1 && !d.malformed;
+    if (sample) {
+      if (!config_.velocity_pdo) {
+        const std::int64_t delta_counts =
+            d.have_previous ? std::int64_t{d.position_counts} - d.previous_counts : 0;
+        d.velocity_counts_s =
+            static_cast<std::int32_t>(delta_counts * 1000000 / std::int64_t{config_.period_us});
+      }
+      d.previous_counts = d.position_counts;
+      d.have_previous = true;
+    }
+    fb.position_rad = d.units.joint_angle(d.position_counts);
+    fb.velocity_rad_s = d.units.joint_velocity(d.velocity_counts_s);
+    fb.current_A = d.units.current(d.current_per_mille);
+    fb.fresh = sample && (!config_.velocity_pdo || d.got_tpdo2) && heartbeat_ok;
+    fb.fault = d.emergency || d.rebooted || d.state == State::kFault ||
+               d.state == State::kFaultReactionActive;
+    fb.problem = d.malformed             ? fw::FeedbackProblem::kMalformed
+                 : bus_error_            ? fw::FeedbackProblem::kBusError
+                 : (d.late && !fb.fresh) ? fw::FeedbackProblem::kLate
+                                         : fw::FeedbackProblem::kNone;
+    d.malformed = false;
+    d.late = false;
+  }
+  bus_error_ = false;
+}
+
+void CanopenMaster::command_torque(const std::array<Q12_19, 3>& joint_torque_Nm) {
+  for (unsigned j = 0; j < 3; ++j) {
+    drives_[j].command_current_A = fw::current_from_torque(core_.torque[j], joint_torque_Nm[j]);
+  }
+}
+
+void CanopenMaster::send_commands() {
+  if (!cyclic()) return;
+  for (Drive& d : drives_) {
+    // While starting, only a fault-reset edge for a drive in fault.
+    const bool clear_fault = phase_ == Phase::kStarting && d.state == State::kFault;
+    d.controlword = clear_fault
+                        ? delta::can::cia402::controlword_towards(d.state, true, d.controlword)
+                        : delta::can::cia402::controlword_towards(d.state, enable_, d.controlword);
+    const bool driving = enable_ && d.state == State::kOperationEnabled;
+    std::array<std::uint8_t, 8> data{};
+    p::pack(data, p::kRpdo1.signals[0], d.controlword);
+    p::pack(data, p::kRpdo1.signals[1],
+            driving ? d.units.target_torque_per_mille(d.command_current_A) : 0);
+    p::pack(data, p::kRpdo1.signals[2], d.position_counts);
+    bus_.send(frame(p::cob_id(p::kRpdo1, d.node), 8, data));
+  }
+}
+
+}  // namespace fw_linux

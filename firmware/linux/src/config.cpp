@@ -1,0 +1,301 @@
+#include "fw_linux/config.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "delta/dynamics.hpp"
+
+namespace fw_linux {
+namespace {
+
+double parse_number(const std::string& v, const std::string& where, const std::string& key) {
+  const char* begin = v.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double d = std::strtod(begin, &end);
+  if (v.empty() || end != begin + v.size() || errno == ERANGE || !std::isfinite(d)) {
+    throw ConfigError(where + ": " + key + " needs a number, got '" + v + "'");
+  }
+  return d;
+}
+
+std::uint32_t parse_unsigned(const std::string& v, const std::string& where, const std::string& key,
+                             std::uint32_t lo, std::uint32_t hi) {
+  const double d = parse_number(v, where, key);
+  if (d != std::floor(d) || d < lo || d > hi) {
+    throw ConfigError(where + ": " + key + " must be a whole number from " + std::to_string(lo) +
+                      " to " + std::to_string(hi) + ", got '" + v + "'");
+  }
+  return static_cast<std::uint32_t>(d);
+}
+
+bool parse_bool(const std::string& v, const std::string& where, const std::string& key) {
+  if (v == "true" || v == "yes" || v == "1") return true;
+  if (v == "false" || v == "no" || v == "0") return false;
+  throw ConfigError(where + ": " + key + " must be true or false, got '" + v + "'");
+}
+
+using Setter = std::function<void(PortConfig&, const std::string&, const std::string&)>;
+
+std::map<std::string, Setter> make_setters() {
+  std::map<std::string, Setter> s;
+  auto number = [&s](const std::string& key, double PortConfig::*field) {
+    s[key] = [key, field](PortConfig& c, const std::string& v, const std::string& w) {
+      c.*field = parse_number(v, w, key);
+    };
+  };
+  auto whole = [&s](const std::string& key, std::uint32_t PortConfig::*field, std::uint32_t lo,
+                    std::uint32_t hi) {
+    s[key] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.*field = parse_unsigned(v, w, key, lo, hi);
+    };
+  };
+  whole("period_us", &PortConfig::period_us, 100, 1000000);
+  whole("response_window_us", &PortConfig::response_window_us, 0, 1000000);
+  whole("lockstep_timeout_ms", &PortConfig::lockstep_timeout_ms, 1, 60000);
+  whole("heartbeat_timeout_ms", &PortConfig::heartbeat_timeout_ms, 1, 60000);
+  whole("sdo_timeout_ms", &PortConfig::sdo_timeout_ms, 1, 60000);
+  whole("sdo_retries", &PortConfig::sdo_retries, 0, 10);
+  whole("lost_feedback_cycles", &PortConfig::lost_feedback_cycles, 1, 1000);
+  whole("configure_timeout_ms", &PortConfig::configure_timeout_ms, 1, 600000);
+  s["heartbeat_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.heartbeat_ms = static_cast<std::uint16_t>(parse_unsigned(v, w, "heartbeat_ms", 1, 65535));
+  };
+  s["mode"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    if (v == "realtime") {
+      c.mode = CycleMode::kRealTime;
+    } else if (v == "lockstep") {
+      c.mode = CycleMode::kLockStep;
+    } else {
+      throw ConfigError(w + ": mode must be 'realtime' or 'lockstep', got '" + v + "'");
+    }
+  };
+  s["velocity_pdo"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.velocity_pdo = parse_bool(v, w, "velocity_pdo");
+  };
+  s["geometry.upper_arm_length_m"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.geometry.upper_arm_length_m = parse_number(v, w, "geometry.upper_arm_length_m");
+  };
+  s["geometry.forearm_length_m"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.geometry.forearm_length_m = parse_number(v, w, "geometry.forearm_length_m");
+  };
+  s["geometry.base_radius_m"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.geometry.base_radius_m = parse_number(v, w, "geometry.base_radius_m");
+  };
+  s["geometry.platform_radius_m"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.geometry.platform_radius_m = parse_number(v, w, "geometry.platform_radius_m");
+  };
+  number("limits.min_rad", &PortConfig::min_rad);
+  number("limits.max_rad", &PortConfig::max_rad);
+  number("limits.max_velocity_rad_s", &PortConfig::max_velocity_rad_s);
+  number("limits.max_acceleration_rad_s2", &PortConfig::max_acceleration_rad_s2);
+  number("limits.max_tracking_error_rad", &PortConfig::max_tracking_error_rad);
+  number("gains.kp_Nm_per_rad", &PortConfig::kp_Nm_per_rad);
+  number("gains.kd_Nm_s_per_rad", &PortConfig::kd_Nm_s_per_rad);
+  number("gains.ki_Nm_per_rad_s", &PortConfig::ki_Nm_per_rad_s);
+  number("gains.max_torque_Nm", &PortConfig::max_torque_Nm);
+  number("gains.integral_limit_Nm", &PortConfig::integral_limit_Nm);
+  number("nominal.arm_inertia_kg_m2", &PortConfig::nominal_arm_inertia_kg_m2);
+  number("nominal.gravity_moment_Nm", &PortConfig::nominal_gravity_moment_Nm);
+  number("approach_s", &PortConfig::approach_s);
+  number("stop_s", &PortConfig::stop_s);
+  number("blend_s", &PortConfig::blend_s);
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::string p = "joint" + std::to_string(j + 1) + ".";
+    auto joint_number = [&s, j, p](const std::string& name, double delta::DriveModel::*field) {
+      const std::string key = p + name;
+      s[key] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+        c.joints[j].model.*field = parse_number(v, w, key);
+      };
+    };
+    joint_number("gear_ratio", &delta::DriveModel::gear_ratio);
+    joint_number("rated_current_A", &delta::DriveModel::rated_current_A);
+    joint_number("rated_torque_Nm", &delta::DriveModel::rated_torque_Nm);
+    joint_number("gearbox_efficiency", &delta::DriveModel::gearbox_efficiency);
+    joint_number("zero_rad", &delta::DriveModel::joint_zero_rad);
+    s[p + "node"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].node = static_cast<std::uint8_t>(parse_unsigned(v, w, p + "node", 1, 127));
+    };
+    s[p + "counts_per_rev"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].model.counts_per_rev = parse_unsigned(v, w, p + "counts_per_rev", 4, 1u << 30);
+    };
+    s[p + "inverted"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].model.inverted = parse_bool(v, w, p + "inverted");
+    };
+    s[p + "torque_offset_Nm"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].torque_offset_Nm = parse_number(v, w, p + "torque_offset_Nm");
+    };
+  }
+  return s;
+}
+
+const std::map<std::string, Setter>& setters() {
+  static const std::map<std::string, Setter> s = make_setters();
+  return s;
+}
+
+std::string trim(const std::string& s, std::size_t& first) {
+  first = s.find_first_not_of(" \t\r");
+  if (first == std::string::npos) {
+    first = s.size();
+    return {};
+  }
+  const std::size_t last = s.find_last_not_of(" \t\r");
+  return s.substr(first, last - first + 1);
+}
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw ConfigError(message);
+}
+
+}  // namespace
+
+template <class Q>
+Q to_q(double v, const char* what) {
+  const double scaled = std::ldexp(v, Q::kFracBits);
+  if (!std::isfinite(scaled) || std::fabs(scaled) > 2147483647.0) {
+    std::ostringstream m;
+    m << what << " = " << v << " does not fit Q" << Q::kIntBits << "." << Q::kFracBits
+      << " (range +/- " << std::ldexp(1.0, Q::kIntBits) << ")";
+    throw ConfigError(m.str());
+  }
+  return Q::from_raw(static_cast<std::int32_t>(std::llround(scaled)));
+}
+
+template delta::fx::Q3_28 to_q<delta::fx::Q3_28>(double, const char*);
+template delta::fx::Q7_24 to_q<delta::fx::Q7_24>(double, const char*);
+template delta::fx::Q10_21 to_q<delta::fx::Q10_21>(double, const char*);
+template delta::fx::Q12_19 to_q<delta::fx::Q12_19>(double, const char*);
+template delta::fx::Q14_17 to_q<delta::fx::Q14_17>(double, const char*);
+template delta::fx::Q16_15 to_q<delta::fx::Q16_15>(double, const char*);
+template delta::fx::Q1_30 to_q<delta::fx::Q1_30>(double, const char*);
+
+void set_config_value(PortConfig& c, const std::string& key, const std::string& value,
+                      const std::string& where) {
+  const auto it = setters().find(key);
+  if (it == setters().end()) {
+    throw ConfigError(where + ": unknown key '" + key + "' (docs/firmware.md lists the keys)");
+  }
+  it->second(c, value, where);
+}
+
+PortConfig read_port_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the configuration file");
+  PortConfig c;
+  std::set<std::string> seen;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    const std::string at = path + ":" + std::to_string(n) + ":";
+    std::size_t col = 0;
+    const std::string text = trim(line.substr(0, line.find('#')), col);
+    if (text.empty()) continue;
+    const std::size_t eq = text.find('=');
+    if (eq == std::string::npos) {
+      throw ConfigError(at + std::to_string(col + 1) + ": expected 'key = value'");
+    }
+    std::size_t key_col = 0;
+    std::size_t value_col = 0;
+    const std::string key = trim(text.substr(0, eq), key_col);
+    const std::string value = trim(text.substr(eq + 1), value_col);
+    const std::string key_at = at + std::to_string(col + key_col + 1);
+    if (key.empty()) throw ConfigError(key_at + ": a key is missing before '='");
+    if (!seen.insert(key).second) throw ConfigError(key_at + ": '" + key + "' is set twice");
+    if (setters().count(key) == 0) set_config_value(c, key, value, key_at);  // throws: unknown
+    set_config_value(c, key, value, at + std::to_string(col + eq + 1 + value_col + 1));
+  }
+  validate(c);
+  return c;
+}
+
+void validate(const PortConfig& c) {
+  require(1000000 % c.period_us == 0,
+          "period_us = " + std::to_string(c.period_us) + " must divide one second exactly");
+  require(c.response_window_us < c.period_us, "response_window_us must be shorter than period_us");
+  const std::string geometry = delta::describe_geometry_fault(c.geometry);
+  require(geometry.empty(), "geometry: " + geometry);
+  require(c.min_rad < c.max_rad, "limits.min_rad must be below limits.max_rad");
+  require(c.max_velocity_rad_s > 0 && c.max_acceleration_rad_s2 > 0 && c.max_tracking_error_rad > 0,
+          "limits: velocity, acceleration and tracking limits must be positive");
+  require(c.kp_Nm_per_rad >= 0 && c.kd_Nm_s_per_rad >= 0 && c.ki_Nm_per_rad_s >= 0,
+          "gains must not be negative");
+  require(c.max_torque_Nm > 0, "gains.max_torque_Nm must be positive");
+  require(c.approach_s > 0 && c.stop_s > 0 && c.blend_s > 0,
+          "approach_s, stop_s and blend_s must be positive");
+  require(c.heartbeat_timeout_ms > c.heartbeat_ms,
+          "heartbeat_timeout_ms must be longer than heartbeat_ms");
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::string p = "joint" + std::to_string(j + 1) + ".";
+    const delta::DriveModel& m = c.joints[j].model;
+    require(m.gear_ratio > 0, p + "gear_ratio must be positive");
+    require(m.rated_current_A > 0 && m.rated_torque_Nm > 0,
+            p + "rated_current_A and rated_torque_Nm must be positive");
+    require(m.gearbox_efficiency > 0 && m.gearbox_efficiency <= 1,
+            p + "gearbox_efficiency must be in (0, 1]");
+    for (unsigned k = 0; k < j; ++k) {
+      require(c.joints[k].node != c.joints[j].node,
+              p + "node = " + std::to_string(c.joints[j].node) + " is also joint" +
+                  std::to_string(k + 1) + "'s node");
+    }
+  }
+  (void)controller_config(c);  // every value fits its Q format
+}
+
+fw::ControllerConfig controller_config(const PortConfig& c) {
+  using namespace delta::fx;
+  fw::ControllerConfig out;
+  out.geometry = {to_q<Q7_24>(c.geometry.upper_arm_length_m, "geometry.upper_arm_length_m"),
+                  to_q<Q7_24>(c.geometry.forearm_length_m, "geometry.forearm_length_m"),
+                  to_q<Q7_24>(c.geometry.base_radius_m, "geometry.base_radius_m"),
+                  to_q<Q7_24>(c.geometry.platform_radius_m, "geometry.platform_radius_m")};
+  out.tick_period_us = c.period_us;
+  out.limits.min_rad = to_q<Q3_28>(c.min_rad, "limits.min_rad");
+  out.limits.max_rad = to_q<Q3_28>(c.max_rad, "limits.max_rad");
+  out.limits.max_velocity_rad_s = to_q<Q10_21>(c.max_velocity_rad_s, "limits.max_velocity_rad_s");
+  out.limits.max_acceleration_rad_s2 =
+      to_q<Q14_17>(c.max_acceleration_rad_s2, "limits.max_acceleration_rad_s2");
+  out.max_tracking_error_rad =
+      to_q<Q3_28>(c.max_tracking_error_rad, "limits.max_tracking_error_rad");
+  out.gains.kp_Nm_per_rad = to_q<Q16_15>(c.kp_Nm_per_rad, "gains.kp_Nm_per_rad");
+  out.gains.kd_Nm_s_per_rad = to_q<Q12_19>(c.kd_Nm_s_per_rad, "gains.kd_Nm_s_per_rad");
+  out.gains.ki_Nm_per_rad_s = to_q<Q16_15>(c.ki_Nm_per_rad_s, "gains.ki_Nm_per_rad_s");
+  out.gains.max_torque_Nm = to_q<Q12_19>(c.max_torque_Nm, "gains.max_torque_Nm");
+  out.gains.integral_limit_Nm = to_q<Q12_19>(c.integral_limit_Nm, "gains.integral_limit_Nm");
+  // Nominal feed-forward of the default robot: the arm plus a third of the
+  // platform at each elbow.
+  const delta::LumpedParameters p = delta::default_lumped_parameters();
+  const double a = c.geometry.upper_arm_length_m;
+  const double inertia = c.nominal_arm_inertia_kg_m2 >= 0
+                             ? c.nominal_arm_inertia_kg_m2
+                             : p.arm_inertia_kg_m2[0] + p.platform_mass_kg * a * a / 3.0;
+  const double gravity =
+      c.nominal_gravity_moment_Nm >= 0
+          ? c.nominal_gravity_moment_Nm
+          : p.arm_gravity_moment_Nm[0] + p.platform_mass_kg * p.gravity_m_s2 * a / 3.0;
+  out.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
+  out.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
+  for (unsigned j = 0; j < 3; ++j) {
+    const delta::DriveModel& m = c.joints[j].model;
+    fw::JointTorqueConfig& t = out.torque[j];
+    t.gear_ratio = to_q<Q12_19>(m.gear_ratio, "gear_ratio");
+    t.torque_constant_Nm_per_A = to_q<Q7_24>(m.torque_constant_Nm_per_A(), "torque constant");
+    t.efficiency = to_q<Q1_30>(m.gearbox_efficiency, "gearbox_efficiency");
+    t.inverted = m.inverted;
+    t.offset_Nm = to_q<Q12_19>(c.joints[j].torque_offset_Nm, "torque_offset_Nm");
+  }
+  const double ticks_per_s = 1e6 / c.period_us;
+  out.approach_ticks = static_cast<std::uint32_t>(std::lround(c.approach_s * ticks_per_s));
+  out.stop_ticks = static_cast<std::uint32_t>(std::lround(c.stop_s * ticks_per_s));
+  out.configure_timeout_ticks =
+      static_cast<std::uint32_t>(std::lround(c.configure_timeout_ms * 1e3 / c.period_us));
+  out.lost_feedback_ticks = c.lost_feedback_cycles;
+  return out;
+}
+
+}  // namespace fw_linux

@@ -1,0 +1,316 @@
+#include "fw_linux/port.hpp"
+
+#include <poll.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/timerfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <ostream>
+
+#include "delta/can/cia402.hpp"
+#include "delta/can/protocol.hpp"
+#include "fw/controller.hpp"
+#include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/trajectories.hpp"
+
+namespace fw_linux {
+
+namespace p = delta::can::protocol;
+
+namespace {
+
+std::uint64_t monotonic_us() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000u +
+         static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
+}
+
+// Waits until the socket is readable or the absolute deadline passes.
+bool wait_readable_until(int fd, std::uint64_t deadline_us) {
+  const std::uint64_t now = monotonic_us();
+  if (now >= deadline_us) return false;
+  const std::uint64_t left = deadline_us - now;
+  timespec ts{static_cast<time_t>(left / 1000000), static_cast<long>((left % 1000000) * 1000)};
+  pollfd pfd{fd, POLLIN, 0};
+  return ppoll(&pfd, 1, &ts, nullptr) > 0;
+}
+
+void drain(delta::can::Socket& socket, CanopenMaster& master) {
+  while (auto r = socket.receive()) master.on_frame(*r, monotonic_us());
+}
+
+// The controller's own CANopen presence: its heartbeat (0x710) and an
+// emergency (0x090) when it enters a fault, with the fault code and cycle.
+class Announcer {
+ public:
+  Announcer(FrameSink& bus, const PortConfig& c)
+      : bus_(bus),
+        heartbeat_cycles_(std::max<std::uint32_t>(1, c.heartbeat_ms * 1000u / c.period_us)) {}
+
+  void after_step(fw::Fault fault, std::uint32_t cycle) {
+    if (fault != last_fault_) {
+      std::array<std::uint8_t, 8> d{};
+      const std::uint16_t code =
+          fault == fw::Fault::kNone
+              ? delta::can::od::kEmcyErrorReset
+              : static_cast<std::uint16_t>(delta::can::od::kEmcyControllerFaultBase +
+                                           static_cast<std::uint16_t>(fault));
+      const p::Message& m = p::kControllerEmcy;
+      p::pack(d, m.signals[0], code);
+      p::pack(d, m.signals[1], fault == fw::Fault::kNone ? 0 : 1);
+      p::pack(d, m.signals[2], static_cast<std::uint16_t>(fault));
+      p::pack(d, m.signals[3], cycle);
+      send(m.base_id, m.dlc, d);
+      last_fault_ = fault;
+    }
+    if (++since_heartbeat_ >= heartbeat_cycles_) {
+      since_heartbeat_ = 0;
+      std::array<std::uint8_t, 8> d{};
+      d[0] = p::kNmtStateOperational;
+      send(p::kControllerHeartbeat.base_id, p::kControllerHeartbeat.dlc, d);
+    }
+  }
+
+ private:
+  void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
+    delta::can::Frame f;
+    f.id = id;
+    f.dlc = dlc;
+    f.data = data;
+    bus_.send(f);
+  }
+  FrameSink& bus_;
+  std::uint32_t heartbeat_cycles_;
+  std::uint32_t since_heartbeat_{0};
+  fw::Fault last_fault_{fw::Fault::kNone};
+};
+
+const char* check_reason(fw::TrajectoryFault f) {
+  switch (f) {
+    case fw::TrajectoryFault::kOk:
+      return "ok";
+    case fw::TrajectoryFault::kInvalidConfig:
+      return "invalid configuration";
+    case fw::TrajectoryFault::kJointLimit:
+      return "joint limit";
+    case fw::TrajectoryFault::kVelocityLimit:
+      return "velocity limit";
+    case fw::TrajectoryFault::kAccelerationLimit:
+      return "acceleration limit";
+    case fw::TrajectoryFault::kOutsideWorkspace:
+      return "outside the workspace";
+  }
+  return "unknown";
+}
+
+void set_realtime(int priority, std::ostream& out) {
+  if (priority <= 0) return;
+  sched_param sp{};
+  sp.sched_priority = priority;
+  if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) != 0) {
+    out << "delta_fw: warning: cannot use SCHED_FIFO priority " << priority
+        << " (needs root or CAP_SYS_NICE); running without\n";
+  }
+  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    out << "delta_fw: warning: mlockall failed: " << std::strerror(errno) << "\n";
+  }
+}
+
+}  // namespace
+
+bool send_log_frames(FrameSink& bus, const fw::LogRecord& r) {
+  std::array<std::int32_t, 3> q{};
+  std::array<std::int32_t, 3> tau{};
+  for (unsigned j = 0; j < 3; ++j) {
+    q[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.q_rad[j].raw(), 8));
+    tau[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.tau_Nm[j].raw(), 3));
+  }
+  const p::LogPayloads payloads = p::pack_log(static_cast<std::uint16_t>(r.seq & 0xFFFF), q, tau);
+  const p::Message* messages[3] = {&p::kLogA, &p::kLogB, &p::kLogC};
+  bool ok = true;
+  for (unsigned i = 0; i < 3; ++i) {
+    delta::can::Frame f;
+    f.id = messages[i]->base_id;
+    f.dlc = 8;
+    f.data = payloads.data[i];
+    ok = bus.send(f) && ok;
+  }
+  return ok;
+}
+
+int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
+             const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
+  // The trajectories are checked for existence before touching the bus.
+  std::vector<fw::TrajectoryConfig> runs;
+  for (const std::string& name : options.trajectories) {
+    auto t = named_trajectory(name, config);
+    if (!t) {
+      out << "delta_fw: unknown trajectory '" << name << "' (known:";
+      for (const auto& n : trajectory_names()) out << " " << n;
+      out << ")\n";
+      return kExitUsage;
+    }
+    runs.push_back(*t);
+  }
+  const fw::ControllerConfig core_config = controller_config(config);
+
+  // What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats
+  // (and error frames, which need no filter).
+  delta::can::Socket socket = delta::can::Socket::open(options.iface,
+                                                       {{p::kTpdo1.base_id, 0x780, false},
+                                                        {p::kTpdo2.base_id, 0x780, false},
+                                                        {p::kSdoTx.base_id, 0x780, false},
+                                                        {p::kEmcy.base_id, 0x780, false},
+                                                        {p::kHeartbeat.base_id, 0x780, false}},
+                                                       1 << 20);
+  SocketSink sink(socket);
+  CanopenMaster master(config, sink);
+  LinuxHardware hw(master, io, sink);
+  fw::Controller<LinuxHardware> controller(hw, core_config);
+  Announcer announcer(sink, config);
+
+  const bool realtime = config.mode == CycleMode::kRealTime;
+  const std::uint64_t window_us =
+      config.response_window_us != 0 ? config.response_window_us : config.period_us / 2;
+  int timer = -1;
+  std::uint64_t t0 = 0;
+  if (realtime) {
+    set_realtime(options.rt_priority, out);
+    timer = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC);
+    if (timer < 0) {
+      out << "delta_fw: timerfd_create failed: " << std::strerror(errno) << "\n";
+      return kExitCanError;
+    }
+    t0 = monotonic_us() + config.period_us;
+    itimerspec spec{};
+    spec.it_value = {static_cast<time_t>(t0 / 1000000), static_cast<long>(t0 % 1000000 * 1000)};
+    spec.it_interval = {0, static_cast<long>(config.period_us) * 1000};
+    if (config.period_us >= 1000000) spec.it_interval = {1, 0};
+    timerfd_settime(timer, TFD_TIMER_ABSTIME, &spec, nullptr);
+  }
+
+  out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
+      << 1000000 / config.period_us << " Hz\n";
+  CycleStats stats;
+  std::vector<std::int64_t> latencies;
+  std::uint64_t expirations = 0;
+  double latency_sum = 0;
+  const std::uint64_t wall_start = monotonic_us();
+  std::size_t next_run = 0;
+  bool running_one = false;
+  int exit_code = -1;
+  int cycles_to_exit = -1;
+  fw::State last_state = controller.state();
+  std::string last_problem;
+
+  while (!stop.load() && exit_code < 0) {
+    std::uint64_t tick_us = monotonic_us();
+    if (realtime) {
+      std::uint64_t n = 0;
+      if (read(timer, &n, sizeof n) != static_cast<ssize_t>(sizeof n)) continue;
+      expirations += n;
+      stats.overruns += n - 1;
+      const std::uint64_t now = monotonic_us();
+      tick_us = t0 + (expirations - 1) * config.period_us;
+      const auto latency = static_cast<std::int64_t>(now - tick_us);
+      latencies.push_back(latency);
+      latency_sum += static_cast<double>(latency);
+      stats.latency_max_us = std::max(stats.latency_max_us, latency);
+    }
+    drain(socket, master);  // whatever came after the last window is late
+    master.begin_cycle(monotonic_us());
+    std::uint64_t deadline =
+        realtime ? tick_us + window_us : monotonic_us() + config.lockstep_timeout_ms * 1000ull;
+    if (!realtime && master.sdo_deadline_us() != 0) {
+      deadline = std::min(deadline, master.sdo_deadline_us());
+    }
+    while (!master.exchange_complete()) {
+      if (!wait_readable_until(socket.fd(), deadline)) break;
+      drain(socket, master);
+    }
+    master.end_window();
+
+    const std::uint64_t step_start = monotonic_us();
+    controller.step();
+    master.send_commands();
+    stats.step_max_us =
+        std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
+    announcer.after_step(controller.fault(), controller.cycles());
+    ++stats.cycles;
+
+    // Report what changed, and run the trajectories.
+    const fw::State state = controller.state();
+    if (state != last_state) {
+      out << "delta_fw: " << fw::state_name(state);
+      if (state == fw::State::kFault) {
+        out << ", fault " << static_cast<int>(controller.fault()) << " ("
+            << fw::fault_name(controller.fault()) << ")";
+        if (!master.last_problem().empty()) out << ": " << master.last_problem();
+        out << " at cycle " << controller.cycles();
+      }
+      out << "\n";
+      last_state = state;
+    }
+    if (state == fw::State::kReady) {
+      if (running_one) {
+        running_one = false;
+        ++next_run;
+      }
+      if (next_run < runs.size()) {
+        const fw::StartResult r = controller.start(runs[next_run]);
+        if (!r.accepted) {
+          out << "delta_fw: trajectory '" << options.trajectories[next_run]
+              << "' rejected: " << check_reason(r.check.fault) << " at tick " << r.check.tick;
+          if (r.check.joint >= 0) out << ", joint " << r.check.joint + 1;
+          out << "\n";
+          exit_code = kExitRejected;
+          break;
+        }
+        out << "delta_fw: running " << options.trajectories[next_run] << "\n";
+        running_one = true;
+      } else if (options.exit_when_done && cycles_to_exit < 0) {
+        cycles_to_exit = 2;  // the disabling RPDOs go out first
+      }
+    }
+    if (state == fw::State::kFault && options.exit_when_done && cycles_to_exit < 0) {
+      cycles_to_exit = 10;  // keep the drives disabled and the EMCY seen
+    }
+    if (cycles_to_exit >= 0 && cycles_to_exit-- == 0) {
+      exit_code = state == fw::State::kFault ? kExitFault : kExitDone;
+    }
+    if (options.max_cycles != 0 && stats.cycles >= options.max_cycles) {
+      exit_code = state == fw::State::kFault ? kExitFault : kExitDone;
+    }
+  }
+  if (exit_code < 0) exit_code = controller.state() == fw::State::kFault ? kExitFault : kExitDone;
+  if (timer >= 0) close(timer);
+
+  stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
+  stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
+  stats.late_frames = master.late_frames();
+  stats.send_failures = sink.failures();
+  if (!latencies.empty()) {
+    std::sort(latencies.begin(), latencies.end());
+    stats.latency_p99_us = latencies[latencies.size() * 99 / 100];
+    stats.latency_mean_us = latency_sum / static_cast<double>(latencies.size());
+  }
+  out << "delta_fw: " << stats.cycles << " cycles in " << stats.wall_s << " s ("
+      << stats.simulated_s << " s of bus time); step max " << stats.step_max_us
+      << " us; late frames " << stats.late_frames << "; send failures " << stats.send_failures;
+  if (realtime) {
+    out << "; wake-up latency mean " << stats.latency_mean_us << " us, p99 " << stats.latency_p99_us
+        << " us, max " << stats.latency_max_us << " us; overruns " << stats.overruns;
+  }
+  out << "\n";
+  if (stats_out != nullptr) *stats_out = stats;
+  return exit_code;
+}
+
+}  // namespace fw_linux

@@ -1,0 +1,86 @@
+#include "fw_linux/trajectories.hpp"
+
+#include <cmath>
+
+#include "delta/trajectory.hpp"
+
+namespace fw_linux {
+namespace {
+
+using delta::fx::Q3_28;
+using delta::fx::Q7_24;
+
+struct FourierPreset {
+  const char* name;
+  unsigned long long seed;
+  unsigned base_frequency_mHz;
+  std::uint32_t periods;
+};
+
+constexpr FourierPreset kFourier[] = {{"path1", 1, 200, 2}, {"path2", 2, 250, 2}};
+constexpr unsigned kHarmonics = 5;
+constexpr double kAmplitudeRad = 0.35;
+const delta::Vec3<double> kCentre{0.0, 0.0, -0.42};
+
+fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c) {
+  delta::FourierTrajectory f;
+  const double hz = preset.base_frequency_mHz / 1000.0;
+  if (!delta::make_fourier_excitation(c.geometry, kCentre, kHarmonics, hz, kAmplitudeRad,
+                                      preset.seed, f)) {
+    throw ConfigError(std::string(preset.name) +
+                      ": no Fourier excitation fits this geometry's workspace");
+  }
+  fw::TrajectoryConfig t;
+  t.kind = fw::TrajectoryKind::kFourier;
+  t.tick_period_us = c.period_us;
+  t.blend_ticks = static_cast<std::uint32_t>(std::lround(c.blend_s * 1e6 / c.period_us));
+  t.fourier.base_frequency_mHz = preset.base_frequency_mHz;
+  t.fourier.harmonics = kHarmonics;
+  t.fourier.periods = preset.periods;
+  const double w = 2.0 * 3.141592653589793 * hz;
+  for (unsigned j = 0; j < 3; ++j) {
+    t.fourier.q0_rad[j] = to_q<Q3_28>(f.q0_rad[j], "q0");
+    for (unsigned k = 0; k < kHarmonics; ++k) {
+      // q = a/(k w) sin(k w t) - b/(k w) cos(k w t)  (common/trajectory.hpp)
+      const double kw = (k + 1) * w;
+      t.fourier.sin_amplitude_rad[j][k] = to_q<Q3_28>(f.a_rad_s[j][k] / kw, "amplitude");
+      t.fourier.cos_amplitude_rad[j][k] = to_q<Q3_28>(-f.b_rad_s[j][k] / kw, "amplitude");
+    }
+  }
+  return t;
+}
+
+fw::TrajectoryConfig pick_and_place(const PortConfig& c) {
+  const delta::PickAndPlaceTrajectory p = delta::default_pick_and_place(c.geometry);
+  fw::TrajectoryConfig t;
+  t.kind = fw::TrajectoryKind::kPickAndPlace;
+  t.tick_period_us = c.period_us;
+  const std::size_t n = std::min<std::size_t>(p.points_m.size(), fw::kMaxWaypoints);
+  t.pick_and_place.waypoints = static_cast<std::uint8_t>(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t.pick_and_place.points[i] = {to_q<Q7_24>(p.points_m[i].x, "x"),
+                                  to_q<Q7_24>(p.points_m[i].y, "y"),
+                                  to_q<Q7_24>(p.points_m[i].z, "z")};
+  }
+  t.pick_and_place.segment_ticks =
+      static_cast<std::uint32_t>(std::lround(p.segment_duration_s * 1e6 / c.period_us));
+  t.pick_and_place.cycles = 3;
+  return t;
+}
+
+}  // namespace
+
+std::vector<std::string> trajectory_names() {
+  return {"path1", "path2", "pick-and-place"};
+}
+
+std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,
+                                                     const PortConfig& config) {
+  for (const FourierPreset& p : kFourier) {
+    if (name == p.name) return fourier(p, config);
+  }
+  if (name == "pick-and-place") return pick_and_place(config);
+  return std::nullopt;
+}
+
+}  // namespace fw_linux

@@ -1,0 +1,135 @@
+// The drive-and-robot emulator: three CiA 402 drives on one CAN bus, coupled
+// to a simulated delta (the lumped model of common/dynamics.hpp, integrated
+// with RK4 over sub-steps), with fault injection. Socket-free: frames come in
+// through on_frame() and leave through the Outbox, so the same code serves
+// delta_drive_emu on SocketCAN and unit tests.
+//
+// Each drive has the CiA 402 power state machine (common/can/cia402.hpp), an
+// SDO server with an object dictionary, TPDOs on SYNC, a heartbeat producer,
+// EMCY on faults, a first-order current loop, encoder quantisation and
+// Gaussian current noise. Simulated time advances by the communication cycle
+// period (object 0x1006) at every SYNC, so a lock-step controller gets the
+// same physics whatever the machine's speed.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "delta/can/cia402.hpp"
+#include "delta/can/socketcan.hpp"
+#include "delta/drive_model.hpp"
+#include "delta/dynamics.hpp"
+
+namespace emu {
+
+// One injected fault (docs/hil.md): KIND[:NODE[:ARG]][@SECONDS].
+enum class FaultKind : std::uint8_t {
+  kHeartbeatDrop,  // the node stops its heartbeat (PDOs continue)
+  kSilent,         // the node stops answering anything
+  kErrorFrame,     // error frames on the bus: error passive, then bus-off
+  kCorruptPdo,     // the node's next TPDO1 is 5 bytes long
+  kDelayPdo,       // the node's TPDOs leave ARG ms (wall clock) after the SYNC
+  kOvercurrent,    // the node's current exceeds its limit: fault, EMCY 0x2310
+};
+
+struct FaultInjection {
+  FaultKind kind{FaultKind::kSilent};
+  std::uint8_t node{0};     // 0 for bus-wide faults
+  double at_s{0.0};         // simulated time after the first SYNC
+  std::uint32_t arg_ms{0};  // delay-pdo
+  bool done{false};
+};
+
+// Parses "silent:2@1.5", "error-frame@3", "delay-pdo:1:15@0.5". Throws
+// std::invalid_argument with the reason.
+FaultInjection parse_fault(const std::string& spec);
+
+struct EmulatorConfig {
+  delta::Geometry geometry{delta::kDefaultGeometry};
+  delta::LumpedParameters truth{delta::default_lumped_parameters()};
+  std::array<delta::DriveModel, 3> drives{delta::kDefaultDrive, delta::kDefaultDrive,
+                                          delta::kDefaultDrive};
+  delta::Joint3 initial_q_rad{0.45, 0.45, 0.45};
+  double current_time_constant_s{0.0003};  // current loop
+  double current_noise_A{0.005};           // standard deviation
+  int substeps{8};                         // RK4 steps per cycle
+  std::uint64_t seed{1};
+  std::vector<FaultInjection> faults;
+};
+
+// Frames leave with a delay (wall clock, microseconds; 0 = now).
+using Outbox = std::function<void(const delta::can::Frame&, std::uint32_t delay_us)>;
+
+class Emulator {
+ public:
+  Emulator(const EmulatorConfig& config, Outbox out);
+
+  // The drives' boot-up messages.
+  void boot();
+  void on_frame(const delta::can::Frame& f);
+  // Heartbeats by wall clock while no SYNC comes (pre-operational).
+  void on_wall_time(std::uint64_t now_us);
+
+  double simulated_s() const { return static_cast<double>(sim_us_) * 1e-6; }
+  std::uint64_t syncs() const { return syncs_; }
+  const delta::Joint3& q_rad() const { return q_; }
+  delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
+  std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
+  // A line per drive: node, NMT state, CiA 402 state.
+  std::string describe() const;
+  // Set when the plant left the workspace (the run is broken).
+  const std::string& plant_error() const { return plant_error_; }
+
+ private:
+  struct Drive {
+    std::uint8_t node{0};
+    delta::DriveModel model{};
+    std::uint8_t nmt{127};
+    delta::can::cia402::State state{delta::can::cia402::State::kNotReadyToSwitchOn};
+    std::uint16_t controlword{0};
+    std::int16_t target_torque_pm{0};
+    std::int8_t mode{0};
+    std::uint32_t cycle_us{0};
+    std::uint16_t heartbeat_ms{0};
+    std::uint32_t tpdo2_cob{0};
+    std::uint16_t max_current_pm{3000};
+    double current_A{0.0};
+    std::uint64_t next_heartbeat_sim_us{0};
+    std::uint64_t last_heartbeat_wall_us{0};
+    // injected faults
+    bool silent{false};
+    bool heartbeat_dropped{false};
+    bool corrupt_next{false};
+    std::uint32_t delay_us{0};
+  };
+
+  void handle_nmt(const delta::can::Frame& f);
+  void handle_sdo(Drive& d, const delta::can::Frame& f);
+  void handle_rpdo(Drive& d, const delta::can::Frame& f);
+  void handle_sync();
+  void advance(double dt_s);
+  void trigger_faults();
+  void enter_fault(Drive& d, std::uint16_t emcy_code);
+  void send_heartbeat(Drive& d);
+  void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data,
+            std::uint32_t delay_us = 0);
+  double noise();
+  std::int32_t position_counts(const Drive& d, double q) const;
+
+  EmulatorConfig config_;
+  Outbox out_;
+  std::array<Drive, 3> drives_{};
+  delta::Joint3 q_{};
+  delta::Joint3 qd_{};
+  std::uint64_t sim_us_{0};
+  std::uint64_t syncs_{0};
+  std::uint64_t rng_{0};
+  std::uint64_t wall_us_{0};
+  std::uint64_t last_sync_wall_us_{0};
+  std::string plant_error_;
+};
+
+}  // namespace emu

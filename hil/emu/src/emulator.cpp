@@ -1,0 +1,485 @@
+#include "emu/emulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "delta/can/protocol.hpp"
+
+namespace emu {
+
+namespace p = delta::can::protocol;
+namespace od = delta::can::od;
+namespace sdo = delta::can::sdo;
+namespace cia = delta::can::cia402;
+using delta::can::Frame;
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+const char* state_text(cia::State s) {
+  switch (s) {
+    case cia::State::kNotReadyToSwitchOn:
+      return "not ready to switch on";
+    case cia::State::kSwitchOnDisabled:
+      return "switch on disabled";
+    case cia::State::kReadyToSwitchOn:
+      return "ready to switch on";
+    case cia::State::kSwitchedOn:
+      return "switched on";
+    case cia::State::kOperationEnabled:
+      return "operation enabled";
+    case cia::State::kQuickStopActive:
+      return "quick stop active";
+    case cia::State::kFaultReactionActive:
+      return "fault reaction active";
+    case cia::State::kFault:
+      return "fault";
+  }
+  return "?";
+}
+
+}  // namespace
+
+FaultInjection parse_fault(const std::string& spec) {
+  FaultInjection f;
+  std::string body = spec;
+  const auto at = spec.find('@');
+  if (at != std::string::npos) {
+    body = spec.substr(0, at);
+    const std::string t = spec.substr(at + 1);
+    char* end = nullptr;
+    f.at_s = std::strtod(t.c_str(), &end);
+    if (t.empty() || *end != '\0' || !(f.at_s >= 0)) {
+      throw std::invalid_argument("fault '" + spec + "': time after '@' must be seconds >= 0");
+    }
+  }
+  std::vector<std::string> parts;
+  std::stringstream ss(body);
+  for (std::string part; std::getline(ss, part, ':');) parts.push_back(part);
+  if (parts.empty()) throw std::invalid_argument("fault '" + spec + "': no kind");
+  const std::string& kind = parts[0];
+  const bool needs_node = kind != "error-frame";
+  if (kind == "heartbeat-drop") {
+    f.kind = FaultKind::kHeartbeatDrop;
+  } else if (kind == "silent") {
+    f.kind = FaultKind::kSilent;
+  } else if (kind == "error-frame") {
+    f.kind = FaultKind::kErrorFrame;
+  } else if (kind == "corrupt-pdo") {
+    f.kind = FaultKind::kCorruptPdo;
+  } else if (kind == "delay-pdo") {
+    f.kind = FaultKind::kDelayPdo;
+  } else if (kind == "overcurrent") {
+    f.kind = FaultKind::kOvercurrent;
+  } else {
+    throw std::invalid_argument("fault '" + spec +
+                                "': unknown kind (heartbeat-drop, silent, error-frame, "
+                                "corrupt-pdo, delay-pdo, overcurrent)");
+  }
+  const std::size_t expected = needs_node ? (f.kind == FaultKind::kDelayPdo ? 3u : 2u) : 1u;
+  if (parts.size() != expected) {
+    throw std::invalid_argument("fault '" + spec + "': expected " +
+                                (expected == 1   ? std::string("KIND@SECONDS")
+                                 : expected == 2 ? std::string("KIND:NODE@SECONDS")
+                                                 : std::string("KIND:NODE:MS@SECONDS")));
+  }
+  if (needs_node) {
+    const int node = std::atoi(parts[1].c_str());
+    if (node < 1 || node > 3 || parts[1] != std::to_string(node)) {
+      throw std::invalid_argument("fault '" + spec + "': the node must be 1, 2 or 3");
+    }
+    f.node = static_cast<std::uint8_t>(node);
+  }
+  if (f.kind == FaultKind::kDelayPdo) {
+    const long ms = std::atol(parts[2].c_str());
+    if (ms <= 0 || ms > 10000 || parts[2] != std::to_string(ms)) {
+      throw std::invalid_argument("fault '" + spec + "': the delay must be 1 to 10000 ms");
+    }
+    f.arg_ms = static_cast<std::uint32_t>(ms);
+  }
+  return f;
+}
+
+Emulator::Emulator(const EmulatorConfig& config, Outbox out)
+    : config_(config), out_(std::move(out)), q_(config.initial_q_rad), rng_(config.seed) {
+  for (unsigned j = 0; j < 3; ++j) {
+    drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
+    drives_[j].model = config.drives[j];
+    drives_[j].tpdo2_cob = p::cob_id(p::kTpdo2, drives_[j].node) | od::kPdoInvalid;
+  }
+}
+
+double Emulator::noise() {
+  // SplitMix64 and Box-Muller: reproducible for a seed.
+  auto next = [this]() {
+    std::uint64_t z = (rng_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  };
+  const double u1 = next() + 0x1.0p-54;
+  const double u2 = next();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
+}
+
+void Emulator::send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data,
+                    std::uint32_t delay_us) {
+  Frame f;
+  f.id = id;
+  f.dlc = dlc;
+  f.data = data;
+  out_(f, delay_us);
+}
+
+void Emulator::send_heartbeat(Drive& d) {
+  if (d.silent || d.heartbeat_dropped) return;
+  std::array<std::uint8_t, 8> data{};
+  data[0] = d.nmt;
+  send(p::cob_id(p::kHeartbeat, d.node), 1, data);
+}
+
+void Emulator::boot() {
+  for (Drive& d : drives_) {
+    d.nmt = p::kNmtStatePreOperational;
+    d.state = cia::drive_transition(cia::State::kNotReadyToSwitchOn, 0, 0);  // self-test done
+    if (d.silent) continue;
+    std::array<std::uint8_t, 8> data{};
+    data[0] = p::kNmtStateBootUp;
+    send(p::cob_id(p::kHeartbeat, d.node), 1, data);
+  }
+  trigger_faults();  // faults at 0 s apply from the start
+}
+
+void Emulator::on_wall_time(std::uint64_t now_us) {
+  wall_us_ = now_us;
+  const bool syncs_flowing = last_sync_wall_us_ != 0 && now_us - last_sync_wall_us_ < 100000;
+  if (syncs_flowing) return;
+  for (Drive& d : drives_) {
+    if (d.heartbeat_ms == 0) continue;
+    if (now_us - d.last_heartbeat_wall_us >= std::uint64_t{d.heartbeat_ms} * 1000) {
+      d.last_heartbeat_wall_us = now_us;
+      send_heartbeat(d);
+    }
+  }
+}
+
+void Emulator::on_frame(const Frame& f) {
+  if (f.extended || f.remote) return;
+  if (f.id == p::cob_id(p::kNmt, 0)) return handle_nmt(f);
+  if (f.id == p::cob_id(p::kSync, 0)) return handle_sync();
+  const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
+  if (node < p::kFirstDriveNode || node >= p::kFirstDriveNode + p::kDriveCount) return;
+  Drive& d = drives_[node - p::kFirstDriveNode];
+  if (d.silent) return;
+  const std::uint32_t function = f.id & 0x780;
+  if (function == p::kSdoRx.base_id) {
+    handle_sdo(d, f);
+  } else if (function == p::kRpdo1.base_id) {
+    handle_rpdo(d, f);
+  }
+}
+
+void Emulator::handle_nmt(const Frame& f) {
+  if (f.dlc != 2) return;
+  const std::uint8_t command = f.data[0];
+  const std::uint8_t target = f.data[1];
+  for (Drive& d : drives_) {
+    if (target != 0 && target != d.node) continue;
+    switch (command) {
+      case p::kNmtStart:
+        d.nmt = p::kNmtStateOperational;
+        break;
+      case p::kNmtStop:
+        d.nmt = p::kNmtStateStopped;
+        break;
+      case p::kNmtEnterPreOperational:
+        d.nmt = p::kNmtStatePreOperational;
+        break;
+      case p::kNmtResetNode:
+      case p::kNmtResetCommunication: {
+        d.nmt = p::kNmtStatePreOperational;
+        d.heartbeat_ms = 0;
+        d.tpdo2_cob = p::cob_id(p::kTpdo2, d.node) | od::kPdoInvalid;
+        if (!d.silent) {
+          std::array<std::uint8_t, 8> data{};
+          send(p::cob_id(p::kHeartbeat, d.node), 1, data);  // boot-up
+        }
+        break;
+      }
+      default:
+        break;
+    }
+  }
+}
+
+void Emulator::handle_sdo(Drive& d, const Frame& f) {
+  if (f.dlc != 8) return;
+  const std::uint8_t command = f.data[0];
+  const auto index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
+  const std::uint8_t sub = f.data[3];
+  const std::uint32_t value = sdo::get_u32(f.data);
+  const std::uint32_t reply_id = p::cob_id(p::kSdoTx, d.node);
+  auto reply = [&](const sdo::Payload& payload) { send(reply_id, 8, payload); };
+  auto abort = [&](std::uint32_t code) { reply(sdo::abort_transfer(index, sub, code)); };
+
+  const bool upload = command == sdo::kUploadRequest;
+  const bool download = (command & 0xE3) == 0x23;  // expedited, size indicated
+  if (!upload && !download) return abort(sdo::kAbortCommand);
+
+  // The object dictionary: read-only values, and the writable ones.
+  const double rated_current_mA = d.model.rated_current_A * 1000.0;
+  const double rated_torque_mNm = d.model.rated_torque_Nm * 1000.0;
+  std::uint32_t read_value = 0;
+  bool writable = false;
+  bool exists = true;
+  switch (index) {
+    case 0x1000:
+      read_value = od::kDeviceTypeServo;
+      break;
+    case 0x1001:
+      read_value = d.state == cia::State::kFault ? 1u : 0u;
+      break;
+    case 0x1006:
+      read_value = d.cycle_us;
+      writable = true;
+      break;
+    case 0x1017:
+      read_value = d.heartbeat_ms;
+      writable = true;
+      break;
+    case 0x1801:
+      if (sub != 1) return abort(sdo::kAbortSubindexDoesNotExist);
+      read_value = d.tpdo2_cob;
+      writable = true;
+      break;
+    case 0x6041:
+      read_value = cia::encode_statusword(d.state);
+      break;
+    case 0x6060:
+      read_value = static_cast<std::uint8_t>(d.mode);
+      writable = true;
+      break;
+    case 0x6061:
+      read_value = static_cast<std::uint8_t>(d.mode);
+      break;
+    case 0x6073:
+      read_value = d.max_current_pm;
+      writable = true;
+      break;
+    case 0x6075:
+      read_value = static_cast<std::uint32_t>(std::lround(rated_current_mA));
+      break;
+    case 0x6076:
+      read_value = static_cast<std::uint32_t>(std::lround(rated_torque_mNm));
+      break;
+    case 0x608F:
+      if (sub != 1 && sub != 2) return abort(sdo::kAbortSubindexDoesNotExist);
+      read_value = sub == 1 ? d.model.counts_per_rev : 1u;
+      break;
+    default:
+      exists = false;
+  }
+  if (!exists) return abort(sdo::kAbortObjectDoesNotExist);
+  if (index != 0x1801 && index != 0x608F && sub != 0) {
+    return abort(sdo::kAbortSubindexDoesNotExist);
+  }
+  if (upload) return reply(sdo::upload_response(index, sub, read_value));
+  if (!writable) return abort(sdo::kAbortReadOnly);
+  switch (index) {
+    case 0x1006:
+      if (value < 100 || value > 1000000) return abort(sdo::kAbortValueRange);
+      d.cycle_us = value;
+      break;
+    case 0x1017:
+      if (value > 0xFFFF) return abort(sdo::kAbortValueRange);
+      d.heartbeat_ms = static_cast<std::uint16_t>(value);
+      d.next_heartbeat_sim_us = sim_us_;
+      break;
+    case 0x1801:
+      if ((value & 0x7FF) != p::cob_id(p::kTpdo2, d.node)) return abort(sdo::kAbortValueRange);
+      d.tpdo2_cob = value;
+      break;
+    case 0x6060: {
+      const auto mode = static_cast<std::int8_t>(value & 0xFF);
+      if (mode != cia::kModeCyclicSynchronousTorque) return abort(sdo::kAbortValueRange);
+      d.mode = mode;
+      break;
+    }
+    case 0x6073:
+      if (value == 0 || value > 0x7FFF) return abort(sdo::kAbortValueRange);
+      d.max_current_pm = static_cast<std::uint16_t>(value);
+      break;
+    default:
+      break;
+  }
+  reply(sdo::download_response(index, sub));
+}
+
+void Emulator::handle_rpdo(Drive& d, const Frame& f) {
+  if (d.nmt != p::kNmtStateOperational || f.dlc != p::kRpdo1.dlc) return;
+  const auto cw = static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1.signals[0]));
+  const cia::State before = d.state;
+  d.state = cia::drive_transition(d.state, cw, d.controlword);
+  d.controlword = cw;
+  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1.signals[1]));
+  if (before == cia::State::kFault && d.state != cia::State::kFault) {
+    send(p::cob_id(p::kEmcy, d.node), 8, {});  // error reset
+  }
+}
+
+void Emulator::enter_fault(Drive& d, std::uint16_t emcy_code) {
+  d.state = cia::State::kFault;
+  d.target_torque_pm = 0;
+  if (d.silent) return;
+  std::array<std::uint8_t, 8> data{};
+  p::pack(data, p::kEmcy.signals[0], emcy_code);
+  p::pack(data, p::kEmcy.signals[1], 1);
+  send(p::cob_id(p::kEmcy, d.node), 8, data);
+}
+
+void Emulator::trigger_faults() {
+  for (FaultInjection& f : config_.faults) {
+    if (f.done || simulated_s() + 1e-9 < f.at_s) continue;
+    f.done = true;
+    Drive* d = f.node != 0 ? &drives_[f.node - p::kFirstDriveNode] : nullptr;
+    switch (f.kind) {
+      case FaultKind::kHeartbeatDrop:
+        d->heartbeat_dropped = true;
+        break;
+      case FaultKind::kSilent:
+        d->silent = true;
+        break;
+      case FaultKind::kCorruptPdo:
+        d->corrupt_next = true;
+        break;
+      case FaultKind::kDelayPdo:
+        d->delay_us = f.arg_ms * 1000;
+        break;
+      case FaultKind::kOvercurrent:
+        // The current loop sees a short: the drive trips as a real one would.
+        enter_fault(*d, od::kEmcyOvercurrent);
+        break;
+      case FaultKind::kErrorFrame: {
+        // linux/can/error.h: CAN_ERR_FLAG | CAN_ERR_CRTL, data[1] = CAN_ERR_CRTL_TX_PASSIVE;
+        // then CAN_ERR_BUSOFF.
+        Frame e;
+        e.error_frame = true;
+        e.id = 0x00000004u;
+        e.dlc = 8;
+        e.data[1] = 0x20;
+        out_(e, 0);
+        Frame off;
+        off.error_frame = true;
+        off.id = 0x00000040u;
+        off.dlc = 8;
+        out_(off, 0);
+        break;
+      }
+    }
+  }
+}
+
+std::int32_t Emulator::position_counts(const Drive& d, double q) const {
+  const double motor_revs = (q - d.model.joint_zero_rad) / kTwoPi * d.model.gear_ratio;
+  const double counts = std::round(motor_revs * d.model.counts_per_rev);
+  return static_cast<std::int32_t>(d.model.inverted ? -counts : counts);
+}
+
+void Emulator::advance(double dt_s) {
+  bool all_enabled = true;
+  for (const Drive& d : drives_)
+    all_enabled = all_enabled && d.state == cia::State::kOperationEnabled;
+  const int n = config_.substeps;
+  const double h = dt_s / n;
+  const double decay = std::exp(-h / config_.current_time_constant_s);
+  for (int s = 0; s < n; ++s) {
+    delta::Joint3 tau{};
+    for (unsigned j = 0; j < 3; ++j) {
+      Drive& d = drives_[j];
+      const bool on = d.state == cia::State::kOperationEnabled;
+      // The current loop limits its set-point to the maximum current (0x6073).
+      const double limit_A = d.max_current_pm / 1000.0 * d.model.rated_current_A;
+      const double target_A =
+          on ? std::clamp(d.target_torque_pm / 1000.0 * d.model.rated_torque_Nm /
+                              d.model.torque_constant_Nm_per_A(),
+                          -limit_A, limit_A)
+             : 0.0;
+      // Exact first-order response over the sub-step; the torque is taken
+      // at its middle.
+      const double mid = target_A + (d.current_A - target_A) * std::sqrt(decay);
+      d.current_A = target_A + (d.current_A - target_A) * decay;
+      const double sign = d.model.inverted ? -1.0 : 1.0;
+      tau[j] = sign * d.model.gear_ratio * d.model.gearbox_efficiency *
+               d.model.torque_constant_Nm_per_A() * mid;
+    }
+    if (!all_enabled) {
+      qd_ = {};  // the brakes hold the arms while any drive is off
+      continue;
+    }
+    if (!plant_error_.empty()) continue;
+    const delta::KinematicsStatus st =
+        delta::integrate_rk4(config_.geometry, config_.truth, tau, h, 1, q_, qd_);
+    if (st != delta::KinematicsStatus::kOk) {
+      plant_error_ = "the simulated robot reached a pose without kinematics at " +
+                     std::to_string(simulated_s()) + " s";
+      qd_ = {};
+      for (Drive& d : drives_) enter_fault(d, 0xFF01);
+    }
+  }
+}
+
+void Emulator::handle_sync() {
+  last_sync_wall_us_ = wall_us_;
+  // Time runs from the first SYNC with operational drives.
+  std::uint32_t cycle_us = 0;
+  for (const Drive& d : drives_) cycle_us = d.cycle_us != 0 ? d.cycle_us : cycle_us;
+  if (cycle_us == 0) cycle_us = 2000;
+  if (syncs_ > 0) {
+    advance(cycle_us * 1e-6);
+    sim_us_ += cycle_us;
+  }
+  ++syncs_;
+  trigger_faults();
+  for (unsigned j = 0; j < 3; ++j) {
+    Drive& d = drives_[j];
+    if (d.state == cia::State::kFaultReactionActive) d.state = cia::State::kFault;
+    if (d.nmt != p::kNmtStateOperational || d.silent) continue;
+    const double q = q_[j];
+    const double qd = qd_[j];
+    std::array<std::uint8_t, 8> tpdo1{};
+    p::pack(tpdo1, p::kTpdo1.signals[0], cia::encode_statusword(d.state));
+    p::pack(tpdo1, p::kTpdo1.signals[1], position_counts(d, q));
+    const double measured_A = d.current_A + config_.current_noise_A * noise();
+    const long pm = std::lround(measured_A / d.model.rated_current_A * 1000.0);
+    p::pack(tpdo1, p::kTpdo1.signals[2], std::max(-32768L, std::min(32767L, pm)));
+    const std::uint8_t dlc = d.corrupt_next ? 5 : 8;
+    d.corrupt_next = false;
+    send(p::cob_id(p::kTpdo1, d.node), dlc, tpdo1, d.delay_us);
+    if ((d.tpdo2_cob & od::kPdoInvalid) == 0) {
+      std::array<std::uint8_t, 8> tpdo2{};
+      const double counts_s = qd / kTwoPi * d.model.gear_ratio * d.model.counts_per_rev;
+      p::pack(tpdo2, p::kTpdo2.signals[0],
+              (d.model.inverted ? -1 : 1) * static_cast<std::int64_t>(std::llround(counts_s)));
+      send(p::cob_id(p::kTpdo2, d.node), 4, tpdo2, d.delay_us);
+    }
+    if (d.heartbeat_ms != 0 && sim_us_ >= d.next_heartbeat_sim_us) {
+      d.next_heartbeat_sim_us = sim_us_ + std::uint64_t{d.heartbeat_ms} * 1000;
+      d.last_heartbeat_wall_us = wall_us_;
+      send_heartbeat(d);
+    }
+  }
+}
+
+std::string Emulator::describe() const {
+  std::ostringstream s;
+  for (const Drive& d : drives_) {
+    s << "node " << int{d.node} << ": NMT " << int{d.nmt} << ", " << state_text(d.state)
+      << (d.silent ? " (silent)" : "") << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace emu

@@ -1,0 +1,218 @@
+// The firmware's Linux port without a socket: its configuration, its unit
+// conversions, and the CANopen master with the core's controller closed
+// in-process around the emulator (the same code as delta_fw and
+// delta_drive_emu, frames passed by hand in bus order).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <deque>
+#include <fstream>
+
+#include "delta/can/protocol.hpp"
+#include "emu/emulator.hpp"
+#include "fw/controller.hpp"
+#include "fw_linux/canopen_master.hpp"
+#include "fw_linux/config.hpp"
+#include "fw_linux/drive_units.hpp"
+#include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/trajectories.hpp"
+
+namespace fw_linux {
+namespace {
+
+std::string write_temp(const std::string& text) {
+  std::string path = ::testing::TempDir() + "/port_test.conf";
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string config_error(const std::string& text) {
+  try {
+    read_port_config(write_temp(text));
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(PortConfigTest, ReadsKeysOverTheDefaults) {
+  const PortConfig c = read_port_config(write_temp(
+      "# a robot\nperiod_us = 2500\nmode = lockstep\nvelocity_pdo = true\n"
+      "joint2.node = 7   # comment\njoint3.inverted = yes\ngains.kp_Nm_per_rad = 45.5\n"));
+  EXPECT_EQ(c.period_us, 2500u);
+  EXPECT_EQ(c.mode, CycleMode::kLockStep);
+  EXPECT_TRUE(c.velocity_pdo);
+  EXPECT_EQ(c.joints[1].node, 7);
+  EXPECT_TRUE(c.joints[2].model.inverted);
+  EXPECT_DOUBLE_EQ(c.kp_Nm_per_rad, 45.5);
+  EXPECT_EQ(c.joints[0].node, 1);  // default kept
+}
+
+TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
+  EXPECT_NE(config_error("period_us = 2ms\n")
+                .find("port_test.conf:1:13: period_us needs a number, got '2ms'"),
+            std::string::npos)
+      << config_error("period_us = 2ms\n");
+  EXPECT_NE(config_error("\n  bogus = 1\n").find(":2:3: unknown key 'bogus'"), std::string::npos);
+  EXPECT_NE(config_error("mode = fast\n").find(":1:8: mode must be"), std::string::npos);
+  EXPECT_NE(config_error("stop_s = 1\nstop_s = 2\n").find(":2:1: 'stop_s' is set twice"),
+            std::string::npos);
+  EXPECT_NE(config_error("period_us 2000\n").find(":1:1: expected 'key = value'"),
+            std::string::npos);
+  EXPECT_NE(config_error("period_us = 3000\n").find("must divide one second"), std::string::npos);
+  EXPECT_NE(config_error("joint1.node = 2\n").find("joint2.node = 2 is also joint1's node"),
+            std::string::npos);
+  EXPECT_NE(config_error("gains.max_torque_Nm = 5000\n").find("does not fit Q12.19"),
+            std::string::npos)
+      << config_error("gains.max_torque_Nm = 5000\n");
+  try {
+    read_port_config("/nonexistent/robot.conf");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.conf: cannot open"),
+              std::string::npos);
+  }
+}
+
+TEST(DriveUnitsTest, ConversionsAgreeWithTheDriveModel) {
+  delta::DriveModel m;  // 10:1, 17 bits, 2 A, 0.2 N m
+  const DriveUnits u(m, 2000, 200);
+  const double counts_per_rad = m.counts_per_rev * m.gear_ratio / (2 * M_PI);
+  for (double q : {-1.1, -0.3, 0.0, 0.45, 1.3}) {
+    const auto counts = static_cast<std::int32_t>(std::lround(q * counts_per_rad));
+    const double back = std::ldexp(u.joint_angle(counts).raw(), -28);
+    EXPECT_NEAR(back, q, 1.0 / counts_per_rad);  // within a count
+    EXPECT_NEAR(u.counts(u.joint_angle(counts)), counts, 1);
+  }
+  EXPECT_NEAR(std::ldexp(u.joint_velocity(std::llround(2.0 * counts_per_rad)).raw(), -21), 2.0,
+              1e-6);
+  EXPECT_EQ(u.current(1000).raw(), 2 << 19);     // 1000 per mille of 2 A
+  EXPECT_EQ(u.current(-250).raw(), -(1 << 18));  // -0.5 A
+  // 1 A at k_t 0.1 N m/A is 0.1 N m: 500 per mille of 0.2 N m.
+  EXPECT_EQ(u.target_torque_per_mille(delta::fx::Q12_19::from(1.0)), 500);
+  EXPECT_EQ(u.target_torque_per_mille(delta::fx::Q12_19::from(-200.0)), INT16_MIN);  // saturated
+  delta::DriveModel inv = m;
+  inv.inverted = true;
+  inv.joint_zero_rad = 0.5;
+  const DriveUnits ui(inv, 2000, 200);
+  EXPECT_NEAR(std::ldexp(ui.joint_angle(-1000).raw(), -28), 0.5 + 1000 / counts_per_rad, 1e-8);
+}
+
+// The controller, the CANopen master and the emulator, in one process.
+class InProcessBus : public FrameSink {
+ public:
+  explicit InProcessBus(const emu::EmulatorConfig& ec)
+      : emulator_(ec,
+                  [this](const delta::can::Frame& f, std::uint32_t) { to_master_.push_back(f); }) {}
+  bool send(const delta::can::Frame& f) override {
+    sent_.push_back(f);
+    if (!f.error_frame) emulator_.on_frame(f);
+    return true;
+  }
+  void deliver(CanopenMaster& m) {
+    while (!to_master_.empty()) {
+      delta::can::Received r;
+      r.frame = to_master_.front();
+      to_master_.pop_front();
+      if (r.frame.error_frame) r.error = delta::can::decode_error_frame(r.frame.id, r.frame.data);
+      m.on_frame(r, 0);
+    }
+  }
+  emu::Emulator emulator_;
+  std::deque<delta::can::Frame> to_master_;
+  std::vector<delta::can::Frame> sent_;
+};
+
+struct Rig {
+  explicit Rig(const emu::EmulatorConfig& ec = {})
+      : bus(ec),
+        master(config(), bus),
+        hw(master, io, bus),
+        controller(hw, controller_config(config())) {
+    bus.emulator_.boot();
+  }
+  static PortConfig config() {
+    PortConfig c;
+    c.mode = CycleMode::kLockStep;
+    return c;
+  }
+  void cycle() {
+    bus.deliver(master);
+    master.begin_cycle(0);
+    bus.deliver(master);
+    master.end_window();
+    controller.step();
+    master.send_commands();
+  }
+  InProcessBus bus;
+  CanopenMaster master;
+  SimulatedSafetyIo io;
+  LinuxHardware hw;
+  fw::Controller<LinuxHardware> controller;
+};
+
+TEST(InProcessPortTest, BringsTheDrivesUpAndRunsAnExcitationBackToReady) {
+  Rig rig;
+  int n = 0;
+  while (rig.controller.state() != fw::State::kReady && n < 50) {
+    rig.cycle();
+    ++n;
+  }
+  ASSERT_EQ(rig.controller.state(), fw::State::kReady) << rig.master.last_problem();
+  EXPECT_LE(n, 10);
+  const auto traj = named_trajectory("path2", Rig::config());
+  ASSERT_TRUE(traj.has_value());
+  ASSERT_TRUE(rig.controller.start(*traj).accepted);
+  std::size_t log_frames = 0;
+  double worst_error = 0;
+  for (int i = 0; i < 20000 && (i == 0 || rig.controller.state() != fw::State::kReady); ++i) {
+    rig.bus.sent_.clear();
+    rig.cycle();
+    ASSERT_NE(rig.controller.state(), fw::State::kFault)
+        << fw::fault_name(rig.controller.fault()) << ": " << rig.master.last_problem();
+    for (const auto& f : rig.bus.sent_) log_frames += f.id == delta::can::protocol::kLogA.base_id;
+    for (unsigned j = 0; rig.controller.run_tick() > 1 && j < 3; ++j) {
+      const double ref = std::ldexp(rig.controller.reference().q_rad[j].raw(), -28);
+      worst_error = std::max(worst_error, std::fabs(ref - rig.bus.emulator_.q_rad()[j]));
+    }
+  }
+  EXPECT_EQ(rig.controller.state(), fw::State::kReady);
+  // 2 s approach + 1 s blend + 8 s + 1 s blend + 0.4 s hold, at 500 Hz.
+  EXPECT_EQ(log_frames, 6201u);
+  EXPECT_LT(worst_error, 0.02) << "tracking through the bus";
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(rig.bus.emulator_.drive_state(j), delta::can::cia402::State::kSwitchOnDisabled);
+  }
+}
+
+TEST(InProcessPortTest, ADriveThatNeverAnswersFailsTheBringUpWithItsName) {
+  emu::EmulatorConfig ec;
+  ec.faults.push_back(emu::parse_fault("silent:2@0"));
+  Rig rig(ec);
+  // Lock-step without a clock: each cycle stands for a timed-out wait.
+  for (int i = 0; i < 20 && rig.controller.state() != fw::State::kFault; ++i) {
+    rig.master.begin_cycle(std::uint64_t(i) * 200000);
+    rig.bus.deliver(rig.master);
+    rig.master.end_window();
+    rig.controller.step();
+  }
+  EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveConfigFailed);
+  EXPECT_NE(rig.master.last_problem().find("node 2: no answer to the SDO request for 0x1000:00"),
+            std::string::npos)
+      << rig.master.last_problem();
+}
+
+TEST(EmulatorFaultSpecTest, ParsesAndRejectsWithReasons) {
+  const emu::FaultInjection f = emu::parse_fault("delay-pdo:3:15@2.5");
+  EXPECT_EQ(f.kind, emu::FaultKind::kDelayPdo);
+  EXPECT_EQ(f.node, 3);
+  EXPECT_EQ(f.arg_ms, 15u);
+  EXPECT_DOUBLE_EQ(f.at_s, 2.5);
+  EXPECT_THROW(emu::parse_fault("silent:4@1"), std::invalid_argument);
+  EXPECT_THROW(emu::parse_fault("melt:1@1"), std::invalid_argument);
+  EXPECT_THROW(emu::parse_fault("silent@1"), std::invalid_argument);
+  EXPECT_THROW(emu::parse_fault("error-frame@-1"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace fw_linux
