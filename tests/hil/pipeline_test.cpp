@@ -51,6 +51,11 @@ class BusObserver {
     });
   }
   ~BusObserver() { stop(); }
+  // What arrived so far, while it keeps listening.
+  std::vector<Frame> snapshot() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return frames_;
+  }
   std::vector<Frame> stop() {
     if (thread_.joinable()) {
       stop_.store(true);
@@ -373,8 +378,7 @@ TEST_P(FaultInjection, TheFirmwareFaultsWithTheRightCodeInBoundedCyclesAndDisabl
   }
   BusObserver bus;
   hil::Child emu = start_emulator({"--inject", c.inject + "@3"});
-  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface, "--set",
-                                "lockstep_timeout_ms=50"};
+  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface};
   if (!realtime) {
     for (const char* a : {"--lockstep", "--run", "path1", "--exit-when-done"}) argv.push_back(a);
   }
@@ -461,5 +465,49 @@ INSTANTIATE_TEST_SUITE_P(
                   {"--realtime", "--set", "period_us=100000", "--max-cycles", "60"},
                   "node 1: TPDO1 0x181 arrived after"}),
     [](const ::testing::TestParamInfo<FaultCase>& tp) { return std::string(tp.param.name); });
+
+}  // namespace
+
+namespace {
+
+TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
+  BusObserver bus;
+  hil::Child emu = start_emulator();
+  hil::Child fw = hil::Child::spawn(
+      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
+  // The drives are enabled within a few cycles of the run's start: wait
+  // for operation enabled on the bus before the signal.
+  const auto enabled_deadline = std::chrono::steady_clock::now() + 60s;
+  bool enabled = false;
+  while (!enabled && std::chrono::steady_clock::now() < enabled_deadline) {
+    ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms)) << "the run ended first";
+    const auto frames = bus.snapshot();
+    int on = 0;
+    for (std::uint8_t node = 1; node <= 3; ++node) {
+      for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
+        if (it->id == p::cob_id(p::kTpdo1, node)) {
+          on += cia::decode_statusword(u16(*it)) == cia::State::kOperationEnabled;
+          break;
+        }
+      }
+    }
+    enabled = on == 3;
+  }
+  ASSERT_TRUE(enabled);
+  EXPECT_EQ(fw.terminate(60s).value_or(-1), 5) << fw.err();
+  const std::vector<Frame> frames = bus.stop();
+  emu.terminate(30s);
+  for (std::uint8_t node = 1; node <= 3; ++node) {
+    SCOPED_TRACE("node " + std::to_string(node));
+    std::optional<std::array<std::uint8_t, 8>> last;
+    for (const Frame& f : frames) {
+      if (f.id == p::cob_id(p::kRpdo1, node)) last = f.data;
+    }
+    ASSERT_TRUE(last.has_value());
+    EXPECT_EQ((*last)[0] | ((*last)[1] << 8), 0) << "controlword";
+    EXPECT_EQ((*last)[2] | ((*last)[3] << 8), 0) << "target torque";
+  }
+}
 
 }  // namespace

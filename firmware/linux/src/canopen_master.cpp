@@ -1,5 +1,6 @@
 #include "fw_linux/canopen_master.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "delta/can/protocol.hpp"
@@ -94,6 +95,12 @@ CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
     drives_[j].node = config.joints[j].node;
     drives_[j].config = config.joints[j];
   }
+  // In lock-step a slow machine must not look like a silent drive: an SDO
+  // answer is awaited at least as long as a PDO answer.
+  const std::uint32_t sdo_ms = config.mode == CycleMode::kLockStep
+                                   ? std::max(config.sdo_timeout_ms, config.lockstep_timeout_ms)
+                                   : config.sdo_timeout_ms;
+  sdo_timeout_us_ = std::uint64_t{sdo_ms} * 1000;
   const std::uint64_t timeout_us = std::uint64_t{config.heartbeat_timeout_ms} * 1000;
   heartbeat_timeout_cycles_ = (timeout_us + config.period_us - 1) / config.period_us;
 }
@@ -184,11 +191,11 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     if (phase_ == Phase::kFailed) break;
     if (d.sdo_step >= kStepCount) continue;
     all_done = false;
-    if (d.sdo_pending && now_us_ - d.sdo_sent_us >= std::uint64_t{config_.sdo_timeout_ms} * 1000) {
+    if (d.sdo_pending && now_us_ - d.sdo_sent_us >= sdo_timeout_us_) {
       if (d.sdo_attempts > config_.sdo_retries) {
         const od::Object o = object_of(d.sdo_step);
         fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
-             object_name(o) + " within " + std::to_string(config_.sdo_timeout_ms) + " ms (" +
+             object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
              std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
         break;
       }
@@ -215,10 +222,9 @@ void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
   const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
   if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
   const sdo::Response r = sdo::parse_response(f.data);
-  if (r.index != o.index || r.subindex != o.subindex) {
-    return fail(at + "SDO response for another object, " +
-                object_name(od::Object{r.index, r.subindex}));
-  }
+  // An answer for another object is the late answer to an earlier, retried
+  // request: not this one's.
+  if (r.index != o.index || r.subindex != o.subindex) return;
   if (r.kind == sdo::ResponseKind::kAborted) {
     return fail(at + "the drive aborted the transfer: " + hex(r.value, 8) + " (" +
                 abort_text(r.value) + ")");
@@ -357,7 +363,7 @@ std::uint64_t CanopenMaster::sdo_deadline_us() const {
   std::uint64_t earliest = 0;
   for (const Drive& d : drives_) {
     if (!d.sdo_pending) continue;
-    const std::uint64_t t = d.sdo_sent_us + std::uint64_t{config_.sdo_timeout_ms} * 1000;
+    const std::uint64_t t = d.sdo_sent_us + sdo_timeout_us_;
     if (earliest == 0 || t < earliest) earliest = t;
   }
   return earliest;
@@ -379,13 +385,16 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
     const bool sample = d.got_tpdo1 && !d.malformed;
     if (sample) {
       if (!config_.velocity_pdo) {
+        // Over the cycles since the last good sample (more than one when
+        // samples were missed); 0 before the first.
         const std::int64_t delta_counts =
-            d.have_previous ? std::int64_t{d.position_counts} - d.previous_counts : 0;
-        d.velocity_counts_s =
-            static_cast<std::int32_t>(delta_counts * 1000000 / std::int64_t{config_.period_us});
+            d.previous_cycle != 0 ? std::int64_t{d.position_counts} - d.previous_counts : 0;
+        const auto span_us = static_cast<std::int64_t>(
+            (d.previous_cycle != 0 ? cycle_ - d.previous_cycle : 1) * config_.period_us);
+        d.velocity_counts_s = static_cast<std::int32_t>(delta_counts * 1000000 / span_us);
       }
       d.previous_counts = d.position_counts;
-      d.have_previous = true;
+      d.previous_cycle = cycle_;
     }
     fb.position_rad = d.units.joint_angle(d.position_counts);
     fb.velocity_rad_s = d.units.joint_velocity(d.velocity_counts_s);

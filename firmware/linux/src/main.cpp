@@ -27,7 +27,9 @@ constexpr const char* kUsage =
     "  --realtime         a cycle every period_us (the default)\n"
     "  --run NAME         run a trajectory once ready: path1, path2, pick-and-place\n"
     "  --exit-when-done   exit after the last --run (0), or on a fault (3)\n"
-    "Exit codes: 0 done, 1 CAN error, 2 usage or configuration error, 3 fault, 4 rejected.\n";
+    "On SIGINT or SIGTERM it disables the drives and exits.\n"
+    "Exit codes: 0 done, 1 CAN error, 2 usage or configuration error, 3 fault, 4 rejected,\n"
+    "5 stopped by a signal before the runs finished.\n";
 
 int usage_error(const std::string& message) {
   std::cerr << "delta_fw: " << message << "\n" << kUsage;

@@ -289,7 +289,18 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
       exit_code = state == fw::State::kFault ? kExitFault : kExitDone;
     }
   }
-  if (exit_code < 0) exit_code = controller.state() == fw::State::kFault ? kExitFault : kExitDone;
+  if (exit_code < 0) {
+    // Stopped by a signal: a fault stays a fault; unfinished runs are not done.
+    const bool unfinished = running_one || next_run < runs.size();
+    exit_code = controller.state() == fw::State::kFault ? kExitFault
+                : unfinished                            ? kExitStopped
+                                                        : kExitDone;
+  }
+  // Whatever ended the loop, the drives are left disabled (controlword 0,
+  // no torque) and the safety outputs off: nothing keeps running after us.
+  master.enable_drives(false);
+  master.send_commands();
+  io.set_outputs(fw::SafetyOutputs{});
   if (timer >= 0) close(timer);
 
   stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;

@@ -56,11 +56,6 @@ class CanopenMaster {
 
   // What went wrong most recently, in words (node, object, value).
   const std::string& last_problem() const { return problem_; }
-  bool operational() const { return cyclic(); }
-  // The drive's CiA 402 state as its last statusword showed it.
-  delta::can::cia402::State drive_state(unsigned joint) const { return drives_[joint].state; }
-  std::uint16_t last_controlword(unsigned joint) const { return drives_[joint].controlword; }
-  std::uint64_t cycles() const { return cycle_; }
   std::uint64_t late_frames() const { return late_frames_; }
 
  private:
@@ -90,7 +85,7 @@ class CanopenMaster {
     delta::can::cia402::State state{delta::can::cia402::State::kNotReadyToSwitchOn};
     std::int32_t position_counts{0};
     std::int32_t previous_counts{0};
-    bool have_previous{false};
+    std::uint64_t previous_cycle{0};  // of the last good sample; 0: none yet
     std::int32_t velocity_counts_s{0};
     std::int16_t current_per_mille{0};
     std::uint64_t last_heartbeat_cycle{0};
@@ -117,6 +112,7 @@ class CanopenMaster {
   std::uint64_t now_us_{0};
   std::uint64_t late_frames_{0};
   std::uint64_t heartbeat_timeout_cycles_{1};
+  std::uint64_t sdo_timeout_us_{0};
   std::string problem_;
 };
 

@@ -35,10 +35,10 @@ struct JointDrive {
 struct PortConfig {
   std::uint32_t period_us{2000};  // 500 Hz: the bus budget (docs/protocol.md)
   CycleMode mode{CycleMode::kRealTime};
-  std::uint32_t response_window_us{0};     // real time: wait for the TPDOs; 0 = half the period
-  std::uint32_t lockstep_timeout_ms{200};  // lock-step: give up on a response after this
-  bool velocity_pdo{false};                // map TPDO2 (velocity); else differences of position
-  std::uint16_t heartbeat_ms{50};          // written to the drives (0x1017)
+  std::uint32_t response_window_us{0};      // real time: wait for the TPDOs; 0 = half the period
+  std::uint32_t lockstep_timeout_ms{1000};  // lock-step: give up on a response after this
+  bool velocity_pdo{false};                 // map TPDO2 (velocity); else differences of position
+  std::uint16_t heartbeat_ms{50};           // written to the drives (0x1017)
   std::uint32_t heartbeat_timeout_ms{150};
   std::uint32_t sdo_timeout_ms{100};
   std::uint32_t sdo_retries{2};

@@ -27,6 +27,7 @@ inline constexpr int kExitCanError = 1;
 inline constexpr int kExitUsage = 2;
 inline constexpr int kExitFault = 3;
 inline constexpr int kExitRejected = 4;
+inline constexpr int kExitStopped = 5;  // SIGINT/SIGTERM before the runs finished
 
 struct CycleStats {
   std::uint64_t cycles{0};
