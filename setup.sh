@@ -9,6 +9,8 @@ packages=(
   build-essential cmake ninja-build pkg-config
   # libraries
   libeigen3-dev nlohmann-json3-dev
+  # controller I/O: Modbus and GPIO
+  libmodbus-dev libgpiod-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the firmware core on Cortex-M4, run on qemu

@@ -106,6 +106,58 @@ std::map<std::string, Setter> make_setters() {
   number("approach_s", &PortConfig::approach_s);
   number("stop_s", &PortConfig::stop_s);
   number("blend_s", &PortConfig::blend_s);
+  s["modbus.tcp"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    if (!v.empty()) (void)split_host_port(v, w + ": modbus.tcp");
+    c.modbus.tcp = v;
+  };
+  s["modbus.rtu_device"] = [](PortConfig& c, const std::string& v, const std::string&) {
+    c.modbus.rtu_device = v;
+  };
+  s["modbus.rtu_baud"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.rtu_baud = parse_unsigned(v, w, "modbus.rtu_baud", 1200, 4000000);
+  };
+  s["modbus.rtu_parity"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    if (v == "N" || v == "none") {
+      c.modbus.rtu_parity = 'N';
+    } else if (v == "E" || v == "even") {
+      c.modbus.rtu_parity = 'E';
+    } else if (v == "O" || v == "odd") {
+      c.modbus.rtu_parity = 'O';
+    } else {
+      throw ConfigError(w + ": modbus.rtu_parity must be N, E or O (none, even, odd), got '" + v +
+                        "'");
+    }
+  };
+  s["modbus.rtu_unit_id"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.rtu_unit_id = parse_unsigned(v, w, "modbus.rtu_unit_id", 1, 247);
+  };
+  s["modbus.max_clients"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.max_clients = parse_unsigned(v, w, "modbus.max_clients", 1, 256);
+  };
+  s["modbus.byte_timeout_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.byte_timeout_ms = parse_unsigned(v, w, "modbus.byte_timeout_ms", 1, 10000);
+  };
+  s["modbus.command_timeout_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.command_timeout_ms = parse_unsigned(v, w, "modbus.command_timeout_ms", 1, 60000);
+  };
+  s["gpio.chip"] = [](PortConfig& c, const std::string& v, const std::string&) { c.gpio.chip = v; };
+  s["gpio.consumer"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    if (v.empty()) throw ConfigError(w + ": gpio.consumer must not be empty");
+    c.gpio.consumer = v;
+  };
+  const std::pair<const char*, std::uint32_t GpioConfig::*> lines[] = {
+      {"gpio.estop_line", &GpioConfig::estop_line},
+      {"gpio.enable_line", &GpioConfig::enable_line},
+      {"gpio.brake_line", &GpioConfig::brake_line},
+      {"gpio.status_line", &GpioConfig::status_line},
+      {"gpio.estop_debounce_ms", &GpioConfig::estop_debounce_ms}};
+  for (const auto& [name, field] : lines) {
+    const std::string key = name;
+    const std::uint32_t hi = key == "gpio.estop_debounce_ms" ? 1000u : 1023u;
+    s[key] = [key, field, hi](PortConfig& c, const std::string& v, const std::string& w) {
+      c.gpio.*field = parse_unsigned(v, w, key, 0, hi);
+    };
+  }
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     auto joint_number = [&s, j, p](const std::string& name, double delta::DriveModel::*field) {
@@ -244,7 +296,34 @@ void validate(const PortConfig& c) {
                   std::to_string(k + 1) + "'s node");
     }
   }
+  if (!c.modbus.tcp.empty()) (void)split_host_port(c.modbus.tcp, "modbus.tcp");
+  if (!c.gpio.chip.empty()) {
+    const std::uint32_t l[] = {c.gpio.estop_line, c.gpio.enable_line, c.gpio.brake_line,
+                               c.gpio.status_line};
+    const char* names[] = {"estop_line", "enable_line", "brake_line", "status_line"};
+    for (unsigned i = 0; i < 4; ++i) {
+      for (unsigned k = 0; k < i; ++k) {
+        require(l[i] != l[k], std::string("gpio.") + names[i] + " = " + std::to_string(l[i]) +
+                                  " is also gpio." + names[k]);
+      }
+    }
+  }
   (void)controller_config(c);  // every value fits its Q format
+}
+
+std::pair<std::string, int> split_host_port(const std::string& text, const std::string& what) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size()) {
+    throw ConfigError(what + ": expected ADDRESS:PORT, got '" + text + "'");
+  }
+  const std::string port = text.substr(colon + 1);
+  char* end = nullptr;
+  errno = 0;
+  const long p = std::strtol(port.c_str(), &end, 10);
+  if (end != port.c_str() + port.size() || errno != 0 || p < 0 || p > 65535) {
+    throw ConfigError(what + ": the port must be a number from 0 to 65535, got '" + port + "'");
+  }
+  return {text.substr(0, colon), static_cast<int>(p)};
 }
 
 fw::ControllerConfig controller_config(const PortConfig& c) {

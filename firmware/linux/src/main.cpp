@@ -3,10 +3,13 @@
 #include <atomic>
 #include <csignal>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "delta/can/socketcan.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/gpio_safety_io.hpp"
+#include "fw_linux/modbus_server.hpp"
 #include "fw_linux/port.hpp"
 #include "fw_linux/trajectories.hpp"
 
@@ -27,9 +30,11 @@ constexpr const char* kUsage =
     "  --realtime         a cycle every period_us (the default)\n"
     "  --run NAME         run a trajectory once ready: path1, path2, pick-and-place\n"
     "  --exit-when-done   exit after the last --run (0), or on a fault (3)\n"
+    "Modbus (docs/modbus.md): --set modbus.tcp=ADDRESS:PORT and/or --set modbus.rtu_device=DEV.\n"
+    "Safety lines: --set gpio.chip=gpiochip0 (libgpiod); without it they are simulated.\n"
     "On SIGINT or SIGTERM it disables the drives and exits.\n"
     "Exit codes: 0 done, 1 CAN error, 2 usage or configuration error, 3 fault, 4 rejected,\n"
-    "5 stopped by a signal before the runs finished.\n";
+    "5 stopped by a signal before the runs finished, 6 Modbus or GPIO could not start.\n";
 
 int usage_error(const std::string& message) {
   std::cerr << "delta_fw: " << message << "\n" << kUsage;
@@ -102,9 +107,37 @@ int main(int argc, char** argv) {
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  fw_linux::SimulatedSafetyIo io;
+  std::signal(SIGPIPE, SIG_IGN);  // a Modbus client that vanishes mid-reply
   try {
-    return fw_linux::run_port(config, options, io, g_stop, std::cerr);
+    std::unique_ptr<fw_linux::SafetyIo> io;
+    if (config.gpio.chip.empty()) {
+      io = std::make_unique<fw_linux::SimulatedSafetyIo>();
+    } else {
+      io = std::make_unique<fw_linux::GpioSafetyIo>(config.gpio);
+      std::cerr << "delta_fw: safety lines on " << config.gpio.chip << "\n";
+    }
+    fw_linux::ControlPanel panel;
+    std::unique_ptr<fw_linux::ModbusServer> modbus;
+    if (!config.modbus.tcp.empty() || !config.modbus.rtu_device.empty()) {
+      modbus = std::make_unique<fw_linux::ModbusServer>(config, panel);
+      options.panel = &panel;
+      if (modbus->tcp_port() != 0) {
+        std::cerr << "delta_fw: Modbus TCP on "
+                  << fw_linux::split_host_port(config.modbus.tcp, "modbus.tcp").first << ":"
+                  << modbus->tcp_port() << "\n";
+      }
+      if (!config.modbus.rtu_device.empty()) {
+        std::cerr << "delta_fw: Modbus RTU on " << config.modbus.rtu_device << ", unit "
+                  << config.modbus.rtu_unit_id << "\n";
+      }
+    }
+    return fw_linux::run_port(config, options, *io, g_stop, std::cerr);
+  } catch (const fw_linux::GpioError& e) {
+    std::cerr << "delta_fw: " << e.what() << "\n";
+    return fw_linux::kExitIo;
+  } catch (const fw_linux::ModbusError& e) {
+    std::cerr << "delta_fw: " << e.what() << "\n";
+    return fw_linux::kExitIo;
   } catch (const delta::can::CanError& e) {
     std::cerr << "delta_fw: " << e.what() << "\n";
     return fw_linux::kExitCanError;

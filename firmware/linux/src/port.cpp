@@ -17,6 +17,7 @@
 #include "delta/can/protocol.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
 
 namespace fw_linux {
@@ -92,24 +93,6 @@ class Announcer {
   fw::Fault last_fault_{fw::Fault::kNone};
 };
 
-const char* check_reason(fw::TrajectoryFault f) {
-  switch (f) {
-    case fw::TrajectoryFault::kOk:
-      return "ok";
-    case fw::TrajectoryFault::kInvalidConfig:
-      return "invalid configuration";
-    case fw::TrajectoryFault::kJointLimit:
-      return "joint limit";
-    case fw::TrajectoryFault::kVelocityLimit:
-      return "velocity limit";
-    case fw::TrajectoryFault::kAccelerationLimit:
-      return "acceleration limit";
-    case fw::TrajectoryFault::kOutsideWorkspace:
-      return "outside the workspace";
-  }
-  return "unknown";
-}
-
 void set_realtime(int priority, std::ostream& out) {
   if (priority <= 0) return;
   sched_param sp{};
@@ -147,8 +130,10 @@ bool send_log_frames(FrameSink& bus, const fw::LogRecord& r) {
 
 int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
              const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
-  // The trajectories are checked for existence before touching the bus.
-  std::vector<fw::TrajectoryConfig> runs;
+  // The trajectories are built and checked against the limits before
+  // touching the bus (the check walks every tick: not in the loop).
+  const fw::ControllerConfig core_config = controller_config(config);
+  std::vector<NamedRun> runs;
   for (const std::string& name : options.trajectories) {
     auto t = named_trajectory(name, config);
     if (!t) {
@@ -157,9 +142,14 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
       out << ")\n";
       return kExitUsage;
     }
-    runs.push_back(*t);
+    runs.push_back(
+        {name, fw::CheckedTrajectory::check(core_config.geometry, *t, core_config.limits)});
+    if (!runs.back().trajectory.ok()) {
+      out << "delta_fw: trajectory '" << name
+          << "' rejected: " << describe_check(runs.back().trajectory.result()) << "\n";
+      return kExitRejected;
+    }
   }
-  const fw::ControllerConfig core_config = controller_config(config);
 
   // What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats
   // (and error frames, which need no filter).
@@ -173,8 +163,10 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   SocketSink sink(socket);
   CanopenMaster master(config, sink);
   LinuxHardware hw(master, io, sink);
+  if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
   fw::Controller<LinuxHardware> controller(hw, core_config);
   Announcer announcer(sink, config);
+  RunCoordinator coordinator(std::move(runs), options.exit_when_done, options.panel, out);
 
   const bool realtime = config.mode == CycleMode::kRealTime;
   const std::uint64_t window_us =
@@ -207,13 +199,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   std::uint64_t expirations = 0;
   double latency_sum = 0;
   const std::uint64_t wall_start = monotonic_us();
-  std::size_t next_run = 0;
-  bool running_one = false;
   int exit_code = -1;
-  int cycles_to_exit = -1;
-  fw::State last_state = controller.state();
-  std::string last_problem;
-
   while (!stop.load() && exit_code < 0) {
     std::uint64_t tick_us = monotonic_us();
     if (realtime) {
@@ -251,55 +237,16 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
     announcer.after_step(controller.fault(), controller.cycles());
     ++stats.cycles;
 
-    // Report what changed, and run the trajectories.
-    const fw::State state = controller.state();
-    if (state != last_state) {
-      out << "delta_fw: " << fw::state_name(state);
-      if (state == fw::State::kFault) {
-        out << ", fault " << static_cast<int>(controller.fault()) << " ("
-            << fw::fault_name(controller.fault()) << ")";
-        if (!master.last_problem().empty()) out << ": " << master.last_problem();
-        out << " at cycle " << controller.cycles();
-      }
-      out << "\n";
-      last_state = state;
-    }
-    if (state == fw::State::kReady) {
-      if (running_one) {
-        running_one = false;
-        ++next_run;
-      }
-      if (next_run < runs.size()) {
-        const fw::StartResult r = controller.start(runs[next_run]);
-        if (!r.accepted) {
-          out << "delta_fw: trajectory '" << options.trajectories[next_run]
-              << "' rejected: " << check_reason(r.check.fault) << " at tick " << r.check.tick;
-          if (r.check.joint >= 0) out << ", joint " << r.check.joint + 1;
-          out << "\n";
-          exit_code = kExitRejected;
-          break;
-        }
-        out << "delta_fw: running " << options.trajectories[next_run] << "\n";
-        running_one = true;
-      } else if (options.exit_when_done && cycles_to_exit < 0) {
-        cycles_to_exit = 2;  // the disabling RPDOs go out first
-      }
-    }
-    if (state == fw::State::kFault && options.exit_when_done && cycles_to_exit < 0) {
-      cycles_to_exit = 10;  // keep the drives disabled and the EMCY seen
-    }
-    if (cycles_to_exit >= 0 && cycles_to_exit-- == 0) {
-      exit_code = state == fw::State::kFault ? kExitFault : kExitDone;
-    }
+    coordinator.after_step(controller, hw, master);
+    if (const auto code = coordinator.exit_code()) exit_code = *code;
     if (options.max_cycles != 0 && stats.cycles >= options.max_cycles) {
-      exit_code = state == fw::State::kFault ? kExitFault : kExitDone;
+      exit_code = controller.state() == fw::State::kFault ? kExitFault : kExitDone;
     }
   }
   if (exit_code < 0) {
     // Stopped by a signal: a fault stays a fault; unfinished runs are not done.
-    const bool unfinished = running_one || next_run < runs.size();
     exit_code = controller.state() == fw::State::kFault ? kExitFault
-                : unfinished                            ? kExitStopped
+                : coordinator.unfinished()              ? kExitStopped
                                                         : kExitDone;
   }
   // Whatever ended the loop, the drives are left disabled (controlword 0,

@@ -22,7 +22,8 @@ constexpr unsigned kHarmonics = 5;
 constexpr double kAmplitudeRad = 0.35;
 const delta::Vec3<double> kCentre{0.0, 0.0, -0.42};
 
-fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c) {
+fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c,
+                             const TrajectoryParams& params) {
   delta::FourierTrajectory f;
   const double hz = preset.base_frequency_mHz / 1000.0;
   if (!delta::make_fourier_excitation(c.geometry, kCentre, kHarmonics, hz, kAmplitudeRad,
@@ -36,35 +37,45 @@ fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c) {
   t.blend_ticks = static_cast<std::uint32_t>(std::lround(c.blend_s * 1e6 / c.period_us));
   t.fourier.base_frequency_mHz = preset.base_frequency_mHz;
   t.fourier.harmonics = kHarmonics;
-  t.fourier.periods = preset.periods;
+  t.fourier.periods = params.repetitions != 0 ? params.repetitions : preset.periods;
+  const double scale = params.scale_permille / 1000.0;
   const double w = 2.0 * 3.141592653589793 * hz;
   for (unsigned j = 0; j < 3; ++j) {
     t.fourier.q0_rad[j] = to_q<Q3_28>(f.q0_rad[j], "q0");
     for (unsigned k = 0; k < kHarmonics; ++k) {
       // q = a/(k w) sin(k w t) - b/(k w) cos(k w t)  (common/trajectory.hpp)
       const double kw = (k + 1) * w;
-      t.fourier.sin_amplitude_rad[j][k] = to_q<Q3_28>(f.a_rad_s[j][k] / kw, "amplitude");
-      t.fourier.cos_amplitude_rad[j][k] = to_q<Q3_28>(-f.b_rad_s[j][k] / kw, "amplitude");
+      t.fourier.sin_amplitude_rad[j][k] = to_q<Q3_28>(scale * f.a_rad_s[j][k] / kw, "amplitude");
+      t.fourier.cos_amplitude_rad[j][k] = to_q<Q3_28>(-scale * f.b_rad_s[j][k] / kw, "amplitude");
     }
   }
   return t;
 }
 
-fw::TrajectoryConfig pick_and_place(const PortConfig& c) {
+fw::TrajectoryConfig pick_and_place(const PortConfig& c, const TrajectoryParams& params) {
   const delta::PickAndPlaceTrajectory p = delta::default_pick_and_place(c.geometry);
   fw::TrajectoryConfig t;
   t.kind = fw::TrajectoryKind::kPickAndPlace;
   t.tick_period_us = c.period_us;
   const std::size_t n = std::min<std::size_t>(p.points_m.size(), fw::kMaxWaypoints);
   t.pick_and_place.waypoints = static_cast<std::uint8_t>(n);
+  // The amplitude scale moves the waypoints towards (or away from) their centre.
+  delta::Vec3<double> centre{};
   for (std::size_t i = 0; i < n; ++i) {
-    t.pick_and_place.points[i] = {to_q<Q7_24>(p.points_m[i].x, "x"),
-                                  to_q<Q7_24>(p.points_m[i].y, "y"),
-                                  to_q<Q7_24>(p.points_m[i].z, "z")};
+    centre.x += p.points_m[i].x / static_cast<double>(n);
+    centre.y += p.points_m[i].y / static_cast<double>(n);
+    centre.z += p.points_m[i].z / static_cast<double>(n);
+  }
+  const double scale = params.scale_permille / 1000.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    t.pick_and_place.points[i] = {
+        to_q<Q7_24>(centre.x + scale * (p.points_m[i].x - centre.x), "x"),
+        to_q<Q7_24>(centre.y + scale * (p.points_m[i].y - centre.y), "y"),
+        to_q<Q7_24>(centre.z + scale * (p.points_m[i].z - centre.z), "z")};
   }
   t.pick_and_place.segment_ticks =
       static_cast<std::uint32_t>(std::lround(p.segment_duration_s * 1e6 / c.period_us));
-  t.pick_and_place.cycles = 3;
+  t.pick_and_place.cycles = params.repetitions != 0 ? params.repetitions : 3u;
   return t;
 }
 
@@ -75,11 +86,12 @@ std::vector<std::string> trajectory_names() {
 }
 
 std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,
-                                                     const PortConfig& config) {
+                                                     const PortConfig& config,
+                                                     const TrajectoryParams& params) {
   for (const FourierPreset& p : kFourier) {
-    if (name == p.name) return fourier(p, config);
+    if (name == p.name) return fourier(p, config, params);
   }
-  if (name == "pick-and-place") return pick_and_place(config);
+  if (name == "pick-and-place") return pick_and_place(config, params);
   return std::nullopt;
 }
 

@@ -18,6 +18,7 @@ struct GeometryQ {
   Q7_24 forearm_length_m;
   Q7_24 base_radius_m;
   Q7_24 platform_radius_m;
+  friend constexpr bool operator==(const GeometryQ&, const GeometryQ&) = default;
 };
 
 struct Vec3Q {

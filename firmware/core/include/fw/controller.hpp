@@ -64,14 +64,21 @@ class Controller {
   // Checks the whole trajectory against the limits (before any motion, in
   // the caller's context, not in step()) and arms it.
   StartResult start(const TrajectoryConfig& trajectory) {
+    if (state_ != State::kReady) return wrong_state();
+    return start(CheckedTrajectory::check(config_.geometry, trajectory, config_.limits));
+  }
+  // Arms a trajectory checked elsewhere, against this controller's geometry
+  // and limits (a check against others is refused as kInvalidConfig).
+  StartResult start(const CheckedTrajectory& trajectory) {
+    if (state_ != State::kReady) return wrong_state();
     StartResult r;
-    if (state_ != State::kReady) {
-      r.wrong_state = true;
+    r.check = trajectory.result();
+    if (!trajectory.ok()) return r;
+    if (!trajectory.checked_against(config_.geometry, config_.limits)) {
+      r.check = TrajectoryCheck{TrajectoryFault::kInvalidConfig, 0, -1};
       return r;
     }
-    r.check = check_trajectory(config_.geometry, trajectory, config_.limits);
-    if (r.check.fault != TrajectoryFault::kOk) return r;
-    trajectory_ = Trajectory(config_.geometry, trajectory);
+    trajectory_ = Trajectory(config_.geometry, trajectory.config());
     start_requested_ = true;
     r.accepted = true;
     return r;
@@ -82,10 +89,12 @@ class Controller {
   // One control cycle.
   void step() {
     hw_.read_feedback(feedback_);
-    // The e-stop and drive faults are checked first in every state, so the
+    // The e-stop is read every cycle (its debouncing needs the samples), and
+    // it and the drive faults are checked first in every state, so the
     // drives are disabled within the cycle that sees them.
+    const bool estop_open = hw_.estop_open();
     if (state_ != State::kFault) {
-      if (hw_.estop_open()) {
+      if (estop_open) {
         enter_fault(Fault::kEStop);
       } else if (state_ == State::kRunning || state_ == State::kStopping ||
                  state_ == State::kReady) {
@@ -108,7 +117,7 @@ class Controller {
         control();
         break;
       case State::kFault:
-        if (reset_requested_ && !hw_.estop_open()) {
+        if (reset_requested_ && !estop_open) {
           fault_ = Fault::kNone;
           state_ = State::kBoot;
         }
@@ -129,8 +138,20 @@ class Controller {
   const JointReference& reference() const { return reference_; }
   const std::array<Q12_19, 3>& measured_torque() const { return measured_torque_; }
   const std::array<Q12_19, 3>& commanded_torque() const { return command_; }
+  // The run's length in cycles (approach, trajectory), and log records so far.
+  std::uint32_t run_length_ticks() const {
+    return config_.approach_ticks + trajectory_.length_ticks();
+  }
+  std::uint32_t log_records() const { return log_seq_; }
+  const std::array<DriveFeedback, 3>& feedback() const { return feedback_; }
 
  private:
+  static StartResult wrong_state() {
+    StartResult r;
+    r.wrong_state = true;
+    return r;
+  }
+
   void enter_fault(Fault f) {
     if (state_ != State::kFault) fault_ = f;
     state_ = State::kFault;

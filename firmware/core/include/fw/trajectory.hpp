@@ -76,6 +76,7 @@ struct JointLimits {
   Q3_28 max_rad{Q3_28::from(1.4)};
   Q10_21 max_velocity_rad_s{Q10_21::from(6.0)};
   Q14_17 max_acceleration_rad_s2{Q14_17::from(150.0)};
+  friend constexpr bool operator==(const JointLimits&, const JointLimits&) = default;
 };
 
 enum class TrajectoryFault : std::uint8_t {
@@ -129,5 +130,35 @@ class Trajectory {
 // kInvalidConfig at tick 0).
 TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
                                  const JointLimits& limits);
+
+// A trajectory with the result of check_trajectory() against a geometry and
+// limits. Only check() makes one, so that Controller::start() can arm it
+// without walking it again: the walk takes milliseconds and belongs off the
+// control thread (the Linux port's Modbus server runs it).
+class CheckedTrajectory {
+ public:
+  static CheckedTrajectory check(const GeometryQ& geometry, const TrajectoryConfig& config,
+                                 const JointLimits& limits) {
+    CheckedTrajectory t;
+    t.config_ = config;
+    t.geometry_ = geometry;
+    t.limits_ = limits;
+    t.result_ = check_trajectory(geometry, config, limits);
+    return t;
+  }
+  bool ok() const { return result_.fault == TrajectoryFault::kOk; }
+  const TrajectoryCheck& result() const { return result_; }
+  const TrajectoryConfig& config() const { return config_; }
+  bool checked_against(const GeometryQ& geometry, const JointLimits& limits) const {
+    return geometry == geometry_ && limits == limits_;
+  }
+
+ private:
+  CheckedTrajectory() = default;
+  TrajectoryConfig config_{};
+  GeometryQ geometry_{};
+  JointLimits limits_{};
+  TrajectoryCheck result_{};
+};
 
 }  // namespace fw

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "delta/drive_model.hpp"
 #include "delta/geometry.hpp"
@@ -30,6 +31,30 @@ struct JointDrive {
   std::uint8_t node{1};
   delta::DriveModel model{delta::kDefaultDrive};
   double torque_offset_Nm{0.0};
+};
+
+// The Modbus server (docs/modbus.md). Off unless tcp or rtu_device is set.
+struct ModbusConfig {
+  std::string tcp;         // "ADDRESS:PORT" (e.g. 0.0.0.0:1502); empty: no TCP server
+  std::string rtu_device;  // a serial device (e.g. /dev/ttyUSB0); empty: no RTU server
+  std::uint32_t rtu_baud{115200};
+  char rtu_parity{'N'};  // N, E or O
+  std::uint32_t rtu_unit_id{1};
+  std::uint32_t max_clients{8};            // TCP connections served at once; more are closed
+  std::uint32_t byte_timeout_ms{200};      // a request that stops mid-way is dropped after this
+  std::uint32_t command_timeout_ms{1000};  // wait for the control loop to take a command
+};
+
+// The safety lines on a GPIO chip (libgpiod). Empty chip: simulated lines
+// (the e-stop closed), for the emulator and tests.
+struct GpioConfig {
+  std::string chip;  // "gpiochip0", "/dev/gpiochip0" or a label
+  std::uint32_t estop_line{0};
+  std::uint32_t enable_line{1};
+  std::uint32_t brake_line{2};
+  std::uint32_t status_line{3};
+  std::uint32_t estop_debounce_ms{20};  // closed this long before the e-stop counts as closed
+  std::string consumer{"delta_fw"};
 };
 
 struct PortConfig {
@@ -62,7 +87,12 @@ struct PortConfig {
   double blend_s{1.0};  // Fourier excitations fade in and out over this
   std::uint32_t lost_feedback_cycles{3};
   std::uint32_t configure_timeout_ms{5000};
+  ModbusConfig modbus{};
+  GpioConfig gpio{};
 };
+
+// "ADDRESS:PORT" split; throws ConfigError naming `what`.
+std::pair<std::string, int> split_host_port(const std::string& text, const std::string& what);
 
 // Reads a configuration file over the defaults. Throws ConfigError.
 PortConfig read_port_config(const std::string& path);

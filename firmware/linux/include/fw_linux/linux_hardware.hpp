@@ -3,6 +3,8 @@
 // the controller's LOG_A..C frames on the same bus.
 #pragma once
 
+#include <atomic>
+
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
 #include "fw_linux/canopen_master.hpp"
@@ -38,14 +40,33 @@ class LinuxHardware {
   void enable_drives(bool on) { drives_.enable_drives(on); }
   void read_feedback(std::array<fw::DriveFeedback, 3>& fb) { drives_.read_feedback(fb); }
   void command_torque(const std::array<Q12_19, 3>& t) { drives_.command_torque(t); }
-  bool estop_open() { return io_.estop_open(); }
-  void set_outputs(const fw::SafetyOutputs& o) { io_.set_outputs(o); }
-  bool log(const fw::LogRecord& r) { return send_log_frames(log_bus_, r); }
+  bool estop_open() {
+    estop_open_ = io_.estop_open();
+    return estop_open_;
+  }
+  void set_outputs(const fw::SafetyOutputs& o) {
+    outputs_ = o;
+    io_.set_outputs(o);
+  }
+  // With log frames switched off (Modbus log_enable 0) a record is dropped
+  // here, and the core's sequence still counts it.
+  bool log(const fw::LogRecord& r) {
+    if (log_enabled_ != nullptr && !log_enabled_->load(std::memory_order_relaxed)) return true;
+    return send_log_frames(log_bus_, r);
+  }
+  void gate_log(const std::atomic<bool>* enabled) { log_enabled_ = enabled; }
+
+  // What the last cycle read and wrote on the safety lines.
+  bool last_estop_open() const { return estop_open_; }
+  const fw::SafetyOutputs& last_outputs() const { return outputs_; }
 
  private:
   CanopenMaster& drives_;
   SafetyIo& io_;
   FrameSink& log_bus_;
+  const std::atomic<bool>* log_enabled_{nullptr};
+  bool estop_open_{false};
+  fw::SafetyOutputs outputs_{};
 };
 
 }  // namespace fw_linux

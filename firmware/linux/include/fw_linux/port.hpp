@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fw_linux/config.hpp"
+#include "fw_linux/control_panel.hpp"
 #include "fw_linux/safety_io.hpp"
 
 namespace fw_linux {
@@ -19,6 +20,7 @@ struct RunOptions {
   bool exit_when_done{false};             // exit after the last one (or a fault)
   std::uint64_t max_cycles{0};            // 0: no limit
   int rt_priority{0};                     // SCHED_FIFO priority in real time; 0: none
+  ControlPanel* panel{nullptr};           // commands and status for Modbus; may be null
 };
 
 // Exit codes of delta_fw.
@@ -28,6 +30,7 @@ inline constexpr int kExitUsage = 2;
 inline constexpr int kExitFault = 3;
 inline constexpr int kExitRejected = 4;
 inline constexpr int kExitStopped = 5;  // SIGINT/SIGTERM before the runs finished
+inline constexpr int kExitIo = 6;       // the Modbus server or the GPIO lines could not start
 
 struct CycleStats {
   std::uint64_t cycles{0};

@@ -6,6 +6,7 @@
 // generator as `host_id simulate`), converted once to the core's Q formats.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,12 +16,20 @@
 
 namespace fw_linux {
 
+// The names, in the order of their ids (the Modbus register `trajectory`).
 std::vector<std::string> trajectory_names();
+
+// What a user may change of a named trajectory.
+struct TrajectoryParams {
+  std::uint16_t scale_permille{1000};  // amplitude: Fourier terms, waypoints about their centre
+  std::uint16_t repetitions{0};        // Fourier periods or pick-and-place cycles; 0: the preset's
+};
 
 // The named trajectory for this configuration (tick period, geometry);
 // nullopt for an unknown name. Throws ConfigError when the trajectory does
-// not fit the geometry.
+// not fit the geometry. Limits are checked later, by fw::check_trajectory.
 std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,
-                                                     const PortConfig& config);
+                                                     const PortConfig& config,
+                                                     const TrajectoryParams& params = {});
 
 }  // namespace fw_linux

@@ -1,0 +1,253 @@
+// The controller's Modbus register map, defined once: the firmware's server
+// (delta_fw), `host_id status` and `host_id excite`, and docs/modbus.md (a
+// test checks its tables against this one) all take it from here.
+//
+// Addresses are the protocol's 0-based addresses. Input registers (function
+// 04) are read-only; holding registers (03 read, 06 and 16 write) are the
+// settings and the command. A 32-bit value takes two registers, the high
+// word first (big-endian word order, as the bytes within a register).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string_view>
+
+namespace delta::modbus {
+
+inline constexpr std::uint16_t kMapVersion = 1;  // the input register protocol_version
+inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
+
+enum class Table : std::uint8_t { kInput, kHolding };
+enum class Type : std::uint8_t { kU16, kI16, kU32, kI32 };
+
+constexpr unsigned width(Type t) {
+  return t == Type::kU32 || t == Type::kI32 ? 2u : 1u;
+}
+
+struct Register {
+  const char* name;
+  Table table;
+  std::uint16_t address;
+  Type type;
+  // value in `unit` = raw * scale_num / scale_den
+  std::int32_t scale_num;
+  std::int32_t scale_den;
+  const char* unit;
+  const char* description;
+};
+
+// The controller's state (the input register `state`), as fw::State.
+// Run results (the input register `run_result`).
+enum class RunResult : std::uint16_t {
+  kNone = 0,      // no run started yet
+  kRunning = 1,   // the run is in progress (approach, trajectory or stopping)
+  kFinished = 2,  // it ran to its end and the controller is ready again
+  kStopped = 3,   // a stop command ended it early
+  kFaulted = 4,   // a fault ended it (fault_code says which)
+};
+
+// Commands (the holding register `command`).
+enum class Command : std::uint16_t { kNone = 0, kStart = 1, kStop = 2, kFaultReset = 3 };
+
+// Why the last write was refused (the input register `last_rejection`).
+enum class Rejection : std::uint16_t {
+  kNone = 0,
+  kIllegalAddress = 1,   // not a holding register (exception 02)
+  kOutOfRange = 2,       // a value outside the register's range (exception 03)
+  kWrongState = 3,       // not allowed in the controller's state (exception 06)
+  kEStopOpen = 4,        // a fault reset while the e-stop is open (exception 06)
+  kTrajectoryLimit = 5,  // the trajectory with these settings breaks a limit (exception 03)
+  kMalformed = 6,        // a request the server could not parse (exception 03)
+  kIllegalFunction = 7,  // a function code the server does not serve (exception 01)
+  kNotTaken = 8,         // the control loop did not take the command in time (exception 06)
+};
+
+// The Modbus exception code each rejection is answered with.
+constexpr std::uint8_t exception_code(Rejection r) {
+  switch (r) {
+    case Rejection::kIllegalFunction:
+      return 0x01;
+    case Rejection::kIllegalAddress:
+      return 0x02;
+    case Rejection::kOutOfRange:
+    case Rejection::kTrajectoryLimit:
+    case Rejection::kMalformed:
+      return 0x03;
+    case Rejection::kWrongState:
+    case Rejection::kEStopOpen:
+    case Rejection::kNotTaken:
+      return 0x06;
+    case Rejection::kNone:
+      break;
+  }
+  return 0x04;
+}
+
+// A sentence for a rejection, for messages.
+constexpr const char* describe(Rejection r) {
+  switch (r) {
+    case Rejection::kNone:
+      return "none";
+    case Rejection::kIllegalAddress:
+      return "not a holding register";
+    case Rejection::kOutOfRange:
+      return "value out of range";
+    case Rejection::kWrongState:
+      return "not allowed in the controller's state";
+    case Rejection::kEStopOpen:
+      return "the e-stop is open";
+    case Rejection::kTrajectoryLimit:
+      return "the trajectory with these settings breaks a limit";
+    case Rejection::kMalformed:
+      return "malformed request";
+    case Rejection::kIllegalFunction:
+      return "function code not served";
+    case Rejection::kNotTaken:
+      return "the control loop did not take the command in time";
+  }
+  return "unknown";
+}
+
+// Bits of the input register `io`.
+inline constexpr std::uint16_t kIoEStopOpen = 1u << 0;
+inline constexpr std::uint16_t kIoDriveEnable = 1u << 1;
+inline constexpr std::uint16_t kIoBrakeReleased = 1u << 2;
+inline constexpr std::uint16_t kIoStatusOk = 1u << 3;
+inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
+
+inline constexpr unsigned kFaultHistoryLength = 8;
+
+// clang-format off
+inline constexpr std::array<Register, 52> kRegisters{{
+    // Identity
+    {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
+    {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
+    {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (1)"},
+    // State
+    {"state", Table::kInput, 4, Type::kU16, 1, 1, "", "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault"},
+    {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
+    {"cycle_counter", Table::kInput, 6, Type::kU32, 1, 1, "", "control cycles since start"},
+    {"period_us", Table::kInput, 8, Type::kU32, 1, 1, "us", "control cycle period"},
+    {"io", Table::kInput, 10, Type::kU16, 1, 1, "", "bit 0 e-stop open, 1 drive enable, 2 brake released, 3 status ok, 4 log enabled"},
+    // The run
+    {"run_id", Table::kInput, 11, Type::kU16, 1, 1, "", "counts accepted start commands (wraps at 65536)"},
+    {"run_result", Table::kInput, 12, Type::kU16, 1, 1, "", "of run run_id: 0 none, 1 running, 2 finished, 3 stopped, 4 faulted"},
+    {"run_tick", Table::kInput, 13, Type::kU32, 1, 1, "", "cycles into the run"},
+    {"run_length", Table::kInput, 15, Type::kU32, 1, 1, "", "cycles the run takes (approach, trajectory)"},
+    {"log_records", Table::kInput, 17, Type::kU32, 1, 1, "", "log records sent since start (the log frames' seq, unwrapped)"},
+    // Faults
+    {"fault_count", Table::kInput, 19, Type::kU16, 1, 1, "", "faults since start"},
+    {"fault_history_0_code", Table::kInput, 20, Type::kU16, 1, 1, "", "newest fault: code, 0 none"},
+    {"fault_history_0_cycle", Table::kInput, 21, Type::kU32, 1, 1, "", "newest fault: the cycle it happened in"},
+    {"fault_history_1_code", Table::kInput, 23, Type::kU16, 1, 1, "", "fault 1 before the newest: code, 0 none"},
+    {"fault_history_1_cycle", Table::kInput, 24, Type::kU32, 1, 1, "", "fault 1 before the newest: the cycle it happened in"},
+    {"fault_history_2_code", Table::kInput, 26, Type::kU16, 1, 1, "", "fault 2 before the newest: code, 0 none"},
+    {"fault_history_2_cycle", Table::kInput, 27, Type::kU32, 1, 1, "", "fault 2 before the newest: the cycle it happened in"},
+    {"fault_history_3_code", Table::kInput, 29, Type::kU16, 1, 1, "", "fault 3 before the newest: code, 0 none"},
+    {"fault_history_3_cycle", Table::kInput, 30, Type::kU32, 1, 1, "", "fault 3 before the newest: the cycle it happened in"},
+    {"fault_history_4_code", Table::kInput, 32, Type::kU16, 1, 1, "", "fault 4 before the newest: code, 0 none"},
+    {"fault_history_4_cycle", Table::kInput, 33, Type::kU32, 1, 1, "", "fault 4 before the newest: the cycle it happened in"},
+    {"fault_history_5_code", Table::kInput, 35, Type::kU16, 1, 1, "", "fault 5 before the newest: code, 0 none"},
+    {"fault_history_5_cycle", Table::kInput, 36, Type::kU32, 1, 1, "", "fault 5 before the newest: the cycle it happened in"},
+    {"fault_history_6_code", Table::kInput, 38, Type::kU16, 1, 1, "", "fault 6 before the newest: code, 0 none"},
+    {"fault_history_6_cycle", Table::kInput, 39, Type::kU32, 1, 1, "", "fault 6 before the newest: the cycle it happened in"},
+    {"fault_history_7_code", Table::kInput, 41, Type::kU16, 1, 1, "", "fault 7 before the newest: code, 0 none"},
+    {"fault_history_7_cycle", Table::kInput, 42, Type::kU32, 1, 1, "", "fault 7 before the newest: the cycle it happened in"},
+    {"last_rejection", Table::kInput, 44, Type::kU16, 1, 1, "", "why the last refused request was refused (docs/modbus.md), 0 none"},
+    {"last_rejection_register", Table::kInput, 45, Type::kU16, 1, 1, "", "the holding register it wrote"},
+    {"trajectory_check", Table::kInput, 46, Type::kU16, 1, 1, "", "on rejection 5: 1 invalid, 2 joint limit, 3 velocity, 4 acceleration, 5 workspace"},
+    {"trajectory_check_tick", Table::kInput, 47, Type::kU32, 1, 1, "", "on rejection 5: the first tick that breaks it"},
+    {"trajectory_check_joint", Table::kInput, 49, Type::kU16, 1, 1, "", "on rejection 5: the joint (1-3), 0 none"},
+    // Geometry read-back
+    {"upper_arm_length", Table::kInput, 50, Type::kU32, 1, 1000000, "m", "upper arm length (um)"},
+    {"forearm_length", Table::kInput, 52, Type::kU32, 1, 1000000, "m", "forearm length (um)"},
+    {"base_radius", Table::kInput, 54, Type::kU32, 1, 1000000, "m", "base radius (um)"},
+    {"platform_radius", Table::kInput, 56, Type::kU32, 1, 1000000, "m", "platform radius (um)"},
+    // Live values, from the last cycle
+    {"q1", Table::kInput, 60, Type::kI32, 1, 1000000, "rad", "joint 1 angle (urad)"},
+    {"q2", Table::kInput, 62, Type::kI32, 1, 1000000, "rad", "joint 2 angle (urad)"},
+    {"q3", Table::kInput, 64, Type::kI32, 1, 1000000, "rad", "joint 3 angle (urad)"},
+    {"tau1", Table::kInput, 66, Type::kI32, 1, 1000000, "N m", "joint 1 torque from current (uN m)"},
+    {"tau2", Table::kInput, 68, Type::kI32, 1, 1000000, "N m", "joint 2 torque from current (uN m)"},
+    {"tau3", Table::kInput, 70, Type::kI32, 1, 1000000, "N m", "joint 3 torque from current (uN m)"},
+    {"trajectory_count", Table::kInput, 72, Type::kU16, 1, 1, "", "trajectories the controller knows (ids 0 .. count-1)"},
+    // Settings and the command
+    {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", "0 path1, 1 path2, 2 pick-and-place; not while running"},
+    {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},
+    {"repetitions", Table::kHolding, 2, Type::kU16, 1, 1, "", "0-100 Fourier periods or pick-and-place cycles, 0 the preset's (2 or 3); not while running"},
+    {"log_enable", Table::kHolding, 3, Type::kU16, 1, 1, "", "1: send the log frames while running, 0: not"},
+    {"command", Table::kHolding, 4, Type::kU16, 1, 1, "", "write 1 start (ready only), 2 stop, 3 fault reset; reads 0"},
+}};
+// clang-format on
+
+// The register named `name`; a name not in the table does not compile
+// (the reference past the end is not a constant expression).
+constexpr const Register& named(std::string_view name) {
+  for (const Register& r : kRegisters) {
+    if (name == r.name) return r;
+  }
+  return kRegisters.data()[kRegisters.size()];
+}
+
+// The register at `address` of `table`, or nullptr (the second word of a
+// 32-bit value is not a register of its own).
+constexpr const Register* find(Table table, std::uint16_t address) {
+  for (const Register& r : kRegisters) {
+    if (r.table == table && r.address == address) return &r;
+  }
+  return nullptr;
+}
+
+// The extent of each table: every register lies below these.
+constexpr std::uint16_t table_size(Table table) {
+  unsigned end = 0;
+  for (const Register& r : kRegisters) {
+    if (r.table == table && r.address + width(r.type) > end) end = r.address + width(r.type);
+  }
+  return static_cast<std::uint16_t>(end);
+}
+
+// A value in a register block: `regs` holds the table from address 0.
+constexpr std::int64_t decode(const Register& r, const std::uint16_t* regs) {
+  const std::uint16_t hi = regs[r.address];
+  switch (r.type) {
+    case Type::kU16:
+      return hi;
+    case Type::kI16:
+      return static_cast<std::int16_t>(hi);
+    case Type::kU32:
+      return (std::uint32_t{hi} << 16) | regs[r.address + 1];
+    case Type::kI32:
+      return static_cast<std::int32_t>((std::uint32_t{hi} << 16) | regs[r.address + 1]);
+  }
+  return 0;
+}
+
+// Stores `value` (already in the register's raw integer form, truncated to
+// its width) into a register block.
+constexpr void encode(const Register& r, std::int64_t value, std::uint16_t* regs) {
+  const auto v = static_cast<std::uint32_t>(value);
+  if (width(r.type) == 2) {
+    regs[r.address] = static_cast<std::uint16_t>(v >> 16);
+    regs[r.address + 1] = static_cast<std::uint16_t>(v & 0xFFFFu);
+  } else {
+    regs[r.address] = static_cast<std::uint16_t>(v & 0xFFFFu);
+  }
+}
+
+inline constexpr std::uint16_t kInputCount = table_size(Table::kInput);
+inline constexpr std::uint16_t kHoldingCount = table_size(Table::kHolding);
+
+// The holding registers by name.
+inline constexpr const Register& kTrajectory = named("trajectory");
+inline constexpr const Register& kAmplitudeScale = named("amplitude_scale");
+inline constexpr const Register& kRepetitions = named("repetitions");
+inline constexpr const Register& kLogEnable = named("log_enable");
+inline constexpr const Register& kCommand = named("command");
+
+inline constexpr std::uint16_t kMinAmplitudeScale = 1;
+inline constexpr std::uint16_t kMaxAmplitudeScale = 2000;
+inline constexpr std::uint16_t kMaxRepetitions = 100;
+
+}  // namespace delta::modbus

@@ -1,0 +1,114 @@
+// The controller's Modbus server (libmodbus): TCP with several clients at
+// once, and RTU on a serial device, each in its own thread, outside the
+// control loop. The register map is common's (delta/modbus/register_map.hpp,
+// docs/modbus.md); the loop is reached only through the ControlPanel.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "fw_linux/config.hpp"
+#include "fw_linux/control_panel.hpp"
+
+struct _modbus;
+struct _modbus_mapping_t;
+
+namespace fw_linux {
+
+// The server cannot start: the message names the address or device.
+class ModbusError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct ModbusStats {
+  std::uint64_t requests{0};
+  std::uint64_t exceptions{0};      // requests answered with a Modbus exception
+  std::uint64_t receive_errors{0};  // bad CRC, a request cut short, a bad header
+  std::uint64_t clients_accepted{0};
+  std::uint64_t clients_refused{0};  // over modbus.max_clients
+  std::uint64_t clients_dropped{0};  // closed on a receive error or a hang-up
+};
+
+// The registers: settings, the status snapshot and the validation of
+// writes. Shared by the TCP and RTU threads (one lock).
+class RegisterBank {
+ public:
+  RegisterBank(const PortConfig& config, ControlPanel& panel);
+  ~RegisterBank();
+  RegisterBank(const RegisterBank&) = delete;
+  RegisterBank& operator=(const RegisterBank&) = delete;
+
+  enum class Outcome { kReplied, kException, kDrop };
+  // Answers one request as libmodbus received it on ctx: a reply or an
+  // exception; kDrop (no answer) for a TCP frame whose MBAP header does not
+  // match it (protocol id not 0, or a length field that disagrees), since
+  // the stream's framing can no longer be trusted.
+  Outcome answer(_modbus* ctx, const std::uint8_t* request, int length);
+
+ private:
+  struct Settings {
+    std::uint16_t trajectory{0};
+    std::uint16_t scale_permille{1000};
+    std::uint16_t repetitions{0};  // 0 until written: the preset's
+    bool log_enable{true};
+  };
+  bool serve(_modbus* ctx, const std::uint8_t* request, int length, int header);
+  bool write(_modbus* ctx, const std::uint8_t* request, std::uint16_t first,
+             const std::uint16_t* values, unsigned count);
+  bool refuse(_modbus* ctx, const std::uint8_t* request, delta::modbus::Rejection why,
+              std::uint16_t address, const fw::TrajectoryCheck& check = {});
+  std::optional<fw::CheckedTrajectory> build(const Settings& s, fw::TrajectoryCheck& check) const;
+  void refresh();
+
+  const PortConfig config_;
+  const fw::ControllerConfig core_;
+  ControlPanel& panel_;
+  std::mutex mutex_;
+  _modbus_mapping_t* mapping_;
+  Settings settings_;
+  std::optional<fw::CheckedTrajectory> checked_;  // for settings_, once built
+  delta::modbus::Rejection last_rejection_{delta::modbus::Rejection::kNone};
+  std::uint16_t last_rejection_register_{0};
+  fw::TrajectoryCheck last_check_{};
+};
+
+class ModbusServer {
+ public:
+  // Opens what the configuration asks for (TCP listening socket, serial
+  // device) and starts serving; throws ModbusError when one cannot open.
+  ModbusServer(const PortConfig& config, ControlPanel& panel);
+  ~ModbusServer();  // stops the threads and closes everything
+  ModbusServer(const ModbusServer&) = delete;
+  ModbusServer& operator=(const ModbusServer&) = delete;
+
+  // The TCP port listened on (the configured one, or the one the kernel
+  // chose for port 0); 0 without TCP.
+  int tcp_port() const { return tcp_port_; }
+  ModbusStats stats() const;
+
+ private:
+  void serve_tcp();
+  void serve_rtu();
+  void count(std::uint64_t ModbusStats::*field);
+
+  const ModbusConfig config_;
+  RegisterBank bank_;
+  int wake_fd_{-1};  // eventfd: the destructor wakes the threads with it
+  _modbus* tcp_{nullptr};
+  int listen_fd_{-1};
+  int tcp_port_{0};
+  _modbus* rtu_{nullptr};
+  mutable std::mutex stats_mutex_;
+  ModbusStats stats_;
+  std::thread tcp_thread_;
+  std::thread rtu_thread_;
+};
+
+}  // namespace fw_linux

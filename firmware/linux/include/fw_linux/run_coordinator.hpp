@@ -1,0 +1,70 @@
+// What the Linux port does around each step() of the core: it runs the
+// command line's trajectories one after the other, serves the commands of
+// the control panel (Modbus), keeps the run's result and the fault history,
+// reports state changes, and publishes the status snapshot.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fw/controller.hpp"
+#include "fw_linux/canopen_master.hpp"
+#include "fw_linux/control_panel.hpp"
+#include "fw_linux/linux_hardware.hpp"
+
+namespace fw_linux {
+
+struct NamedRun {
+  std::string name;
+  fw::CheckedTrajectory trajectory;
+};
+
+// "joint limit at tick 1200, joint 2"
+std::string describe_check(const fw::TrajectoryCheck& check);
+
+class RunCoordinator {
+ public:
+  using Controller = fw::Controller<LinuxHardware>;
+
+  // `panel` may be null (no Modbus). Messages go to `out`.
+  RunCoordinator(std::vector<NamedRun> runs, bool exit_when_done, ControlPanel* panel,
+                 std::ostream& out);
+
+  // After each step() (and the master's send_commands()).
+  void after_step(Controller& controller, const LinuxHardware& hw, const CanopenMaster& master);
+
+  // Set once the loop should end: kExitDone, kExitFault or kExitRejected.
+  std::optional<int> exit_code() const { return exit_code_; }
+  // Whether command-line runs were still to go (for an exit by signal).
+  bool unfinished() const { return running_cli_ || next_run_ < runs_.size(); }
+
+ private:
+  CommandVerdict handle(Controller& controller, const PanelCommand& command);
+  void track_run(const Controller& controller);
+  void publish(const Controller& controller, const LinuxHardware& hw);
+
+  std::vector<NamedRun> runs_;
+  bool exit_when_done_;
+  ControlPanel* panel_;
+  std::ostream& out_;
+  std::size_t next_run_{0};
+  bool running_cli_{false};
+  int cycles_to_exit_{-1};
+  std::optional<int> exit_code_;
+  fw::State last_state_{fw::State::kBoot};
+  fw::Fault last_fault_{fw::Fault::kNone};
+  // The current or last run, whoever started it.
+  std::uint16_t run_id_{0};
+  delta::modbus::RunResult run_result_{delta::modbus::RunResult::kNone};
+  bool run_active_{false};
+  bool seen_moving_{false};
+  bool stop_commanded_{false};
+  bool last_estop_open_{false};
+  std::uint16_t fault_count_{0};
+  std::array<FaultRecord, delta::modbus::kFaultHistoryLength> history_{};
+};
+
+}  // namespace fw_linux

@@ -1,0 +1,197 @@
+#include "fw_linux/run_coordinator.hpp"
+
+#include <ostream>
+
+#include "fw_linux/port.hpp"
+#include "fw_linux/trajectories.hpp"
+
+namespace fw_linux {
+
+namespace mb = delta::modbus;
+
+namespace {
+
+const char* check_reason(fw::TrajectoryFault f) {
+  switch (f) {
+    case fw::TrajectoryFault::kOk:
+      return "ok";
+    case fw::TrajectoryFault::kInvalidConfig:
+      return "invalid configuration";
+    case fw::TrajectoryFault::kJointLimit:
+      return "joint limit";
+    case fw::TrajectoryFault::kVelocityLimit:
+      return "velocity limit";
+    case fw::TrajectoryFault::kAccelerationLimit:
+      return "acceleration limit";
+    case fw::TrajectoryFault::kOutsideWorkspace:
+      return "outside the workspace";
+  }
+  return "unknown";
+}
+
+// raw * 10^6 / 2^frac, rounded: micro-units of a Q value for the registers.
+std::int32_t micro(std::int32_t raw, int frac) {
+  const std::int64_t v = delta::fx::detail::shift_round(std::int64_t{raw} * 1000000, frac);
+  return delta::fx::detail::saturate32(v);
+}
+
+}  // namespace
+
+std::string describe_check(const fw::TrajectoryCheck& c) {
+  std::string s = check_reason(c.fault);
+  s += " at tick " + std::to_string(c.tick);
+  if (c.joint >= 0) s += ", joint " + std::to_string(c.joint + 1);
+  return s;
+}
+
+RunCoordinator::RunCoordinator(std::vector<NamedRun> runs, bool exit_when_done, ControlPanel* panel,
+                               std::ostream& out)
+    : runs_(std::move(runs)), exit_when_done_(exit_when_done), panel_(panel), out_(out) {}
+
+void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
+                                const CanopenMaster& master) {
+  const fw::State state = c.state();
+  last_estop_open_ = hw.last_estop_open();
+  if (state != last_state_) {
+    out_ << "delta_fw: " << fw::state_name(state);
+    if (state == fw::State::kFault) {
+      out_ << ", fault " << static_cast<int>(c.fault()) << " (" << fw::fault_name(c.fault()) << ")";
+      if (!master.last_problem().empty()) out_ << ": " << master.last_problem();
+      out_ << " at cycle " << c.cycles();
+      // Newest first; one record per entry into the fault state.
+      for (std::size_t i = history_.size() - 1; i > 0; --i) history_[i] = history_[i - 1];
+      history_[0] = FaultRecord{c.fault(), c.cycles()};
+      ++fault_count_;
+      if (next_run_ < runs_.size() || running_cli_) {
+        out_ << "; the remaining command-line runs are cancelled";
+        running_cli_ = false;
+        next_run_ = runs_.size();
+      }
+    }
+    out_ << "\n";
+  }
+  track_run(c);
+
+  // The command line's runs, one after the other, from ready.
+  if (state == fw::State::kReady && !run_active_) {
+    if (next_run_ < runs_.size() && exit_code_ == std::nullopt) {
+      const NamedRun& run = runs_[next_run_];
+      const fw::StartResult r = c.start(run.trajectory);
+      if (!r.accepted) {
+        out_ << "delta_fw: trajectory '" << run.name << "' rejected: " << describe_check(r.check)
+             << "\n";
+        exit_code_ = kExitRejected;
+        return;
+      }
+      out_ << "delta_fw: running " << run.name << "\n";
+      ++next_run_;
+      running_cli_ = true;
+      ++run_id_;
+      run_result_ = mb::RunResult::kRunning;
+      run_active_ = true;
+      seen_moving_ = false;
+      stop_commanded_ = false;
+    } else if (exit_when_done_ && cycles_to_exit_ < 0) {
+      cycles_to_exit_ = 2;  // the disabling RPDOs go out first
+    }
+  }
+  if (state == fw::State::kFault && exit_when_done_ && cycles_to_exit_ < 0) {
+    cycles_to_exit_ = 10;  // keep the drives disabled and the EMCY seen
+  }
+  if (cycles_to_exit_ >= 0 && cycles_to_exit_-- == 0 && !exit_code_) {
+    exit_code_ = state == fw::State::kFault ? kExitFault : kExitDone;
+  }
+
+  if (panel_ != nullptr) {
+    panel_->serve([&](const PanelCommand& command) { return handle(c, command); });
+    publish(c, hw);
+  }
+  last_state_ = state;
+}
+
+void RunCoordinator::track_run(const Controller& c) {
+  if (!run_active_) return;
+  const fw::State state = c.state();
+  if (state == fw::State::kRunning || state == fw::State::kStopping) {
+    seen_moving_ = true;
+  } else if (state == fw::State::kFault) {
+    run_result_ = mb::RunResult::kFaulted;
+    run_active_ = false;
+  } else if (state == fw::State::kReady && seen_moving_) {
+    run_result_ = stop_commanded_ ? mb::RunResult::kStopped : mb::RunResult::kFinished;
+    run_active_ = false;
+  }
+  if (!run_active_) running_cli_ = false;
+}
+
+CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command) {
+  CommandVerdict v;
+  switch (command.kind) {
+    case mb::Command::kStart: {
+      if (c.state() != fw::State::kReady || run_active_ || !command.trajectory) {
+        v.why = mb::Rejection::kWrongState;
+        return v;
+      }
+      const fw::StartResult r = c.start(*command.trajectory);
+      if (!r.accepted) {
+        v.why = r.wrong_state ? mb::Rejection::kWrongState : mb::Rejection::kTrajectoryLimit;
+        v.check = r.check;
+        return v;
+      }
+      const auto names = trajectory_names();
+      out_ << "delta_fw: running "
+           << (command.trajectory_id < names.size() ? names[command.trajectory_id] : "?")
+           << " (Modbus)\n";
+      ++run_id_;
+      run_result_ = mb::RunResult::kRunning;
+      run_active_ = true;
+      seen_moving_ = false;
+      stop_commanded_ = false;
+      break;
+    }
+    case mb::Command::kStop:
+      c.stop();  // harmless when nothing runs
+      if (run_active_) stop_commanded_ = true;
+      break;
+    case mb::Command::kFaultReset:
+      if (c.state() == fw::State::kFault) {
+        if (last_estop_open_) {
+          v.why = mb::Rejection::kEStopOpen;
+          return v;
+        }
+        c.reset();
+        out_ << "delta_fw: fault reset (Modbus)\n";
+      }
+      break;
+    case mb::Command::kNone:
+      break;
+  }
+  v.accepted = true;
+  return v;
+}
+
+void RunCoordinator::publish(const Controller& c, const LinuxHardware& hw) {
+  PanelStatus s;
+  s.state = c.state();
+  s.fault = c.fault();
+  s.cycle = c.cycles();
+  const fw::SafetyOutputs& o = hw.last_outputs();
+  s.io_bits = static_cast<std::uint16_t>(
+      (last_estop_open_ ? mb::kIoEStopOpen : 0) | (o.drive_enable ? mb::kIoDriveEnable : 0) |
+      (o.brake_release ? mb::kIoBrakeReleased : 0) | (o.status_ok ? mb::kIoStatusOk : 0) |
+      (panel_->log_enabled().load(std::memory_order_relaxed) ? mb::kIoLogEnabled : 0));
+  s.run_id = run_id_;
+  s.run_result = run_result_;
+  s.run_tick = c.run_tick();
+  s.run_length = c.run_length_ticks();
+  s.log_records = c.log_records();
+  s.fault_count = fault_count_;
+  s.fault_history = history_;
+  for (unsigned j = 0; j < 3; ++j) {
+    s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);
+    s.tau_uNm[j] = micro(c.measured_torque()[j].raw(), 19);
+  }
+  panel_->publish(s);
+}
+
+}  // namespace fw_linux

@@ -1,0 +1,72 @@
+// The controller, the CANopen master and the emulator closed in one
+// process (the same code as delta_fw and delta_drive_emu, frames passed by
+// hand in bus order), for the port's tests.
+#pragma once
+
+#include <deque>
+#include <vector>
+
+#include "delta/can/protocol.hpp"
+#include "emu/emulator.hpp"
+#include "fw/controller.hpp"
+#include "fw_linux/canopen_master.hpp"
+#include "fw_linux/config.hpp"
+#include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/safety_io.hpp"
+
+namespace fw_linux {
+
+// The controller, the CANopen master and the emulator, in one process.
+class InProcessBus : public FrameSink {
+ public:
+  explicit InProcessBus(const emu::EmulatorConfig& ec)
+      : emulator_(ec,
+                  [this](const delta::can::Frame& f, std::uint32_t) { to_master_.push_back(f); }) {}
+  bool send(const delta::can::Frame& f) override {
+    sent_.push_back(f);
+    if (!f.error_frame) emulator_.on_frame(f);
+    return true;
+  }
+  void deliver(CanopenMaster& m) {
+    while (!to_master_.empty()) {
+      delta::can::Received r;
+      r.frame = to_master_.front();
+      to_master_.pop_front();
+      if (r.frame.error_frame) r.error = delta::can::decode_error_frame(r.frame.id, r.frame.data);
+      m.on_frame(r, 0);
+    }
+  }
+  emu::Emulator emulator_;
+  std::deque<delta::can::Frame> to_master_;
+  std::vector<delta::can::Frame> sent_;
+};
+
+struct Rig {
+  explicit Rig(const emu::EmulatorConfig& ec = {})
+      : bus(ec),
+        master(config(), bus),
+        hw(master, io, bus),
+        controller(hw, controller_config(config())) {
+    bus.emulator_.boot();
+  }
+  static PortConfig config() {
+    PortConfig c;
+    c.mode = CycleMode::kLockStep;
+    return c;
+  }
+  void cycle() {
+    bus.deliver(master);
+    master.begin_cycle(0);
+    bus.deliver(master);
+    master.end_window();
+    controller.step();
+    master.send_commands();
+  }
+  InProcessBus bus;
+  CanopenMaster master;
+  SimulatedSafetyIo io;
+  LinuxHardware hw;
+  fw::Controller<LinuxHardware> controller;
+};
+
+}  // namespace fw_linux

@@ -1,0 +1,579 @@
+// The firmware's Modbus server (libmodbus) against the real control loop:
+// the controller, the CANopen master and the emulator closed in-process and
+// stepped by a loop thread, with the run coordinator and the control panel
+// of delta_fw. Clients: libmodbus over TCP on loopback, and RTU frames
+// written by hand on a pseudo-terminal pair (posix_openpt).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <modbus/modbus.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include "delta/modbus/register_map.hpp"
+#include "fw_linux/control_panel.hpp"
+#include "fw_linux/modbus_server.hpp"
+#include "fw_linux/run_coordinator.hpp"
+#include "fw_linux/trajectories.hpp"
+#include "in_process_rig.hpp"
+
+namespace fw_linux {
+namespace {
+
+namespace mb = delta::modbus;
+using std::chrono::milliseconds;
+using std::chrono::steady_clock;
+
+// The loop thread: cycles the in-process rig like run_port's loop, about
+// every 50 us, until destroyed.
+class LoopThread {
+ public:
+  explicit LoopThread(ControlPanel& panel) : coordinator_({}, false, &panel, messages_) {
+    rig_.hw.gate_log(&panel.log_enabled());
+    thread_ = std::thread([this] {
+      while (!stop_.load()) {
+        rig_.cycle();
+        coordinator_.after_step(rig_.controller, rig_.hw, rig_.master);
+        cycles_.fetch_add(1);
+        std::this_thread::sleep_for(std::chrono::microseconds(50));  // pacing, like the timer
+      }
+    });
+  }
+  ~LoopThread() {
+    stop_.store(true);
+    thread_.join();
+  }
+  std::uint64_t cycles() const { return cycles_.load(); }
+  SimulatedSafetyIo& io() { return rig_.io; }
+
+ private:
+  Rig rig_;
+  std::ostringstream messages_;
+  RunCoordinator coordinator_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> cycles_{0};
+  std::thread thread_;
+};
+
+PortConfig modbus_config() {
+  PortConfig c = Rig::config();
+  c.modbus.tcp = "127.0.0.1:0";
+  c.modbus.byte_timeout_ms = 100;
+  return c;
+}
+
+class Client {
+ public:
+  explicit Client(int port) : ctx_(modbus_new_tcp("127.0.0.1", port)) {
+    modbus_set_response_timeout(ctx_, 5, 0);
+    connected_ = modbus_connect(ctx_) == 0;
+  }
+  ~Client() {
+    modbus_close(ctx_);
+    modbus_free(ctx_);
+  }
+  bool connected() const { return connected_; }
+  // The whole input table; empty on an error.
+  std::vector<std::uint16_t> inputs() {
+    std::vector<std::uint16_t> r(mb::kInputCount);
+    if (modbus_read_input_registers(ctx_, 0, mb::kInputCount, r.data()) != mb::kInputCount) {
+      r.clear();
+    }
+    return r;
+  }
+  std::int64_t input(const char* name) {
+    const auto r = inputs();
+    return r.empty() ? -1 : mb::decode(mb::named(name), r.data());
+  }
+  // 0 on success, else errno (EMBX* for a Modbus exception).
+  int write(const mb::Register& r, std::uint16_t v) {
+    return modbus_write_register(ctx_, r.address, v) == 1 ? 0 : errno;
+  }
+  int write_many(int first, const std::vector<std::uint16_t>& v) {
+    return modbus_write_registers(ctx_, first, static_cast<int>(v.size()), v.data()) ==
+                   static_cast<int>(v.size())
+               ? 0
+               : errno;
+  }
+  modbus_t* ctx() { return ctx_; }
+
+ private:
+  modbus_t* ctx_;
+  bool connected_{false};
+};
+
+// Polls the input registers until `done` holds or 20 s pass.
+template <class Pred>
+bool poll_until(Client& c, Pred done) {
+  const auto deadline = steady_clock::now() + std::chrono::seconds(20);
+  while (steady_clock::now() < deadline) {
+    const auto r = c.inputs();
+    if (!r.empty() && done(r.data())) return true;
+    std::this_thread::sleep_for(milliseconds(2));
+  }
+  return false;
+}
+
+std::int64_t value(const std::uint16_t* regs, const char* name) {
+  return mb::decode(mb::named(name), regs);
+}
+
+struct Fixture : ::testing::Test {
+  Fixture() : server(modbus_config(), panel), loop(panel), client(server.tcp_port()) {}
+  void SetUp() override {
+    ASSERT_TRUE(client.connected());
+    ASSERT_TRUE(poll_until(client, [](const std::uint16_t* r) {
+      return value(r, "state") == static_cast<int>(fw::State::kReady);
+    }));
+  }
+  ControlPanel panel;
+  ModbusServer server;
+  LoopThread loop;
+  Client client;
+};
+
+TEST_F(Fixture, ReadsIdentityGeometryAndLiveValues) {
+  const auto r = client.inputs();
+  ASSERT_EQ(r.size(), mb::kInputCount);
+  EXPECT_EQ(value(r.data(), "protocol_version"), mb::kMapVersion);
+  EXPECT_EQ(value(r.data(), "firmware_version_major") * 10000 +
+                value(r.data(), "firmware_version_minor") * 100 +
+                value(r.data(), "firmware_version_patch"),
+            DELTA_PROJECT_VERSION_NUMBER);
+  EXPECT_EQ(value(r.data(), "period_us"), 2000);
+  EXPECT_EQ(value(r.data(), "trajectory_count"), 3);
+  const PortConfig c = Rig::config();
+  EXPECT_EQ(value(r.data(), "upper_arm_length"), std::llround(c.geometry.upper_arm_length_m * 1e6));
+  EXPECT_EQ(value(r.data(), "forearm_length"), std::llround(c.geometry.forearm_length_m * 1e6));
+  EXPECT_EQ(value(r.data(), "base_radius"), std::llround(c.geometry.base_radius_m * 1e6));
+  EXPECT_EQ(value(r.data(), "platform_radius"), std::llround(c.geometry.platform_radius_m * 1e6));
+  EXPECT_EQ(value(r.data(), "io") & mb::kIoStatusOk, mb::kIoStatusOk);
+  // The emulator starts at rest with its initial pose near 0.1 rad per joint.
+  for (const char* q : {"q1", "q2", "q3"}) EXPECT_LT(std::abs(value(r.data(), q)), 1500000) << q;
+  // The cycle counter moves.
+  const auto first = value(r.data(), "cycle_counter");
+  EXPECT_TRUE(poll_until(
+      client, [&](const std::uint16_t* x) { return value(x, "cycle_counter") > first + 10; }));
+  // Holding registers read back their defaults.
+  std::uint16_t hold[mb::kHoldingCount];
+  ASSERT_EQ(modbus_read_registers(client.ctx(), 0, mb::kHoldingCount, hold), mb::kHoldingCount);
+  EXPECT_EQ(hold[mb::kTrajectory.address], 0);
+  EXPECT_EQ(hold[mb::kAmplitudeScale.address], 1000);
+  EXPECT_EQ(hold[mb::kRepetitions.address], 0);
+  EXPECT_EQ(hold[mb::kLogEnable.address], 1);
+  EXPECT_EQ(hold[mb::kCommand.address], 0);
+}
+
+TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
+  // path2 with one period instead of two, in one write of three registers.
+  ASSERT_EQ(client.write_many(0, {1, 1000, 1}), 0);
+  ASSERT_EQ(client.write(mb::kCommand, 1), 0) << modbus_strerror(errno);
+  auto r = client.inputs();
+  ASSERT_FALSE(r.empty());
+  EXPECT_EQ(value(r.data(), "run_id"), 1);
+  EXPECT_EQ(value(r.data(), "run_result"), static_cast<int>(mb::RunResult::kRunning));
+  const std::int64_t length = value(r.data(), "run_length");
+  // 2 s approach + 1 s blend + 4 s (one period at 0.25 Hz) + 1 s blend, at 500 Hz.
+  EXPECT_EQ(length, 4000);
+
+  // While it runs: no change of trajectory, no second start (06 busy); the
+  // reason is in last_rejection.
+  EXPECT_EQ(client.write(mb::kTrajectory, 2), EMBXSBUSY);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kWrongState));
+  EXPECT_EQ(client.input("last_rejection_register"), mb::kTrajectory.address);
+  EXPECT_EQ(client.write(mb::kCommand, 1), EMBXSBUSY);
+  // Writing the value it already has is no change.
+  EXPECT_EQ(client.write(mb::kTrajectory, 1), 0);
+
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "run_result") == static_cast<int>(mb::RunResult::kFinished);
+  }));
+  r = client.inputs();
+  EXPECT_EQ(value(r.data(), "state"), static_cast<int>(fw::State::kReady));
+  // Every cycle of the run logged once: its ticks 0..4000, then the stop's 0.4 s.
+  EXPECT_EQ(value(r.data(), "log_records"), 4001 + 200);
+  EXPECT_EQ(value(r.data(), "fault_count"), 0);
+  EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
+}
+
+TEST_F(Fixture, StopEndsTheRunAsStopped) {
+  ASSERT_EQ(client.write(mb::kCommand, 1), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kRunning) && value(x, "run_tick") > 50;
+  }));
+  ASSERT_EQ(client.write(mb::kCommand, 2), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "run_result") == static_cast<int>(mb::RunResult::kStopped);
+  }));
+  EXPECT_EQ(client.input("state"), static_cast<int>(fw::State::kReady));
+  EXPECT_LT(client.input("log_records"), 1000);
+}
+
+TEST_F(Fixture, RefusesIllegalAddressesValuesAndFunctions) {
+  std::uint16_t regs[8];
+  // Reads past the tables, or too many at once.
+  EXPECT_EQ(modbus_read_input_registers(client.ctx(), mb::kInputCount - 1, 2, regs), -1);
+  EXPECT_EQ(errno, EMBXILADD);
+  EXPECT_EQ(modbus_read_registers(client.ctx(), mb::kHoldingCount, 1, regs), -1);
+  EXPECT_EQ(errno, EMBXILADD);
+  // Writes to what is not a holding register (an input's address included).
+  EXPECT_EQ(modbus_write_register(client.ctx(), 10, 1), -1);
+  EXPECT_EQ(errno, EMBXILADD);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kIllegalAddress));
+  EXPECT_EQ(client.input("last_rejection_register"), 10);
+  // A multiple write running past the end changes nothing.
+  EXPECT_EQ(client.write_many(3, {0, 0, 0}), EMBXILADD);
+  EXPECT_EQ(modbus_read_registers(client.ctx(), 3, 1, regs), 1);
+  EXPECT_EQ(regs[0], 1) << "log_enable must be unchanged";
+  // Values out of range.
+  EXPECT_EQ(client.write(mb::kTrajectory, 3), EMBXILVAL);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kOutOfRange));
+  EXPECT_EQ(client.write(mb::kAmplitudeScale, 0), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kAmplitudeScale, 2001), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kRepetitions, 101), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kLogEnable, 2), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kCommand, 4), EMBXILVAL);
+  // Functions the server does not serve: coils and discrete inputs.
+  std::uint8_t bits[4];
+  EXPECT_EQ(modbus_read_bits(client.ctx(), 0, 1, bits), -1);
+  EXPECT_EQ(errno, EMBXILFUN);
+  EXPECT_EQ(modbus_write_bit(client.ctx(), 0, 1), -1);
+  EXPECT_EQ(errno, EMBXILFUN);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kIllegalFunction));
+  // A reset when there is no fault, and a stop when nothing runs, are no-ops.
+  EXPECT_EQ(client.write(mb::kCommand, 3), 0);
+  EXPECT_EQ(client.write(mb::kCommand, 2), 0);
+  EXPECT_EQ(client.input("state"), static_cast<int>(fw::State::kReady));
+}
+
+TEST_F(Fixture, ATrajectoryThatBreaksALimitIsRefusedWithTheCheck) {
+  // The first trajectory that breaks a limit at twice its amplitude; the
+  // same check the controller runs says why.
+  const PortConfig c = Rig::config();
+  const fw::ControllerConfig core = controller_config(c);
+  fw::TrajectoryCheck expected;
+  std::uint16_t id = 0;
+  for (; id < trajectory_names().size(); ++id) {
+    const auto t = named_trajectory(trajectory_names()[id], c, TrajectoryParams{2000, 0});
+    ASSERT_TRUE(t.has_value());
+    expected = check_trajectory(core.geometry, *t, core.limits);
+    if (expected.fault != fw::TrajectoryFault::kOk) break;
+  }
+  ASSERT_LT(id, trajectory_names().size()) << "no trajectory breaks a limit at 200 %";
+  ASSERT_EQ(client.write(mb::kTrajectory, id), 0);
+  EXPECT_EQ(client.write(mb::kAmplitudeScale, 2000), EMBXILVAL);
+  const auto r = client.inputs();
+  ASSERT_FALSE(r.empty());
+  EXPECT_EQ(value(r.data(), "last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
+  EXPECT_EQ(value(r.data(), "trajectory_check"), static_cast<int>(expected.fault));
+  EXPECT_EQ(value(r.data(), "trajectory_check_tick"), expected.tick);
+  EXPECT_EQ(value(r.data(), "trajectory_check_joint"), expected.joint + 1);
+  std::uint16_t scale = 0;
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kAmplitudeScale.address, 1, &scale), 1);
+  EXPECT_EQ(scale, 1000) << "a refused write changes nothing";
+  EXPECT_EQ(client.write(mb::kAmplitudeScale, 500), 0);  // half the amplitude is fine
+}
+
+TEST_F(Fixture, TheEStopFaultsAndAResetWaitsForItToClose) {
+  ASSERT_EQ(client.write(mb::kCommand, 1), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kRunning);
+  }));
+  loop.io().open_estop(true);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kFault);
+  }));
+  auto r = client.inputs();
+  EXPECT_EQ(value(r.data(), "fault_code"), static_cast<int>(fw::Fault::kEStop));
+  EXPECT_EQ(value(r.data(), "run_result"), static_cast<int>(mb::RunResult::kFaulted));
+  EXPECT_EQ(value(r.data(), "fault_count"), 1);
+  EXPECT_EQ(value(r.data(), "fault_history_0_code"), static_cast<int>(fw::Fault::kEStop));
+  EXPECT_GT(value(r.data(), "fault_history_0_cycle"), 0);
+  EXPECT_LE(value(r.data(), "fault_history_0_cycle"), value(r.data(), "cycle_counter"));
+  EXPECT_EQ(value(r.data(), "io") & (mb::kIoDriveEnable | mb::kIoBrakeReleased | mb::kIoStatusOk),
+            0);
+  EXPECT_EQ(value(r.data(), "io") & mb::kIoEStopOpen, mb::kIoEStopOpen);
+  // No start in fault; no reset while the e-stop is open.
+  EXPECT_EQ(client.write(mb::kCommand, 1), EMBXSBUSY);
+  EXPECT_EQ(client.write(mb::kCommand, 3), EMBXSBUSY);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kEStopOpen));
+  loop.io().open_estop(false);
+  EXPECT_EQ(client.write(mb::kCommand, 3), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kReady);
+  }));
+  r = client.inputs();
+  EXPECT_EQ(value(r.data(), "fault_code"), 0);
+  EXPECT_EQ(value(r.data(), "fault_history_0_code"), static_cast<int>(fw::Fault::kEStop))
+      << "the history keeps it";
+}
+
+// A raw TCP connection, for what libmodbus would never send.
+int raw_connect(int port) {
+  const int s = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(s, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(s);
+    return -1;
+  }
+  return s;
+}
+
+// Reads until the peer closes or `ms` pass; returns the bytes read, or -1
+// on timeout with the connection still open.
+int read_until_closed(int s, int ms, std::vector<std::uint8_t>& got) {
+  const auto deadline = steady_clock::now() + milliseconds(ms);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<milliseconds>(deadline - steady_clock::now());
+    if (left.count() <= 0) return -1;
+    pollfd p{s, POLLIN, 0};
+    if (poll(&p, 1, static_cast<int>(left.count())) <= 0) return -1;
+    std::uint8_t buf[300];
+    const ssize_t n = recv(s, buf, sizeof buf, 0);
+    if (n <= 0) return static_cast<int>(got.size());
+    got.insert(got.end(), buf, buf + n);
+  }
+}
+
+TEST_F(Fixture, MalformedRequestsAreAnsweredOrDroppedAndTheLoopNeverStalls) {
+  const int port = server.tcp_port();
+  // A write of 2 registers whose byte count says 3: exception 03.
+  {
+    const int s = raw_connect(port);
+    ASSERT_GE(s, 0);
+    const std::uint8_t req[] = {0, 1, 0, 0, 0, 10, 1, 0x10, 0, 0, 0, 2, 3, 0, 1, 0};
+    ASSERT_EQ(send(s, req, sizeof req, 0), static_cast<ssize_t>(sizeof req));
+    std::vector<std::uint8_t> got;
+    pollfd p{s, POLLIN, 0};
+    ASSERT_EQ(poll(&p, 1, 5000), 1);
+    std::uint8_t buf[64];
+    const ssize_t n = recv(s, buf, sizeof buf, 0);
+    ASSERT_EQ(n, 9);
+    EXPECT_EQ(buf[7], 0x90);
+    EXPECT_EQ(buf[8], 0x03);
+    close(s);
+  }
+  // A header whose length field disagrees with the request: the server closes.
+  {
+    const int s = raw_connect(port);
+    const std::uint8_t req[] = {0, 1, 0, 0, 0x00, 0x95, 1, 0x03, 0, 0, 0, 1};
+    ASSERT_EQ(send(s, req, sizeof req, 0), static_cast<ssize_t>(sizeof req));
+    std::vector<std::uint8_t> got;
+    EXPECT_EQ(read_until_closed(s, 5000, got), 0);
+    close(s);
+  }
+  // Half a request, then silence: dropped after the byte timeout, while the
+  // control loop keeps cycling and the next client is served.
+  {
+    const int s = raw_connect(port);
+    const std::uint64_t cycles_before = loop.cycles();
+    const std::uint8_t half[] = {0, 1, 0, 0, 0, 6, 1, 0x04};
+    ASSERT_EQ(send(s, half, sizeof half, 0), static_cast<ssize_t>(sizeof half));
+    std::vector<std::uint8_t> got;
+    EXPECT_EQ(read_until_closed(s, 5000, got), 0) << "the half request must be dropped";
+    EXPECT_GT(loop.cycles(), cycles_before + 100) << "the loop went on meanwhile";
+    close(s);
+    EXPECT_EQ(client.input("protocol_version"), mb::kMapVersion);
+  }
+  // A client that vanishes after its request, before the reply.
+  for (int i = 0; i < 20; ++i) {
+    const int s = raw_connect(port);
+    const std::uint8_t req[] = {0, 1, 0, 0, 0, 6, 1, 0x04, 0, 0, 0, 73};
+    ASSERT_EQ(send(s, req, sizeof req, 0), static_cast<ssize_t>(sizeof req));
+    linger l{1, 0};  // reset, not a graceful close
+    setsockopt(s, SOL_SOCKET, SO_LINGER, &l, sizeof l);
+    close(s);
+  }
+  EXPECT_EQ(client.input("protocol_version"), mb::kMapVersion);
+  const ModbusStats st = server.stats();
+  EXPECT_GE(st.receive_errors, 2u);
+  EXPECT_GE(st.exceptions, 1u);
+}
+
+TEST_F(Fixture, ServesManyClientsAtOnceAndRefusesBeyondTheLimit) {
+  // The fixture's client holds one of the 8 places; 7 more read at once.
+  constexpr int kClients = 7;
+  std::atomic<int> good{0};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kClients; ++i) {
+    threads.emplace_back([&] {
+      Client c(server.tcp_port());
+      if (!c.connected()) return;
+      int ok = 0;
+      for (int k = 0; k < 100; ++k) ok += c.input("protocol_version") == mb::kMapVersion;
+      good.fetch_add(ok);
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(good.load(), kClients * 100);
+
+  // Eight held open, the ninth is closed at once.
+  std::vector<std::unique_ptr<Client>> held;
+  for (int i = 0; i < 7; ++i) {
+    held.push_back(std::make_unique<Client>(server.tcp_port()));
+    ASSERT_EQ(held.back()->input("protocol_version"), mb::kMapVersion);
+  }
+  Client extra(server.tcp_port());
+  modbus_set_response_timeout(extra.ctx(), 2, 0);
+  EXPECT_EQ(extra.input("protocol_version"), -1);
+  EXPECT_GE(server.stats().clients_refused, 1u);
+  held.clear();
+  Client after(server.tcp_port());
+  EXPECT_EQ(after.input("protocol_version"), mb::kMapVersion) << "a place is free again";
+}
+
+// --- RTU on a pseudo-terminal ---
+
+std::uint16_t crc16(const std::vector<std::uint8_t>& d) {
+  std::uint16_t crc = 0xFFFF;
+  for (std::uint8_t b : d) {
+    crc ^= b;
+    for (int i = 0; i < 8; ++i)
+      crc = (crc & 1) ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001) : crc >> 1;
+  }
+  return crc;
+}
+
+std::vector<std::uint8_t> rtu_frame(std::vector<std::uint8_t> pdu) {
+  const std::uint16_t crc = crc16(pdu);
+  pdu.push_back(static_cast<std::uint8_t>(crc & 0xFF));
+  pdu.push_back(static_cast<std::uint8_t>(crc >> 8));
+  return pdu;
+}
+
+// Reads `n` bytes or until `ms` pass (for "no answer": well over the
+// server's 100 ms byte timeout).
+std::vector<std::uint8_t> read_bytes(int fd, std::size_t n, int ms = 3000) {
+  std::vector<std::uint8_t> got;
+  const auto deadline = steady_clock::now() + milliseconds(ms);
+  while (got.size() < n && steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 100) <= 0) continue;
+    std::uint8_t buf[300];
+    const ssize_t r = read(fd, buf, sizeof buf);
+    if (r > 0) got.insert(got.end(), buf, buf + r);
+  }
+  return got;
+}
+
+TEST(ModbusRtuTest, AnswersFramesOnAPseudoTerminalAndIgnoresBadOnes) {
+  const int master = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  ASSERT_GE(master, 0);
+  ASSERT_EQ(grantpt(master), 0);
+  ASSERT_EQ(unlockpt(master), 0);
+  termios t{};
+  tcgetattr(master, &t);
+  cfmakeraw(&t);
+  tcsetattr(master, TCSANOW, &t);
+  PortConfig c = Rig::config();
+  c.modbus.rtu_device = ptsname(master);
+  c.modbus.rtu_baud = 115200;
+  c.modbus.rtu_parity = 'E';
+  c.modbus.rtu_unit_id = 7;
+  c.modbus.byte_timeout_ms = 100;
+  ControlPanel panel;
+  {
+    ModbusServer server(c, panel);
+    LoopThread loop(panel);
+    // Read input registers 3..4 (protocol version, state) from unit 7.
+    const auto read_req = rtu_frame({7, 0x04, 0, 3, 0, 2});
+    // A frame with a bad CRC, and one for another unit: no answer to either.
+    auto bad = read_req;
+    bad.back() ^= 0x55;
+    ASSERT_EQ(write(master, bad.data(), bad.size()), static_cast<ssize_t>(bad.size()));
+    const auto other = rtu_frame({9, 0x04, 0, 3, 0, 2});
+    // A gap longer than the byte timeout, so that the next frame starts clean.
+    EXPECT_TRUE(read_bytes(master, 1, 500).empty()) << "no answer to a bad CRC";
+    ASSERT_EQ(write(master, other.data(), other.size()), static_cast<ssize_t>(other.size()));
+    EXPECT_TRUE(read_bytes(master, 1, 500).empty()) << "no answer for another unit";
+    // On a multi-drop line unit 9 answers; the server lets that pass too.
+    const auto other_reply = rtu_frame({9, 0x04, 4, 0, 1, 0, 2});
+    ASSERT_EQ(write(master, other_reply.data(), other_reply.size()),
+              static_cast<ssize_t>(other_reply.size()));
+    EXPECT_TRUE(read_bytes(master, 1, 500).empty()) << "no answer to unit 9's reply";
+
+    ASSERT_EQ(write(master, read_req.data(), read_req.size()),
+              static_cast<ssize_t>(read_req.size()));
+    const auto got = read_bytes(master, 9);
+    ASSERT_EQ(got.size(), 9u);
+    EXPECT_EQ(got[0], 7);
+    EXPECT_EQ(got[1], 0x04);
+    EXPECT_EQ(got[2], 4);
+    EXPECT_EQ((got[3] << 8) | got[4], mb::kMapVersion);
+    EXPECT_LE((got[5] << 8) | got[6], static_cast<int>(fw::State::kFault));
+    EXPECT_EQ(crc16({got.begin(), got.end() - 2}), got[7] | (got[8] << 8));
+
+    // An out-of-range write: exception 03 in an RTU frame.
+    const auto wr = rtu_frame({7, 0x06, 0, 0, 0, 9});
+    ASSERT_EQ(write(master, wr.data(), wr.size()), static_cast<ssize_t>(wr.size()));
+    const auto ex = read_bytes(master, 5);
+    ASSERT_EQ(ex.size(), 5u);
+    EXPECT_EQ(ex[1], 0x86);
+    EXPECT_EQ(ex[2], 0x03);
+    EXPECT_GE(server.stats().receive_errors, 1u);
+  }
+  close(master);
+}
+
+TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
+  ControlPanel panel;
+  PortConfig c = Rig::config();
+  c.modbus.rtu_device = "/dev/no-such-tty";
+  try {
+    ModbusServer s(c, panel);
+    FAIL() << "expected a ModbusError";
+  } catch (const ModbusError& e) {
+    EXPECT_NE(std::string(e.what()).find("modbus.rtu_device = /dev/no-such-tty: cannot open"),
+              std::string::npos)
+        << e.what();
+  }
+  // A port already taken.
+  PortConfig a = Rig::config();
+  a.modbus.tcp = "127.0.0.1:0";
+  ModbusServer first(a, panel);
+  PortConfig b = Rig::config();
+  b.modbus.tcp = "127.0.0.1:" + std::to_string(first.tcp_port());
+  try {
+    ModbusServer second(b, panel);
+    FAIL() << "expected a ModbusError";
+  } catch (const ModbusError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot listen"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RegisterMapTest, RegistersDoNotOverlapAndFitTheirTables) {
+  for (std::size_t i = 0; i < mb::kRegisters.size(); ++i) {
+    const mb::Register& a = mb::kRegisters[i];
+    EXPECT_NE(std::string(a.name), "");
+    for (std::size_t k = 0; k < i; ++k) {
+      const mb::Register& b = mb::kRegisters[k];
+      EXPECT_NE(std::string(a.name), b.name);
+      if (a.table != b.table) continue;
+      const bool apart =
+          a.address + mb::width(a.type) <= b.address || b.address + mb::width(b.type) <= a.address;
+      EXPECT_TRUE(apart) << a.name << " overlaps " << b.name;
+    }
+  }
+  std::vector<std::uint16_t> regs(mb::kInputCount);
+  mb::encode(mb::named("q1"), -123456, regs.data());
+  EXPECT_EQ(mb::decode(mb::named("q1"), regs.data()), -123456);
+  mb::encode(mb::named("cycle_counter"), 0x12345678, regs.data());
+  EXPECT_EQ(regs[6], 0x1234) << "high word first";
+  EXPECT_EQ(regs[7], 0x5678);
+}
+
+}  // namespace
+}  // namespace fw_linux
