@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "host_id/atomic_file.hpp"
+#include "host_id/controller_commands.hpp"
 #include "host_id/dbc.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
@@ -30,6 +31,9 @@ commands:
   validate RESULT.json LOG.csv...  torque RMSE of a saved fit on other logs
   simulate -o LOG.csv [options]    write a log from known parameters
   record --can IFACE -o LOG.csv    record the controller's CAN log frames
+  excite --modbus HOST:PORT --trajectory NAME --can IFACE -o LOG.csv
+                                   run an excitation over Modbus and record it
+  status --modbus HOST:PORT        the controller's state, faults and settings
   dbc [-o FILE.dbc]                the bus's DBC description (for CAN tools)
 
 'host_id <command> --help' describes a command's options.
@@ -434,8 +438,11 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (cmd == "simulate") return cmd_simulate(rest, out);
     if (cmd == "dbc") return cmd_dbc(rest, out);
     if (cmd == "record") return cmd_record(rest, out, err);
+    if (cmd == "excite") return cmd_excite(rest, out, err);
+    if (cmd == "status") return cmd_status(rest, out, err);
     throw UsageError("unknown command '" + cmd +
-                     "' (commands: fit, validate, simulate, record, dbc; see host_id --help)");
+                     "' (commands: fit, validate, simulate, record, excite, status, dbc; see "
+                     "host_id --help)");
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 2;

@@ -139,9 +139,16 @@ void LogAssembler::finish() {
 }
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
+  Recording r = capture(o, ready);
+  write_file_atomically(o.out_path, format_delta_log(r.log));
+  if (o.raw_path) write_file_atomically(*o.raw_path, r.raw);
+  return r.summary;
+}
+
+Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   delta::require_valid_geometry(o.geometry);
   if (!(o.sample_rate_hz > 0)) throw InputError("record: --rate must be positive");
-  if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0) {
+  if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0 && !o.keep_going) {
     throw InputError("record: give a limit: --duration S, --samples N or --idle S");
   }
   delta::can::Socket sock = [&] {
@@ -171,6 +178,7 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   for (;;) {
+    if (o.keep_going && !o.keep_going(samples.size())) break;
     if (o.duration_s > 0 && elapsed() >= o.duration_s) break;
     if (o.samples > 0 && samples.size() >= o.samples) break;
     if (o.idle_s > 0 &&
@@ -239,9 +247,7 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
       log.tau[j].push_back(s.tau_Nm[j]);
     }
   }
-  write_file_atomically(o.out_path, format_delta_log(log));
-  if (o.raw_path) write_file_atomically(*o.raw_path, raw);
-  return summary;
+  return Recording{std::move(log), summary, std::move(raw)};
 }
 
 }  // namespace host_id

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "delta/modbus/register_map.hpp"
 #include "delta/trajectory.hpp"
 
 namespace fw_linux {
@@ -82,7 +83,7 @@ fw::TrajectoryConfig pick_and_place(const PortConfig& c, const TrajectoryParams&
 }  // namespace
 
 std::vector<std::string> trajectory_names() {
-  return {"path1", "path2", "pick-and-place"};
+  return {delta::modbus::kTrajectoryNames.begin(), delta::modbus::kTrajectoryNames.end()};
 }
 
 std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,

@@ -61,6 +61,9 @@ struct RecordOptions {
   double idle_s{0};                     // stop after this long without log frames; 0: never
   double sample_rate_hz{500};
   delta::Geometry geometry{delta::kDefaultGeometry};
+  // Asked about every 50 ms with the samples so far; false ends the
+  // recording (another thread's decision: it must be thread-safe).
+  std::function<bool(std::uint64_t samples)> keep_going;
 };
 
 struct RecordSummary {
@@ -75,5 +78,14 @@ struct RecordSummary {
 // Records until a limit is reached. `ready` is called once the socket is
 // open (tests start sending then). Writes out_path (and raw_path) atomically.
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready = {});
+
+// The same, without writing: the log, the summary and the candump text
+// (with raw_path). Throws InputError when no complete sample arrived.
+struct Recording {
+  DeltaLog log;
+  RecordSummary summary;
+  std::string raw;
+};
+Recording capture(const RecordOptions& o, const std::function<void()>& ready = {});
 
 }  // namespace host_id

@@ -16,6 +16,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <sstream>
 #include <thread>
@@ -25,6 +27,8 @@
 #include "fw_linux/modbus_server.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
+#include "host_id/cli.hpp"
+#include "host_id/controller_commands.hpp"
 #include "in_process_rig.hpp"
 
 namespace fw_linux {
@@ -183,8 +187,9 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   EXPECT_EQ(value(r.data(), "run_id"), 1);
   EXPECT_EQ(value(r.data(), "run_result"), static_cast<int>(mb::RunResult::kRunning));
   const std::int64_t length = value(r.data(), "run_length");
-  // 2 s approach + 1 s blend + 4 s (one period at 0.25 Hz) + 1 s blend, at 500 Hz.
-  EXPECT_EQ(length, 4000);
+  // 2 s approach + 1 s blend + 4 s (one period at 0.25 Hz) + 1 s blend, at
+  // 500 Hz, the last tick included.
+  EXPECT_EQ(length, 4001);
 
   // While it runs: no change of trajectory, no second start (06 busy); the
   // reason is in last_rejection.
@@ -200,8 +205,9 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   }));
   r = client.inputs();
   EXPECT_EQ(value(r.data(), "state"), static_cast<int>(fw::State::kReady));
-  // Every cycle of the run logged once: its ticks 0..4000, then the stop's 0.4 s.
-  EXPECT_EQ(value(r.data(), "log_records"), 4001 + 200);
+  // Every cycle of the run logged once, then the stop's 0.4 s.
+  EXPECT_EQ(value(r.data(), "run_tick"), length);
+  EXPECT_EQ(value(r.data(), "log_records"), length + 200);
   EXPECT_EQ(value(r.data(), "fault_count"), 0);
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
 }
@@ -316,6 +322,63 @@ TEST_F(Fixture, TheEStopFaultsAndAResetWaitsForItToClose) {
   EXPECT_EQ(value(r.data(), "fault_code"), 0);
   EXPECT_EQ(value(r.data(), "fault_history_0_code"), static_cast<int>(fw::Fault::kEStop))
       << "the history keeps it";
+}
+
+TEST_F(Fixture, HostIdStatusReadsTheController) {
+  std::ostringstream out, err;
+  const std::string address = "127.0.0.1:" + std::to_string(server.tcp_port());
+  ASSERT_EQ(host_id::run_cli({"status", "--modbus", address}, out, err), 0) << err.str();
+  const std::string s = out.str();
+  EXPECT_NE(s.find("controller " + address + ": firmware "), std::string::npos) << s;
+  EXPECT_NE(s.find("  state      ready\n"), std::string::npos) << s;
+  EXPECT_NE(s.find("settings   trajectory path1, amplitude 100.0 %, repetitions preset"),
+            std::string::npos)
+      << s;
+  EXPECT_NE(s.find("upper arm 0.2000 m"), std::string::npos) << s;
+  // --json: every register by name.
+  std::ostringstream json;
+  ASSERT_EQ(host_id::run_cli({"status", "--modbus", address, "--json"}, json, err), 0);
+  EXPECT_NE(json.str().find("\"period_us\": 2000"), std::string::npos) << json.str();
+  // Errors: nobody listening, a malformed address.
+  std::ostringstream e1, e2, o;
+  EXPECT_EQ(host_id::run_cli({"status", "--modbus", "127.0.0.1:1"}, o, e1), 1);
+  EXPECT_NE(e1.str().find("cannot connect to the controller at 127.0.0.1:1"), std::string::npos)
+      << e1.str();
+  EXPECT_EQ(host_id::run_cli({"status", "--modbus", "localhost"}, o, e2), 1);
+  EXPECT_NE(e2.str().find("expected HOST:PORT"), std::string::npos) << e2.str();
+}
+
+TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
+  const std::string address = "127.0.0.1:" + std::to_string(server.tcp_port());
+  std::ostringstream o, e1, e2, e3;
+  EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "figure8", "--can",
+                              "vcan0", "-o", "x.csv"},
+                             o, e1),
+            2);
+  EXPECT_NE(e1.str().find("unknown trajectory 'figure8'"), std::string::npos) << e1.str();
+  EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can",
+                              "vcan0", "-o", "x.csv", "--amplitude-scale", "3"},
+                             o, e2),
+            2);
+  EXPECT_NE(e2.str().find("--amplitude-scale must be from 0.001 to 2"), std::string::npos)
+      << e2.str();
+  loop.io().open_estop(true);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kFault);
+  }));
+  EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can",
+                              "vcan0", "-o", ::testing::TempDir() + "/x.csv"},
+                             o, e3),
+            1);
+  EXPECT_NE(e3.str().find("is in fault 1 (e-stop)"), std::string::npos) << e3.str();
+  EXPECT_FALSE(std::ifstream(::testing::TempDir() + "/x.csv").good());
+}
+
+TEST(HostIdExcite, PartialLogNames) {
+  EXPECT_EQ(host_id::partial_log_path("run.csv"), "run.partial.csv");
+  EXPECT_EQ(host_id::partial_log_path("/data/v1.2/run.csv"), "/data/v1.2/run.partial.csv");
+  EXPECT_EQ(host_id::partial_log_path("/data/v1.2/run"), "/data/v1.2/run.partial");
+  EXPECT_EQ(host_id::partial_log_path(".hidden"), ".hidden.partial");
 }
 
 // A raw TCP connection, for what libmodbus would never send.
@@ -552,6 +615,28 @@ TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
   } catch (const ModbusError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot listen"), std::string::npos) << e.what();
   }
+}
+
+TEST(RegisterMapTest, DocsModbusMdListsEveryRegisterAsTheMapDefinesIt) {
+  std::ifstream in("docs/modbus.md");
+  ASSERT_TRUE(in.good()) << "run from the source directory";
+  const std::string doc((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t rows = 0;
+  for (const mb::Register& r : mb::kRegisters) {
+    const bool input = r.table == mb::Table::kInput;
+    const char* types[] = {"u16", "i16", "u32", "i32"};
+    std::string scale = r.scale_num == 1 && r.scale_den == 1
+                            ? (std::string(r.unit).empty() ? "–" : r.unit)
+                            : std::string(r.unit) + " × " + std::to_string(r.scale_num) + "/" +
+                                  std::to_string(r.scale_den);
+    const std::string row = "| " + std::to_string((input ? 30001 : 40001) + r.address) + " | " +
+                            std::to_string(r.address) + " | `" + r.name + "` | " +
+                            types[static_cast<int>(r.type)] + " | " + scale + " | " +
+                            r.description + " |";
+    EXPECT_NE(doc.find(row), std::string::npos) << "docs/modbus.md lacks or differs on:\n" << row;
+    ++rows;
+  }
+  EXPECT_EQ(rows, mb::kRegisters.size());
 }
 
 TEST(RegisterMapTest, RegistersDoNotOverlapAndFitTheirTables) {

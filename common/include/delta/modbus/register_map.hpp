@@ -17,6 +17,10 @@ namespace delta::modbus {
 inline constexpr std::uint16_t kMapVersion = 1;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
+// The trajectories the controller knows, by id (the holding register
+// `trajectory`): docs/firmware.md describes them.
+inline constexpr std::array<const char*, 3> kTrajectoryNames{"path1", "path2", "pick-and-place"};
+
 enum class Table : std::uint8_t { kInput, kHolding };
 enum class Type : std::uint8_t { kU16, kI16, kU32, kI32 };
 

@@ -138,9 +138,10 @@ class Controller {
   const JointReference& reference() const { return reference_; }
   const std::array<Q12_19, 3>& measured_torque() const { return measured_torque_; }
   const std::array<Q12_19, 3>& commanded_torque() const { return command_; }
-  // The run's length in cycles (approach, trajectory), and log records so far.
+  // The run's length in cycles (the approach, then the trajectory's ticks
+  // 0..length: run_tick() ends equal to it), and log records so far.
   std::uint32_t run_length_ticks() const {
-    return config_.approach_ticks + trajectory_.length_ticks();
+    return config_.approach_ticks + trajectory_.length_ticks() + 1;
   }
   std::uint32_t log_records() const { return log_seq_; }
   const std::array<DriveFeedback, 3>& feedback() const { return feedback_; }

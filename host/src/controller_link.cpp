@@ -1,0 +1,135 @@
+#include "host_id/controller_link.hpp"
+
+#include <modbus/modbus.h>
+
+#include <cerrno>
+
+#include "fw/controller.hpp"
+#include "host_id/input_error.hpp"
+
+namespace host_id {
+
+namespace mb = delta::modbus;
+
+namespace {
+
+const char* check_reason(std::int64_t f) {
+  switch (f) {
+    case 1:
+      return "invalid configuration";
+    case 2:
+      return "joint limit";
+    case 3:
+      return "velocity limit";
+    case 4:
+      return "acceleration limit";
+    case 5:
+      return "outside the workspace";
+    default:
+      return "limit";
+  }
+}
+
+}  // namespace
+
+ControllerLink::ControllerLink(const std::string& host_port) : address_(host_port) {
+  const auto colon = host_port.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == host_port.size()) {
+    throw InputError("--modbus: expected HOST:PORT, got '" + host_port + "'");
+  }
+  const std::string host = host_port.substr(0, colon);
+  const std::string port = host_port.substr(colon + 1);
+  if (port.find_first_not_of("0123456789") != std::string::npos || port.size() > 5 ||
+      std::stoi(port) > 65535) {
+    throw InputError("--modbus: the port must be a number from 1 to 65535, got '" + port + "'");
+  }
+  ctx_ = modbus_new_tcp_pi(host.c_str(), port.c_str());
+  if (ctx_ == nullptr) throw InputError("--modbus " + host_port + ": " + modbus_strerror(errno));
+  modbus_set_response_timeout(ctx_, 3, 0);
+  if (modbus_connect(ctx_) != 0) {
+    const std::string why = modbus_strerror(errno);
+    modbus_free(ctx_);
+    throw InputError("cannot connect to the controller at " + host_port + ": " + why +
+                     " (is delta_fw running with modbus.tcp set?)");
+  }
+}
+
+ControllerLink::~ControllerLink() {
+  modbus_close(ctx_);
+  modbus_free(ctx_);
+}
+
+void ControllerLink::fail(const std::string& what) {
+  throw InputError("controller " + address_ + ": " + what + ": " + modbus_strerror(errno));
+}
+
+std::vector<std::uint16_t> ControllerLink::inputs() {
+  std::vector<std::uint16_t> r(mb::kInputCount);
+  if (modbus_read_input_registers(ctx_, 0, mb::kInputCount, r.data()) != mb::kInputCount) {
+    fail("reading the input registers");
+  }
+  if (r[mb::named("protocol_version").address] != mb::kMapVersion) {
+    throw InputError("controller " + address_ + ": register map version " +
+                     std::to_string(r[mb::named("protocol_version").address]) +
+                     ", this host_id speaks version " + std::to_string(mb::kMapVersion));
+  }
+  return r;
+}
+
+std::vector<std::uint16_t> ControllerLink::holding() {
+  std::vector<std::uint16_t> r(mb::kHoldingCount);
+  if (modbus_read_registers(ctx_, 0, mb::kHoldingCount, r.data()) != mb::kHoldingCount) {
+    fail("reading the holding registers");
+  }
+  return r;
+}
+
+void ControllerLink::write(std::uint16_t first, const std::vector<std::uint16_t>& values) {
+  const int n = static_cast<int>(values.size());
+  const int rc = n == 1 ? modbus_write_register(ctx_, first, values[0])
+                        : modbus_write_registers(ctx_, first, n, values.data());
+  if (rc == n) return;
+  const int err = errno;
+  std::string what = "writing";
+  for (int i = 0; i < n; ++i) {
+    const mb::Register* r = mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(first + i));
+    what += std::string(i ? "," : "") + " " + (r ? r->name : "?") + " = " +
+            std::to_string(values[static_cast<std::size_t>(i)]);
+  }
+  if (err < MODBUS_ENOBASE) {
+    errno = err;
+    fail(what);
+  }
+  // A Modbus exception: the controller says why in its input registers.
+  std::string why = modbus_strerror(err);
+  std::vector<std::uint16_t> in(mb::kInputCount);
+  if (modbus_read_input_registers(ctx_, 0, mb::kInputCount, in.data()) == mb::kInputCount) {
+    const auto rejection = static_cast<mb::Rejection>(raw("last_rejection", in));
+    const mb::Register* reg = mb::find(
+        mb::Table::kHolding, static_cast<std::uint16_t>(raw("last_rejection_register", in)));
+    why = std::string(mb::describe(rejection)) + " (register " + (reg ? reg->name : "?") +
+          ", Modbus exception " + std::to_string(mb::exception_code(rejection)) + ")";
+    if (rejection == mb::Rejection::kWrongState) {
+      why += "; the controller is " +
+             std::string(fw::state_name(static_cast<fw::State>(raw("state", in))));
+    }
+    if (rejection == mb::Rejection::kTrajectoryLimit) {
+      why += ": " + std::string(check_reason(raw("trajectory_check", in))) + " at tick " +
+             std::to_string(raw("trajectory_check_tick", in));
+      if (raw("trajectory_check_joint", in) > 0) {
+        why += ", joint " + std::to_string(raw("trajectory_check_joint", in));
+      }
+    }
+  }
+  throw InputError("controller " + address_ + " refused " + what + ": " + why);
+}
+
+std::int64_t raw(const char* name, const std::vector<std::uint16_t>& table) {
+  return mb::decode(mb::named(name), table.data());
+}
+
+double scaled(const mb::Register& r, const std::vector<std::uint16_t>& table) {
+  return static_cast<double>(mb::decode(r, table.data())) * r.scale_num / r.scale_den;
+}
+
+}  // namespace host_id
