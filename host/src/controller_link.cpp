@@ -11,27 +11,6 @@ namespace host_id {
 
 namespace mb = delta::modbus;
 
-namespace {
-
-const char* check_reason(std::int64_t f) {
-  switch (f) {
-    case 1:
-      return "invalid configuration";
-    case 2:
-      return "joint limit";
-    case 3:
-      return "velocity limit";
-    case 4:
-      return "acceleration limit";
-    case 5:
-      return "outside the workspace";
-    default:
-      return "limit";
-  }
-}
-
-}  // namespace
-
 ControllerLink::ControllerLink(const std::string& host_port) : address_(host_port) {
   const auto colon = host_port.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == host_port.size()) {
@@ -114,8 +93,10 @@ void ControllerLink::write(std::uint16_t first, const std::vector<std::uint16_t>
              std::string(fw::state_name(static_cast<fw::State>(raw("state", in))));
     }
     if (rejection == mb::Rejection::kTrajectoryLimit) {
-      why += ": " + std::string(check_reason(raw("trajectory_check", in))) + " at tick " +
-             std::to_string(raw("trajectory_check_tick", in));
+      why += ": " +
+             std::string(fw::trajectory_fault_name(
+                 static_cast<fw::TrajectoryFault>(raw("trajectory_check", in)))) +
+             " at tick " + std::to_string(raw("trajectory_check_tick", in));
       if (raw("trajectory_check_joint", in) > 0) {
         why += ", joint " + std::to_string(raw("trajectory_check_joint", in));
       }

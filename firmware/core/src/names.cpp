@@ -55,4 +55,22 @@ const char* state_name(State s) {
   return "unknown";
 }
 
+const char* trajectory_fault_name(TrajectoryFault f) {
+  switch (f) {
+    case TrajectoryFault::kOk:
+      return "ok";
+    case TrajectoryFault::kInvalidConfig:
+      return "invalid configuration";
+    case TrajectoryFault::kJointLimit:
+      return "joint limit";
+    case TrajectoryFault::kVelocityLimit:
+      return "velocity limit";
+    case TrajectoryFault::kAccelerationLimit:
+      return "acceleration limit";
+    case TrajectoryFault::kOutsideWorkspace:
+      return "outside the workspace";
+  }
+  return "unknown";
+}
+
 }  // namespace fw

@@ -11,24 +11,6 @@ namespace mb = delta::modbus;
 
 namespace {
 
-const char* check_reason(fw::TrajectoryFault f) {
-  switch (f) {
-    case fw::TrajectoryFault::kOk:
-      return "ok";
-    case fw::TrajectoryFault::kInvalidConfig:
-      return "invalid configuration";
-    case fw::TrajectoryFault::kJointLimit:
-      return "joint limit";
-    case fw::TrajectoryFault::kVelocityLimit:
-      return "velocity limit";
-    case fw::TrajectoryFault::kAccelerationLimit:
-      return "acceleration limit";
-    case fw::TrajectoryFault::kOutsideWorkspace:
-      return "outside the workspace";
-  }
-  return "unknown";
-}
-
 // raw * 10^6 / 2^frac, rounded: micro-units of a Q value for the registers.
 std::int32_t micro(std::int32_t raw, int frac) {
   const std::int64_t v = delta::fx::detail::shift_round(std::int64_t{raw} * 1000000, frac);
@@ -38,7 +20,7 @@ std::int32_t micro(std::int32_t raw, int frac) {
 }  // namespace
 
 std::string describe_check(const fw::TrajectoryCheck& c) {
-  std::string s = check_reason(c.fault);
+  std::string s = fw::trajectory_fault_name(c.fault);
   s += " at tick " + std::to_string(c.tick);
   if (c.joint >= 0) s += ", joint " + std::to_string(c.joint + 1);
   return s;

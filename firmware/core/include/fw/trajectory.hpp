@@ -88,6 +88,9 @@ enum class TrajectoryFault : std::uint8_t {
   kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
 };
 
+// A short name for messages: "joint limit".
+const char* trajectory_fault_name(TrajectoryFault f);
+
 struct TrajectoryCheck {
   TrajectoryFault fault{TrajectoryFault::kOk};
   std::uint32_t tick{0};
