@@ -334,7 +334,8 @@ constexpr const char* kRecordHelp =
     R"(usage: host_id record --can IFACE -o LOG.csv [limits] [options]
 
 Records the controller's log frames (LOG_A..LOG_C, docs/protocol.md) from a
-CAN interface into delta-log/1. Samples are paired by their sequence
+CAN interface into delta-log/1, with the drives' motor currents (TPDO1) as
+columns i1..i3 when every sample has them. Samples are paired by their sequence
 counter; a lost sample is reported and the log keeps its seq column, so no
 gap is ever bridged. Exit status 3 when samples were lost (unless
 --allow-gaps).
@@ -346,6 +347,8 @@ options:
   --rate HZ                 the controller's cycle rate, for t (500)
   --raw FILE.log            also write every frame of the session (all IDs) in
                             candump -L format, for canplayer and DBC tools
+  --rated-current-A A       the drives' rated current (0x6075), for the i1..i3
+                            columns: the drives' TPDO1 currents in A (2)
   --allow-gaps              exit 0 even when samples were lost
   --upper-arm-m, --forearm-m, --base-radius-m, --platform-radius-m
                             the robot's geometry for the metadata (default robot)
@@ -365,6 +368,7 @@ int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ost
                          {"--rate"},
                          {"--raw"},
                          {"--allow-gaps", false},
+                         {"--rated-current-A"},
                          {"--upper-arm-m"},
                          {"--forearm-m"},
                          {"--base-radius-m"},
@@ -382,6 +386,8 @@ int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ost
   r.samples = o.whole("--samples", 0, 0, UINT64_MAX);
   r.idle_s = o.number("--idle", 0);
   r.sample_rate_hz = o.number("--rate", 500);
+  r.rated_current_A = o.number("--rated-current-A", r.rated_current_A);
+  if (!(r.rated_current_A > 0)) throw UsageError("record: --rated-current-A must be positive");
   r.geometry.upper_arm_length_m = o.number("--upper-arm-m", r.geometry.upper_arm_length_m);
   r.geometry.forearm_length_m = o.number("--forearm-m", r.geometry.forearm_length_m);
   r.geometry.base_radius_m = o.number("--base-radius-m", r.geometry.base_radius_m);
@@ -390,13 +396,18 @@ int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ost
   const RecordSummary s =
       record(r, [&] { err << "host_id record: listening on " << r.iface << std::endl; });
   out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from " << r.iface
-      << " in " << s.seconds << " s -> " << r.out_path << "\n";
+      << " in " << s.seconds << " s -> " << r.out_path
+      << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
   for (const auto& [first, count] : s.gaps) {
     err << "host_id record: lost " << count << " sample(s) from seq " << first
         << " (log frames missing)\n";
   }
   if (s.socket_drops)
     err << "host_id record: the kernel dropped " << s.socket_drops << " frames for this reader\n";
+  if (s.samples_without_currents > 0) {
+    err << "host_id record: " << s.samples_without_currents
+        << " samples came without all three drives' TPDO1; the i1..i3 columns are left out\n";
+  }
   if (s.lost > 0 && !o.flag("--allow-gaps")) {
     err << "host_id record: " << s.lost
         << " samples lost; the log keeps them as gaps in seq (--allow-gaps to accept)\n";

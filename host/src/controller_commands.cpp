@@ -48,6 +48,7 @@ options:
   --repetitions N       Fourier periods or pick-and-place cycles, 1-100
                         (default: the trajectory's own, 2 or 3)
   --raw FILE.log        also write every CAN frame of the session (candump -L)
+  --rated-current-A A   the drives' rated current, for the i1..i3 columns (2)
   --timeout S           give up when the run has not finished after S seconds
                         (default: the run's length plus 30 s)
 On a fault, a stop from elsewhere, a lost connection or Ctrl-C (which stops
@@ -193,6 +194,7 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
                          {"--amplitude-scale"},
                          {"--repetitions"},
                          {"--raw"},
+                         {"--rated-current-A"},
                          {"--timeout"}},
                         args);
   if (!o.positional().empty()) {
@@ -245,6 +247,8 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
   ro.out_path = out_path;
   ro.raw_path = o.value("--raw");
   ro.sample_rate_hz = rate_hz;
+  ro.rated_current_A = o.number("--rated-current-A", ro.rated_current_A);
+  if (!(ro.rated_current_A > 0)) throw UsageError("excite: --rated-current-A must be positive");
   ro.geometry = {metres("upper_arm_length", in), metres("forearm_length", in),
                  metres("base_radius", in), metres("platform_radius", in)};
   std::atomic<bool> finish{false};

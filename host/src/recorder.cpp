@@ -138,6 +138,37 @@ void LogAssembler::finish() {
   pending_.clear();
 }
 
+void DriveCurrentTracker::feed(const delta::can::Frame& f) {
+  if (f.extended || f.error_frame || f.remote) return;
+  if (f.id == kLogA.base_id && f.dlc == 8) {
+    if (fresh_ == 0x7) {
+      const auto seq16 = static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0]));
+      by_seq_.emplace_back(seq16, current_pm_);
+      if (by_seq_.size() > 4 * kReorderWindow) by_seq_.erase(by_seq_.begin());
+    }
+    fresh_ = 0;
+    return;
+  }
+  const std::uint32_t base = p::kTpdo1.base_id;
+  if (f.id > base && f.id <= base + p::kDriveCount && f.dlc == p::kTpdo1.dlc) {
+    const unsigned j = f.id - base - p::kFirstDriveNode;
+    current_pm_[j] = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1.signals[2]));
+    fresh_ = static_cast<std::uint8_t>(fresh_ | (1u << j));
+    any_seen_ = true;
+  }
+}
+
+std::optional<std::array<std::int16_t, 3>> DriveCurrentTracker::take(std::uint16_t seq16) {
+  for (auto it = by_seq_.begin(); it != by_seq_.end(); ++it) {
+    if (it->first == seq16) {
+      const auto c = it->second;
+      by_seq_.erase(by_seq_.begin(), it + 1);  // older ones are never asked for again
+      return c;
+    }
+  }
+  return std::nullopt;
+}
+
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
   Recording r = capture(o, ready);
   write_file_atomically(o.out_path, format_delta_log(r.log));
@@ -159,7 +190,8 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
       if (!o.raw_path) {
         filters = {{kLogA.base_id, 0x7FF, false},
                    {kLogB.base_id, 0x7FF, false},
-                   {kLogC.base_id, 0x7FF, false}};
+                   {kLogC.base_id, 0x7FF, false},
+                   {p::kTpdo1.base_id, 0x780, false}};  // the drives' currents
       }
       return delta::can::Socket::open(o.iface, filters,
                                       8 << 20);  // 8 MB: about 10 000 frames of burst
@@ -169,7 +201,9 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   }();
   if (ready) ready();
   LogAssembler assembler;
+  DriveCurrentTracker currents;
   std::vector<LogSample> samples;
+  std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents;
   std::string raw;
   RecordSummary summary;
   const auto t0 = std::chrono::steady_clock::now();
@@ -211,14 +245,24 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
         }
         raw += '\n';
       }
+      if (!r->error) currents.feed(r->frame);
       if (!r->error && assembler.feed(r->frame)) last_frame = std::chrono::steady_clock::now();
-      for (auto& s : assembler.take_complete()) samples.push_back(s);
+      for (auto& s : assembler.take_complete()) {
+        samples.push_back(s);
+        sample_currents.push_back(currents.take(static_cast<std::uint16_t>(s.seq & 0xFFFF)));
+      }
       if (o.samples > 0 && samples.size() >= o.samples) break;
     }
   }
   assembler.finish();
-  for (auto& s : assembler.take_complete()) samples.push_back(s);
-  if (o.samples > 0 && samples.size() > o.samples) samples.resize(o.samples);
+  for (auto& s : assembler.take_complete()) {
+    samples.push_back(s);
+    sample_currents.push_back(currents.take(static_cast<std::uint16_t>(s.seq & 0xFFFF)));
+  }
+  if (o.samples > 0 && samples.size() > o.samples) {
+    samples.resize(o.samples);
+    sample_currents.resize(o.samples);
+  }
   summary.seconds = elapsed();
   summary.samples = samples.size();
   summary.lost = assembler.lost_samples();  // dropped frames show up as incomplete cycles
@@ -239,6 +283,19 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   log.metadata.emplace_back("source", "robot");
   log.metadata.emplace_back("can_interface", o.iface);
   const std::uint64_t first = samples.front().seq;
+  // i1..i3 only when every sample has its drives' currents: never a guess.
+  summary.samples_without_currents = static_cast<std::uint64_t>(
+      std::count(sample_currents.begin(), sample_currents.end(), std::nullopt));
+  summary.currents = currents.any_seen() && summary.samples_without_currents == 0;
+  if (summary.currents) {
+    const char* names[] = {"i1", "i2", "i3"};
+    for (unsigned j = 0; j < 3; ++j) {
+      Series column;
+      for (const auto& c : sample_currents) column.push_back((*c)[j] * o.rated_current_A / 1000.0);
+      log.extra_columns.emplace_back(names[j], std::move(column));
+    }
+  }
+  if (!currents.any_seen()) summary.samples_without_currents = 0;
   for (const LogSample& s : samples) {
     log.seq.push_back(s.seq - first);
     log.t.push_back(static_cast<double>(s.seq - first) / o.sample_rate_hz);

@@ -554,6 +554,36 @@ TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("# trajectory = path1"), std::string::npos);
   EXPECT_NE(text.find("# sample_rate_hz = 500"), std::string::npos);
+  // The drives' currents came with every sample: the logged torque is the
+  // firmware's gear * k_t * efficiency * i = 10 * 0.1 * 0.9 * i.
+  {
+    std::istringstream rows(text);
+    std::string line;
+    while (std::getline(rows, line) && line[0] == '#') {
+    }
+    ASSERT_NE(line.find(",i1,i2,i3"), std::string::npos) << line;
+    const auto column = [&](const std::string& header, const std::string& name) {
+      std::istringstream h(header);
+      std::string c;
+      for (int k = 0; std::getline(h, c, ','); ++k)
+        if (c == name) return k;
+      return -1;
+    };
+    const int tau1 = column(line, "tau1");
+    const int i1 = column(line, "i1");
+    double worst = 0;
+    std::size_t n = 0;
+    while (std::getline(rows, line)) {
+      std::vector<double> v;
+      std::istringstream r(line);
+      for (std::string f; std::getline(r, f, ',');) v.push_back(std::stod(f));
+      worst = std::max(worst, std::fabs(v[static_cast<std::size_t>(tau1)] -
+                                        0.9 * v[static_cast<std::size_t>(i1)]));
+      ++n;
+    }
+    EXPECT_EQ(n, 7201u);
+    EXPECT_LT(worst, 2e-5) << "tau1 and i1 of the same sample";
+  }
 
   hil::Child after = hil::Child::spawn({kBin + "/host_id", "status", "--modbus", modbus});
   ASSERT_EQ(after.wait(30s).value_or(-1), 0) << after.err();

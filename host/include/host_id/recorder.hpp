@@ -52,6 +52,26 @@ class LogAssembler {
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps_;
 };
 
+// The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
+// current) for each log record: a record gets the currents that all three
+// drives sent after the previous record's LOG_A frame (the SYNC of its own
+// cycle); when one is missing, that record has none.
+class DriveCurrentTracker {
+ public:
+  // Feeds one frame; other IDs are ignored.
+  void feed(const delta::can::Frame& f);
+  // The currents (per mille) that came with the record of this 16-bit seq,
+  // taken out; nullopt if not all three came.
+  std::optional<std::array<std::int16_t, 3>> take(std::uint16_t seq16);
+  bool any_seen() const { return any_seen_; }
+
+ private:
+  std::array<std::int16_t, 3> current_pm_{};
+  std::uint8_t fresh_{0};  // bit per drive since the last LOG_A
+  bool any_seen_{false};
+  std::vector<std::pair<std::uint16_t, std::array<std::int16_t, 3>>> by_seq_;
+};
+
 struct RecordOptions {
   std::string iface;
   std::string out_path;
@@ -61,6 +81,7 @@ struct RecordOptions {
   double idle_s{0};                     // stop after this long without log frames; 0: never
   double sample_rate_hz{500};
   delta::Geometry geometry{delta::kDefaultGeometry};
+  double rated_current_A{2.0};  // the drives' 0x6075, to turn per mille into A
   // Asked about every 50 ms with the samples so far; false ends the
   // recording (another thread's decision: it must be thread-safe).
   std::function<bool(std::uint64_t samples)> keep_going;
@@ -72,6 +93,8 @@ struct RecordSummary {
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps;
   std::uint64_t frames{0};
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
+  bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
+  std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
   double seconds{0};
 };
 

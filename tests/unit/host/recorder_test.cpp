@@ -110,5 +110,40 @@ TEST(LogAssemblerTest, AnIncompleteLastCycleCountsAsLostAtTheEnd) {
   EXPECT_EQ(a.lost_samples(), 1u);
 }
 
+// A drive's TPDO1 with this current (per mille of the rated current).
+delta::can::Frame tpdo1(std::uint8_t node, std::int16_t current_pm) {
+  delta::can::Frame f;
+  f.id = p::cob_id(p::kTpdo1, node);
+  f.dlc = p::kTpdo1.dlc;
+  p::pack(f.data, p::kTpdo1.signals[2], current_pm);
+  return f;
+}
+
+TEST(DriveCurrentTrackerTest, ARecordGetsTheCurrentsOfItsOwnCycleOrNone) {
+  DriveCurrentTracker t;
+  EXPECT_FALSE(t.any_seen());
+  // Cycle 7: all three drives, then the log frames.
+  for (std::uint8_t n = 1; n <= 3; ++n) t.feed(tpdo1(n, static_cast<std::int16_t>(-100 * n)));
+  for (const auto& f : log_frames(7, {}, {})) t.feed(f);
+  // Cycle 8: drive 2 is missing, so its old value must not be used.
+  t.feed(tpdo1(1, 11));
+  t.feed(tpdo1(3, 33));
+  for (const auto& f : log_frames(8, {}, {})) t.feed(f);
+  // Cycle 9: complete again.
+  for (std::uint8_t n = 1; n <= 3; ++n) t.feed(tpdo1(n, static_cast<std::int16_t>(n)));
+  for (const auto& f : log_frames(9, {}, {})) t.feed(f);
+  EXPECT_TRUE(t.any_seen());
+  const auto c7 = t.take(7);
+  ASSERT_TRUE(c7.has_value());
+  EXPECT_EQ((*c7)[0], -100);
+  EXPECT_EQ((*c7)[1], -200);
+  EXPECT_EQ((*c7)[2], -300);
+  EXPECT_FALSE(t.take(8).has_value());
+  const auto c9 = t.take(9);
+  ASSERT_TRUE(c9.has_value());
+  EXPECT_EQ((*c9)[2], 3);
+  EXPECT_FALSE(t.take(9).has_value()) << "taken out";
+}
+
 }  // namespace
 }  // namespace host_id
