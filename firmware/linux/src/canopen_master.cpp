@@ -126,6 +126,7 @@ void CanopenMaster::restart() {
     d.config = config;
   }
   phase_ = Phase::kIdle;
+  failure_reported_ = false;
   bus_error_ = false;
   problem_.clear();
 }
@@ -175,6 +176,12 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     problem_.clear();
     return fw::DriveConfigProgress::kDone;
   }
+  // A failure found while frames came in (an abort, a wrong value) is
+  // reported here once; a call after that is the core starting again.
+  if (phase_ == Phase::kFailed && !failure_reported_) {
+    failure_reported_ = true;
+    return fw::DriveConfigProgress::kFailed;
+  }
   if (phase_ == Phase::kCyclic || phase_ == Phase::kFailed) restart();  // the core restarted
   if (phase_ == Phase::kIdle) {
     // Every drive to pre-operational (PDOs off), then the SDO bring-up.
@@ -204,7 +211,10 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
       send_sdo(d, now_us_);
     }
   }
-  if (phase_ == Phase::kFailed) return fw::DriveConfigProgress::kFailed;
+  if (phase_ == Phase::kFailed) {
+    failure_reported_ = true;
+    return fw::DriveConfigProgress::kFailed;
+  }
   if (!all_done) return fw::DriveConfigProgress::kInProgress;
   // Every drive configured: start the network; the cyclic exchange begins.
   std::array<std::uint8_t, 8> nmt{};

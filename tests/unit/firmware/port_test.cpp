@@ -4,6 +4,7 @@
 // delta_drive_emu, frames passed by hand in bus order).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 #include <fstream>
@@ -148,6 +149,89 @@ TEST(InProcessPortTest, ADriveThatNeverAnswersFailsTheBringUpWithItsName) {
   EXPECT_NE(rig.master.last_problem().find("node 2: no answer to the SDO request for 0x1000:00"),
             std::string::npos)
       << rig.master.last_problem();
+}
+
+// Runs the rig's cycles until the controller is ready (bounded).
+bool bring_up(Rig& rig) {
+  for (int n = 0; n < 50 && rig.controller.state() != fw::State::kReady; ++n) rig.cycle();
+  return rig.controller.state() == fw::State::kReady;
+}
+
+TEST(InProcessPortTest, AMissedSampleDoesNotDoubleTheVelocityFromPositions) {
+  Rig rig;
+  ASSERT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  ASSERT_TRUE(rig.controller.start(*named_trajectory("path1", Rig::config())).accepted);
+  // Into the trajectory, where the joints move fast.
+  for (int i = 0; i < 2500; ++i) rig.cycle();
+  ASSERT_GT(std::fabs(rig.bus.emulator_.qd_rad_s()[0]), 0.3);
+  // One cycle in which node 1's TPDO1 is lost on the way.
+  rig.bus.deliver(rig.master);
+  rig.master.begin_cycle(0);
+  std::erase_if(rig.bus.to_master_, [](const delta::can::Frame& f) {
+    return f.id == delta::can::protocol::cob_id(delta::can::protocol::kTpdo1, 1);
+  });
+  rig.bus.deliver(rig.master);
+  rig.master.end_window();
+  rig.controller.step();
+  rig.master.send_commands();
+  EXPECT_FALSE(rig.controller.feedback()[0].fresh);
+  // The next sample: the position moved over two cycles, and so does the
+  // velocity's difference (not twice the speed).
+  rig.cycle();
+  const double v = std::ldexp(rig.controller.feedback()[0].velocity_rad_s.raw(), -21);
+  const double truth = rig.bus.emulator_.qd_rad_s()[0];
+  EXPECT_NEAR(v, truth, 0.05 * std::fabs(truth)) << "velocity after a missed sample";
+  EXPECT_EQ(rig.controller.state(), fw::State::kRunning);
+}
+
+TEST(InProcessPortTest, ALateAnswerToARetriedSdoRequestIsIgnored) {
+  Rig rig;
+  // Up to the first SDO answers (0x1000 from each drive), not yet delivered.
+  const std::uint32_t sdo1 = delta::can::protocol::cob_id(delta::can::protocol::kSdoTx, 1);
+  const auto answer = [&] {
+    return std::find_if(rig.bus.to_master_.begin(), rig.bus.to_master_.end(),
+                        [&](const delta::can::Frame& f) { return f.id == sdo1; });
+  };
+  for (int n = 0; n < 5 && answer() == rig.bus.to_master_.end(); ++n) rig.cycle();
+  ASSERT_NE(answer(), rig.bus.to_master_.end());
+  const delta::can::Frame first = *answer();
+  // Deliver node 1's answer alone: the master asks node 1 for the next object.
+  rig.bus.to_master_.erase(answer());
+  delta::can::Received r;
+  r.frame = first;
+  rig.master.on_frame(r, 0);
+  // The same 0x1000 answer again (a retried request's first answer, late),
+  // ahead of the answer the master now waits for: it must be ignored.
+  rig.bus.to_master_.push_front(first);
+  EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  EXPECT_EQ(rig.master.last_problem(), "");
+}
+
+TEST(InProcessPortTest, AWrongValueInTheBringUpFaultsWithItsCauseAndIsNotRetried) {
+  // The configuration expects another encoder than the drives have.
+  PortConfig c = Rig::config();
+  c.joints[1].model.counts_per_rev = 4096;
+  emu::EmulatorConfig ec;
+  InProcessBus bus(ec);
+  SimulatedSafetyIo io;
+  CanopenMaster master(c, bus);
+  LinuxHardware hw(master, io, bus);
+  fw::Controller<LinuxHardware> controller(hw, controller_config(c));
+  bus.emulator_.boot();
+  for (int n = 0; n < 50 && controller.state() != fw::State::kFault; ++n) {
+    bus.deliver(master);
+    master.begin_cycle(0);
+    bus.deliver(master);
+    master.end_window();
+    controller.step();
+    master.send_commands();
+  }
+  EXPECT_EQ(controller.fault(), fw::Fault::kDriveConfigFailed);
+  EXPECT_NE(master.last_problem().find("node 2, 0x608F:01"), std::string::npos)
+      << master.last_problem();
+  EXPECT_NE(master.last_problem().find("the configuration says 4096 (joint2.counts_per_rev)"),
+            std::string::npos)
+      << master.last_problem();
 }
 
 TEST(EmulatorFaultSpecTest, ParsesAndRejectsWithReasons) {

@@ -63,6 +63,7 @@ class CanopenMaster {
   // drive still in fault gets a fault-reset edge before the core sees them.
   enum class Phase : std::uint8_t { kIdle, kConfiguring, kStarting, kCyclic, kFailed };
   bool cyclic() const { return phase_ == Phase::kStarting || phase_ == Phase::kCyclic; }
+  bool failure_reported_{false};  // kFailed was returned to the core
   struct Drive {
     std::uint8_t node{0};
     JointDrive config{};

@@ -76,6 +76,7 @@ class Emulator {
   double simulated_s() const { return static_cast<double>(sim_us_) * 1e-6; }
   std::uint64_t syncs() const { return syncs_; }
   const delta::Joint3& q_rad() const { return q_; }
+  const delta::Joint3& qd_rad_s() const { return qd_; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
   // A line per drive: node, NMT state, CiA 402 state.
