@@ -103,13 +103,6 @@ parameters (the default robot's unless --params is given).
   --name NAME               the log's trajectory name
 )";
 
-bool wants_help(const std::vector<std::string>& args) {
-  for (const auto& a : args) {
-    if (a == "--help" || a == "-h") return true;
-  }
-  return false;
-}
-
 class ProgressBar {
  public:
   explicit ProgressBar(bool enabled) : enabled_(enabled) {}

@@ -108,7 +108,7 @@ std::string partial_log_path(const std::string& path) {
 }
 
 int cmd_status(const std::vector<std::string>& args, std::ostream& out, std::ostream&) {
-  if (std::find(args.begin(), args.end(), "--help") != args.end()) {
+  if (wants_help(args)) {
     out << kStatusHelp;
     return 0;
   }
@@ -164,9 +164,9 @@ int cmd_status(const std::vector<std::string>& args, std::ostream& out, std::ost
       << metres("tau3", in) << " N m (last run)\n";
   out << "  faults     " << r("fault_count") << " since start";
   for (unsigned k = 0; k < mb::kFaultHistoryLength; ++k) {
-    const std::int64_t code = in[20 + 3 * k];
+    const std::int64_t code = mb::decode(mb::fault_history_code(k), in.data());
     if (code == 0) break;
-    const std::int64_t cycle = (std::int64_t{in[21 + 3 * k]} << 16) | in[22 + 3 * k];
+    const std::int64_t cycle = mb::decode(mb::fault_history_cycle(k), in.data());
     out << (k == 0 ? ": " : "; ") << fault_text(code) << " at cycle " << cycle;
   }
   out << "\n  geometry   upper arm " << metres("upper_arm_length", in) << " m, forearm "
@@ -182,7 +182,7 @@ int cmd_status(const std::vector<std::string>& args, std::ostream& out, std::ost
 }
 
 int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (std::find(args.begin(), args.end(), "--help") != args.end()) {
+  if (wants_help(args)) {
     out << kExciteHelp;
     return 0;
   }

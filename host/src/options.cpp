@@ -5,6 +5,13 @@
 
 namespace host_id {
 
+bool wants_help(const std::vector<std::string>& args) {
+  for (const auto& a : args) {
+    if (a == "--help" || a == "-h") return true;
+  }
+  return false;
+}
+
 ParsedOptions::ParsedOptions(const std::string& command, const std::vector<OptionSpec>& specs,
                              const std::vector<std::string>& args)
     : command_(command) {

@@ -1,23 +1,13 @@
 #include "fw_linux/gpio_safety_io.hpp"
 
 #include <gpiod.h>
-#include <time.h>
 
 #include <cerrno>
 #include <cstring>
 
+#include "fw_linux/monotonic_clock.hpp"
+
 namespace fw_linux {
-
-namespace {
-
-std::uint64_t monotonic_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000u +
-         static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
-}
-
-}  // namespace
 
 bool EStopDebouncer::update(bool raw_open, std::uint64_t now_us) {
   if (first_) {

@@ -73,9 +73,8 @@ void RegisterBank::refresh() {
   set("log_records", s.log_records);
   set("fault_count", s.fault_count);
   for (unsigned k = 0; k < mb::kFaultHistoryLength; ++k) {
-    in[20 + 3 * k] = static_cast<std::uint16_t>(s.fault_history[k].fault);
-    in[21 + 3 * k] = static_cast<std::uint16_t>(s.fault_history[k].cycle >> 16);
-    in[22 + 3 * k] = static_cast<std::uint16_t>(s.fault_history[k].cycle & 0xFFFF);
+    mb::encode(mb::fault_history_code(k), static_cast<int>(s.fault_history[k].fault), in);
+    mb::encode(mb::fault_history_cycle(k), s.fault_history[k].cycle, in);
   }
   set("last_rejection", static_cast<int>(last_rejection_));
   set("last_rejection_register", last_rejection_register_);
@@ -257,13 +256,7 @@ ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel)
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) throw ModbusError(std::string("Modbus: eventfd: ") + std::strerror(errno));
   auto fail = [this](const std::string& message) {
-    if (tcp_ != nullptr) modbus_free(tcp_);
-    if (listen_fd_ >= 0) close(listen_fd_);
-    if (rtu_ != nullptr) {
-      modbus_close(rtu_);
-      modbus_free(rtu_);
-    }
-    close(wake_fd_);
+    close_all();
     throw ModbusError(message);
   };
   if (!config_.tcp.empty()) {
@@ -315,6 +308,10 @@ ModbusServer::~ModbusServer() {
   }
   if (tcp_thread_.joinable()) tcp_thread_.join();
   if (rtu_thread_.joinable()) rtu_thread_.join();
+  close_all();
+}
+
+void ModbusServer::close_all() {
   if (tcp_ != nullptr) modbus_free(tcp_);
   if (listen_fd_ >= 0) close(listen_fd_);
   if (rtu_ != nullptr) {

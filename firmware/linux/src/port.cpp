@@ -17,6 +17,7 @@
 #include "delta/can/protocol.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/monotonic_clock.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
 
@@ -25,13 +26,6 @@ namespace fw_linux {
 namespace p = delta::can::protocol;
 
 namespace {
-
-std::uint64_t monotonic_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000u +
-         static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
-}
 
 // Waits until the socket is readable or the absolute deadline passes.
 bool wait_readable_until(int fd, std::uint64_t deadline_us) {

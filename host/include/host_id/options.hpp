@@ -30,6 +30,9 @@ struct OptionSpec {
   std::string short_name;  // "-o", optional
 };
 
+// Whether a command's arguments ask for its help (--help or -h).
+bool wants_help(const std::vector<std::string>& args);
+
 class ParsedOptions {
  public:
   ParsedOptions(const std::string& command, const std::vector<OptionSpec>& specs,

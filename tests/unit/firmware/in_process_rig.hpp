@@ -42,11 +42,9 @@ class InProcessBus : public FrameSink {
 };
 
 struct Rig {
-  explicit Rig(const emu::EmulatorConfig& ec = {})
-      : bus(ec),
-        master(config(), bus),
-        hw(master, io, bus),
-        controller(hw, controller_config(config())) {
+  explicit Rig(const emu::EmulatorConfig& ec = {}) : Rig(config(), ec) {}
+  Rig(const PortConfig& c, const emu::EmulatorConfig& ec)
+      : bus(ec), master(c, bus), hw(master, io, bus), controller(hw, controller_config(c)) {
     bus.emulator_.boot();
   }
   static PortConfig config() {

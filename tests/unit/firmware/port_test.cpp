@@ -211,27 +211,14 @@ TEST(InProcessPortTest, AWrongValueInTheBringUpFaultsWithItsCauseAndIsNotRetried
   // The configuration expects another encoder than the drives have.
   PortConfig c = Rig::config();
   c.joints[1].model.counts_per_rev = 4096;
-  emu::EmulatorConfig ec;
-  InProcessBus bus(ec);
-  SimulatedSafetyIo io;
-  CanopenMaster master(c, bus);
-  LinuxHardware hw(master, io, bus);
-  fw::Controller<LinuxHardware> controller(hw, controller_config(c));
-  bus.emulator_.boot();
-  for (int n = 0; n < 50 && controller.state() != fw::State::kFault; ++n) {
-    bus.deliver(master);
-    master.begin_cycle(0);
-    bus.deliver(master);
-    master.end_window();
-    controller.step();
-    master.send_commands();
-  }
-  EXPECT_EQ(controller.fault(), fw::Fault::kDriveConfigFailed);
-  EXPECT_NE(master.last_problem().find("node 2, 0x608F:01"), std::string::npos)
-      << master.last_problem();
-  EXPECT_NE(master.last_problem().find("the configuration says 4096 (joint2.counts_per_rev)"),
+  Rig rig(c, {});
+  for (int n = 0; n < 50 && rig.controller.state() != fw::State::kFault; ++n) rig.cycle();
+  EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveConfigFailed);
+  EXPECT_NE(rig.master.last_problem().find("node 2, 0x608F:01"), std::string::npos)
+      << rig.master.last_problem();
+  EXPECT_NE(rig.master.last_problem().find("the configuration says 4096 (joint2.counts_per_rev)"),
             std::string::npos)
-      << master.last_problem();
+      << rig.master.last_problem();
 }
 
 TEST(EmulatorFaultSpecTest, ParsesAndRejectsWithReasons) {

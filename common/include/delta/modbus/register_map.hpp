@@ -240,6 +240,19 @@ constexpr void encode(const Register& r, std::int64_t value, std::uint16_t* regs
   }
 }
 
+// Entry k (0 = newest) of the fault history: its registers follow the
+// first entry's every 3 addresses (code, then the 32-bit cycle).
+constexpr const Register& fault_history_code(unsigned k) {
+  return *find(Table::kInput,
+               static_cast<std::uint16_t>(named("fault_history_0_code").address + 3 * k));
+}
+constexpr const Register& fault_history_cycle(unsigned k) {
+  return *find(Table::kInput,
+               static_cast<std::uint16_t>(named("fault_history_0_cycle").address + 3 * k));
+}
+static_assert(fault_history_code(kFaultHistoryLength - 1).type == Type::kU16);
+static_assert(fault_history_cycle(kFaultHistoryLength - 1).type == Type::kU32);
+
 inline constexpr std::uint16_t kInputCount = table_size(Table::kInput);
 inline constexpr std::uint16_t kHoldingCount = table_size(Table::kHolding);
 

@@ -97,6 +97,7 @@ class ModbusServer {
   void serve_tcp();
   void serve_rtu();
   void count(std::uint64_t ModbusStats::*field);
+  void close_all();  // what the constructor opened
 
   const ModbusConfig config_;
   RegisterBank bank_;
