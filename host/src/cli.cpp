@@ -67,6 +67,8 @@ samples:
   --cutoff-hz F             low-pass cut-off for q and tau when the log has no
                             qd/qdd columns (20)
   --trim N                  samples dropped at each segment end (auto)
+  --min-speed W             leave out a joint's equation where its |qd| < W
+                            rad/s (delta: 0.1, paper14: 0 = every sample)
 output:
   --validate LOG2.csv       torque RMSE on another log (repeatable)
   --out FILE.json           save the result (atomically)
@@ -163,6 +165,7 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
                          {"--threads"},
                          {"--cutoff-hz"},
                          {"--trim"},
+                         {"--min-speed"},
                          {"--validate", true, true},
                          {"--out"},
                          {"--json", false},
@@ -197,6 +200,10 @@ int cmd_fit(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   f.prepare.cutoff_hz = o.number("--cutoff-hz", kDefaultCutoffHz);
   f.prepare.trim_samples =
       o.value("--trim") ? static_cast<long>(o.whole("--trim", 0, 0, 1000000)) : -1;
+  if (o.value("--min-speed")) {
+    f.min_speed_rad_s = o.number("--min-speed", 0.0);
+    if (!(*f.min_speed_rad_s >= 0.0)) throw UsageError("fit: --min-speed must be 0 or more");
+  }
   if (const auto p = o.value("--plot")) check_plot_path("fit", *p);
   const bool as_json = o.flag("--json");
   const ProgressBar bar(!o.flag("--quiet") && isatty(STDERR_FILENO) && f.method == Method::kPso);

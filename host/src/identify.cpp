@@ -3,7 +3,10 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <sstream>
+#include <string>
 
+#include "host_id/input_error.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -16,6 +19,11 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+double min_speed_for(const FitOptions& options) {
+  if (options.min_speed_rad_s) return *options.min_speed_rad_s;
+  return options.model.name == "paper14" ? 0.0 : kDefaultMinSpeedRadS;
+}
+
 FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
@@ -27,14 +35,31 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
   r.gaps = log.gaps;
   r.segments_used = samples.segments_used;
   r.segments_dropped = samples.segments_dropped;
-  const Regression reg =
+  const Regression all_rows =
       build_regression(*model, log.geometry, log.gravity_m_s2, samples, log.name, options.threads);
+  r.min_speed_rad_s = min_speed_for(options);
+  const Regression fast_rows =
+      r.min_speed_rad_s > 0.0 ? without_slow_rows(all_rows, r.min_speed_rad_s) : Regression{};
+  const Regression& reg = r.min_speed_rad_s > 0.0 ? fast_rows : all_rows;
+  r.equations_used = reg.rows_per_joint();
+  for (unsigned j = 0; j < 3; ++j) {
+    if (r.equations_used[j] == 0) {
+      std::ostringstream s;
+      s << log.name << ": joint " << j + 1 << " is never faster than the minimum speed of "
+        << r.min_speed_rad_s
+        << " rad/s, so none of its equations is left to fit; lower --min-speed (0 uses every "
+           "sample)";
+      throw InputError(s.str());
+    }
+  }
 
   const auto te = std::chrono::steady_clock::now();
   const LeastSquaresResult ls =
-      solve_least_squares(reg, *model, options.solver, options.weights, log.name);
+      solve_least_squares(reg, *model, options.solver, options.weights, log.name,
+                          correlation_lags_for(samples.sample_rate_hz, options.prepare.cutoff_hz));
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
+  r.std_dev_lags = ls.correlation_lags;
   r.condition_number_scaled = ls.condition_number_scaled;
   const Regression weighted_reg =
       options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
@@ -82,8 +107,8 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
     r.parameters.push_back(e);
   }
   r.fit.log = log.name;
-  r.fit.samples = reg.samples();
-  r.fit.rmse_Nm = rmse_per_joint(reg, r.beta);
+  r.fit.samples = all_rows.samples();
+  r.fit.rmse_Nm = rmse_per_joint(all_rows, r.beta);
   r.seconds_total = seconds_since(t0);
   return r;
 }

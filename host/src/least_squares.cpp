@@ -11,7 +11,7 @@ namespace host_id {
 Regression weighted(const Regression& r, const std::array<double, 3>& w) {
   Regression out = r;
   for (Eigen::Index row = 0; row < out.tau.size(); ++row) {
-    const double s = std::sqrt(w[static_cast<unsigned>(row % 3)]);
+    const double s = std::sqrt(w[out.joint[static_cast<std::size_t>(row)]]);
     out.psi.row(row) *= s;
     out.tau(row) *= s;
   }
@@ -20,8 +20,50 @@ Regression weighted(const Regression& r, const std::array<double, 3>& w) {
 
 namespace {
 
+// S of the covariance in the scaled coordinates, per joint: each joint's
+// g = a e laid out by sample (zero where the joint has no equation), then
+//   S += G^T H,  H = G smoothed by the Bartlett weights 1 - |l|/(L+1),
+// which is the sum over lags in one product. The triangle is two boxes of
+// L+1 samples, each a difference of running sums: O(n p) for H.
+Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::MatrixXd& scaled,
+                                        const Eigen::VectorXd& e, std::size_t lags) {
+  const Eigen::Index p = scaled.cols();
+  const auto n = static_cast<Eigen::Index>(r.samples());
+  const auto l = std::min<Eigen::Index>(static_cast<Eigen::Index>(lags), n);
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
+  // L zero rows after the last sample, so that the boxes reaching past it
+  // are whole.
+  const Eigen::Index m = n + l;
+  Eigen::MatrixXd g(m, p), sums(m + 1, p), box(m, p), h(m, p);
+  for (unsigned char j = 0; j < 3; ++j) {
+    g.setZero();
+    for (std::size_t row = 0; row < r.rows(); ++row) {
+      if (r.joint[row] != j) continue;
+      const auto i = static_cast<Eigen::Index>(row);
+      g.row(static_cast<Eigen::Index>(r.sample[row])) = scaled.row(i) * e(i);
+    }
+    if (l == 0) {
+      s.noalias() += g.transpose() * g;
+      continue;
+    }
+    // box_k = sum of g over [k - L, k]; h_k = sum of box over [k, k + L] / (L + 1).
+    sums.row(0).setZero();
+    for (Eigen::Index k = 0; k < m; ++k) sums.row(k + 1) = sums.row(k) + g.row(k);
+    for (Eigen::Index k = 0; k < m; ++k)
+      box.row(k) = sums.row(k + 1) - sums.row(std::max<Eigen::Index>(0, k - l));
+    sums.row(0).setZero();
+    for (Eigen::Index k = 0; k < m; ++k) sums.row(k + 1) = sums.row(k) + box.row(k);
+    const double norm = 1.0 / static_cast<double>(l + 1);
+    for (Eigen::Index k = 0; k < n; ++k)
+      h.row(k) = (sums.row(std::min(m, k + l + 1)) - sums.row(k)) * norm;
+    s.noalias() += g.topRows(n).transpose() * h.topRows(n);
+  }
+  // Symmetric in exact arithmetic; make it so in floating point.
+  return 0.5 * (s + s.transpose());
+}
+
 LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSolver solver,
-                                  const std::string& log_name) {
+                                  const std::string& log_name, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
@@ -61,11 +103,15 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
   out.beta = beta_scaled.cwiseQuotient(col_norm);
   const double rss = (r.tau - r.psi * out.beta).squaredNorm();
   out.cost = rss / static_cast<double>(rows);
-  const double sigma2 = rows > p ? rss / static_cast<double>(rows - p) : 0.0;
-  // Cov(beta) = sigma^2 D^-1 (S^T S)^-1 D^-1 with S = U Sigma V^T.
+  // (A^T A)^-1 = V Sigma^-2 V^T for the scaled regressor A = U Sigma V^T.
   const Eigen::MatrixXd vs = svd.matrixV() * sv.cwiseInverse().asDiagonal();
-  const Eigen::VectorXd var_scaled = vs.rowwise().squaredNorm();
-  out.std_dev = (sigma2 * var_scaled).cwiseSqrt().cwiseQuotient(col_norm);
+  const Eigen::MatrixXd inv_ata = vs * vs.transpose();
+  const Eigen::VectorXd e = r.tau - scaled * beta_scaled;
+  const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
+  const Eigen::MatrixXd cov_scaled =
+      dof * inv_ata * lagged_score_covariance(r, scaled, e, lags) * inv_ata;
+  out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
+  out.correlation_lags = lags;
   out.condition_number_scaled = sv(0) / sv(p - 1);
   Eigen::JacobiSVD<Eigen::MatrixXd> raw(r.psi.transpose() * r.psi);
   const Eigen::VectorXd ev = raw.singularValues();
@@ -75,25 +121,31 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
 
 }  // namespace
 
+std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
+  if (!(sample_rate_hz > 0.0) || !(cutoff_hz > 0.0)) return 0;
+  return static_cast<std::size_t>(std::ceil(2.0 * sample_rate_hz / cutoff_hz));
+}
+
 LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, LsSolver solver,
-                                       LsWeights weights, const std::string& log_name) {
-  LeastSquaresResult ols = solve_ordinary(r, model, solver, log_name);
+                                       LsWeights weights, const std::string& log_name,
+                                       std::size_t correlation_lags) {
+  LeastSquaresResult ols = solve_ordinary(r, model, solver, log_name, correlation_lags);
   if (weights == LsWeights::kNone) return ols;
   const Eigen::VectorXd e = r.tau - r.psi * ols.beta;
   std::array<double, 3> var{};
-  const std::size_t n = r.samples();
-  for (std::size_t k = 0; k < n; ++k) {
-    for (unsigned j = 0; j < 3; ++j) var[j] += std::pow(e(static_cast<Eigen::Index>(3 * k + j)), 2);
-  }
+  for (std::size_t row = 0; row < r.rows(); ++row)
+    var[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
+  const std::array<std::size_t, 3> n = r.rows_per_joint();
   std::array<double, 3> w{};
   for (unsigned j = 0; j < 3; ++j) {
-    var[j] /= static_cast<double>(n);
+    var[j] = n[j] > 0 ? var[j] / static_cast<double>(n[j]) : 0.0;
     w[j] = var[j] > 0.0 ? 1.0 / var[j] : 1.0;
   }
   // Normalise so the weights average to one over the joints.
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
-  LeastSquaresResult wls = solve_ordinary(weighted(r, w), model, solver, log_name);
+  LeastSquaresResult wls =
+      solve_ordinary(weighted(r, w), model, solver, log_name, correlation_lags);
   wls.joint_weights = w;
   return wls;
 }

@@ -84,17 +84,51 @@ Regression build_regression(const Model& model, const delta::Geometry& g, double
   r.psi.resize(m, static_cast<Eigen::Index>(p));
   r.tau.resize(m);
   r.t_s.reserve(keep.size());
+  r.joint.reserve(3 * keep.size());
+  r.speed_rad_s.reserve(3 * keep.size());
+  r.sample.reserve(3 * keep.size());
   for (std::size_t i = 0; i < keep.size(); ++i) {
     const std::size_t k = keep[i];
     r.t_s.push_back(samples.t_s[k]);
     for (unsigned j = 0; j < 3; ++j) {
       const auto row = static_cast<Eigen::Index>(3 * i + j);
+      r.joint.push_back(static_cast<unsigned char>(j));
+      r.speed_rad_s.push_back(std::abs(samples.states[k].qd_rad_s[j]));
+      r.sample.push_back(i);
       r.tau(row) = tau[3 * k + j];
       for (std::size_t c = 0; c < p; ++c)
         r.psi(row, static_cast<Eigen::Index>(c)) = rows[(3 * k + j) * p + c];
     }
   }
   return r;
+}
+
+std::array<std::size_t, 3> Regression::rows_per_joint() const {
+  std::array<std::size_t, 3> n{};
+  for (const unsigned char j : joint) ++n[j];
+  return n;
+}
+
+Regression without_slow_rows(const Regression& r, double min_speed_rad_s) {
+  std::vector<Eigen::Index> kept;
+  kept.reserve(r.rows());
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    if (r.speed_rad_s[row] >= min_speed_rad_s) kept.push_back(static_cast<Eigen::Index>(row));
+  }
+  Regression out;
+  out.t_s = r.t_s;
+  out.psi = r.psi(kept, Eigen::all);
+  out.tau = r.tau(kept);
+  out.joint.reserve(kept.size());
+  out.speed_rad_s.reserve(kept.size());
+  out.sample.reserve(kept.size());
+  for (const Eigen::Index row : kept) {
+    const auto i = static_cast<std::size_t>(row);
+    out.joint.push_back(r.joint[i]);
+    out.speed_rad_s.push_back(r.speed_rad_s[i]);
+    out.sample.push_back(r.sample[i]);
+  }
+  return out;
 }
 
 double direct_cost(const Regression& r, const Eigen::VectorXd& beta) {
@@ -115,14 +149,11 @@ double NormalEquationCost::operator()(const Eigen::VectorXd& beta) const {
 std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta) {
   const Eigen::VectorXd e = r.tau - r.psi * beta;
   std::array<double, 3> sum{};
-  const std::size_t n = r.samples();
-  for (std::size_t k = 0; k < n; ++k) {
-    for (unsigned j = 0; j < 3; ++j) {
-      const double v = e(static_cast<Eigen::Index>(3 * k + j));
-      sum[j] += v * v;
-    }
-  }
-  for (double& s : sum) s = std::sqrt(s / static_cast<double>(n));
+  for (std::size_t row = 0; row < r.rows(); ++row)
+    sum[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
+  const std::array<std::size_t, 3> n = r.rows_per_joint();
+  for (unsigned j = 0; j < 3; ++j)
+    sum[j] = n[j] > 0 ? std::sqrt(sum[j] / static_cast<double>(n[j])) : 0.0;
   return sum;
 }
 

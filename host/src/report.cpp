@@ -66,6 +66,11 @@ std::string text_report(const FitResult& r) {
     << r.segments_used << " segment(s)";
   if (r.segments_dropped) s << ", " << r.segments_dropped << " too short and dropped";
   s << "\n            " << r.derivatives << "\n";
+  if (r.min_speed_rad_s > 0.0) {
+    s << "            equations used per joint " << r.equations_used[0] << ", "
+      << r.equations_used[1] << ", " << r.equations_used[2] << " of " << r.fit.samples
+      << " (left out: |qd| < " << fmt("%g", r.min_speed_rad_s) << " rad/s)\n";
+  }
   for (const auto& g : r.gaps)
     s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
   s << "  model     " << model_summary(o.model, r.parameters.size()) << "\n";
@@ -97,6 +102,8 @@ std::string text_report(const FitResult& r) {
                   e.std_dev, rel.c_str(), e.info.unit.c_str());
     s << buf;
   }
+  s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
+    << r.std_dev_lags << " samples)\n";
   s << "\n  cost (mean squared torque error) " << fmt("%.6e", r.cost_Nm2) << " N^2 m^2";
   if (r.pso) {
     s << "\n  least-squares optimum            " << fmt("%.6e", r.ls_cost_Nm2)
@@ -151,6 +158,8 @@ nlohmann::json json_report(const FitResult& r) {
       {"preprocessing",
        {{"cutoff_hz", o.prepare.cutoff_hz},
         {"trim_samples", o.prepare.trim_samples},
+        {"min_speed_rad_s", r.min_speed_rad_s},
+        {"equations_used", r.equations_used},
         {"derivatives", r.derivatives},
         {"samples_in_log", r.samples_in_log},
         {"segments_used", r.segments_used},
@@ -165,6 +174,7 @@ nlohmann::json json_report(const FitResult& r) {
         {"weights", o.weights == LsWeights::kJoint ? "joint" : "none"},
         {"joint_weights", r.joint_weights},
         {"condition_number", r.condition_number},
+        {"std_dev_correlation_lags", r.std_dev_lags},
         {"condition_number_scaled", r.condition_number_scaled},
         {"outside_pso_bounds", r.ls_outside_bounds}}},
       {"validation", validation},

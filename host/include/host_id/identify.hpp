@@ -19,6 +19,12 @@ namespace host_id {
 
 enum class Method { kPso, kLeastSquares };
 
+// The delta model's default for FitOptions::min_speed_rad_s. On the HIL
+// chain's path1 it leaves out 14-17 % of each joint's equations and removes
+// the +4..7 % bias of the viscous friction that the equations around each
+// reversal leave (docs/identification.md).
+constexpr double kDefaultMinSpeedRadS = 0.05;
+
 struct FitOptions {
   ModelOptions model;
   Method method{Method::kPso};
@@ -29,8 +35,15 @@ struct FitOptions {
   // beta_j >= 0 where the physics says so.
   double bound_factor{10.0};
   PrepareOptions prepare;
+  // A joint's equation at a sample where |qd| of that joint is below this is
+  // left out of the estimate (not of the RMSE). Unset: kDefaultMinSpeedRadS
+  // for the delta model, 0 (every sample, as in the paper) for paper14.
+  std::optional<double> min_speed_rad_s;
   unsigned threads{0};
 };
+
+// The minimum speed a fit with these options uses.
+double min_speed_for(const FitOptions& options);
 
 struct ParameterEstimate {
   ParameterInfo info;
@@ -49,17 +62,20 @@ struct LogRmse {
 
 struct FitResult {
   FitOptions options;
-  LogRmse fit;
+  LogRmse fit;  // over every sample of the fit log, slow ones included
+  double min_speed_rad_s{0};
+  std::array<std::size_t, 3> equations_used{};  // per joint, of fit.samples each
   std::size_t samples_in_log{0};
   std::string derivatives;
   std::vector<SampleGap> gaps;
   std::size_t segments_used{0}, segments_dropped{0};
   std::vector<ParameterEstimate> parameters;
   Eigen::VectorXd beta;
-  double cost_Nm2{0};     // of the chosen estimate
-  double ls_cost_Nm2{0};  // of the least-squares optimum
+  double cost_Nm2{0};     // of the chosen estimate, over the equations used
+  double ls_cost_Nm2{0};  // of the least-squares optimum, likewise
   double condition_number{0};
   double condition_number_scaled{0};
+  std::size_t std_dev_lags{0};  // residual correlation allowed for (least_squares.hpp)
   std::array<double, 3> joint_weights{1, 1, 1};
   std::optional<PsoResult> pso;
   std::vector<std::string> ls_outside_bounds;  // parameters whose LS value is outside

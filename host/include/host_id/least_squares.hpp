@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@ enum class LsWeights { kNone, kJoint };
 struct LeastSquaresResult {
   Eigen::VectorXd beta;
   Eigen::VectorXd std_dev;            // sqrt of the covariance's diagonal
+  std::size_t correlation_lags{0};    // of the covariance estimate (0: white residuals)
   double cost{0};                     // mean squared error of the (weighted) rows
   double condition_number{0};         // of Psi, raw units
   double condition_number_scaled{0};  // of Psi with unit-norm columns
@@ -31,7 +33,20 @@ Regression weighted(const Regression& r, const std::array<double, 3>& w);
 // squares, then weights 1 / sigma_j^2 from each joint's residual variance.
 // Throws InputError when Psi is rank-deficient, naming the parameters that
 // the data cannot tell apart.
+//
+// The covariance allows for residuals correlated over up to
+// correlation_lags samples of the same joint (Newey-West, Bartlett weights):
+//   Cov = (Psi^T Psi)^-1 S (Psi^T Psi)^-1,
+//   S = sum over |l| <= L of (1 - |l|/(L+1)) sum_k g_k g_(k-l)^T,
+//   g_k = psi_k e_k.
+// Filtered residuals are correlated over about fs / f_cutoff samples, and
+// the white-noise formula (L = 0) then understates the spread several times.
 LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, LsSolver solver,
-                                       LsWeights weights, const std::string& log_name);
+                                       LsWeights weights, const std::string& log_name,
+                                       std::size_t correlation_lags = 0);
+
+// The lags for a log sampled at sample_rate_hz whose residuals were low-pass
+// filtered at cutoff_hz: two correlation lengths, 2 fs / f_cutoff.
+std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz);
 
 }  // namespace host_id

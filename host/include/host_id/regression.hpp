@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -13,11 +14,19 @@
 
 namespace host_id {
 
+// One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
+// sample k, joints 1..3; without_slow_rows() leaves some out, so code that
+// needs a row's joint reads joint[row].
 struct Regression {
-  Eigen::MatrixXd psi;      // rows 3k..3k+2 belong to sample k, joints 1..3
-  Eigen::VectorXd tau;      // N m
-  std::vector<double> t_s;  // time of sample k
-  std::size_t samples() const { return static_cast<std::size_t>(tau.size()) / 3; }
+  Eigen::MatrixXd psi;               // N m per unit of each parameter
+  Eigen::VectorXd tau;               // N m
+  std::vector<double> t_s;           // time of sample k (of the full regression)
+  std::vector<unsigned char> joint;  // the joint of each row, 0..2
+  std::vector<double> speed_rad_s;   // |qd| of that joint at that row's sample
+  std::vector<std::size_t> sample;   // the index into t_s of each row's sample
+  std::size_t samples() const { return t_s.size(); }
+  std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
+  std::array<std::size_t, 3> rows_per_joint() const;
 };
 
 // Builds the regression, in parallel over `threads` threads (0: all cores).
@@ -30,6 +39,12 @@ struct Regression {
 Regression build_regression(const Model& model, const delta::Geometry& g, double gravity_m_s2,
                             const Samples& samples, const std::string& log_name,
                             unsigned threads = 0);
+
+// The regression without the equations of joints slower than min_speed_rad_s
+// at their sample. Near a reversal the Coulomb term switches within a few
+// milliseconds, faster than the filtered velocity can place it, and the
+// residual it leaves there biases the viscous estimate (docs/identification.md).
+Regression without_slow_rows(const Regression& r, double min_speed_rad_s);
 
 // Direct evaluation: one pass over all rows.
 double direct_cost(const Regression& r, const Eigen::VectorXd& beta);

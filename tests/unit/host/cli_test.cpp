@@ -132,6 +132,32 @@ TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
   EXPECT_TRUE(j["pso"].is_null());
   EXPECT_TRUE(j["validation"].is_array());
   EXPECT_GT(j["least_squares"]["condition_number"].get<double>(), 1.0);
+  // 4 s at 1 kHz filtered at 20 Hz: residuals correlated over 2 * 1000 / 20 samples.
+  EXPECT_EQ(j["least_squares"]["std_dev_correlation_lags"], 100);
+  // paper14 fits every sample, as the paper does.
+  EXPECT_EQ(j["preprocessing"]["min_speed_rad_s"], 0.0);
+  const std::size_t samples = j["fit"]["samples"];
+  EXPECT_EQ(j["preprocessing"]["equations_used"], nlohmann::json({samples, samples, samples}));
+}
+
+TEST_F(CliTest, MinSpeedLeavesOutSlowEquationsAndSaysHowMany) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "0.3"}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("(left out: |qd| < 0.3 rad/s)"), std::string::npos) << out_.str();
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["preprocessing"]["min_speed_rad_s"], 0.05);
+  const std::size_t samples = j["fit"]["samples"];
+  for (const auto& used : j["preprocessing"]["equations_used"]) {
+    EXPECT_LT(used.get<std::size_t>(), samples);
+    EXPECT_GT(used.get<std::size_t>(), samples / 2);
+  }
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--min-speed", "-1"}), 2);
+  EXPECT_NE(err_.str().find("fit: --min-speed must be 0 or more"), std::string::npos);
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "100"}), 1);
+  EXPECT_NE(err_.str().find("p1.csv: joint 1 is never faster than the minimum speed of 100"),
+            std::string::npos)
+      << err_.str();
 }
 
 TEST_F(CliTest, ValidateRejectsWhatIsNotAResult) {

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "host_id/input_error.hpp"
+#include "host_id/least_squares.hpp"
 #include "host_id/regression.hpp"
 #include "host_id/simulate.hpp"
 
@@ -178,12 +179,103 @@ TEST(IdentifyTest, ATrajectoryThatDoesNotExciteAParameterIsRejectedByName) {
       log.qdd[j][k] = 0.0;
     }
   }
+  // By default the slow equations are left out: none is left.
   try {
     fit_log(log, least_squares());
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("sim-1: joint 1 is never faster than the minimum speed"),
+              std::string::npos)
+        << e.what();
+  }
+  // With every sample, the friction columns are zero.
+  FitOptions every_sample = least_squares();
+  every_sample.min_speed_rad_s = 0.0;
+  try {
+    fit_log(log, every_sample);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("is not excited at all by this log"), std::string::npos)
         << e.what();
+  }
+}
+
+TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
+  const DeltaLog log = simulated(2, 0.01, 17, false);
+  const auto model = make_model({});
+  const Samples s = prepare_samples(log, PrepareOptions{});
+  const Regression all = build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name);
+  ASSERT_EQ(all.rows(), 3 * all.samples());
+  const Regression fast = without_slow_rows(all, 0.2);
+  std::array<std::size_t, 3> expected{};
+  for (std::size_t row = 0; row < all.rows(); ++row) {
+    if (all.speed_rad_s[row] >= 0.2) ++expected[all.joint[row]];
+  }
+  EXPECT_EQ(fast.rows_per_joint(), expected);
+  EXPECT_LT(fast.rows(), all.rows());
+  EXPECT_GT(fast.rows(), all.rows() / 2);
+  for (std::size_t row = 0; row < fast.rows(); ++row) {
+    EXPECT_GE(fast.speed_rad_s[row], 0.2);
+    // The row is the one of its sample and joint in the full regression.
+    const auto full = static_cast<Eigen::Index>(3 * fast.sample[row] + fast.joint[row]);
+    ASSERT_EQ(fast.tau(static_cast<Eigen::Index>(row)), all.tau(full));
+  }
+
+  FitOptions o = least_squares();
+  o.min_speed_rad_s = 0.2;
+  const FitResult r = fit_log(log, o);
+  EXPECT_EQ(r.min_speed_rad_s, 0.2);
+  EXPECT_EQ(r.equations_used, expected);
+  // The RMSE is over every sample of the log, the cost over the equations used.
+  EXPECT_EQ(r.fit.samples, all.samples());
+  const auto rmse = rmse_per_joint(all, r.beta);
+  for (unsigned j = 0; j < 3; ++j) EXPECT_DOUBLE_EQ(r.fit.rmse_Nm[j], rmse[j]);
+  EXPECT_DOUBLE_EQ(r.cost_Nm2, direct_cost(fast, r.beta));
+  // paper14 keeps every sample unless told.
+  FitOptions paper = least_squares();
+  paper.model.name = "paper14";
+  EXPECT_EQ(min_speed_for(paper), 0.0);
+  EXPECT_EQ(min_speed_for(least_squares()), kDefaultMinSpeedRadS);
+}
+
+// The covariance with correlated residuals against the textbook double sum
+//   S = sum over rows a, b of the same joint with |k_a - k_b| <= L of
+//       (1 - |k_a - k_b| / (L + 1)) psi_a e_a e_b psi_b^T,
+// with some equations left out; L = 0 is the same code's other branch.
+TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
+  const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 3.0);
+  const auto model = make_model({});
+  const Samples s = prepare_samples(log, PrepareOptions{});
+  const Regression reg =
+      without_slow_rows(build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name), 0.1);
+  ASSERT_LT(reg.rows(), 3 * reg.samples());
+  const auto rows = static_cast<Eigen::Index>(reg.rows());
+  const Eigen::Index p = reg.psi.cols();
+  for (const std::size_t lags : {std::size_t{0}, std::size_t{7}}) {
+    SCOPED_TRACE(lags);
+    const LeastSquaresResult ls =
+        solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, lags);
+    EXPECT_EQ(ls.correlation_lags, lags);
+    const Eigen::VectorXd e = reg.tau - reg.psi * ls.beta;
+    Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(p, p);
+    const auto window = static_cast<Eigen::Index>(3 * (lags + 1));  // rows are in sample order
+    for (Eigen::Index a = 0; a < rows; ++a) {
+      for (Eigen::Index b = std::max<Eigen::Index>(0, a - window);
+           b < std::min(rows, a + window + 1); ++b) {
+        const auto ua = static_cast<std::size_t>(a), ub = static_cast<std::size_t>(b);
+        if (reg.joint[ua] != reg.joint[ub]) continue;
+        const std::size_t d = reg.sample[ua] > reg.sample[ub] ? reg.sample[ua] - reg.sample[ub]
+                                                              : reg.sample[ub] - reg.sample[ua];
+        if (d > lags) continue;
+        const double w = 1.0 - static_cast<double>(d) / static_cast<double>(lags + 1);
+        sum += w * e(a) * e(b) * reg.psi.row(a).transpose() * reg.psi.row(b);
+      }
+    }
+    const Eigen::MatrixXd inv = (reg.psi.transpose() * reg.psi).inverse();
+    const double dof = static_cast<double>(rows) / static_cast<double>(rows - p);
+    const Eigen::VectorXd expected = (dof * inv * sum * inv).diagonal().cwiseSqrt();
+    for (Eigen::Index c = 0; c < p; ++c)
+      EXPECT_NEAR(ls.std_dev(c), expected(c), 1e-6 * expected(c)) << c;
   }
 }
 
