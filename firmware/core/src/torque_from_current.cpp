@@ -15,9 +15,11 @@ Q7_24 joint_gain(const JointTorqueConfig& c) {
 
 }  // namespace
 
+TorqueFromCurrent::TorqueFromCurrent(const JointTorqueConfig& c)
+    : gain_(joint_gain(c)), inverted_(c.inverted), offset_Nm_(c.offset_Nm) {}
+
 Q12_19 torque_from_current(const JointTorqueConfig& c, Q12_19 current_A) {
-  const Q12_19 t = mul<Q12_19>(joint_gain(c), current_A);
-  return (c.inverted ? -t : t) + c.offset_Nm;
+  return TorqueFromCurrent(c)(current_A);
 }
 
 Q12_19 current_from_torque(const JointTorqueConfig& c, Q12_19 torque_Nm) {

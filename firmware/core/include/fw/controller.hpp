@@ -59,6 +59,9 @@ class Controller {
       : hw_(hw),
         config_(config),
         joint_(config.gains, config.nominal, config.tick_period_us),
+        torque_from_current_{TorqueFromCurrent(config.torque[0]),
+                             TorqueFromCurrent(config.torque[1]),
+                             TorqueFromCurrent(config.torque[2])},
         trajectory_(config.geometry, TrajectoryConfig{}) {}
 
   // Checks the whole trajectory against the limits (before any motion, in
@@ -267,7 +270,7 @@ class Controller {
         enter_fault(Fault::kTrackingError);
         return;
       }
-      measured_torque_[j] = torque_from_current(config_.torque[j], feedback_[j].current_A);
+      measured_torque_[j] = torque_from_current_[j](feedback_[j].current_A);
     }
     std::array<bool, 3> saturated{};
     command_ = joint_.update(reference_, q, qd, saturated);
@@ -303,6 +306,7 @@ class Controller {
   Hardware& hw_;
   ControllerConfig config_;
   JointController joint_;
+  std::array<TorqueFromCurrent, 3> torque_from_current_;
   Trajectory trajectory_;
   State state_{State::kBoot};
   Fault fault_{Fault::kNone};

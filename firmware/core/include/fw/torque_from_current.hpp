@@ -20,6 +20,23 @@ struct JointTorqueConfig {
   Q12_19 offset_Nm{};    // added at the joint
 };
 
+// tau = gain * i (negated when inverted) + offset, with the gain
+// gear_ratio * k_t * efficiency worked out once, not every cycle. The same
+// arithmetic as torque_from_current(), bit for bit.
+class TorqueFromCurrent {
+ public:
+  explicit TorqueFromCurrent(const JointTorqueConfig& c);
+  Q12_19 operator()(Q12_19 current_A) const {
+    const Q12_19 t = delta::fx::mul<Q12_19>(gain_, current_A);
+    return (inverted_ ? -t : t) + offset_Nm_;
+  }
+
+ private:
+  Q7_24 gain_;  // N m / A at the joint
+  bool inverted_;
+  Q12_19 offset_Nm_;
+};
+
 Q12_19 torque_from_current(const JointTorqueConfig& c, Q12_19 current_A);
 
 // The motor current that produces a joint torque (the inverse, for drives
