@@ -12,25 +12,24 @@ constexpr std::int64_t kTwoOverPiQ32 = 2734261102LL;
 
 // atan(t) / t as a polynomial in u = t^2 on [0, 1], highest power first,
 // Q1.30 (mpmath chebyfit, degree 9); pi and pi/2 in Q2.29.
-constexpr std::int64_t kAtanPolyQ30[10] = {-1826617,   11261028,  -32590067,  61299444,
+constexpr std::int32_t kAtanPolyQ30[10] = {-1826617,   11261028,  -32590067,  61299444,
                                            -89654489,  117385123, -153115757, 214727698,
                                            -357913329, 1073741821};
 constexpr std::int64_t kPiQ29 = 1686629713;
 constexpr std::int64_t kHalfPiQ29 = 843314857;
 
 // Taylor coefficients 1/k! in Q1.30.
-constexpr std::int64_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
+constexpr std::int32_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
                                        8947849,    1491308,    213044,    26631,     2959,
                                        296,        27,         2,         0};
 
 constexpr std::int64_t kOneQ30 = std::int64_t{1} << 30;
 
 // (a * b) / 2^30 rounded half up, for Q1.30 operands of at most 31 bits
-// (one 32 x 32 -> 64 multiply, no branch).
-constexpr std::int64_t mul30(std::int64_t a, std::int64_t b) {
-  return (std::int64_t{static_cast<std::int32_t>(a)} * static_cast<std::int32_t>(b) +
-          (std::int64_t{1} << 29)) >>
-         30;
+// whose product fits Q1.30 again (one 32 x 32 -> 64 multiply, no branch,
+// and 32-bit arithmetic around it).
+constexpr std::int32_t mul30(std::int32_t a, std::int32_t b) {
+  return static_cast<std::int32_t>((std::int64_t{a} * b + (std::int64_t{1} << 29)) >> 30);
 }
 
 }  // namespace
@@ -41,7 +40,7 @@ namespace {
 // a multiply with 2/pi (no division), r in Q1.30.
 struct Reduced {
   int quadrant;    // n mod 4
-  std::int64_t r;  // Q1.30
+  std::int32_t r;  // Q1.30
 };
 
 Reduced reduce(Q3_28 angle_rad) {
@@ -49,19 +48,20 @@ Reduced reduce(Q3_28 angle_rad) {
   const std::int64_t n = (scaled + (std::int64_t{1} << 59)) >> 60;
   const std::int64_t a58 = std::int64_t{angle_rad.raw()} * (std::int64_t{1} << 30);
   const std::int64_t r58 = a58 - n * kHalfPiQ58;
-  return {static_cast<int>(n & 3), detail::shift_round(r58, 28)};
+  return {static_cast<int>(n & 3), static_cast<std::int32_t>(detail::shift_round(r58, 28))};
 }
 
 // sin r = r (1 - r^2/3! + r^4/5! - ... - r^10/11!), Taylor error < 7e-12.
-std::int64_t sin_poly(std::int64_t x, std::int64_t x2) {
-  std::int64_t s = kInvFact[11];
+// |r| <= pi/4 keeps every partial sum within Q1.30.
+std::int32_t sin_poly(std::int32_t x, std::int32_t x2) {
+  std::int32_t s = kInvFact[11];
   for (int k = 9; k >= 1; k -= 2) s = kInvFact[k] - mul30(x2, s);
   return mul30(x, s);
 }
 
 // cos r = 1 - r^2/2! + r^4/4! - ... + r^12/12!, Taylor error < 4e-13.
-std::int64_t cos_poly(std::int64_t x2) {
-  std::int64_t c = kInvFact[12];
+std::int32_t cos_poly(std::int32_t x2) {
+  std::int32_t c = kInvFact[12];
   for (int k = 10; k >= 0; k -= 2) c = kInvFact[k] - mul30(x2, c);
   return c;
 }
@@ -75,7 +75,7 @@ Q1_30 clamp_unit(std::int64_t v) {
 
 SinCos sincos(Q3_28 angle_rad) {
   const Reduced red = reduce(angle_rad);
-  const std::int64_t x2 = mul30(red.r, red.r);
+  const std::int32_t x2 = mul30(red.r, red.r);
   const std::int64_t s = sin_poly(red.r, x2);
   const std::int64_t c = cos_poly(x2);
   switch (red.quadrant) {
@@ -92,7 +92,7 @@ SinCos sincos(Q3_28 angle_rad) {
 
 Q1_30 cos(Q3_28 angle_rad) {
   const Reduced red = reduce(angle_rad);
-  const std::int64_t x2 = mul30(red.r, red.r);
+  const std::int32_t x2 = mul30(red.r, red.r);
   switch (red.quadrant) {
     case 0:
       return clamp_unit(cos_poly(x2));
@@ -127,9 +127,12 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
   const std::int64_t t = (std::int64_t{small} * r + (std::int64_t{1} << 30)) >> 31;  // Q1.30
   // atan(t) = t P(t^2) on [0, 1]: a near-minimax (Chebyshev) fit of degree 9
   // in t^2, fit error 2.8e-9.
-  const std::int64_t u = (t * t + (std::int64_t{1} << 29)) >> 30;
-  std::int64_t p = kAtanPolyQ30[0];
-  for (int k = 1; k < 10; ++k) p = kAtanPolyQ30[k] + ((u * p + (std::int64_t{1} << 29)) >> 30);
+  // t and u lie in [0, 1] and every partial sum of P within the sum of the
+  // coefficients' magnitudes, 1.97: all fit 32 bits in Q1.30, so 32-bit
+  // arithmetic around each 64-bit product.
+  const std::int32_t u = mul30(static_cast<std::int32_t>(t), static_cast<std::int32_t>(t));
+  std::int32_t p = kAtanPolyQ30[0];
+  for (int k = 1; k < 10; ++k) p = kAtanPolyQ30[k] + mul30(u, p);
   std::int64_t angle = (t * p + (std::int64_t{1} << 30)) >> 31;  // Q2.29, in [0, pi/4]
   // Back to the octant, the half plane and the sign of y.
   if (uy > ux) angle = kHalfPiQ29 - angle;
