@@ -25,6 +25,7 @@ enum Step : unsigned {
   kWriteMode,
   kWriteCyclePeriod,
   kWriteHeartbeat,
+  kWriteConsumerHeartbeat,
   kWriteTpdo2,
   kStepCount,
 };
@@ -45,6 +46,8 @@ od::Object object_of(unsigned step) {
       return od::kCommunicationCycle;
     case kWriteHeartbeat:
       return od::kProducerHeartbeat;
+    case kWriteConsumerHeartbeat:
+      return od::kConsumerHeartbeat;
     default:
       return od::kTpdo2CobId;
   }
@@ -145,6 +148,14 @@ bool CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
     case kWriteHeartbeat:
       payload = sdo::download_request(o.index, o.subindex, config_.heartbeat_ms, 2);
       break;
+    case kWriteConsumerHeartbeat:
+      payload = sdo::download_request(
+          o.index, o.subindex,
+          config_.controller_heartbeat_timeout_ms == 0
+              ? 0u
+              : od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms),
+          4);
+      break;
     case kWriteTpdo2: {
       const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);
       payload = sdo::download_request(o.index, o.subindex,
@@ -185,10 +196,7 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
   if (phase_ == Phase::kCyclic || phase_ == Phase::kFailed) restart();  // the core restarted
   if (phase_ == Phase::kIdle) {
     // Every drive to pre-operational (PDOs off), then the SDO bring-up.
-    std::array<std::uint8_t, 8> nmt{};
-    p::pack(nmt, p::kNmt.signals[0], p::kNmtEnterPreOperational);
-    p::pack(nmt, p::kNmt.signals[1], 0);
-    bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
+    leave_network();
     phase_ = Phase::kConfiguring;
     for (Drive& d : drives_) send_sdo(d, now_us_);
     return fw::DriveConfigProgress::kInProgress;
@@ -224,6 +232,13 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
   phase_ = Phase::kStarting;
   for (Drive& d : drives_) d.last_heartbeat_cycle = cycle_;
   return fw::DriveConfigProgress::kInProgress;
+}
+
+void CanopenMaster::leave_network() {
+  std::array<std::uint8_t, 8> nmt{};
+  p::pack(nmt, p::kNmt.signals[0], p::kNmtEnterPreOperational);
+  p::pack(nmt, p::kNmt.signals[1], 0);
+  bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
 }
 
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {

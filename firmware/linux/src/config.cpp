@@ -67,6 +67,11 @@ std::map<std::string, Setter> make_setters() {
   s["heartbeat_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     c.heartbeat_ms = static_cast<std::uint16_t>(parse_unsigned(v, w, "heartbeat_ms", 1, 65535));
   };
+  s["controller_heartbeat_timeout_ms"] = [](PortConfig& c, const std::string& v,
+                                            const std::string& w) {
+    c.controller_heartbeat_timeout_ms = static_cast<std::uint16_t>(
+        parse_unsigned(v, w, "controller_heartbeat_timeout_ms", 0, 65535));
+  };
   s["mode"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     if (v == "realtime") {
       c.mode = CycleMode::kRealTime;
@@ -282,6 +287,9 @@ void validate(const PortConfig& c) {
           "approach_s, stop_s and blend_s must be positive");
   require(c.heartbeat_timeout_ms > c.heartbeat_ms,
           "heartbeat_timeout_ms must be longer than heartbeat_ms");
+  require(
+      c.controller_heartbeat_timeout_ms == 0 || c.controller_heartbeat_timeout_ms > c.heartbeat_ms,
+      "controller_heartbeat_timeout_ms must be 0 (off) or longer than heartbeat_ms");
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     const delta::DriveModel& m = c.joints[j].model;

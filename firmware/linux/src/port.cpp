@@ -16,6 +16,7 @@
 #include "delta/can/cia402.hpp"
 #include "delta/can/protocol.hpp"
 #include "fw/controller.hpp"
+#include "fw_linux/announcer.hpp"
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/monotonic_clock.hpp"
 #include "fw_linux/run_coordinator.hpp"
@@ -40,52 +41,6 @@ bool wait_readable_until(int fd, std::uint64_t deadline_us) {
 void drain(delta::can::Socket& socket, CanopenMaster& master) {
   while (auto r = socket.receive()) master.on_frame(*r, monotonic_us());
 }
-
-// The controller's own CANopen presence: its heartbeat (0x710) and an
-// emergency (0x090) when it enters a fault, with the fault code and cycle.
-class Announcer {
- public:
-  Announcer(FrameSink& bus, const PortConfig& c)
-      : bus_(bus),
-        heartbeat_cycles_(std::max<std::uint32_t>(1, c.heartbeat_ms * 1000u / c.period_us)) {}
-
-  void after_step(fw::Fault fault, std::uint32_t cycle) {
-    if (fault != last_fault_) {
-      std::array<std::uint8_t, 8> d{};
-      const std::uint16_t code =
-          fault == fw::Fault::kNone
-              ? delta::can::od::kEmcyErrorReset
-              : static_cast<std::uint16_t>(delta::can::od::kEmcyControllerFaultBase +
-                                           static_cast<std::uint16_t>(fault));
-      const p::Message& m = p::kControllerEmcy;
-      p::pack(d, m.signals[0], code);
-      p::pack(d, m.signals[1], fault == fw::Fault::kNone ? 0 : 1);
-      p::pack(d, m.signals[2], static_cast<std::uint16_t>(fault));
-      p::pack(d, m.signals[3], cycle);
-      send(m.base_id, m.dlc, d);
-      last_fault_ = fault;
-    }
-    if (++since_heartbeat_ >= heartbeat_cycles_) {
-      since_heartbeat_ = 0;
-      std::array<std::uint8_t, 8> d{};
-      d[0] = p::kNmtStateOperational;
-      send(p::kControllerHeartbeat.base_id, p::kControllerHeartbeat.dlc, d);
-    }
-  }
-
- private:
-  void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
-    delta::can::Frame f;
-    f.id = id;
-    f.dlc = dlc;
-    f.data = data;
-    bus_.send(f);
-  }
-  FrameSink& bus_;
-  std::uint32_t heartbeat_cycles_;
-  std::uint32_t since_heartbeat_{0};
-  fw::Fault last_fault_{fw::Fault::kNone};
-};
 
 void set_realtime(int priority, std::ostream& out) {
   if (priority <= 0) return;
@@ -247,6 +202,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   // no torque) and the safety outputs off: nothing keeps running after us.
   master.enable_drives(false);
   master.send_commands();
+  master.leave_network();
   io.set_outputs(fw::SafetyOutputs{});
   if (timer >= 0) close(timer);
 

@@ -153,10 +153,21 @@ void Emulator::boot() {
   trigger_faults();  // faults at 0 s apply from the start
 }
 
+namespace {
+constexpr std::uint64_t kConsumerWallGraceUs = 1'000'000;
+}  // namespace
+
 void Emulator::on_wall_time(std::uint64_t now_us) {
   wall_us_ = now_us;
   const bool syncs_flowing = last_sync_wall_us_ != 0 && now_us - last_sync_wall_us_ < 100000;
   if (syncs_flowing) return;
+  // By the wall clock, with a grace of kConsumerWallGraceUs: a lock-step
+  // controller on a starved machine can pause for a second without being
+  // dead (a real drive has no such grace).
+  check_consumers([now_us](const Drive& d) {
+    const std::uint64_t elapsed = now_us - d.consumed_wall_us;
+    return elapsed > kConsumerWallGraceUs ? elapsed - kConsumerWallGraceUs : 0;
+  });
   for (Drive& d : drives_) {
     if (d.heartbeat_ms == 0) continue;
     if (now_us - d.last_heartbeat_wall_us >= std::uint64_t{d.heartbeat_ms} * 1000) {
@@ -166,10 +177,33 @@ void Emulator::on_wall_time(std::uint64_t now_us) {
   }
 }
 
+template <class Elapsed>
+void Emulator::check_consumers(Elapsed elapsed_us) {
+  for (Drive& d : drives_) {
+    if (!d.consumer_armed || d.nmt != p::kNmtStateOperational) continue;
+    if (elapsed_us(d) > std::uint64_t{d.consumer & 0xFFFFu} * 1000) {
+      d.consumer_armed = false;  // one event; the next heartbeat arms it again
+      enter_fault(d, od::kEmcyHeartbeat);
+    }
+  }
+}
+
+void Emulator::handle_consumed_heartbeat(std::uint8_t node) {
+  for (Drive& d : drives_) {
+    if ((d.consumer & 0xFFFFu) == 0 || ((d.consumer >> 16) & 0x7F) != node) continue;
+    d.consumer_armed = true;
+    d.consumed_sim_us = sim_us_;
+    d.consumed_wall_us = wall_us_;
+  }
+}
+
 void Emulator::on_frame(const Frame& f) {
   if (f.extended || f.remote) return;
   if (f.id == p::cob_id(p::kNmt, 0)) return handle_nmt(f);
   if (f.id == p::cob_id(p::kSync, 0)) return handle_sync();
+  if ((f.id & 0x780) == p::kHeartbeat.base_id && f.dlc == 1) {
+    return handle_consumed_heartbeat(static_cast<std::uint8_t>(f.id & 0x7F));
+  }
   const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
   if (node < p::kFirstDriveNode || node >= p::kFirstDriveNode + p::kDriveCount) return;
   Drive& d = drives_[node - p::kFirstDriveNode];
@@ -202,6 +236,8 @@ void Emulator::handle_nmt(const Frame& f) {
       case p::kNmtResetCommunication: {
         d.nmt = p::kNmtStatePreOperational;
         d.heartbeat_ms = 0;
+        d.consumer = 0;
+        d.consumer_armed = false;
         d.tpdo2_cob = p::cob_id(p::kTpdo2, d.node) | od::kPdoInvalid;
         if (!d.silent) {
           std::array<std::uint8_t, 8> data{};
@@ -246,6 +282,11 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       read_value = d.cycle_us;
       writable = true;
       break;
+    case 0x1016:
+      if (sub > 1) return abort(sdo::kAbortSubindexDoesNotExist);
+      read_value = sub == 0 ? 1u : d.consumer;
+      writable = sub == 1;
+      break;
     case 0x1017:
       read_value = d.heartbeat_ms;
       writable = true;
@@ -283,7 +324,7 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       exists = false;
   }
   if (!exists) return abort(sdo::kAbortObjectDoesNotExist);
-  if (index != 0x1801 && index != 0x608F && sub != 0) {
+  if (index != 0x1016 && index != 0x1801 && index != 0x608F && sub != 0) {
     return abort(sdo::kAbortSubindexDoesNotExist);
   }
   if (upload) return reply(sdo::upload_response(index, sub, read_value));
@@ -293,6 +334,15 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       if (value < 100 || value > 1000000) return abort(sdo::kAbortValueRange);
       d.cycle_us = value;
       break;
+    case 0x1016: {
+      const std::uint32_t node = (value >> 16) & 0xFF;
+      if ((value >> 24) != 0 || ((value & 0xFFFF) != 0 && (node == 0 || node > 127))) {
+        return abort(sdo::kAbortValueRange);
+      }
+      d.consumer = value;
+      d.consumer_armed = false;
+      break;
+    }
     case 0x1017:
       if (value > 0xFFFF) return abort(sdo::kAbortValueRange);
       d.heartbeat_ms = static_cast<std::uint16_t>(value);
@@ -443,6 +493,7 @@ void Emulator::handle_sync() {
   }
   ++syncs_;
   trigger_faults();
+  check_consumers([this](const Drive& d) { return sim_us_ - d.consumed_sim_us; });
   for (unsigned j = 0; j < 3; ++j) {
     Drive& d = drives_[j];
     if (d.state == cia::State::kFaultReactionActive) d.state = cia::State::kFault;

@@ -9,6 +9,7 @@
 #include "delta/can/protocol.hpp"
 #include "emu/emulator.hpp"
 #include "fw/controller.hpp"
+#include "fw_linux/announcer.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/linux_hardware.hpp"
@@ -24,9 +25,11 @@ class InProcessBus : public FrameSink {
                   [this](const delta::can::Frame& f, std::uint32_t) { to_master_.push_back(f); }) {}
   bool send(const delta::can::Frame& f) override {
     sent_.push_back(f);
-    if (!f.error_frame) emulator_.on_frame(f);
+    if (!f.error_frame && f.id != lost_id_) emulator_.on_frame(f);
     return true;
   }
+  // Frames with this ID no longer reach the emulator (~0u: none lost).
+  void lose(std::uint32_t id) { lost_id_ = id; }
   void deliver(CanopenMaster& m) {
     while (!to_master_.empty()) {
       delta::can::Received r;
@@ -39,12 +42,17 @@ class InProcessBus : public FrameSink {
   emu::Emulator emulator_;
   std::deque<delta::can::Frame> to_master_;
   std::vector<delta::can::Frame> sent_;
+  std::uint32_t lost_id_{~0u};
 };
 
 struct Rig {
   explicit Rig(const emu::EmulatorConfig& ec = {}) : Rig(config(), ec) {}
   Rig(const PortConfig& c, const emu::EmulatorConfig& ec)
-      : bus(ec), master(c, bus), hw(master, io, bus), controller(hw, controller_config(c)) {
+      : bus(ec),
+        master(c, bus),
+        hw(master, io, bus),
+        controller(hw, controller_config(c)),
+        announcer(bus, c) {
     bus.emulator_.boot();
   }
   static PortConfig config() {
@@ -59,12 +67,14 @@ struct Rig {
     master.end_window();
     controller.step();
     master.send_commands();
+    announcer.after_step(controller.fault(), controller.cycles());
   }
   InProcessBus bus;
   CanopenMaster master;
   SimulatedSafetyIo io;
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
+  Announcer announcer;
 };
 
 }  // namespace fw_linux

@@ -64,6 +64,10 @@ TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
   EXPECT_NE(config_error("period_us = 3000\n").find("must divide one second"), std::string::npos);
   EXPECT_NE(config_error("joint1.node = 2\n").find("joint2.node = 2 is also joint1's node"),
             std::string::npos);
+  EXPECT_NE(
+      config_error("controller_heartbeat_timeout_ms = 50\n")
+          .find("controller_heartbeat_timeout_ms must be 0 (off) or longer than heartbeat_ms"),
+      std::string::npos);
   EXPECT_NE(config_error("gains.max_torque_Nm = 5000\n").find("does not fit Q12.19"),
             std::string::npos)
       << config_error("gains.max_torque_Nm = 5000\n");
@@ -155,6 +159,67 @@ TEST(InProcessPortTest, ADriveThatNeverAnswersFailsTheBringUpWithItsName) {
 bool bring_up(Rig& rig) {
   for (int n = 0; n < 50 && rig.controller.state() != fw::State::kReady; ++n) rig.cycle();
   return rig.controller.state() == fw::State::kReady;
+}
+
+namespace cia = delta::can::cia402;
+
+// The drives supervise the controller's heartbeat (0x1016:1 written at
+// bring-up): when it stops reaching them, each faults with EMCY 0x8130 and
+// disables within controller_heartbeat_timeout_ms (150 ms = 75 cycles) of
+// the last one, and the controller then faults on the drive fault.
+TEST(InProcessPortTest, DrivesFaultWhenTheControllersHeartbeatStops) {
+  namespace p = delta::can::protocol;
+  Rig rig;
+  ASSERT_TRUE(bring_up(rig));
+  for (int i = 0; i < 500; ++i) rig.cycle();  // heartbeats arrive: nothing happens
+  ASSERT_EQ(rig.controller.state(), fw::State::kReady);
+  rig.bus.lose(p::cob_id(p::kControllerHeartbeat, 0));
+  int cycles = 0;
+  while (cycles < 200 && rig.bus.emulator_.drive_state(0) != cia::State::kFault) {
+    rig.cycle();
+    ++cycles;
+  }
+  // The last heartbeat came 0..24 cycles before the loss.
+  EXPECT_GE(cycles, 75 - 25);
+  EXPECT_LE(cycles, 76);
+  for (unsigned j = 0; j < 3; ++j) EXPECT_EQ(rig.bus.emulator_.drive_state(j), cia::State::kFault);
+  for (int i = 0; i < 5; ++i) rig.cycle();
+  EXPECT_EQ(rig.controller.state(), fw::State::kFault);
+  EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveFault);
+}
+
+// With the controller gone altogether no SYNC comes either: the drives time
+// the heartbeat by the wall clock once SYNCs have stopped for 100 ms, with a
+// grace of 1 s (a starved lock-step controller is not dead). A clean exit
+// (NMT pre-operational) ends the supervision instead.
+TEST(InProcessPortTest, DrivesTimeTheControllersHeartbeatByWallClockWhenSyncsStop) {
+  namespace p = delta::can::protocol;
+  for (const bool clean_exit : {false, true}) {
+    SCOPED_TRACE(clean_exit ? "clean exit" : "crash");
+    Rig rig;
+    std::uint64_t wall_us = 1'000'000;
+    for (int i = 0; i < 600 && (i < 100 || rig.controller.state() != fw::State::kReady); ++i) {
+      rig.bus.emulator_.on_wall_time(wall_us += 2000);
+      rig.cycle();
+    }
+    ASSERT_EQ(rig.controller.state(), fw::State::kReady);
+    if (clean_exit) rig.master.leave_network();
+    const std::uint64_t stopped_us = wall_us;
+    while (wall_us - stopped_us < 3'000'000 &&
+           rig.bus.emulator_.drive_state(1) != cia::State::kFault) {
+      rig.bus.emulator_.on_wall_time(wall_us += 1000);
+    }
+    if (clean_exit) {
+      EXPECT_NE(rig.bus.emulator_.drive_state(1), cia::State::kFault);
+      EXPECT_EQ(rig.bus.emulator_.nmt_state(1), p::kNmtStatePreOperational);
+    } else {
+      // The last heartbeat came 0..50 ms before the stop: 150 ms timeout
+      // plus the 1 s grace after it.
+      EXPECT_GE(wall_us - stopped_us, 1'100'000u);
+      EXPECT_LE(wall_us - stopped_us, 1'151'000u);
+      EXPECT_EQ(rig.bus.emulator_.drive_state(1), cia::State::kFault);
+    }
+  }
 }
 
 TEST(InProcessPortTest, AMissedSampleDoesNotDoubleTheVelocityFromPositions) {

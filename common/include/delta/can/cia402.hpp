@@ -144,14 +144,15 @@ struct Object {
   std::uint8_t subindex;
 };
 
-inline constexpr Object kDeviceType{0x1000, 0};               // u32, 0x00020192 for a CiA 402 servo
-inline constexpr Object kErrorRegister{0x1001, 0};            // u8
-inline constexpr Object kCommunicationCycle{0x1006, 0};       // u32 us, the SYNC period
-inline constexpr Object kProducerHeartbeat{0x1017, 0};        // u16 ms, 0 = off
-inline constexpr Object kTpdo2CobId{0x1801, 1};               // u32, bit 31 set = PDO off
-inline constexpr Object kControlword{0x6040, 0};              // u16
-inline constexpr Object kStatusword{0x6041, 0};               // u16
-inline constexpr Object kModesOfOperation{0x6060, 0};         // i8
+inline constexpr Object kDeviceType{0x1000, 0};          // u32, 0x00020192 for a CiA 402 servo
+inline constexpr Object kErrorRegister{0x1001, 0};       // u8
+inline constexpr Object kCommunicationCycle{0x1006, 0};  // u32 us, the SYNC period
+inline constexpr Object kConsumerHeartbeat{0x1016, 1};   // u32: node << 16 | timeout ms, 0 = off
+inline constexpr Object kProducerHeartbeat{0x1017, 0};   // u16 ms, 0 = off
+inline constexpr Object kTpdo2CobId{0x1801, 1};          // u32, bit 31 set = PDO off
+inline constexpr Object kControlword{0x6040, 0};         // u16
+inline constexpr Object kStatusword{0x6041, 0};          // u16
+inline constexpr Object kModesOfOperation{0x6060, 0};    // i8
 inline constexpr Object kModesOfOperationDisplay{0x6061, 0};  // i8
 inline constexpr Object kMaxCurrent{0x6073, 0};               // u16, per mille of rated current
 inline constexpr Object kMotorRatedCurrent{0x6075, 0};        // u32 mA
@@ -161,6 +162,11 @@ inline constexpr Object kEncoderMotorRevolutions{0x608F, 2};  // u32, 1
 
 inline constexpr std::uint32_t kDeviceTypeServo = 0x00020192;  // CiA 402, servo drive
 inline constexpr std::uint32_t kPdoInvalid = 0x80000000u;      // COB-ID bit 31
+
+// The value of 0x1016:1 that watches `node` with a timeout.
+constexpr std::uint32_t consumer_heartbeat(std::uint8_t node, std::uint16_t timeout_ms) {
+  return std::uint32_t{node} << 16 | timeout_ms;
+}
 
 // Emergency error codes (EMCY error_code).
 inline constexpr std::uint16_t kEmcyErrorReset = 0x0000;

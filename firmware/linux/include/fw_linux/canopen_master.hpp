@@ -54,6 +54,11 @@ class CanopenMaster {
   // Restart the bring-up (after the core's reset).
   void restart();
 
+  // A clean exit: every drive to pre-operational, where it no longer expects
+  // SYNCs or the controller's heartbeat (a crash leaves them operational,
+  // and their heartbeat consumers fault them).
+  void leave_network();
+
   // What went wrong most recently, in words (node, object, value).
   const std::string& last_problem() const { return problem_; }
   std::uint64_t late_frames() const { return late_frames_; }

@@ -65,6 +65,9 @@ struct PortConfig {
   bool velocity_pdo{false};                 // map TPDO2 (velocity); else differences of position
   std::uint16_t heartbeat_ms{50};           // written to the drives (0x1017)
   std::uint32_t heartbeat_timeout_ms{150};
+  // How long a drive waits for the controller's heartbeat before it faults
+  // (EMCY 0x8130) and disables: written to the drives' 0x1016:1; 0 = off.
+  std::uint16_t controller_heartbeat_timeout_ms{150};
   std::uint32_t sdo_timeout_ms{100};
   std::uint32_t sdo_retries{2};
   std::array<JointDrive, 3> joints{JointDrive{1}, JointDrive{2}, JointDrive{3}};

@@ -100,6 +100,13 @@ class Emulator {
     double current_A{0.0};
     std::uint64_t next_heartbeat_sim_us{0};
     std::uint64_t last_heartbeat_wall_us{0};
+    // The heartbeat consumer (0x1016:1): node << 16 | timeout ms. Armed by
+    // the first heartbeat of that node; checked while operational, in
+    // simulated time while SYNCs come and in wall time when they stop.
+    std::uint32_t consumer{0};
+    bool consumer_armed{false};
+    std::uint64_t consumed_sim_us{0};
+    std::uint64_t consumed_wall_us{0};
     // injected faults
     bool silent{false};
     bool heartbeat_dropped{false};
@@ -111,6 +118,11 @@ class Emulator {
   void handle_sdo(Drive& d, const delta::can::Frame& f);
   void handle_rpdo(Drive& d, const delta::can::Frame& f);
   void handle_sync();
+  void handle_consumed_heartbeat(std::uint8_t node);
+  // Faults the drives whose consumer timed out: elapsed since the last
+  // heartbeat as measured by `elapsed_us`.
+  template <class Elapsed>
+  void check_consumers(Elapsed elapsed_us);
   void advance(double dt_s);
   void trigger_faults();
   void enter_fault(Drive& d, std::uint16_t emcy_code);
