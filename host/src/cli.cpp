@@ -342,7 +342,8 @@ gap is ever bridged. Exit status 3 when samples were lost (unless
 limits (at least one):
   --duration S              stop after S seconds
   --samples N               stop after N complete samples
-  --idle S                  stop when no log frame came for S seconds
+  --idle S                  stop when no log frame came for S seconds, counted
+                            from the first log frame
 options:
   --rate HZ                 the controller's cycle rate, for t (500)
   --raw FILE.log            also write every frame of the session (all IDs) in

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 
 #include "delta/can/protocol.hpp"
@@ -207,7 +208,9 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   std::string raw;
   RecordSummary summary;
   const auto t0 = std::chrono::steady_clock::now();
-  auto last_frame = t0;
+  // --idle counts from the latest log frame, and only once one came: a
+  // controller may take a while to bring its drives up before it logs.
+  std::optional<std::chrono::steady_clock::time_point> last_log_frame;
   const auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
@@ -215,8 +218,8 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
     if (o.keep_going && !o.keep_going(samples.size())) break;
     if (o.duration_s > 0 && elapsed() >= o.duration_s) break;
     if (o.samples > 0 && samples.size() >= o.samples) break;
-    if (o.idle_s > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_frame).count() >=
+    if (o.idle_s > 0 && last_log_frame &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - *last_log_frame).count() >=
             o.idle_s)
       break;
     if (!sock.wait_readable(std::chrono::milliseconds(50))) continue;
@@ -246,7 +249,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
         raw += '\n';
       }
       if (!r->error) currents.feed(r->frame);
-      if (!r->error && assembler.feed(r->frame)) last_frame = std::chrono::steady_clock::now();
+      if (!r->error && assembler.feed(r->frame)) last_log_frame = std::chrono::steady_clock::now();
       for (auto& s : assembler.take_complete()) {
         samples.push_back(s);
         sample_currents.push_back(currents.take(static_cast<std::uint16_t>(s.seq & 0xFFFF)));

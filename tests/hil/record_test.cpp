@@ -2,6 +2,7 @@
 // sends them, recorded, and read back as delta-log/1.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <filesystem>
@@ -122,6 +123,27 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   const std::string hex = first.substr(close + 12);
   EXPECT_EQ(hex.size(), 16u) << first;
   EXPECT_EQ(hex.find_first_not_of("0123456789ABCDEF"), std::string::npos) << first;
+}
+
+// --idle counts from the first log frame: a controller that starts logging
+// well after record is listening (a slow bring-up) is recorded whole.
+TEST_F(RecordHilTest, IdleCountsFromTheFirstLogFrame) {
+  RecordOptions o;
+  o.iface = "vcan0";
+  o.out_path = dir_ + "/late.csv";
+  o.idle_s = 0.3;
+  o.duration_s = 30;
+  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  const auto t0 = std::chrono::steady_clock::now();
+  const Recording r = record_while(o, [&] {
+    // The controller's bring-up, longer than the idle time: the behaviour
+    // under test, not a wait for anything.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+    for (int k = 0; k < 100; ++k) send_cycle(tx, static_cast<std::uint16_t>(k), 0.1, 0.2);
+  });
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.summary.samples, 100u);
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(1300));
 }
 
 TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
