@@ -24,7 +24,8 @@ namespace {
 // g = a e laid out by sample (zero where the joint has no equation), then
 //   S += G^T H,  H = G smoothed by the Bartlett weights 1 - |l|/(L+1),
 // which is the sum over lags in one product. The triangle is two boxes of
-// L+1 samples, each a difference of running sums: O(n p) for H.
+// L+1 samples, each a difference of running sums: O(n p) for H. Lags run
+// over the sample index, across a gap between segments too (a few pairs).
 Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::MatrixXd& scaled,
                                         const Eigen::VectorXd& e, std::size_t lags) {
   const Eigen::Index p = scaled.cols();
@@ -131,16 +132,9 @@ LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, 
                                        std::size_t correlation_lags) {
   LeastSquaresResult ols = solve_ordinary(r, model, solver, log_name, correlation_lags);
   if (weights == LsWeights::kNone) return ols;
-  const Eigen::VectorXd e = r.tau - r.psi * ols.beta;
-  std::array<double, 3> var{};
-  for (std::size_t row = 0; row < r.rows(); ++row)
-    var[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
-  const std::array<std::size_t, 3> n = r.rows_per_joint();
+  const std::array<double, 3> var = mean_square_per_joint(r, r.tau - r.psi * ols.beta);
   std::array<double, 3> w{};
-  for (unsigned j = 0; j < 3; ++j) {
-    var[j] = n[j] > 0 ? var[j] / static_cast<double>(n[j]) : 0.0;
-    w[j] = var[j] > 0.0 ? 1.0 / var[j] : 1.0;
-  }
+  for (unsigned j = 0; j < 3; ++j) w[j] = var[j] > 0.0 ? 1.0 / var[j] : 1.0;
   // Normalise so the weights average to one over the joints.
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;

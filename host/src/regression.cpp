@@ -146,15 +146,19 @@ double NormalEquationCost::operator()(const Eigen::VectorXd& beta) const {
   return std::max(0.0, (tau_t_tau_ - 2.0 * beta.dot(psi_t_tau_) + quad) / rows_);
 }
 
-std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta) {
-  const Eigen::VectorXd e = r.tau - r.psi * beta;
+std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::VectorXd& e) {
   std::array<double, 3> sum{};
   for (std::size_t row = 0; row < r.rows(); ++row)
     sum[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
   const std::array<std::size_t, 3> n = r.rows_per_joint();
-  for (unsigned j = 0; j < 3; ++j)
-    sum[j] = n[j] > 0 ? std::sqrt(sum[j] / static_cast<double>(n[j])) : 0.0;
+  for (unsigned j = 0; j < 3; ++j) sum[j] = n[j] > 0 ? sum[j] / static_cast<double>(n[j]) : 0.0;
   return sum;
+}
+
+std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta) {
+  std::array<double, 3> ms = mean_square_per_joint(r, r.tau - r.psi * beta);
+  for (double& m : ms) m = std::sqrt(m);
+  return ms;
 }
 
 }  // namespace host_id

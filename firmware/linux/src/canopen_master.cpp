@@ -149,12 +149,10 @@ bool CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
       payload = sdo::download_request(o.index, o.subindex, config_.heartbeat_ms, 2);
       break;
     case kWriteConsumerHeartbeat:
+      // A timeout of 0 turns the drive's supervision off (CiA 301).
       payload = sdo::download_request(
           o.index, o.subindex,
-          config_.controller_heartbeat_timeout_ms == 0
-              ? 0u
-              : od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms),
-          4);
+          od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms), 4);
       break;
     case kWriteTpdo2: {
       const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);

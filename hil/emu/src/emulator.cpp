@@ -181,7 +181,7 @@ template <class Elapsed>
 void Emulator::check_consumers(Elapsed elapsed_us) {
   for (Drive& d : drives_) {
     if (!d.consumer_armed || d.nmt != p::kNmtStateOperational) continue;
-    if (elapsed_us(d) > std::uint64_t{d.consumer & 0xFFFFu} * 1000) {
+    if (elapsed_us(d) > std::uint64_t{od::consumer_heartbeat_timeout_ms(d.consumer)} * 1000) {
       d.consumer_armed = false;  // one event; the next heartbeat arms it again
       enter_fault(d, od::kEmcyHeartbeat);
     }
@@ -190,7 +190,10 @@ void Emulator::check_consumers(Elapsed elapsed_us) {
 
 void Emulator::handle_consumed_heartbeat(std::uint8_t node) {
   for (Drive& d : drives_) {
-    if ((d.consumer & 0xFFFFu) == 0 || ((d.consumer >> 16) & 0x7F) != node) continue;
+    if (od::consumer_heartbeat_timeout_ms(d.consumer) == 0 ||
+        od::consumer_heartbeat_node(d.consumer) != node) {
+      continue;
+    }
     d.consumer_armed = true;
     d.consumed_sim_us = sim_us_;
     d.consumed_wall_us = wall_us_;
@@ -335,8 +338,9 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       d.cycle_us = value;
       break;
     case 0x1016: {
-      const std::uint32_t node = (value >> 16) & 0xFF;
-      if ((value >> 24) != 0 || ((value & 0xFFFF) != 0 && (node == 0 || node > 127))) {
+      const std::uint8_t node = od::consumer_heartbeat_node(value);
+      if ((value >> 24) != 0 ||
+          (od::consumer_heartbeat_timeout_ms(value) != 0 && (node == 0 || node > 127))) {
         return abort(sdo::kAbortValueRange);
       }
       d.consumer = value;

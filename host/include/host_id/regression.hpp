@@ -67,6 +67,9 @@ class NormalEquationCost {
   double rows_{1};
 };
 
+// The mean of e^2 over each joint's rows (0 for a joint without rows).
+std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::VectorXd& e);
+
 // Root mean square error per joint of the prediction Psi beta.
 std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta);
 

@@ -163,9 +163,16 @@ inline constexpr Object kEncoderMotorRevolutions{0x608F, 2};  // u32, 1
 inline constexpr std::uint32_t kDeviceTypeServo = 0x00020192;  // CiA 402, servo drive
 inline constexpr std::uint32_t kPdoInvalid = 0x80000000u;      // COB-ID bit 31
 
-// The value of 0x1016:1 that watches `node` with a timeout.
+// The value of 0x1016:1 that watches `node` with a timeout (0 ms: off),
+// and its two fields.
 constexpr std::uint32_t consumer_heartbeat(std::uint8_t node, std::uint16_t timeout_ms) {
   return std::uint32_t{node} << 16 | timeout_ms;
+}
+constexpr std::uint8_t consumer_heartbeat_node(std::uint32_t v) {
+  return static_cast<std::uint8_t>((v >> 16) & 0xFF);
+}
+constexpr std::uint16_t consumer_heartbeat_timeout_ms(std::uint32_t v) {
+  return static_cast<std::uint16_t>(v & 0xFFFF);
 }
 
 // Emergency error codes (EMCY error_code).
