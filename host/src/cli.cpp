@@ -337,8 +337,9 @@ Records the controller's log frames (LOG_A..LOG_C, docs/protocol.md) from a
 CAN interface into delta-log/1, with the drives' motor currents (TPDO1) as
 columns i1..i3 when every sample has them. Samples are paired by their sequence
 counter; a lost sample is reported and the log keeps its seq column, so no
-gap is ever bridged. Exit status 3 when samples were lost (unless
---allow-gaps).
+gap is ever bridged. A cycle the controller marked stale (a drive's feedback
+missed it) is left out the same way and reported, but is not lost. Exit
+status 3 when samples were lost (unless --allow-gaps).
 limits (at least one):
   --duration S              stop after S seconds
   --samples N               stop after N complete samples
@@ -399,10 +400,7 @@ int cmd_record(const std::vector<std::string>& args, std::ostream& out, std::ost
   out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from " << r.iface
       << " in " << s.seconds << " s -> " << r.out_path
       << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
-  for (const auto& [first, count] : s.gaps) {
-    err << "host_id record: lost " << count << " sample(s) from seq " << first
-        << " (log frames missing)\n";
-  }
+  report_left_out(err, "host_id record", s);
   if (s.socket_drops)
     err << "host_id record: the kernel dropped " << s.socket_drops << " frames for this reader\n";
   if (s.samples_without_currents > 0) {

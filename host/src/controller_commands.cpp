@@ -253,8 +253,8 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
                  metres("base_radius", in), metres("platform_radius", in)};
   std::atomic<bool> finish{false};
   std::atomic<std::uint64_t> expected{UINT64_MAX};
-  ro.keep_going = [&](std::uint64_t samples) {
-    return !finish.load() && samples < expected.load();
+  ro.keep_going = [&](std::uint64_t records) {
+    return !finish.load() && records < expected.load();
   };
   std::promise<void> listening;
   auto recording =
@@ -353,18 +353,17 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
       << (ending.empty() ? "finished" : "NOT finished") << "\n"
       << "  samples   " << rec.summary.samples << " recorded";
   if (sent != UINT64_MAX) out << " of " << sent << " sent";
-  out << ", " << rec.summary.lost << " lost, " << static_cast<double>(rec.log.t.size()) / rate_hz
-      << " s at " << rate_hz << " Hz\n"
+  out << ", " << rec.summary.lost << " lost, " << rec.summary.stale << " stale left out, "
+      << static_cast<double>(rec.log.t.size()) / rate_hz << " s at " << rate_hz << " Hz\n"
       << "  log       " << path << "\n";
   if (ro.raw_path) out << "  raw       " << *ro.raw_path << "\n";
-  for (const auto& [first, count] : rec.summary.gaps) {
-    err << "host_id excite: lost " << count << " sample(s) from seq " << first << "\n";
-  }
+  report_left_out(err, "host_id excite", rec.summary);
   if (!ending.empty()) {
     err << "host_id excite: " << ending << "; the partial log is " << path << "\n";
     return 4;
   }
-  if (rec.summary.lost > 0 || (sent != UINT64_MAX && rec.summary.samples < sent)) {
+  if (rec.summary.lost > 0 ||
+      (sent != UINT64_MAX && rec.summary.samples + rec.summary.stale < sent)) {
     err << "host_id excite: samples were lost; the log keeps them as gaps in seq\n";
     return 3;
   }

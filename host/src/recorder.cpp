@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <ostream>
 #include <sstream>
 
 #include "delta/can/protocol.hpp"
@@ -30,18 +31,19 @@ double scaled(const p::Signal& s, std::int64_t raw) {
 
 }  // namespace
 
-std::uint64_t LogAssembler::unwrap(std::uint16_t seq16) {
+std::uint64_t LogAssembler::unwrap(std::uint32_t seq15) {
   if (!last_seq_) {
-    last_seq_ = seq16;
-    return seq16;
+    last_seq_ = seq15;
+    return seq15;
   }
   // The unwrapped value nearest to the last one.
-  const std::uint64_t base = *last_seq_ & ~std::uint64_t{0xFFFF};
-  std::uint64_t candidate = base | seq16;
-  if (candidate + 0x8000 < *last_seq_)
-    candidate += 0x10000;
-  else if (candidate > *last_seq_ + 0x8000 && candidate >= 0x10000)
-    candidate -= 0x10000;
+  constexpr std::uint64_t kModulo = p::kLogSeqModulo;
+  const std::uint64_t base = *last_seq_ & ~(kModulo - 1);
+  std::uint64_t candidate = base | seq15;
+  if (candidate + kModulo / 2 < *last_seq_)
+    candidate += kModulo;
+  else if (candidate > *last_seq_ + kModulo / 2 && candidate >= kModulo)
+    candidate -= kModulo;
   last_seq_ = std::max(*last_seq_, candidate);
   return candidate;
 }
@@ -53,7 +55,9 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   if (f.id == kLogB.base_id) part = 1;
   if (f.id == kLogC.base_id) part = 2;
   if (part < 0) return false;
-  const auto seq = unwrap(static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0])));
+  // seq and stale sit in the same bits of all three frames.
+  const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, kLogA.signals[0])));
+  const bool stale = p::unpack(f.data, kLogA.signals[3]) != 0;
   if (!next_to_emit_) next_to_emit_ = seq;
   if (seq < *next_to_emit_) return true;  // too late: already given up on
   auto it = std::find_if(pending_.begin(), pending_.end(),
@@ -63,6 +67,7 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
     it = pending_.end() - 1;
   }
   LogSample& s = it->sample;
+  s.stale = s.stale || stale;
   if (part == 0) {
     s.q_rad[0] = scaled(kLogA.signals[1], p::unpack(f.data, kLogA.signals[1]));
     s.q_rad[1] = scaled(kLogA.signals[2], p::unpack(f.data, kLogA.signals[2]));
@@ -101,6 +106,14 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
       if (x.seq >= give_up_below) break;
       gaps_.emplace_back(x.seq, 1);
       ++lost_;
+    } else if (x.sample.stale) {
+      // Not a sample: the controller said a drive's feedback missed it.
+      if (!stale_runs_.empty() && stale_runs_.back().first + stale_runs_.back().second == x.seq) {
+        ++stale_runs_.back().second;
+      } else {
+        stale_runs_.emplace_back(x.seq, 1);
+      }
+      ++stale_;
     } else {
       complete_.push_back(x.sample);
     }
@@ -143,8 +156,8 @@ void DriveCurrentTracker::feed(const delta::can::Frame& f) {
   if (f.extended || f.error_frame || f.remote) return;
   if (f.id == kLogA.base_id && f.dlc == 8) {
     if (fresh_ == 0x7) {
-      const auto seq16 = static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0]));
-      by_seq_.emplace_back(seq16, current_pm_);
+      const auto seq15 = static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0]));
+      by_seq_.emplace_back(seq15, current_pm_);
       if (by_seq_.size() > 4 * kReorderWindow) by_seq_.erase(by_seq_.begin());
     }
     fresh_ = 0;
@@ -159,15 +172,27 @@ void DriveCurrentTracker::feed(const delta::can::Frame& f) {
   }
 }
 
-std::optional<std::array<std::int16_t, 3>> DriveCurrentTracker::take(std::uint16_t seq16) {
+std::optional<std::array<std::int16_t, 3>> DriveCurrentTracker::take(std::uint64_t seq) {
+  const auto seq15 = static_cast<std::uint16_t>(seq % p::kLogSeqModulo);
   for (auto it = by_seq_.begin(); it != by_seq_.end(); ++it) {
-    if (it->first == seq16) {
+    if (it->first == seq15) {
       const auto c = it->second;
       by_seq_.erase(by_seq_.begin(), it + 1);  // older ones are never asked for again
       return c;
     }
   }
   return std::nullopt;
+}
+
+void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s) {
+  for (const auto& [first, count] : s.gaps) {
+    err << who << ": lost " << count << " sample(s) from seq " << first
+        << " (log frames missing)\n";
+  }
+  for (const auto& [first, count] : s.stale_runs) {
+    err << who << ": left out " << count << " sample(s) from seq " << first
+        << ": the controller marked them stale (a drive's feedback missed the cycle)\n";
+  }
 }
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
@@ -215,7 +240,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   for (;;) {
-    if (o.keep_going && !o.keep_going(samples.size())) break;
+    if (o.keep_going && !o.keep_going(samples.size() + assembler.stale_samples())) break;
     if (o.duration_s > 0 && elapsed() >= o.duration_s) break;
     if (o.samples > 0 && samples.size() >= o.samples) break;
     if (o.idle_s > 0 && last_log_frame &&
@@ -252,7 +277,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
       if (!r->error && assembler.feed(r->frame)) last_log_frame = std::chrono::steady_clock::now();
       for (auto& s : assembler.take_complete()) {
         samples.push_back(s);
-        sample_currents.push_back(currents.take(static_cast<std::uint16_t>(s.seq & 0xFFFF)));
+        sample_currents.push_back(currents.take(s.seq));
       }
       if (o.samples > 0 && samples.size() >= o.samples) break;
     }
@@ -260,7 +285,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   assembler.finish();
   for (auto& s : assembler.take_complete()) {
     samples.push_back(s);
-    sample_currents.push_back(currents.take(static_cast<std::uint16_t>(s.seq & 0xFFFF)));
+    sample_currents.push_back(currents.take(s.seq));
   }
   if (o.samples > 0 && samples.size() > o.samples) {
     samples.resize(o.samples);
@@ -270,6 +295,8 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   summary.samples = samples.size();
   summary.lost = assembler.lost_samples();  // dropped frames show up as incomplete cycles
   summary.gaps = assembler.gaps();
+  summary.stale = assembler.stale_samples();
+  summary.stale_runs = assembler.stale_runs();
   if (samples.empty()) {
     throw InputError("record: no complete log sample arrived on " + o.iface +
                      " (controller log frames 0x" +
@@ -285,6 +312,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   log.sample_rate_hz = o.sample_rate_hz;
   log.metadata.emplace_back("source", "robot");
   log.metadata.emplace_back("can_interface", o.iface);
+  if (summary.stale > 0) log.metadata.emplace_back("stale_samples", std::to_string(summary.stale));
   const std::uint64_t first = samples.front().seq;
   // i1..i3 only when every sample has its drives' currents: never a guess.
   summary.samples_without_currents = static_cast<std::uint64_t>(

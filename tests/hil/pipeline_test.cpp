@@ -10,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -85,6 +86,27 @@ hil::Child start_emulator(const std::vector<std::string>& extra = {}) {
     ADD_FAILURE() << "the emulator did not come up: " << emu.err();
   }
   return emu;
+}
+
+// The sum of the first number of every match of `pattern` in `text`.
+std::uint64_t sum_of_matches(const std::string& text, const std::string& pattern) {
+  std::uint64_t sum = 0;
+  const std::regex re(pattern);
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator();
+       ++it)
+    sum += std::stoull((*it)[1].str());
+  return sum;
+}
+
+// Records the controller marked stale (a drive's answer came after the
+// lock-step timeout, which only a starved machine sees) are left out, not
+// lost: every record sent is either a sample or one of those.
+void expect_every_record_accounted_for(const std::string& out, std::uint64_t samples,
+                                       std::uint64_t sent) {
+  const std::uint64_t stale = sum_of_matches(out, R"(left out (\d+) sample)");
+  EXPECT_EQ(samples + stale, sent) << out;
+  EXPECT_EQ(out.find(" lost "), std::string::npos) << out;
+  if (stale > 0) std::cout << "note: " << stale << " record(s) marked stale were left out\n";
 }
 
 // --- one excitation session, shared by the tests below --------------------
@@ -225,10 +247,11 @@ void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
     // noise seeds of path1 (in-process, the same code) its errors were within
     // 4.3, 3.8 and 5.5 %, with a spread of 1.8, 0.9 and 2.3 % that the fit's
     // printed standard deviation matches (docs/hil.md). In the VM one run
-    // gave -9.2 % on joint 3; that run had 3 lock-step cycles whose TPDOs
-    // came late, so their records carry stale feedback (not yet excluded from
-    // the log), hence the wider bound here; chain_identify_tests holds the
-    // tight one.
+    // gave -9.2 % on joint 3, on a starved machine with 3 lock-step cycles
+    // whose TPDOs came late. Such cycles are now marked stale and left out,
+    // but in-process four of them moved the estimate by less than 1 point
+    // either way, so they do not explain it: the cause is not known, hence
+    // the wider bound here; chain_identify_tests holds the tight one.
     checks.push_back({"viscous_friction_" + n, truth.viscous_friction_Nm_s_per_rad[j], 0.12});
   }
   for (const Check& c : checks) {
@@ -244,7 +267,8 @@ TEST_F(ExcitationSession, TheRecordedLogIsCompleteAndTheFitMatchesTheEmulatorsTr
   const Session& s = *g_session;
   ASSERT_EQ(s.record_exit, 0) << s.record_out;
   // path1 at 500 Hz: 2 s approach, 1 s blend, 2 periods of 5 s, 1 s blend, 0.4 s hold.
-  EXPECT_NE(s.record_out.find("7201 samples"), std::string::npos) << s.record_out;
+  expect_every_record_accounted_for(s.record_out,
+                                    sum_of_matches(s.record_out, R"(record: (\d+) samples)"), 7201);
   expect_fit_matches_truth(s.dir + "/path1.csv", s.dir);
 }
 
@@ -551,8 +575,11 @@ TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
                          "--can", kIface, "-o", dir + "/excite.csv"});
   ASSERT_EQ(excite.wait(300s).value_or(-1), 0) << excite.out() << excite.err();
   std::cout << excite.out();
-  EXPECT_NE(excite.out().find("7201 recorded of 7201 sent, 0 lost"), std::string::npos)
-      << excite.out();
+  const std::string said = excite.out() + excite.err();
+  const std::uint64_t recorded = sum_of_matches(said, R"((\d+) recorded of)");
+  EXPECT_EQ(sum_of_matches(said, R"(recorded of (\d+) sent)"), 7201u) << said;
+  EXPECT_NE(said.find("sent, 0 lost, "), std::string::npos) << said;
+  expect_every_record_accounted_for(said, recorded, 7201);
   std::ifstream log(dir + "/excite.csv");
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("# trajectory = path1"), std::string::npos);
@@ -584,7 +611,7 @@ TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
                                         0.9 * v[static_cast<std::size_t>(i1)]));
       ++n;
     }
-    EXPECT_EQ(n, 7201u);
+    EXPECT_EQ(n, recorded);
     EXPECT_LT(worst, 2e-5) << "tau1 and i1 of the same sample";
   }
 

@@ -20,18 +20,20 @@ namespace {
 
 namespace p = delta::can::protocol;
 
-void send_cycle(delta::can::Socket& s, std::uint16_t seq, double q, double tau,
-                int skip_part = -1) {
-  for (int i = 0; i < 3; ++i) {
-    const p::Message& m = p::kMessages[static_cast<std::size_t>(9 + i)];
+// One cycle's three log frames as the controller sends them (q and tau the
+// same for all joints), leaving out part `skip_part`.
+void send_cycle(delta::can::Socket& s, std::uint32_t seq, double q, double tau, int skip_part = -1,
+                bool stale = false) {
+  const auto q_raw = static_cast<std::int32_t>(std::llround(q * 1048576.0));
+  const auto tau_raw = static_cast<std::int32_t>(std::llround(tau * 65536.0));
+  const p::LogPayloads payloads =
+      p::pack_log(seq, stale, {q_raw, q_raw, q_raw}, {tau_raw, tau_raw, tau_raw});
+  for (unsigned i = 0; i < 3; ++i) {
+    if (static_cast<int>(i) == skip_part) continue;
     delta::can::Frame f;
-    f.id = m.base_id;
+    f.id = p::kMessages[9 + i].base_id;
     f.dlc = 8;
-    p::pack(f.data, m.signals[0], seq);
-    p::pack(f.data, m.signals[1],
-            std::llround((i == 2 ? tau : q) * (i == 2 ? 65536.0 : 1048576.0)));
-    p::pack(f.data, m.signals[2], std::llround(tau * 65536.0));
-    if (i == skip_part) continue;
+    f.data = payloads.data[i];
     ASSERT_EQ(s.send(f), delta::can::SendResult::kOk);
   }
 }
@@ -92,7 +94,7 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   delta::can::Socket tx = delta::can::Socket::open("vcan0");
   const Recording r = record_while(o, [&] {
     for (int k = 0; k < 500; ++k) {
-      send_cycle(tx, static_cast<std::uint16_t>(65400 + k), 0.001 * k - 0.2, -0.5 + 0.0005 * k);
+      send_cycle(tx, static_cast<std::uint32_t>(32600 + k), 0.001 * k - 0.2, -0.5 + 0.0005 * k);
     }
   });
   ASSERT_EQ(r.error, "");
@@ -105,7 +107,7 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   EXPECT_EQ(log.metadata_value("can_interface").value_or(""), "vcan0");
   EXPECT_DOUBLE_EQ(*log.sample_rate_hz, 500.0);
   for (std::size_t k = 0; k < 500; ++k) {
-    EXPECT_NEAR(log.t[k], static_cast<double>(k) / 500.0, 1e-12);  // through the 16-bit wrap
+    EXPECT_NEAR(log.t[k], static_cast<double>(k) / 500.0, 1e-12);  // through the 15-bit wrap
     EXPECT_NEAR(log.q[0][k], 0.001 * static_cast<double>(k) - 0.2, 1e-6);
     EXPECT_NEAR(log.tau[2][k], -0.5 + 0.0005 * static_cast<double>(k), 2e-5);
   }
@@ -139,7 +141,7 @@ TEST_F(RecordHilTest, IdleCountsFromTheFirstLogFrame) {
     // The controller's bring-up, longer than the idle time: the behaviour
     // under test, not a wait for anything.
     std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-    for (int k = 0; k < 100; ++k) send_cycle(tx, static_cast<std::uint16_t>(k), 0.1, 0.2);
+    for (int k = 0; k < 100; ++k) send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2);
   });
   ASSERT_EQ(r.error, "");
   EXPECT_EQ(r.summary.samples, 100u);
@@ -156,19 +158,25 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   const Recording r = record_while(o, [&] {
     for (int k = 0; k < 300; ++k) {
       if (k >= 100 && k < 103) continue;  // three cycles lost
-      send_cycle(tx, static_cast<std::uint16_t>(k), 0.1, 0.2, k == 200 ? 1 : -1);  // one frame lost
+      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2, k == 200 ? 1 : -1,  // one frame lost
+                 k == 250);  // and one record the controller marked stale
     }
   });
   ASSERT_EQ(r.error, "");
-  EXPECT_EQ(r.summary.samples, 296u);
+  EXPECT_EQ(r.summary.samples, 295u);
   EXPECT_EQ(r.summary.lost, 4u);
   ASSERT_EQ(r.summary.gaps.size(), 2u);
   EXPECT_EQ(r.summary.gaps[0].first, 100u);
   EXPECT_EQ(r.summary.gaps[0].second, 3u);
+  EXPECT_EQ(r.summary.stale, 1u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(r.summary.stale_runs, (std::vector<Run>{{250, 1}}));
   // Any reader sees the gaps: the seq column jumps there.
   const DeltaLog log = read_delta_log(o.out_path);
-  ASSERT_EQ(log.gaps.size(), 2u);
+  ASSERT_EQ(log.gaps.size(), 3u);
   EXPECT_EQ(log.gaps[0].what, "seq jumps from 99 to 103 (3 samples lost)");
+  EXPECT_EQ(log.gaps[2].what, "seq jumps from 249 to 251 (1 samples lost)");
+  EXPECT_EQ(log.metadata_value("stale_samples").value_or(""), "1");
 }
 
 TEST_F(RecordHilTest, NothingArrivingWritesNothing) {

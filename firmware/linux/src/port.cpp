@@ -64,7 +64,7 @@ bool send_log_frames(FrameSink& bus, const fw::LogRecord& r) {
     q[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.q_rad[j].raw(), 8));
     tau[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.tau_Nm[j].raw(), 3));
   }
-  const p::LogPayloads payloads = p::pack_log(static_cast<std::uint16_t>(r.seq & 0xFFFF), q, tau);
+  const p::LogPayloads payloads = p::pack_log(r.seq, r.stale, q, tau);
   const p::Message* messages[3] = {&p::kLogA, &p::kLogB, &p::kLogC};
   bool ok = true;
   for (unsigned i = 0; i < 3; ++i) {
@@ -209,6 +209,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
   stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
   stats.late_frames = master.late_frames();
+  stats.stale_log_records = controller.stale_log_records();
   stats.send_failures = sink.failures();
   if (latency_count != 0) {
     std::uint64_t below = 0;
@@ -222,7 +223,8 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   }
   out << "delta_fw: " << stats.cycles << " cycles in " << stats.wall_s << " s ("
       << stats.simulated_s << " s of bus time); step max " << stats.step_max_us
-      << " us; late frames " << stats.late_frames << "; send failures " << stats.send_failures;
+      << " us; late frames " << stats.late_frames << "; log records marked stale "
+      << stats.stale_log_records << "; send failures " << stats.send_failures;
   if (realtime) {
     out << "; wake-up latency mean " << stats.latency_mean_us << " us, p99 " << stats.latency_p99_us
         << " us, max " << stats.latency_max_us << " us; overruns " << stats.overruns;

@@ -1,11 +1,14 @@
 // `host_id record`: the controller's log frames (LOG_A..C, docs/protocol.md)
-// from a CAN bus into delta-log/1. Samples are paired by their 16-bit
+// from a CAN bus into delta-log/1. Samples are paired by their 15-bit
 // sequence counter, unwrapped to 64 bits; a cycle with a missing frame is a
 // lost sample, reported and never bridged (the log keeps its seq column).
+// A cycle the controller marked stale (a drive's feedback missed it) is left
+// out the same way, and reported apart from the lost ones.
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +23,7 @@ struct LogSample {
   std::uint64_t seq{0};  // unwrapped
   std::array<double, 3> q_rad{};
   std::array<double, 3> tau_Nm{};
+  bool stale{false};  // marked stale by the controller: never emitted as a sample
 };
 
 // Pairs LOG_A, LOG_B and LOG_C frames into samples, in order.
@@ -34,6 +38,11 @@ class LogAssembler {
   std::uint64_t lost_samples() const { return lost_; }
   // (first lost seq, count) for each run of lost samples.
   const std::vector<std::pair<std::uint64_t, std::uint64_t>>& gaps() const { return gaps_; }
+  // Complete cycles the controller marked stale, left out; (first seq, count).
+  std::uint64_t stale_samples() const { return stale_; }
+  const std::vector<std::pair<std::uint64_t, std::uint64_t>>& stale_runs() const {
+    return stale_runs_;
+  }
 
  private:
   struct Pending {
@@ -41,7 +50,7 @@ class LogAssembler {
     std::uint8_t parts{0};  // bit 0: A, 1: B, 2: C
     LogSample sample;
   };
-  std::uint64_t unwrap(std::uint16_t seq16);
+  std::uint64_t unwrap(std::uint32_t seq15);
   void emit_up_to(std::uint64_t seq);
 
   std::vector<Pending> pending_;
@@ -50,6 +59,8 @@ class LogAssembler {
   std::optional<std::uint64_t> next_to_emit_;  // the next seq owed to the output
   std::uint64_t lost_{0};
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps_;
+  std::uint64_t stale_{0};
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs_;
 };
 
 // The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
@@ -60,9 +71,9 @@ class DriveCurrentTracker {
  public:
   // Feeds one frame; other IDs are ignored.
   void feed(const delta::can::Frame& f);
-  // The currents (per mille) that came with the record of this 16-bit seq,
-  // taken out; nullopt if not all three came.
-  std::optional<std::array<std::int16_t, 3>> take(std::uint16_t seq16);
+  // The currents (per mille) that came with the record of this (unwrapped)
+  // seq, taken out; nullopt if not all three came.
+  std::optional<std::array<std::int16_t, 3>> take(std::uint64_t seq);
   bool any_seen() const { return any_seen_; }
 
  private:
@@ -82,21 +93,28 @@ struct RecordOptions {
   double sample_rate_hz{500};
   delta::Geometry geometry{delta::kDefaultGeometry};
   double rated_current_A{2.0};  // the drives' 0x6075, to turn per mille into A
-  // Asked about every 50 ms with the samples so far; false ends the
-  // recording (another thread's decision: it must be thread-safe).
-  std::function<bool(std::uint64_t samples)> keep_going;
+  // Asked about every 50 ms with the controller's records accounted for so
+  // far (samples, and stale records left out); false ends the recording
+  // (another thread's decision: it must be thread-safe).
+  std::function<bool(std::uint64_t records)> keep_going;
 };
 
 struct RecordSummary {
   std::uint64_t samples{0};
   std::uint64_t lost{0};
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps;
+  std::uint64_t stale{0};  // cycles the controller marked stale, left out (not lost)
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs;
   std::uint64_t frames{0};
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
   std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
   double seconds{0};
 };
+
+// One line per run of lost samples and per run of stale ones left out,
+// each starting with `who` ("host_id record").
+void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s);
 
 // Records until a limit is reached. `ready` is called once the socket is
 // open (tests start sending then). Writes out_path (and raw_path) atomically.

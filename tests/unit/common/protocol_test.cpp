@@ -44,21 +44,33 @@ TEST(ProtocolTest, SignalsFitTheirFrameAndDoNotOverlap) {
 TEST(ProtocolTest, PackAndUnpackRoundTripWithSignExtension) {
   const Message& log_a = kMessages[9];
   std::array<std::uint8_t, 8> d{};
-  pack(d, log_a.signals[0], 65535);
+  pack(d, log_a.signals[0], 32767);    // seq, 15 bits
   pack(d, log_a.signals[1], -3);       // q1, 24-bit signed
   pack(d, log_a.signals[2], 8388607);  // q2 at its maximum
-  EXPECT_EQ(unpack(d, log_a.signals[0]), 65535);
+  EXPECT_EQ(unpack(d, log_a.signals[0]), 32767);
+  EXPECT_EQ(unpack(d, log_a.signals[3]), 0);  // stale, the top bit of bytes 0-1
   EXPECT_EQ(unpack(d, log_a.signals[1]), -3);
   EXPECT_EQ(unpack(d, log_a.signals[2]), 8388607);
   // Little endian: seq in bytes 0-1, q1 in 2-4.
   EXPECT_EQ(d[0], 0xFF);
+  EXPECT_EQ(d[1], 0x7F);
   EXPECT_EQ(d[2], 0xFD);
   EXPECT_EQ(d[4], 0xFF);
+  pack(d, log_a.signals[3], 1);
+  EXPECT_EQ(d[1], 0xFF);
+  EXPECT_EQ(unpack(d, log_a.signals[0]), 32767);
   // Overwriting one signal leaves its neighbours alone.
   pack(d, log_a.signals[1], 0x123456);
-  EXPECT_EQ(unpack(d, log_a.signals[0]), 65535);
+  EXPECT_EQ(unpack(d, log_a.signals[0]), 32767);
   EXPECT_EQ(unpack(d, log_a.signals[1]), 0x123456);
   EXPECT_EQ(unpack(d, log_a.signals[2]), 8388607);
+  // pack_log: seq modulo 32768 and the stale mark in all three frames.
+  const LogPayloads logp = pack_log(32768 + 5, true, {1, 2, 3}, {4, 5, 6});
+  for (unsigned i = 0; i < 3; ++i) {
+    EXPECT_EQ(unpack(logp.data[i], kMessages[9 + i].signals[0]), 5);
+    EXPECT_EQ(unpack(logp.data[i], kMessages[9 + i].signals[3]), 1);
+  }
+  EXPECT_EQ(unpack(pack_log(7, false, {}, {}).data[2], kMessages[11].signals[3]), 0);
   const Message& emcy = kMessages[2];
   pack(d, emcy.signals[2], 0xABCDEF0123);  // 40-bit vendor field
   EXPECT_EQ(unpack(d, emcy.signals[2]), 0xABCDEF0123);

@@ -4,10 +4,12 @@
 // repeatable and the test runs under the sanitizers too.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 #include "fw_linux/trajectories.hpp"
+#include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/recorder.hpp"
 #include "in_process_rig.hpp"
@@ -15,9 +17,17 @@
 namespace fw_linux {
 namespace {
 
+struct Path1Run {
+  host_id::DeltaLog log;
+  std::uint64_t stale{0};
+};
+
 // The log of one path1 run, as host_id record would write it (sequence
-// numbers from 0, time from the sequence and the configured rate).
-host_id::DeltaLog record_path1(const emu::EmulatorConfig& ec) {
+// numbers from 0, time from the sequence and the configured rate). Node 3's
+// TPDO1 misses the deadline in the cycles `late_cycles` of the run; with
+// `ignore_stale_mark` the records of those cycles are taken as samples.
+Path1Run record_path1(const emu::EmulatorConfig& ec, const std::vector<int>& late_cycles = {},
+                      bool ignore_stale_mark = false) {
   Rig rig(ec);
   for (int i = 0; i < 2000 && rig.controller.state() != fw::State::kReady; ++i) rig.cycle();
   EXPECT_EQ(rig.controller.state(), fw::State::kReady);
@@ -27,15 +37,22 @@ host_id::DeltaLog record_path1(const emu::EmulatorConfig& ec) {
   host_id::LogAssembler assembler;
   for (int i = 0; i < 20000; ++i) {
     rig.bus.sent_.clear();
+    const bool late = std::find(late_cycles.begin(), late_cycles.end(), i) != late_cycles.end();
+    rig.bus.make_late(late ? delta::can::protocol::cob_id(delta::can::protocol::kTpdo1, 3) : ~0u);
     rig.cycle();
-    for (const auto& f : rig.bus.sent_) assembler.feed(f);
+    for (auto f : rig.bus.sent_) {
+      if (ignore_stale_mark) f.data[1] &= 0x7F;  // the stale bit, bit 15
+      assembler.feed(f);
+    }
     if (i > 0 && rig.controller.state() == fw::State::kReady) break;
   }
   assembler.finish();
   EXPECT_EQ(assembler.lost_samples(), 0u);
   const auto samples = assembler.take_complete();
   const double rate_hz = 1e6 / Rig::config().period_us;
-  host_id::DeltaLog log;
+  Path1Run run;
+  run.stale = assembler.stale_samples();
+  host_id::DeltaLog& log = run.log;
   log.name = "path1 (in-process)";
   log.geometry = ec.geometry;
   log.sample_rate_hz = rate_hz;
@@ -48,7 +65,10 @@ host_id::DeltaLog record_path1(const emu::EmulatorConfig& ec) {
       log.tau[j].push_back(s.tau_Nm[j]);
     }
   }
-  return log;
+  // Written and read back as host_id record and fit do: the reader finds the
+  // gaps in seq, where the fit splits.
+  run.log = host_id::parse_delta_log(host_id::format_delta_log(log), log.name);
+  return run;
 }
 
 host_id::FitOptions least_squares_per_joint() {
@@ -76,7 +96,7 @@ double relative_error(double value, double truth) {
 TEST(ChainIdentify, ViscousFrictionUnbiasedWithoutTheSlowEquations) {
   emu::EmulatorConfig ec;
   ec.current_noise_A = 0.0;
-  const host_id::DeltaLog log = record_path1(ec);
+  const host_id::DeltaLog log = record_path1(ec).log;
   ASSERT_GT(log.size(), 7000u);
   const auto& truth = ec.truth;
 
@@ -121,7 +141,7 @@ TEST(ChainIdentify, ViscousFrictionUnbiasedWithoutTheSlowEquations) {
 TEST(ChainIdentify, PrintedStandardDeviationCoversTheErrors) {
   emu::EmulatorConfig ec;
   ec.seed = 14;  // with white-noise deviations four parameters fail, one by 7 of them
-  const host_id::DeltaLog log = record_path1(ec);
+  const host_id::DeltaLog log = record_path1(ec).log;
   const host_id::FitResult fit = host_id::fit_log(log, least_squares_per_joint());
   const auto& truth = ec.truth;
   for (unsigned j = 0; j < 3; ++j) {
@@ -140,6 +160,40 @@ TEST(ChainIdentify, PrintedStandardDeviationCoversTheErrors) {
       EXPECT_LT(std::abs(p.value - t), 4.0 * p.std_dev);
       EXPECT_LT(p.rel_std_percent, 5.0);
     }
+  }
+}
+
+}  // namespace
+}  // namespace fw_linux
+
+namespace fw_linux {
+namespace {
+
+// A cycle whose feedback came after the deadline has a record with the last
+// position and current of the late drive. The controller marks it stale,
+// the recorder leaves it out, and the fit splits there. (Measured: four
+// such records taken as samples moved the viscous estimates by at most
+// 1 point here, so they do not explain the -9.2 % of a starved VM run.)
+TEST(ChainIdentify, LateFeedbackCyclesAreLeftOutOfTheLog) {
+  emu::EmulatorConfig ec;
+  ec.current_noise_A = 0.0;
+  const std::vector<int> late{1500, 3000, 4500, 6000};
+  const Path1Run marked = record_path1(ec, late);
+  EXPECT_EQ(marked.stale, late.size());
+  EXPECT_EQ(marked.log.gaps.size(), late.size());  // kept in seq
+  const Path1Run taken = record_path1(ec, late, true);
+  EXPECT_EQ(taken.stale, 0u);
+  EXPECT_EQ(taken.log.size(), marked.log.size() + late.size());
+  const host_id::FitResult fit = host_id::fit_log(marked.log, least_squares_per_joint());
+  EXPECT_EQ(fit.segments_used, late.size() + 1);
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::string n = std::to_string(j + 1);
+    SCOPED_TRACE("joint " + n);
+    EXPECT_NEAR(relative_error(parameter(fit, "viscous_friction_" + n),
+                               ec.truth.viscous_friction_Nm_s_per_rad[j]),
+                0.0, 0.03);
+    EXPECT_NEAR(relative_error(parameter(fit, "arm_inertia_" + n), ec.truth.arm_inertia_kg_m2[j]),
+                0.0, 0.01);
   }
 }
 

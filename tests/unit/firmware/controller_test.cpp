@@ -209,7 +209,11 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   EXPECT_FALSE(hw.drives_enabled);
   // One record per control cycle, numbered without gaps.
   ASSERT_GT(hw.log_records.size(), 13000u);
-  for (std::size_t i = 0; i < hw.log_records.size(); ++i) EXPECT_EQ(hw.log_records[i].seq, i);
+  for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
+    EXPECT_EQ(hw.log_records[i].seq, i);
+    EXPECT_FALSE(hw.log_records[i].stale);
+  }
+  EXPECT_EQ(ctl.stale_log_records(), 0u);
   // The logged torque is the torque from the measured current, which the
   // drive produced for the previous command: current and back agree to 2e-5.
   double worst_tau = 0.0;
@@ -338,6 +342,26 @@ TEST_F(ControllerTest, DriveFaultHeartbeatAndLimitsEachLeadToTheirFault) {
     EXPECT_FALSE(h.drives_enabled);
     EXPECT_FALSE(h.outputs.brake_release);
   }
+}
+
+TEST_F(ControllerTest, ACycleWithMissingFeedbackIsLoggedAsStaleAndTheRunGoesOn) {
+  to_running();
+  tick(300);
+  // Joint 2's answer misses two cycles (fewer than lost_feedback_ticks).
+  hw.problem_on_joint2 = FeedbackProblem::kLate;
+  tick(2);
+  hw.problem_on_joint2 = FeedbackProblem::kNone;
+  tick(300);
+  ASSERT_EQ(ctl.state(), State::kRunning);
+  std::vector<std::uint32_t> stale;
+  for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
+    EXPECT_EQ(hw.log_records[i].seq, i);  // the seq goes on through them
+    if (hw.log_records[i].stale) stale.push_back(hw.log_records[i].seq);
+  }
+  ASSERT_EQ(stale.size(), 2u);
+  EXPECT_EQ(stale[1], stale[0] + 1);
+  EXPECT_EQ(stale[0], 300u);  // records 0..299 came before
+  EXPECT_EQ(ctl.stale_log_records(), 2u);
 }
 
 TEST_F(ControllerTest, AJammedJointTripsTheTrackingLimit) {

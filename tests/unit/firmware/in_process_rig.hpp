@@ -30,19 +30,29 @@ class InProcessBus : public FrameSink {
   }
   // Frames with this ID no longer reach the emulator (~0u: none lost).
   void lose(std::uint32_t id) { lost_id_ = id; }
-  void deliver(CanopenMaster& m) {
+  // Answers with this ID come after the cycle's deadline while set (~0u:
+  // none): deliver(m, true) holds them back for the next deliver.
+  void make_late(std::uint32_t id) { late_id_ = id; }
+  void deliver(CanopenMaster& m, bool in_window = false) {
+    std::deque<delta::can::Frame> held;
     while (!to_master_.empty()) {
       delta::can::Received r;
       r.frame = to_master_.front();
       to_master_.pop_front();
+      if (in_window && r.frame.id == late_id_) {
+        held.push_back(r.frame);
+        continue;
+      }
       if (r.frame.error_frame) r.error = delta::can::decode_error_frame(r.frame.id, r.frame.data);
       m.on_frame(r, 0);
     }
+    to_master_ = std::move(held);
   }
   emu::Emulator emulator_;
   std::deque<delta::can::Frame> to_master_;
   std::vector<delta::can::Frame> sent_;
   std::uint32_t lost_id_{~0u};
+  std::uint32_t late_id_{~0u};
 };
 
 struct Rig {
@@ -63,7 +73,7 @@ struct Rig {
   void cycle() {
     bus.deliver(master);
     master.begin_cycle(0);
-    bus.deliver(master);
+    bus.deliver(master, true);
     master.end_window();
     controller.step();
     master.send_commands();

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "delta/can/protocol.hpp"
 
@@ -13,25 +14,21 @@ namespace {
 namespace p = delta::can::protocol;
 
 // The three log frames of one cycle, as the controller sends them.
-std::array<delta::can::Frame, 3> log_frames(std::uint16_t seq, const std::array<double, 3>& q,
-                                            const std::array<double, 3>& tau) {
-  std::array<delta::can::Frame, 3> f{};
-  const auto angle = [](double v) {
-    return static_cast<std::int64_t>(std::llround(v * 1048576.0));
-  };
-  const auto torque = [](double v) { return static_cast<std::int64_t>(std::llround(v * 65536.0)); };
-  for (int i = 0; i < 3; ++i) {
-    const p::Message& m = p::kMessages[static_cast<std::size_t>(9 + i)];
-    f[static_cast<std::size_t>(i)].id = m.base_id;
-    f[static_cast<std::size_t>(i)].dlc = 8;
-    p::pack(f[static_cast<std::size_t>(i)].data, m.signals[0], seq);
+std::array<delta::can::Frame, 3> log_frames(std::uint32_t seq, const std::array<double, 3>& q,
+                                            const std::array<double, 3>& tau, bool stale = false) {
+  std::array<std::int32_t, 3> q_raw{};
+  std::array<std::int32_t, 3> tau_raw{};
+  for (unsigned j = 0; j < 3; ++j) {
+    q_raw[j] = static_cast<std::int32_t>(std::llround(q[j] * 1048576.0));
+    tau_raw[j] = static_cast<std::int32_t>(std::llround(tau[j] * 65536.0));
   }
-  p::pack(f[0].data, p::kMessages[9].signals[1], angle(q[0]));
-  p::pack(f[0].data, p::kMessages[9].signals[2], angle(q[1]));
-  p::pack(f[1].data, p::kMessages[10].signals[1], angle(q[2]));
-  p::pack(f[1].data, p::kMessages[10].signals[2], torque(tau[0]));
-  p::pack(f[2].data, p::kMessages[11].signals[1], torque(tau[1]));
-  p::pack(f[2].data, p::kMessages[11].signals[2], torque(tau[2]));
+  const p::LogPayloads payloads = p::pack_log(seq, stale, q_raw, tau_raw);
+  std::array<delta::can::Frame, 3> f{};
+  for (unsigned i = 0; i < 3; ++i) {
+    f[i].id = p::kMessages[9 + i].base_id;
+    f[i].dlc = 8;
+    f[i].data = payloads.data[i];
+  }
   return f;
 }
 
@@ -52,16 +49,49 @@ TEST(LogAssemblerTest, PairsTheThreeFramesOfACycleWithTheirScaling) {
   EXPECT_EQ(a.lost_samples(), 0u);
 }
 
-TEST(LogAssemblerTest, TheSixteenBitCounterWrapsWithoutAGap) {
+TEST(LogAssemblerTest, TheFifteenBitCounterWrapsWithoutAGap) {
   LogAssembler a;
-  for (std::uint32_t k = 65530; k < 65540; ++k) {
-    for (const auto& f : log_frames(static_cast<std::uint16_t>(k), {}, {})) a.feed(f);
+  // Twice round the 32768 wrap; the frames carry seq modulo 32768.
+  for (std::uint32_t k = 32760; k < 65546; ++k) {
+    for (const auto& f : log_frames(k, {}, {})) a.feed(f);
   }
   a.finish();
   const auto s = a.take_complete();
-  ASSERT_EQ(s.size(), 10u);
-  for (std::size_t i = 0; i < s.size(); ++i) EXPECT_EQ(s[i].seq, 65530u + i);
+  ASSERT_EQ(s.size(), 65546u - 32760u);
+  for (std::size_t i = 0; i < s.size(); ++i) ASSERT_EQ(s[i].seq, 32760u + i);
   EXPECT_EQ(a.lost_samples(), 0u);
+}
+
+TEST(LogAssemblerTest, ARecordMarkedStaleIsLeftOutAndReportedButNotLost) {
+  LogAssembler a;
+  for (std::uint32_t k = 0; k < 100; ++k) {
+    const bool stale = k == 40 || k == 41 || k == 77;
+    for (const auto& f : log_frames(k, {0.001 * k, 0, 0}, {}, stale)) a.feed(f);
+  }
+  a.finish();
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 97u);
+  EXPECT_EQ(s[39].seq, 39u);
+  EXPECT_EQ(s[40].seq, 42u);  // the log keeps the gap in seq
+  EXPECT_NEAR(s[40].q_rad[0], 0.042, 1e-6);
+  EXPECT_EQ(s[75].seq, 78u);
+  EXPECT_EQ(a.lost_samples(), 0u);
+  EXPECT_TRUE(a.gaps().empty());
+  EXPECT_EQ(a.stale_samples(), 3u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(a.stale_runs(), (std::vector<Run>{{40, 2}, {77, 1}}));
+}
+
+TEST(LogAssemblerTest, StaleAndLostAreReportedEachByName) {
+  RecordSummary s;
+  s.gaps = {{10, 3}};
+  s.stale_runs = {{40, 2}};
+  std::ostringstream err;
+  report_left_out(err, "host_id record", s);
+  EXPECT_EQ(err.str(),
+            "host_id record: lost 3 sample(s) from seq 10 (log frames missing)\n"
+            "host_id record: left out 2 sample(s) from seq 40: the controller marked them stale "
+            "(a drive's feedback missed the cycle)\n");
 }
 
 TEST(LogAssemblerTest, PartsArrivingOutOfOrderStillPair) {

@@ -162,10 +162,12 @@ inline constexpr std::array<Message, 14> kMessages{{
      8,
      Sender::kController,
      Receiver::kRecorderOnly,
-     3,
-     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+     4,
+     {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
        {"q1", 16, 24, true, kLogAngle, "rad", "joint 1 angle"},
-       {"q2", 40, 24, true, kLogAngle, "rad", "joint 2 angle"}}},
+       {"q2", 40, 24, true, kLogAngle, "rad", "joint 2 angle"},
+       {"stale", 15, 1, false, kRaw, "",
+        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
      "controller log, part 1 of 3 (TPDO1 of node 16)"},
     {"LOG_B",
      0x290,
@@ -173,10 +175,12 @@ inline constexpr std::array<Message, 14> kMessages{{
      8,
      Sender::kController,
      Receiver::kRecorderOnly,
-     3,
-     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+     4,
+     {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
        {"q3", 16, 24, true, kLogAngle, "rad", "joint 3 angle"},
-       {"tau1", 40, 24, true, kLogTorque, "N m", "joint 1 torque from current"}}},
+       {"tau1", 40, 24, true, kLogTorque, "N m", "joint 1 torque from current"},
+       {"stale", 15, 1, false, kRaw, "",
+        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
      "controller log, part 2 of 3 (TPDO2 of node 16)"},
     {"LOG_C",
      0x390,
@@ -184,10 +188,12 @@ inline constexpr std::array<Message, 14> kMessages{{
      8,
      Sender::kController,
      Receiver::kRecorderOnly,
-     3,
-     {{{"seq", 0, 16, false, kRaw, "", "log sample counter, modulo 65536"},
+     4,
+     {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
        {"tau2", 16, 24, true, kLogTorque, "N m", "joint 2 torque from current"},
-       {"tau3", 40, 24, true, kLogTorque, "N m", "joint 3 torque from current"}}},
+       {"tau3", 40, 24, true, kLogTorque, "N m", "joint 3 torque from current"},
+       {"stale", 15, 1, false, kRaw, "",
+        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
      "controller log, part 3 of 3 (TPDO3 of node 16)"},
     {"CONTROLLER_EMCY",
      0x090,
@@ -274,25 +280,31 @@ constexpr std::int64_t unpack(const std::array<std::uint8_t, 8>& data, const Sig
 
 // The three log frames of one control cycle (LOG_A, LOG_B, LOG_C), from the
 // raw log values: q in 2^-20 rad and tau in 2^-16 N m (saturated to 24 bits).
+// `stale` marks a cycle whose feedback was missing; every frame carries it.
 struct LogPayloads {
   std::array<std::array<std::uint8_t, 8>, 3> data{};
 };
+
+inline constexpr std::uint32_t kLogSeqModulo = 1u << 15;
 
 constexpr std::int64_t saturate_signal(const Signal& s, std::int64_t v) {
   const std::int64_t hi = (std::int64_t{1} << (s.length - 1)) - 1;
   return v > hi ? hi : (v < -hi - 1 ? -hi - 1 : v);
 }
 
-constexpr LogPayloads pack_log(std::uint16_t seq, const std::array<std::int32_t, 3>& q_raw20,
+constexpr LogPayloads pack_log(std::uint32_t seq, bool stale,
+                               const std::array<std::int32_t, 3>& q_raw20,
                                const std::array<std::int32_t, 3>& tau_raw16) {
   LogPayloads p;
-  pack(p.data[0], kLogA.signals[0], seq);
+  const Message* parts[3] = {&kLogA, &kLogB, &kLogC};
+  for (unsigned i = 0; i < 3; ++i) {
+    pack(p.data[i], parts[i]->signals[0], seq % kLogSeqModulo);
+    pack(p.data[i], parts[i]->signals[3], stale ? 1 : 0);
+  }
   pack(p.data[0], kLogA.signals[1], saturate_signal(kLogA.signals[1], q_raw20[0]));
   pack(p.data[0], kLogA.signals[2], saturate_signal(kLogA.signals[2], q_raw20[1]));
-  pack(p.data[1], kLogB.signals[0], seq);
   pack(p.data[1], kLogB.signals[1], saturate_signal(kLogB.signals[1], q_raw20[2]));
   pack(p.data[1], kLogB.signals[2], saturate_signal(kLogB.signals[2], tau_raw16[0]));
-  pack(p.data[2], kLogC.signals[0], seq);
   pack(p.data[2], kLogC.signals[1], saturate_signal(kLogC.signals[1], tau_raw16[1]));
   pack(p.data[2], kLogC.signals[2], saturate_signal(kLogC.signals[2], tau_raw16[2]));
   return p;

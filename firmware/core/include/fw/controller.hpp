@@ -147,6 +147,8 @@ class Controller {
     return config_.approach_ticks + trajectory_.length_ticks() + 1;
   }
   std::uint32_t log_records() const { return log_seq_; }
+  // Of those, records marked stale (a drive's feedback missed the cycle).
+  std::uint32_t stale_log_records() const { return stale_log_records_; }
   const std::array<DriveFeedback, 3>& feedback() const { return feedback_; }
 
  private:
@@ -178,6 +180,7 @@ class Controller {
       if (!f.fresh) last_stale_was_late_ = f.problem == FeedbackProblem::kLate;
       all_fresh = all_fresh && f.fresh;
     }
+    feedback_fresh_ = all_fresh;
     stale_cycles_ = all_fresh ? 0 : stale_cycles_ + 1;
     if (stale_cycles_ >= config_.lost_feedback_ticks) {
       enter_fault(last_stale_was_late_ ? Fault::kFeedbackLate : Fault::kHeartbeatLost);
@@ -279,6 +282,8 @@ class Controller {
     rec.seq = log_seq_++;
     rec.q_rad = q;
     rec.tau_Nm = measured_torque_;
+    rec.stale = !feedback_fresh_;
+    if (rec.stale) ++stale_log_records_;
     if (!hw_.log(rec)) {
       enter_fault(Fault::kLogOverflow);
       return;
@@ -320,6 +325,8 @@ class Controller {
   std::uint32_t run_tick_{0};
   std::uint32_t stale_cycles_{0};
   std::uint32_t log_seq_{0};
+  std::uint32_t stale_log_records_{0};
+  bool feedback_fresh_{true};
   bool last_stale_was_late_{false};
   bool start_requested_{false};
   bool stop_requested_{false};

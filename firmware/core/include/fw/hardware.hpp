@@ -54,6 +54,9 @@ struct LogRecord {
   std::uint32_t seq{0};
   JointAnglesQ q_rad{};
   std::array<Q12_19, 3> tau_Nm{};
+  // A drive's feedback was missing this cycle: q and tau hold its last
+  // values, so the record is not a sample (its seq is still used).
+  bool stale{false};
 };
 
 }  // namespace fw

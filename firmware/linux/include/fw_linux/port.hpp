@@ -42,6 +42,7 @@ struct CycleStats {
   double wall_s{0};
   double simulated_s{0};
   std::uint64_t late_frames{0};
+  std::uint64_t stale_log_records{0};  // logged, marked stale: a drive's feedback missed the cycle
   std::uint64_t send_failures{0};
 };
 
