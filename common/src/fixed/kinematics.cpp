@@ -51,11 +51,22 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
   InverseKinematicsQ r;
   const Q7_24 a = g.upper_arm_length_m;
   const Q7_24 b = g.forearm_length_m;
+  // The platform joint in each chain's frame: radial X, tangential Y, Z.
+  // X_k = x cos_k + y sin_k + r_p - r_b and Y_k = y cos_k - x sin_k, with
+  // cos 1, -1/2, -1/2 and sin 0, s, -s: four products serve all three
+  // chains (a product with 1 is exact, and rounding is odd-symmetric, so
+  // these are the same values as the twelve products written out).
+  const Q1_30 half_neg = kCos[1], s = kSin[1];
+  const Q7_24 hx = mul<Q7_24>(p.x_m, half_neg), hy = mul<Q7_24>(p.y_m, half_neg);
+  const Q7_24 sx = mul<Q7_24>(p.x_m, s), sy = mul<Q7_24>(p.y_m, s);
+  const Q7_24 offset_r = g.platform_radius_m;
+  const Q7_24 Xs[3] = {p.x_m + Q7_24::zero() + offset_r - g.base_radius_m,
+                       hx + sy + offset_r - g.base_radius_m,
+                       hx + (-sy) + offset_r - g.base_radius_m};
+  const Q7_24 Ys[3] = {p.y_m - Q7_24::zero(), hy - sx, hy - (-sx)};
   for (unsigned k = 0; k < 3; ++k) {
-    // The platform joint in the chain's frame: radial X, tangential Y, Z.
-    const Q7_24 X = mul<Q7_24>(p.x_m, kCos[k]) + mul<Q7_24>(p.y_m, kSin[k]) + g.platform_radius_m -
-                    g.base_radius_m;
-    const Q7_24 Y = mul<Q7_24>(p.y_m, kCos[k]) - mul<Q7_24>(p.x_m, kSin[k]);
+    const Q7_24 X = Xs[k];
+    const Q7_24 Y = Ys[k];
     const Q7_24 Z = p.z_m;
     // E cos(theta) + F sin(theta) + G = 0, all exact in Q.48.
     i64 E = -2 * prod48(a, X);

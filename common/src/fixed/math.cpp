@@ -1,5 +1,7 @@
 #include "delta/fixed/math.hpp"
 
+#include <array>
+
 namespace delta::fx {
 
 namespace {
@@ -15,8 +17,8 @@ constexpr std::int64_t kTwoOverPiQ32 = 2734261102LL;
 constexpr std::int32_t kAtanPolyQ30[10] = {-1826617,   11261028,  -32590067,  61299444,
                                            -89654489,  117385123, -153115757, 214727698,
                                            -357913329, 1073741821};
-constexpr std::int64_t kPiQ29 = 1686629713;
-constexpr std::int64_t kHalfPiQ29 = 843314857;
+constexpr std::int32_t kPiQ29 = 1686629713;
+constexpr std::int32_t kHalfPiQ29 = 843314857;
 
 // Taylor coefficients 1/k! in Q1.30.
 constexpr std::int32_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
@@ -118,43 +120,71 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
   // t = small / big in Q1.30 through the reciprocal r = 2^31 / big, by
   // Newton's iteration r <- r (2 - a r) from r0 = 48/17 - 32/17 a, where
   // a = big / 2^31 in [1/2, 1): error 1/17, then 2.9e-3, 1.2e-5, 1.4e-10.
-  const std::int64_t a = big >> 1;                             // Q1.30
-  std::int64_t r = 3031741621LL - ((2021161080LL * a) >> 30);  // Q2.30
+  // a (Q1.30) is below 2^30, r and e (Q2.30) below 2^32: unsigned 32-bit
+  // values with 64-bit products, one multiply each on a 32-bit machine.
+  using u32 = std::uint32_t;
+  using u64 = std::uint64_t;
+  const u32 a = big >> 1;                                                // Q1.30
+  u32 r = 3031741621u - static_cast<u32>((u64{2021161080u} * a) >> 30);  // Q2.30
   for (int i = 0; i < 3; ++i) {
-    const std::int64_t e = (std::int64_t{2} << 30) - ((a * r) >> 30);
-    r = (r * e) >> 30;
+    const u32 e = (u32{2} << 30) - static_cast<u32>((u64{a} * r) >> 30);
+    r = static_cast<u32>((u64{r} * e) >> 30);
   }
-  const std::int64_t t = (std::int64_t{small} * r + (std::int64_t{1} << 30)) >> 31;  // Q1.30
+  const auto t = static_cast<std::int32_t>((u64{small} * r + (u64{1} << 30)) >> 31);  // Q1.30
   // atan(t) = t P(t^2) on [0, 1]: a near-minimax (Chebyshev) fit of degree 9
   // in t^2, fit error 2.8e-9.
   // t and u lie in [0, 1] and every partial sum of P within the sum of the
   // coefficients' magnitudes, 1.97: all fit 32 bits in Q1.30, so 32-bit
   // arithmetic around each 64-bit product.
-  const std::int32_t u = mul30(static_cast<std::int32_t>(t), static_cast<std::int32_t>(t));
+  const std::int32_t u = mul30(t, t);
   std::int32_t p = kAtanPolyQ30[0];
   for (int k = 1; k < 10; ++k) p = kAtanPolyQ30[k] + mul30(u, p);
-  std::int64_t angle = (t * p + (std::int64_t{1} << 30)) >> 31;  // Q2.29, in [0, pi/4]
+  // Q2.29, in [0, pi/4]: 32 bits from here on.
+  auto angle = static_cast<std::int32_t>((std::int64_t{t} * p + (std::int64_t{1} << 30)) >> 31);
   // Back to the octant, the half plane and the sign of y.
   if (uy > ux) angle = kHalfPiQ29 - angle;
   if (x < 0) angle = kPiQ29 - angle;
   if (y < 0) angle = -angle;
-  return Q3_28::from_raw(static_cast<std::int32_t>(detail::shift_round(angle, 1)));
+  return Q3_28::from_raw(detail::shift_round32(angle, 1));
 }
+
+namespace {
+
+// floor(sqrt(x)) by bisection, for the table below (compile time only).
+constexpr std::uint32_t isqrt_slow(std::uint64_t x) {
+  std::uint64_t lo = 0, hi = 1ull << 32;
+  while (hi - lo > 1) {
+    const std::uint64_t mid = (lo + hi) / 2;
+    (mid * mid <= x ? lo : hi) = mid;
+  }
+  return static_cast<std::uint32_t>(lo);
+}
+
+// sqrt of the middle of each interval [i 2^24, (i + 1) 2^24), i = 64..255:
+// a seed within 0.4 % of sqrt(hi) for any hi in [2^30, 2^32).
+constexpr auto kSqrtSeed = [] {
+  std::array<std::uint16_t, 192> t{};
+  for (std::uint32_t i = 0; i < 192; ++i) {
+    t[i] = static_cast<std::uint16_t>(isqrt_slow((std::uint64_t{i + 64} << 24) + (1u << 23)));
+  }
+  return t;
+}();
+
+}  // namespace
 
 std::uint64_t isqrt_round(std::uint64_t v) {
   if (v == 0) return 0;
   // Normalise by an even shift so that n = v * 4^k lies in [2^62, 2^64).
   const int shift = __builtin_clzll(v) & ~1;
   const std::uint64_t n = v << shift;
-  // floor(sqrt(n >> 32)) by 32-bit Newton from above (a hardware divide on
-  // Cortex-M4), then one correction step to about 2^-15 and an exact fix-up.
+  // floor(sqrt(n >> 32)): a seed from the table, one Newton step (a
+  // hardware divide on Cortex-M4), which lands on the floor or one above
+  // it (the seed is within 0.4 %), and a check.
   const auto hi = static_cast<std::uint32_t>(n >> 32);  // [2^30, 2^32)
-  std::uint32_t x = 0xFFFFu;                            // >= floor(sqrt(hi))
-  for (;;) {
-    const std::uint32_t y = (x + hi / x) >> 1;
-    if (y >= x) break;
-    x = y;
-  }
+  const std::uint32_t seed = kSqrtSeed[(hi >> 24) - 64];
+  std::uint32_t x = (seed + hi / seed) >> 1;
+  if (x * x > hi || x > 0xFFFFu) --x;
+  // Then one correction step to about 2^-15 and an exact fix-up.
   std::uint64_t y = std::uint64_t{x} << 16;  // <= sqrt(n) < 2^32
   const std::uint64_t e = n - y * y;         // < 2^50
   y += static_cast<std::uint32_t>(e >> 17) / static_cast<std::uint32_t>(y >> 16);

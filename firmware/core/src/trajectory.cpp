@@ -56,16 +56,29 @@ i64 per_second(i64 x, std::uint32_t ticks_per_second) {
 
 }  // namespace
 
-MinJerk min_jerk(Q1_30 s) {
-  const Q1_30 one = Q1_30::from(1.0);
-  const Q1_30 s2 = mul<Q1_30>(s, s);
+namespace {
+
+// w = s^3 (10 - 15 s + 6 s^2), from s and s^2.
+Q1_30 min_jerk_w(Q1_30 s, Q1_30 s2) {
   const Q1_30 s3 = mul<Q1_30>(s2, s);
-  const Q1_30 u = one - s;
   // 10 - 15 s + 6 s^2 lies in [0.625, 10]: in Q7.24.
   const Q7_24 poly =
       Q7_24::from(10.0) - mul<Q7_24>(Q7_24::from(15.0), s) + mul<Q7_24>(Q7_24::from(6.0), s2);
+  return mul<Q1_30>(s3, poly);
+}
+
+}  // namespace
+
+Q1_30 min_jerk_position(Q1_30 s) {
+  return min_jerk_w(s, mul<Q1_30>(s, s));
+}
+
+MinJerk min_jerk(Q1_30 s) {
+  const Q1_30 one = Q1_30::from(1.0);
+  const Q1_30 s2 = mul<Q1_30>(s, s);
+  const Q1_30 u = one - s;
   MinJerk r;
-  r.w = mul<Q1_30>(s3, poly);
+  r.w = min_jerk_w(s, s2);
   r.dw = mul<Q1_30>(mul<Q7_24>(Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
   r.ddw = mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, u)), one - s.scaled_by(2));
   return r;
@@ -159,7 +172,7 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
   const std::uint32_t seg = (t / p.segment_ticks) % p.waypoints;
   const std::uint32_t in_seg = t % p.segment_ticks;
   const Q1_30 s = delta::fx::ratio(in_seg, p.segment_ticks);
-  const Q1_30 f = min_jerk(s).w;
+  const Q1_30 f = min_jerk_position(s);
   const Vec3Q& a = p.points[seg];
   const Vec3Q& b = p.points[(seg + 1) % p.waypoints];
   const Vec3Q pos{a.x_m + mul<Q7_24>(b.x_m - a.x_m, f), a.y_m + mul<Q7_24>(b.y_m - a.y_m, f),

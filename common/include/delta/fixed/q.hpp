@@ -25,9 +25,23 @@ namespace detail {
 inline void fixed_point_constant_out_of_range() {}
 
 constexpr std::int32_t saturate32(std::int64_t v) {
-  if (v > INT32_MAX) return INT32_MAX;
-  if (v < INT32_MIN) return INT32_MIN;
-  return static_cast<std::int32_t>(v);
+  // In range when the high word is the sign of the low one: one compare on
+  // a 32-bit machine for the common case.
+  const auto low = static_cast<std::int32_t>(v);
+  if (static_cast<std::int32_t>(v >> 32) == (low >> 31)) return low;
+  return v < 0 ? INT32_MIN : INT32_MAX;
+}
+
+// a + b and a - b, saturated to 32 bits.
+constexpr std::int32_t add_saturate(std::int32_t a, std::int32_t b) {
+  std::int32_t r = 0;
+  if (__builtin_add_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
+  return r;
+}
+constexpr std::int32_t sub_saturate(std::int32_t a, std::int32_t b) {
+  std::int32_t r = 0;
+  if (__builtin_sub_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
+  return r;
 }
 
 // v / 2^shift rounded to nearest, ties away from zero; shift may be <= 0
@@ -44,6 +58,13 @@ constexpr std::int64_t shift_round(std::int64_t v, int shift) {
   if (shift >= 63) return 0;
   const std::int64_t half = std::int64_t{1} << (shift - 1);
   return v >= 0 ? (v + half) >> shift : -((-v + half) >> shift);
+}
+
+// The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic):
+// for v < 0, -((-v + half) >> shift) equals (v + half - 1) >> shift.
+constexpr std::int32_t shift_round32(std::int32_t v, int shift) {
+  const std::int32_t half = std::int32_t{1} << (shift - 1);
+  return (v + half + (v >> 31)) >> shift;
 }
 
 }  // namespace detail
@@ -83,12 +104,8 @@ class Q {
 
   constexpr std::int32_t raw() const { return raw_; }
 
-  friend constexpr Q operator+(Q a, Q b) {
-    return from_raw(detail::saturate32(std::int64_t{a.raw_} + b.raw_));
-  }
-  friend constexpr Q operator-(Q a, Q b) {
-    return from_raw(detail::saturate32(std::int64_t{a.raw_} - b.raw_));
-  }
+  friend constexpr Q operator+(Q a, Q b) { return from_raw(detail::add_saturate(a.raw_, b.raw_)); }
+  friend constexpr Q operator-(Q a, Q b) { return from_raw(detail::sub_saturate(a.raw_, b.raw_)); }
   constexpr Q operator-() const { return from_raw(detail::saturate32(-std::int64_t{raw_})); }
   constexpr Q& operator+=(Q o) { return *this = *this + o; }
   constexpr Q& operator-=(Q o) { return *this = *this - o; }

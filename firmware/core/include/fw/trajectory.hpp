@@ -36,6 +36,9 @@ struct MinJerk {
   Q3_28 ddw;  // 60 s (1 - s)(1 - 2 s), at most 5.8
 };
 MinJerk min_jerk(Q1_30 s);
+// Its w alone, the same value (for the Cartesian segments, whose rates come
+// from differences of positions).
+Q1_30 min_jerk_position(Q1_30 s);
 
 // The reference the controller tracks at one tick.
 struct JointReference {

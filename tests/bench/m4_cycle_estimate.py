@@ -1,0 +1,150 @@
+#!/usr/bin/env python3
+"""Cycles per control step on a Cortex-M4, estimated from the executed
+instructions: qemu runs the step image one instruction per translation block
+and logs every one it executes (-singlestep -d exec,nochain); each executed
+instruction of the measured window (between the image's mark_begin and
+mark_end around the control steps) is priced with the cycle counts of the
+Cortex-M4 Technical Reference Manual (ARM 100166, table 3-1, zero wait
+states), branches as taken or not from the next executed address.
+
+The pipeline refill P of a taken branch is 1 to 3 cycles; the estimate is
+given for P = 1 and for P = 3 (the worst case), with loads and stores at
+2 cycles (no credit for the M4's pipelining of neighbouring loads) and
+divides at their worst case, 12. So the P = 3 figure is an upper bound for
+code fetched without wait states (SRAM, or flash through a warm cache).
+
+  tests/bench/m4_cycle_estimate.py [BUILD_DIR]
+"""
+import re
+import subprocess
+import sys
+from collections import Counter
+
+build = sys.argv[1] if len(sys.argv) > 1 else "build"
+elf = f"{build}/firmware-target/step_target.elf"
+STEPS = 200  # the image's run_control_steps count
+MHZ = 168
+
+# Disassembly: address -> (size in bytes, mnemonic, operands).
+insns = {}
+dump = subprocess.run(["arm-none-eabi-objdump", "-d", elf], capture_output=True, text=True,
+                      check=True).stdout
+line_re = re.compile(r"^\s+([0-9a-f]+):\s+([0-9a-f]{4})(?: ([0-9a-f]{4}))?\s+(\S+)\s*(.*)$")
+for line in dump.splitlines():
+    m = line_re.match(line)
+    if m:
+        size = 4 if m.group(3) else 2
+        insns[int(m.group(1), 16)] = (size, m.group(4), m.group(5))
+
+
+def base(mnemonic):
+    # Drop the width qualifier and a condition or flag-setting suffix.
+    m = mnemonic.split(".")[0]
+    return m
+
+
+BRANCHES = {"b", "bl", "blx", "bx", "cbz", "cbnz", "tbb", "tbh"}
+CONDS = ("eq", "ne", "cs", "hs", "cc", "lo", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt",
+         "gt", "le", "al")
+
+
+def kind(mnemonic, operands):
+    """A class for the cycle table."""
+    m = base(mnemonic)
+    if m in BRANCHES or (m.startswith("b") and m[1:] in CONDS):
+        return "branch"
+    if m in ("udiv", "sdiv"):
+        return "divide"
+    if m in ("ldrd", "strd"):
+        return "double"
+    if m.startswith("ldm") or m.startswith("stm") or m in ("push", "pop"):
+        return "multiple"
+    if m.startswith("ldr") or m.startswith("str"):
+        return "single"
+    if m == "mov" and operands.startswith("pc"):
+        return "branch"
+    return "alu"  # data processing, multiplies (MUL..SMLAL are 1 cycle on the M4), IT
+
+
+def registers_in_list(operands):
+    inside = operands[operands.find("{") + 1:operands.find("}")]
+    n = 0
+    for part in inside.split(","):
+        part = part.strip()
+        if "-" in part:
+            lo, hi = part.split("-")
+            n += int(hi.strip()[1:]) - int(lo.strip()[1:]) + 1
+        elif part:
+            n += 1
+    return n
+
+
+def cycles(pc, next_pc, refill):
+    size, mnemonic, operands = insns[pc]
+    k = kind(mnemonic, operands)
+    taken = next_pc is not None and next_pc != pc + size
+    if k == "branch":
+        extra = 1 if base(mnemonic) in ("tbb", "tbh") else 0
+        return 1 + extra + (refill if taken else 0)
+    if k == "divide":
+        return 12
+    if k == "double":
+        return 3
+    if k == "multiple":
+        n = registers_in_list(operands)
+        return 1 + n + (refill if "pc" in operands else 0)
+    if k == "single":
+        return 2 + (refill if operands.startswith("pc") else 0)
+    return 1
+
+
+# The measured window: after mark_begin returns into the steps, until mark_end.
+qemu = subprocess.Popen(
+    ["qemu-system-arm", "-M", "mps2-an386", "-nographic", "-icount", "shift=0", "-singlestep",
+     "-d", "exec,nochain", "-D", "/dev/stderr", "-semihosting-config",
+     "enable=on,target=native", "-kernel", elf],
+    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+trace = []
+state = "before"
+for line in qemu.stderr:
+    if not line.startswith("Trace"):
+        continue
+    fields = line.split()
+    if "ff038201" in fields[3]:
+        continue  # the same instruction again, re-executed for its I/O access
+    symbol = fields[-1]
+    if state == "before":
+        if symbol.endswith("mark_beginEv"):
+            state = "begin"
+        continue
+    if state == "begin":
+        if symbol.endswith("mark_beginEv"):
+            continue
+        state = "in"
+    if symbol.endswith("mark_endEv"):
+        break
+    trace.append(int(fields[3].split("/")[1], 16))
+qemu.kill()
+qemu.wait()
+if not trace:
+    sys.exit("m4_cycle_estimate: no measured window found in the trace")
+
+by_kind = Counter()
+total = {1: 0, 3: 0}
+for i, pc in enumerate(trace):
+    nxt = trace[i + 1] if i + 1 < len(trace) else None
+    if pc not in insns:
+        sys.exit(f"m4_cycle_estimate: executed address {pc:#x} is not in the disassembly")
+    by_kind[kind(insns[pc][1], insns[pc][2])] += 1
+    for p in total:
+        total[p] += cycles(pc, nxt, p)
+
+n = len(trace) / STEPS
+print(f"cortex-m4 cycle estimate: {n:.0f} instructions per control step "
+      f"({len(trace)} over {STEPS} steps)")
+for k, c in sorted(by_kind.items(), key=lambda kv: -kv[1]):
+    print(f"  {k:9s} {c / STEPS:7.1f} per step")
+for p in sorted(total):
+    c = total[p] / STEPS
+    print(f"  P = {p}: {c:.0f} cycles per step = {c / MHZ:.1f} us at {MHZ} MHz "
+          f"(CPI {c / n:.2f})")
