@@ -184,12 +184,15 @@ std::uint64_t isqrt_round(std::uint64_t v) {
   const std::uint32_t seed = kSqrtSeed[(hi >> 24) - 64];
   std::uint32_t x = (seed + hi / seed) >> 1;
   if (x * x > hi || x > 0xFFFFu) --x;
-  // Then one correction step to about 2^-15 and an exact fix-up.
-  std::uint64_t y = std::uint64_t{x} << 16;  // <= sqrt(n) < 2^32
-  const std::uint64_t e = n - y * y;         // < 2^50
-  y += static_cast<std::uint32_t>(e >> 17) / static_cast<std::uint32_t>(y >> 16);
-  while (y * y > n || y > 0xFFFFFFFFu) --y;
-  while (y < 0xFFFFFFFFu && (y + 1) * (y + 1) <= n) ++y;
+  // Then one correction step to about 2^-15 and an exact fix-up, in 32-bit
+  // values (floor(sqrt(n)) < 2^32) with 64-bit squares.
+  using u64 = std::uint64_t;
+  const std::uint32_t y0 = x << 16;  // <= sqrt(n)
+  const u64 e = n - u64{y0} * y0;    // < 2^50
+  const u64 y1 = u64{y0} + static_cast<std::uint32_t>(e >> 17) / x;
+  std::uint32_t y = y1 > 0xFFFFFFFFu ? 0xFFFFFFFFu : static_cast<std::uint32_t>(y1);
+  while (u64{y} * y > n) --y;
+  while (y < 0xFFFFFFFFu && u64{y + 1} * (y + 1) <= n) ++y;
   // floor(sqrt(v)) = floor(floor(sqrt(n)) / 2^k); then round to nearest:
   // (r + 1/2)^2 = r^2 + r + 1/4 <= v  <=>  v - r^2 > r.
   std::uint64_t r = y >> (shift / 2);
