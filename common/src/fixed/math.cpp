@@ -12,13 +12,26 @@ constexpr std::int64_t kHalfPiQ58 = 452751216129820178LL;
 // 2 / pi in Q0.32.
 constexpr std::int64_t kTwoOverPiQ32 = 2734261102LL;
 
-// atan(t) / t as a polynomial in u = t^2 on [0, 1], highest power first,
-// Q1.30 (mpmath chebyfit, degree 9); pi and pi/2 in Q2.29.
-constexpr std::int32_t kAtanPolyQ30[10] = {-1826617,   11261028,  -32590067,  61299444,
-                                           -89654489,  117385123, -153115757, 214727698,
-                                           -357913329, 1073741821};
+// atan(t) / t as a polynomial in u = t^2 on [0, tan^2(pi/8)], highest power
+// first, Q1.30 (mpmath chebyfit, degree 5: 6.2e-10, 1.5e-9 with the Q1.30
+// coefficients and Horner steps); pi, pi/2 and pi/4 in Q2.29.
+constexpr std::int32_t kAtanPolyQ30[6] = {-64706960, 113492673,  -152895818,
+                                          214728855, -357913657, 1073741823};
+// tan(pi/8) in Q0.32.
+constexpr std::uint64_t kTanPiOver8Q32 = 1779033704u;
+// 1 / D for D in the middle of [(128 + i) / 256, (129 + i) / 256), Q1.15:
+// 2^24 / (257 + 2 i), rounded.
+constexpr auto kReciprocalSeedQ15 = [] {
+  std::array<std::uint16_t, 128> t{};
+  for (std::uint32_t i = 0; i < 128; ++i) {
+    const std::uint32_t d = 257 + 2 * i;
+    t[i] = static_cast<std::uint16_t>(((1u << 24) + d / 2) / d);
+  }
+  return t;
+}();
 constexpr std::int32_t kPiQ29 = 1686629713;
 constexpr std::int32_t kHalfPiQ29 = 843314857;
+constexpr std::int32_t kQuarterPiQ29 = 421657428;
 
 // Taylor coefficients 1/k! in Q1.30.
 constexpr std::int32_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
@@ -117,30 +130,34 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
                                                   : (ux > uy ? ux : uy) >> -lead);
   auto small = static_cast<std::uint32_t>(lead >= 0 ? (ux > uy ? uy : ux) << lead
                                                     : (ux > uy ? uy : ux) >> -lead);
-  // t = small / big in Q1.30 through the reciprocal r = 2^31 / big, by
-  // Newton's iteration r <- r (2 - a r) from r0 = 48/17 - 32/17 a, where
-  // a = big / 2^31 in [1/2, 1): error 1/17, then 2.9e-3, 1.2e-5, 1.4e-10.
-  // a (Q1.30) is below 2^30, r and e (Q2.30) below 2^32: unsigned 32-bit
-  // values with 64-bit products, one multiply each on a 32-bit machine.
+  // atan(small / big) in [0, pi/4]; above pi/8 as pi/4 - atan(t) with
+  // t = (big - small) / (big + small), so that t lies in [0, tan(pi/8)]
+  // either way and a short polynomial serves.
   using u32 = std::uint32_t;
   using u64 = std::uint64_t;
-  const u32 a = big >> 1;                                                // Q1.30
-  u32 r = 3031741621u - static_cast<u32>((u64{2021161080u} * a) >> 30);  // Q2.30
-  for (int i = 0; i < 3; ++i) {
-    const u32 e = (u32{2} << 30) - static_cast<u32>((u64{a} * r) >> 30);
+  const bool upper = (u64{small} << 32) > u64{big} * kTanPiOver8Q32;
+  u32 num = upper ? big - small : small;
+  u32 den = upper ? big + small : big;  // < 2^32
+  // t = num / den through the reciprocal of d = den * 2^k in [2^31, 2^32):
+  // a seed within 0.4 % from the table, then two Newton steps
+  // r <- r (2 - D r), D = d / 2^32 (errors 3.9e-3, 1.5e-5, 2.3e-10).
+  const int k = __builtin_clz(den);  // 0 or 1
+  den <<= k;
+  num <<= k;
+  u32 r = u32{kReciprocalSeedQ15[(den >> 24) - 128]} << 15;  // 1 / D in Q2.30
+  for (int i = 0; i < 2; ++i) {
+    const u32 e = (u32{2} << 30) - static_cast<u32>((u64{den} * r) >> 32);
     r = static_cast<u32>((u64{r} * e) >> 30);
   }
-  const auto t = static_cast<std::int32_t>((u64{small} * r + (u64{1} << 30)) >> 31);  // Q1.30
-  // atan(t) = t P(t^2) on [0, 1]: a near-minimax (Chebyshev) fit of degree 9
-  // in t^2, fit error 2.8e-9.
-  // t and u lie in [0, 1] and every partial sum of P within the sum of the
-  // coefficients' magnitudes, 1.97: all fit 32 bits in Q1.30, so 32-bit
-  // arithmetic around each 64-bit product.
+  const auto t = static_cast<std::int32_t>((u64{num} * r + (u64{1} << 31)) >> 32);  // Q1.30
+  // atan(t) = t P(t^2). t, u and every partial sum of P fit 32 bits in
+  // Q1.30, so 32-bit arithmetic around each 64-bit product.
   const std::int32_t u = mul30(t, t);
   std::int32_t p = kAtanPolyQ30[0];
-  for (int k = 1; k < 10; ++k) p = kAtanPolyQ30[k] + mul30(u, p);
-  // Q2.29, in [0, pi/4]: 32 bits from here on.
+  for (int j = 1; j < 6; ++j) p = kAtanPolyQ30[j] + mul30(u, p);
+  // Q2.29 from here on, 32 bits.
   auto angle = static_cast<std::int32_t>((std::int64_t{t} * p + (std::int64_t{1} << 30)) >> 31);
+  if (upper) angle = kQuarterPiQ29 - angle;
   // Back to the octant, the half plane and the sign of y.
   if (uy > ux) angle = kHalfPiQ29 - angle;
   if (x < 0) angle = kPiQ29 - angle;
