@@ -10,7 +10,6 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -88,13 +87,22 @@ hil::Child start_emulator(const std::vector<std::string>& extra = {}) {
   return emu;
 }
 
-// The sum of the first number of every match of `pattern` in `text`.
-std::uint64_t sum_of_matches(const std::string& text, const std::string& pattern) {
+// The sum of the whole numbers right after (or right before) every
+// occurrence of `marker` in `text`; occurrences without a number count 0.
+std::uint64_t sum_of_numbers(const std::string& text, const std::string& marker, bool after) {
   std::uint64_t sum = 0;
-  const std::regex re(pattern);
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), re); it != std::sregex_iterator();
-       ++it)
-    sum += std::stoull((*it)[1].str());
+  const auto is_digit = [](char c) { return c >= '0' && c <= '9'; };
+  for (std::size_t at = text.find(marker); at != std::string::npos;
+       at = text.find(marker, at + 1)) {
+    std::size_t b = after ? at + marker.size() : at;
+    std::size_t e = b;
+    if (after) {
+      while (e < text.size() && is_digit(text[e])) ++e;
+    } else {
+      while (b > 0 && is_digit(text[b - 1])) --b;
+    }
+    if (e > b) sum += std::stoull(text.substr(b, e - b));
+  }
   return sum;
 }
 
@@ -103,7 +111,7 @@ std::uint64_t sum_of_matches(const std::string& text, const std::string& pattern
 // lost: every record sent is either a sample or one of those.
 void expect_every_record_accounted_for(const std::string& out, std::uint64_t samples,
                                        std::uint64_t sent) {
-  const std::uint64_t stale = sum_of_matches(out, R"(left out (\d+) sample)");
+  const std::uint64_t stale = sum_of_numbers(out, "left out ", true);
   EXPECT_EQ(samples + stale, sent) << out;
   EXPECT_EQ(out.find(" lost "), std::string::npos) << out;
   if (stale > 0) std::cout << "note: " << stale << " record(s) marked stale were left out\n";
@@ -267,8 +275,8 @@ TEST_F(ExcitationSession, TheRecordedLogIsCompleteAndTheFitMatchesTheEmulatorsTr
   const Session& s = *g_session;
   ASSERT_EQ(s.record_exit, 0) << s.record_out;
   // path1 at 500 Hz: 2 s approach, 1 s blend, 2 periods of 5 s, 1 s blend, 0.4 s hold.
-  expect_every_record_accounted_for(s.record_out,
-                                    sum_of_matches(s.record_out, R"(record: (\d+) samples)"), 7201);
+  expect_every_record_accounted_for(s.record_out, sum_of_numbers(s.record_out, " samples (", false),
+                                    7201);
   expect_fit_matches_truth(s.dir + "/path1.csv", s.dir);
 }
 
@@ -580,8 +588,8 @@ TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
   ASSERT_EQ(excite.wait(300s).value_or(-1), 0) << excite.out() << excite.err();
   std::cout << excite.out();
   const std::string said = excite.out() + excite.err();
-  const std::uint64_t recorded = sum_of_matches(said, R"((\d+) recorded of)");
-  EXPECT_EQ(sum_of_matches(said, R"(recorded of (\d+) sent)"), 7201u) << said;
+  const std::uint64_t recorded = sum_of_numbers(said, " recorded of", false);
+  EXPECT_EQ(sum_of_numbers(said, "recorded of ", true), 7201u) << said;
   EXPECT_NE(said.find("sent, 0 lost, "), std::string::npos) << said;
   expect_every_record_accounted_for(said, recorded, 7201);
   std::ifstream log(dir + "/excite.csv");
