@@ -85,8 +85,9 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
   }
 
   if (panel_ != nullptr) {
-    panel_->serve([&](const PanelCommand& command) { return handle(c, command); });
-    publish(c, hw);
+    panel_->serve([&](const PanelCommand& command) { return handle(c, command); },
+                  [&] { return status(c, hw); });
+    panel_->publish(status(c, hw));
   }
   last_state_ = state;
 }
@@ -152,7 +153,7 @@ CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command
   return v;
 }
 
-void RunCoordinator::publish(const Controller& c, const LinuxHardware& hw) {
+PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw) const {
   PanelStatus s;
   s.state = c.state();
   s.fault = c.fault();
@@ -173,7 +174,7 @@ void RunCoordinator::publish(const Controller& c, const LinuxHardware& hw) {
     s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);
     s.tau_uNm[j] = micro(c.measured_torque()[j].raw(), 19);
   }
-  panel_->publish(s);
+  return s;
 }
 
 }  // namespace fw_linux

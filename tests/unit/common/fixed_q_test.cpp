@@ -41,6 +41,59 @@ TEST(FixedQTest, MultiplyRoundsToNearestAndSaturates) {
   EXPECT_EQ(mul<Q7_24>(Q7_24::from(-100.0), Q7_24::from(100.0)).raw(), INT32_MIN);
 }
 
+// mul() equals the plain rule (the exact product rounded half away from
+// zero, then saturated) for every operand tried: random raws of all
+// magnitudes and signs, ties, zeros and extremes. A faster rounding must
+// keep passing it.
+template <class R, class A, class B>
+void expect_mul_matches_the_rule(std::uint64_t seed) {
+  constexpr int shift = A::kFracBits + B::kFracBits - R::kFracBits;
+  const auto rule = [](std::int32_t a, std::int32_t b) {
+    const std::int64_t p = std::int64_t{a} * b;
+    const std::int64_t h = std::int64_t{1} << (shift - 1);
+    const std::int64_t q = p >= 0 ? (p + h) >> shift : -((-p + h) >> shift);
+    return static_cast<std::int32_t>(q > INT32_MAX ? INT32_MAX : (q < INT32_MIN ? INT32_MIN : q));
+  };
+  std::uint64_t x = seed;
+  const auto next = [&x] {
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return x;
+  };
+  constexpr std::int64_t half = std::int64_t{1} << (shift - 1);
+  constexpr auto half32 = static_cast<std::int32_t>(half > INT32_MAX ? INT32_MAX : half);
+  const std::int32_t edges[] = {
+      0, 1, -1, 2, -2, 3, -3, INT32_MAX, INT32_MIN, INT32_MIN + 1, half32, -half32};
+  for (const std::int32_t a : edges) {
+    for (const std::int32_t b : edges) {
+      ASSERT_EQ(mul<R>(A::from_raw(a), B::from_raw(b)).raw(), rule(a, b)) << a << " * " << b;
+    }
+  }
+  for (int i = 0; i < 200000; ++i) {
+    const auto a = static_cast<std::int32_t>(static_cast<std::uint32_t>(next()) >> (next() % 32));
+    const auto b = static_cast<std::int32_t>(static_cast<std::uint32_t>(next()) >> (next() % 32));
+    const std::int32_t sa = (next() & 1) ? -a : a;  // a is never INT32_MIN here
+    ASSERT_EQ(mul<R>(A::from_raw(sa), B::from_raw(b)).raw(), rule(sa, b)) << sa << " * " << b;
+    // A tie: -1 times an odd multiple of 2^(shift-1), where it fits.
+    const std::int64_t tie = static_cast<std::int64_t>(next() % 1024 * 2 + 1) * half;
+    if (tie <= INT32_MAX) {
+      const auto t = static_cast<std::int32_t>(tie);
+      ASSERT_EQ(mul<R>(A::from_raw(-1), B::from_raw(t)).raw(), rule(-1, t)) << t;
+      ASSERT_EQ(mul<R>(A::from_raw(t), B::from_raw(1)).raw(), rule(t, 1)) << t;
+    }
+  }
+}
+
+TEST(FixedQTest, MultiplyEqualsTheRoundingRuleForEveryOperand) {
+  expect_mul_matches_the_rule<Q7_24, Q7_24, Q7_24>(1);    // shift 24
+  expect_mul_matches_the_rule<Q7_24, Q1_30, Q7_24>(2);    // shift 30
+  expect_mul_matches_the_rule<Q12_19, Q12_19, Q3_28>(3);  // shift 28
+  expect_mul_matches_the_rule<Q1_30, Q1_30, Q1_30>(4);    // shift 30
+  expect_mul_matches_the_rule<Q3_28, Q1_30, Q1_30>(5);    // shift 32: the generic path
+  expect_mul_matches_the_rule<Q10_21, Q1_30, Q10_21>(6);  // shift 30
+}
+
 TEST(FixedQTest, DivideRoundsToNearestAndHandlesZero) {
   EXPECT_EQ(div<Q7_24>(Q7_24::from(1.0), Q7_24::from(3.0)).raw(), 5592405);   // 5592405.33
   EXPECT_EQ(div<Q7_24>(Q7_24::from(2.0), Q7_24::from(3.0)).raw(), 11184811);  // 11184810.67

@@ -146,6 +146,42 @@ struct Fixture : ::testing::Test {
   Client client;
 };
 
+// The loop answers a command only after it has published the status the
+// command produced: a client that writes start and reads at once sees the
+// new run (a race the sanitizer build once lost: run_id still 0).
+TEST(ControlPanelTest, TheStatusAfterACommandIsPublishedBeforeItsVerdict) {
+  ControlPanel panel;
+  PanelStatus before;
+  before.run_id = 7;
+  panel.publish(before);
+  for (int round = 0; round < 200; ++round) {
+    std::atomic<bool> done{false};
+    std::optional<CommandVerdict> verdict;
+    std::thread client([&] {
+      PanelCommand start;
+      start.kind = mb::Command::kStart;
+      verdict = panel.submit(start, std::chrono::seconds(10));
+      // Read at once, as a Modbus client reading after its write's reply.
+      EXPECT_EQ(panel.status().run_id, 8 + round) << "round " << round;
+      done.store(true);
+    });
+    PanelStatus after;
+    after.run_id = static_cast<std::uint16_t>(8 + round);
+    while (!done.load()) {
+      panel.serve(
+          [](const PanelCommand&) {
+            CommandVerdict v;
+            v.accepted = true;
+            return v;
+          },
+          [&] { return after; });
+    }
+    client.join();
+    ASSERT_TRUE(verdict.has_value());
+    EXPECT_TRUE(verdict->accepted);
+  }
+}
+
 TEST_F(Fixture, ReadsIdentityGeometryAndLiveValues) {
   const auto r = client.inputs();
   ASSERT_EQ(r.size(), mb::kInputCount);

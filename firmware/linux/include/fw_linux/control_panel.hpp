@@ -58,13 +58,16 @@ class ControlPanel {
  public:
   // --- the loop's side (never blocks) ---
   // Hands the waiting command, if the lock is free and there is one, to
-  // `handle` (CommandVerdict(const PanelCommand&)), under the lock, and
-  // wakes its submitter with the verdict. `handle` must be quick: O(1).
-  template <class Handler>
-  void serve(Handler&& handle) {
+  // `handle` (CommandVerdict(const PanelCommand&)), under the lock, then
+  // publishes `status_after()` (PanelStatus()), and only then wakes the
+  // submitter with the verdict: a client that reads the status after its
+  // command was answered sees the command's effect. Both must be quick.
+  template <class Handler, class StatusAfter>
+  void serve(Handler&& handle, StatusAfter&& status_after) {
     std::unique_lock lock(mutex_, std::try_to_lock);
     if (!lock.owns_lock() || !pending_) return;
     verdict_ = handle(static_cast<const PanelCommand&>(*pending_));
+    status_ = status_after();
     verdict_ticket_ = pending_ticket_;
     pending_.reset();
     lock.unlock();

@@ -44,7 +44,7 @@ class RunCoordinator {
  private:
   CommandVerdict handle(Controller& controller, const PanelCommand& command);
   void track_run(const Controller& controller);
-  void publish(const Controller& controller, const LinuxHardware& hw);
+  PanelStatus status(const Controller& controller, const LinuxHardware& hw) const;
 
   std::vector<NamedRun> runs_;
   bool exit_when_done_;
