@@ -153,7 +153,9 @@ int cmd_status(const std::vector<std::string>& args, std::ostream& out, std::ost
     out << "#" << r("run_id") << " " << run_result_text(r("run_result")) << ", tick "
         << r("run_tick") << " of " << r("run_length");
   }
-  out << "; " << r("log_records") << " log records sent\n";
+  out << "; " << r("log_records") << " log records sent";
+  if (r("stale_log_records") != 0) out << " (" << r("stale_log_records") << " marked stale)";
+  out << "\n";
   const std::int64_t reps = hold[mb::kRepetitions.address];
   out << "  settings   trajectory " << trajectory_name(hold[mb::kTrajectory.address])
       << ", amplitude " << std::setprecision(1) << hold[mb::kAmplitudeScale.address] / 10.0

@@ -71,6 +71,7 @@ void RegisterBank::refresh() {
   set("run_tick", s.run_tick);
   set("run_length", s.run_length);
   set("log_records", s.log_records);
+  set("stale_log_records", s.stale_log_records);
   set("fault_count", s.fault_count);
   for (unsigned k = 0; k < mb::kFaultHistoryLength; ++k) {
     mb::encode(mb::fault_history_code(k), static_cast<int>(s.fault_history[k].fault), in);

@@ -168,6 +168,7 @@ PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw)
   s.run_tick = c.run_tick();
   s.run_length = c.run_length_ticks();
   s.log_records = c.log_records();
+  s.stale_log_records = c.stale_log_records();
   s.fault_count = fault_count_;
   s.fault_history = history_;
   for (unsigned j = 0; j < 3; ++j) {

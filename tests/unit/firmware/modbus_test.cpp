@@ -46,6 +46,11 @@ class LoopThread {
     rig_.hw.gate_log(&panel.log_enabled());
     thread_ = std::thread([this] {
       while (!stop_.load()) {
+        // Node 3's TPDO1 misses the deadline while late cycles are owed.
+        const bool late = late_cycles_.load() > 0;
+        if (late) late_cycles_.fetch_sub(1);
+        rig_.bus.make_late(late ? delta::can::protocol::cob_id(delta::can::protocol::kTpdo1, 3)
+                                : ~0u);
         rig_.cycle();
         coordinator_.after_step(rig_.controller, rig_.hw, rig_.master);
         cycles_.fetch_add(1);
@@ -59,6 +64,8 @@ class LoopThread {
   }
   std::uint64_t cycles() const { return cycles_.load(); }
   SimulatedSafetyIo& io() { return rig_.io; }
+  // The next n cycles get node 3's feedback after their deadline.
+  void make_late(int n) { late_cycles_.store(n); }
 
  private:
   Rig rig_;
@@ -66,6 +73,7 @@ class LoopThread {
   RunCoordinator coordinator_;
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<int> late_cycles_{0};
   std::thread thread_;
 };
 
@@ -244,8 +252,26 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   // Every cycle of the run logged once, then the stop's 0.4 s.
   EXPECT_EQ(value(r.data(), "run_tick"), length);
   EXPECT_EQ(value(r.data(), "log_records"), length + 200);
+  EXPECT_EQ(value(r.data(), "stale_log_records"), 0);  // every cycle had its feedback
   EXPECT_EQ(value(r.data(), "fault_count"), 0);
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
+}
+
+TEST_F(Fixture, StaleRecordsAreCountedInTheirRegister) {
+  ASSERT_EQ(client.write(mb::kCommand, 1), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "state") == static_cast<int>(fw::State::kRunning) && value(x, "run_tick") > 50;
+  }));
+  EXPECT_EQ(client.input("stale_log_records"), 0);
+  loop.make_late(2);  // fewer than lost_feedback_cycles (3): the run goes on
+  ASSERT_TRUE(poll_until(
+      client, [](const std::uint16_t* x) { return value(x, "stale_log_records") == 2; }));
+  ASSERT_EQ(client.write(mb::kCommand, 2), 0);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "run_result") == static_cast<int>(mb::RunResult::kStopped);
+  }));
+  EXPECT_EQ(client.input("stale_log_records"), 2);
+  EXPECT_EQ(client.input("fault_count"), 0);
 }
 
 TEST_F(Fixture, StopEndsTheRunAsStopped) {

@@ -14,7 +14,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 1;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 2;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 // The trajectories the controller knows, by id (the holding register
@@ -122,12 +122,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 52> kRegisters{{
+inline constexpr std::array<Register, 53> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (1)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (2)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault"},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -176,6 +176,7 @@ inline constexpr std::array<Register, 52> kRegisters{{
     {"tau2", Table::kInput, 68, Type::kI32, 1, 1000000, "N m", "joint 2 torque from current (uN m)"},
     {"tau3", Table::kInput, 70, Type::kI32, 1, 1000000, "N m", "joint 3 torque from current (uN m)"},
     {"trajectory_count", Table::kInput, 72, Type::kU16, 1, 1, "", "trajectories the controller knows (ids 0 .. count-1)"},
+    {"stale_log_records", Table::kInput, 73, Type::kU32, 1, 1, "", "of log_records, those marked stale (a drive's feedback missed the cycle)"},
     // Settings and the command
     {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", "0 path1, 1 path2, 2 pick-and-place; not while running"},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},

@@ -36,6 +36,7 @@ struct PanelStatus {
   std::uint32_t run_tick{0};
   std::uint32_t run_length{0};
   std::uint32_t log_records{0};
+  std::uint32_t stale_log_records{0};
   std::uint16_t fault_count{0};
   std::array<FaultRecord, delta::modbus::kFaultHistoryLength> fault_history{};  // newest first
   std::array<std::int32_t, 3> q_urad{};
