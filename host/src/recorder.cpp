@@ -29,6 +29,17 @@ double scaled(const p::Signal& s, std::int64_t raw) {
          std::ldexp(1.0, s.scale.power2);
 }
 
+// Adds `count` seqs from `first` to runs kept in order, joining the last run
+// when they follow it.
+void append_run(std::vector<std::pair<std::uint64_t, std::uint64_t>>& runs, std::uint64_t first,
+                std::uint64_t count) {
+  if (!runs.empty() && runs.back().first + runs.back().second == first) {
+    runs.back().second += count;
+  } else {
+    runs.emplace_back(first, count);
+  }
+}
+
 }  // namespace
 
 std::uint64_t LogAssembler::unwrap(std::uint32_t seq15) {
@@ -97,22 +108,18 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
       // A seq is missing entirely; wait unless it is out of the window.
       if (*next_to_emit_ >= give_up_below) break;
       const std::uint64_t missing = x.seq - *next_to_emit_;
-      gaps_.emplace_back(*next_to_emit_, missing);
+      append_run(gaps_, *next_to_emit_, missing);
       lost_ += missing;
       next_to_emit_ = x.seq;
       continue;
     }
     if (!complete) {
       if (x.seq >= give_up_below) break;
-      gaps_.emplace_back(x.seq, 1);
+      append_run(gaps_, x.seq, 1);
       ++lost_;
     } else if (x.sample.stale) {
       // Not a sample: the controller said a drive's feedback missed it.
-      if (!stale_runs_.empty() && stale_runs_.back().first + stale_runs_.back().second == x.seq) {
-        ++stale_runs_.back().second;
-      } else {
-        stale_runs_.emplace_back(x.seq, 1);
-      }
+      append_run(stale_runs_, x.seq, 1);
       ++stale_;
     } else {
       complete_.push_back(x.sample);
@@ -121,18 +128,6 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
     ++i;
   }
   pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(i));
-  // Merge adjacent gap entries.
-  if (gaps_.size() >= 2) {
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> merged;
-    for (const auto& g : gaps_) {
-      if (!merged.empty() && merged.back().first + merged.back().second == g.first) {
-        merged.back().second += g.second;
-      } else {
-        merged.push_back(g);
-      }
-    }
-    gaps_ = std::move(merged);
-  }
 }
 
 std::vector<LogSample> LogAssembler::take_complete() {
@@ -143,13 +138,7 @@ std::vector<LogSample> LogAssembler::take_complete() {
 
 void LogAssembler::finish() {
   if (!next_to_emit_) return;
-  emit_up_to(UINT64_MAX);
-  // Whatever is still pending is incomplete.
-  for (const Pending& x : pending_) {
-    gaps_.emplace_back(x.seq, 1);
-    ++lost_;
-  }
-  pending_.clear();
+  emit_up_to(UINT64_MAX);  // gives up on every cycle still pending: each is lost
 }
 
 void DriveCurrentTracker::feed(const delta::can::Frame& f) {

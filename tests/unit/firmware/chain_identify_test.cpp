@@ -41,7 +41,8 @@ Path1Run record_path1(const emu::EmulatorConfig& ec, const std::vector<int>& lat
     rig.bus.make_late(late ? delta::can::protocol::cob_id(delta::can::protocol::kTpdo1, 3) : ~0u);
     rig.cycle();
     for (auto f : rig.bus.sent_) {
-      if (ignore_stale_mark) f.data[1] &= 0x7F;  // the stale bit, bit 15
+      if (ignore_stale_mark)
+        delta::can::protocol::pack(f.data, delta::can::protocol::kLogA.signals[3], 0);
       assembler.feed(f);
     }
     if (i > 0 && rig.controller.state() == fw::State::kReady) break;

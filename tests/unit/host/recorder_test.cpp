@@ -62,6 +62,23 @@ TEST(LogAssemblerTest, TheFifteenBitCounterWrapsWithoutAGap) {
   EXPECT_EQ(a.lost_samples(), 0u);
 }
 
+TEST(LogAssemblerTest, AdjacentLossesAreOneRunAndAnIncompleteLastCycleIsLost) {
+  LogAssembler a;
+  for (std::uint32_t k = 0; k < 100; ++k) {
+    const auto f = log_frames(k, {}, {});
+    if (k == 30 || k == 31) continue;  // two whole cycles lost
+    for (unsigned i = 0; i < 3; ++i) {
+      if ((k == 32 || k == 99) && i == 2) continue;  // then an incomplete one; the last too
+      a.feed(f[i]);
+    }
+  }
+  a.finish();
+  EXPECT_EQ(a.take_complete().size(), 96u);
+  EXPECT_EQ(a.lost_samples(), 4u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(a.gaps(), (std::vector<Run>{{30, 3}, {99, 1}}));
+}
+
 TEST(LogAssemblerTest, ARecordMarkedStaleIsLeftOutAndReportedButNotLost) {
   LogAssembler a;
   for (std::uint32_t k = 0; k < 100; ++k) {
