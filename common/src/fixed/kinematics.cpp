@@ -54,8 +54,9 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
   // The platform joint in each chain's frame: radial X, tangential Y, Z.
   // X_k = x cos_k + y sin_k + r_p - r_b and Y_k = y cos_k - x sin_k, with
   // cos 1, -1/2, -1/2 and sin 0, s, -s: four products serve all three
-  // chains (a product with 1 is exact, and rounding is odd-symmetric, so
-  // these are the same values as the twelve products written out).
+  // chains. They are the same values as the twelve products written out: a
+  // product with 1 is exact, and -(y s) rounds like y (-s) unless y s is a
+  // tie, which needs |y| >= 2^29 LSB = 32 m since s's raw value is odd.
   const Q1_30 half_neg = kCos[1], s = kSin[1];
   const Q7_24 hx = mul<Q7_24>(p.x_m, half_neg), hy = mul<Q7_24>(p.y_m, half_neg);
   const Q7_24 sx = mul<Q7_24>(p.x_m, s), sy = mul<Q7_24>(p.y_m, s);

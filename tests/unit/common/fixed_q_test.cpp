@@ -13,9 +13,12 @@ TEST(FixedQTest, CompileTimeConstantsRoundToNearest) {
   static_assert(Q7_24::from(1.0).raw() == 1 << 24);
   static_assert(Q7_24::from(-0.5).raw() == -(1 << 23));
   static_assert(Q1_30::from(0.25).raw() == 1 << 28);
-  // 2^-25 is half an LSB of Q7.24: ties round away from zero.
+  // 2^-25 is half an LSB of Q7.24: ties round upwards.
   static_assert(Q7_24::from(1.0 / 33554432.0).raw() == 1);
-  static_assert(Q7_24::from(-1.0 / 33554432.0).raw() == -1);
+  static_assert(Q7_24::from(-1.0 / 33554432.0).raw() == 0);
+  static_assert(Q7_24::from(-3.0 / 33554432.0).raw() == -1);
+  static_assert(Q7_24::from(-1.1 / 33554432.0).raw() == -1);
+  static_assert(Q7_24::from(-128.0).raw() == INT32_MIN);
   EXPECT_EQ(Q7_24::from(0.2).raw(), 3355443);  // 0.2 * 2^24 = 3355443.2
 }
 
@@ -34,15 +37,19 @@ TEST(FixedQTest, MultiplyRoundsToNearestAndSaturates) {
   EXPECT_EQ(p.raw(), 167772);
   // Mixed formats: Q1.30 * Q7.24 -> Q7.24.
   EXPECT_EQ(mul<Q7_24>(Q1_30::from(0.5), Q7_24::from(3.0)).raw(), Q7_24::from(1.5).raw());
-  // Rounding of a negative product: -1 LSB * 0.5 = -0.5 LSB -> -1 (away from zero).
-  EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(-1), Q7_24::from(0.5)).raw(), -1);
+  // Ties round upwards: -1 LSB * 0.5 = -0.5 LSB -> 0, +0.5 LSB -> 1,
+  // -3 LSB * 0.5 = -1.5 LSB -> -1; off a tie to the nearest.
+  EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(-1), Q7_24::from(0.5)).raw(), 0);
   EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(1), Q7_24::from(0.5)).raw(), 1);
+  EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(-3), Q7_24::from(0.5)).raw(), -1);
+  EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(-3), Q7_24::from(0.75)).raw(), -2);   // -2.25 -> -2
+  EXPECT_EQ(mul<Q7_24>(Q7_24::from_raw(-3), Q7_24::from(0.875)).raw(), -3);  // -2.625 -> -3
   EXPECT_EQ(mul<Q7_24>(Q7_24::from(100.0), Q7_24::from(100.0)).raw(), INT32_MAX);
   EXPECT_EQ(mul<Q7_24>(Q7_24::from(-100.0), Q7_24::from(100.0)).raw(), INT32_MIN);
 }
 
-// mul() equals the plain rule (the exact product rounded half away from
-// zero, then saturated) for every operand tried: random raws of all
+// mul() equals the plain rule (the exact product rounded to the nearest,
+// ties upwards, then saturated) for every operand tried: random raws of all
 // magnitudes and signs, ties, zeros and extremes. A faster rounding must
 // keep passing it.
 template <class R, class A, class B>
@@ -51,7 +58,10 @@ void expect_mul_matches_the_rule(std::uint64_t seed) {
   const auto rule = [](std::int32_t a, std::int32_t b) {
     const std::int64_t p = std::int64_t{a} * b;
     const std::int64_t h = std::int64_t{1} << (shift - 1);
-    const std::int64_t q = p >= 0 ? (p + h) >> shift : -((-p + h) >> shift);
+    // floor(p / 2^shift + 1/2), with / rounding towards zero in C++.
+    const std::int64_t num = p + h;
+    const std::int64_t den = std::int64_t{1} << shift;
+    const std::int64_t q = num / den - (num % den < 0 ? 1 : 0);
     return static_cast<std::int32_t>(q > INT32_MAX ? INT32_MAX : (q < INT32_MIN ? INT32_MIN : q));
   };
   std::uint64_t x = seed;
@@ -99,6 +109,12 @@ TEST(FixedQTest, DivideRoundsToNearestAndHandlesZero) {
   EXPECT_EQ(div<Q7_24>(Q7_24::from(2.0), Q7_24::from(3.0)).raw(), 11184811);  // 11184810.67
   EXPECT_EQ(div<Q7_24>(Q7_24::from(-2.0), Q7_24::from(3.0)).raw(), -11184811);
   EXPECT_EQ(div<Q7_24>(Q7_24::from(2.0), Q7_24::from(-3.0)).raw(), -11184811);
+  EXPECT_EQ(div<Q7_24>(Q7_24::from(-1.0), Q7_24::from(3.0)).raw(), -5592405);  // -5592405.33
+  // Ties round upwards: 1.5 and -1.5 LSB, 2.5 and -2.5 LSB.
+  EXPECT_EQ(div<Q7_24>(Q7_24::from_raw(3), Q7_24::from(2.0)).raw(), 2);
+  EXPECT_EQ(div<Q7_24>(Q7_24::from_raw(-3), Q7_24::from(2.0)).raw(), -1);
+  EXPECT_EQ(div<Q7_24>(Q7_24::from_raw(5), Q7_24::from(-2.0)).raw(), -2);
+  EXPECT_EQ(div<Q7_24>(Q7_24::from_raw(-5), Q7_24::from(-2.0)).raw(), 3);
   EXPECT_EQ(div<Q1_30>(Q7_24::from(0.25), Q7_24::from(0.5)).raw(), 1 << 29);
   EXPECT_EQ(div<Q7_24>(Q7_24::from(1.0), Q7_24::zero()).raw(), INT32_MAX);
   EXPECT_EQ(div<Q7_24>(Q7_24::from(-1.0), Q7_24::zero()).raw(), INT32_MIN);
@@ -111,7 +127,10 @@ TEST(FixedQTest, ConvertRoundsAndSaturates) {
   // Q1.30 -> Q7.24 drops 6 bits: 33 / 64 = 0.516 rounds to 1.
   EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(33)).raw(), 1);
   EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(31)).raw(), 0);
-  EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(-32)).raw(), -1);
+  // -32 / 64 = -0.5 is a tie (upwards: 0); -33 / 64 rounds to -1.
+  EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(-32)).raw(), 0);
+  EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(-33)).raw(), -1);
+  EXPECT_EQ(convert<Q7_24>(Q1_30::from_raw(-96)).raw(), -1);
 }
 
 }  // namespace

@@ -5,7 +5,11 @@
 //
 // - Add and subtract saturate at the type's range.
 // - mul<R>() and div<R>() compute through 64-bit intermediates, round to the
-//   nearest (ties away from zero) and saturate to the result format R.
+//   nearest and saturate to the result format R.
+// - Every rounding here is to the nearest, ties upwards: floor(x + 1/2), as
+//   ARM's SMMULR does. It is one add before the shift, with no branch on
+//   the sign; a tie (exactly half a step) goes towards +infinity, so that
+//   -x may round to one step above -(x rounded).
 // - Conversion from a floating-point literal exists only at compile time
 //   (consteval): no float or double reaches the object code.
 //
@@ -44,8 +48,8 @@ constexpr std::int32_t sub_saturate(std::int32_t a, std::int32_t b) {
   return r;
 }
 
-// v / 2^shift rounded to nearest, ties away from zero; shift may be <= 0
-// (a left shift, saturating later).
+// v / 2^shift rounded to nearest, ties upwards; shift may be <= 0 (a left
+// shift, saturating later).
 constexpr std::int64_t shift_round(std::int64_t v, int shift) {
   if (shift <= 0) {
     const int left = -shift;
@@ -57,14 +61,13 @@ constexpr std::int64_t shift_round(std::int64_t v, int shift) {
   }
   if (shift >= 63) return 0;
   const std::int64_t half = std::int64_t{1} << (shift - 1);
-  return v >= 0 ? (v + half) >> shift : -((-v + half) >> shift);
+  return (v + half) >> shift;
 }
 
-// The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic):
-// for v < 0, -((-v + half) >> shift) equals (v + half - 1) >> shift.
+// The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic).
 constexpr std::int32_t shift_round32(std::int32_t v, int shift) {
   const std::int32_t half = std::int32_t{1} << (shift - 1);
-  return (v + half + (v >> 31)) >> shift;
+  return (v + half) >> shift;
 }
 
 }  // namespace detail
@@ -91,12 +94,17 @@ class Q {
     return from_raw(detail::saturate32(detail::shift_round(v, -FracBits)));
   }
   // A compile-time constant from a floating-point literal, rounded to
-  // nearest; out of range does not compile.
+  // nearest (ties upwards, like every rounding here); out of range does not
+  // compile.
   static consteval Q from(long double v) {
-    const long double scaled = v * static_cast<long double>(std::int64_t{1} << FracBits);
-    const long double r = scaled >= 0 ? scaled + 0.5L : scaled - 0.5L;
-    if (r >= 2147483648.0L || r <= -2147483649.0L) detail::fixed_point_constant_out_of_range();
-    return from_raw(static_cast<std::int32_t>(static_cast<std::int64_t>(r)));
+    const long double scaled = v * static_cast<long double>(std::int64_t{1} << FracBits) + 0.5L;
+    if (scaled >= 2147483648.0L || scaled < -2147483648.0L) {
+      detail::fixed_point_constant_out_of_range();
+    }
+    // floor(): the cast truncates towards zero.
+    auto r = static_cast<std::int64_t>(scaled);
+    if (static_cast<long double>(r) > scaled) --r;
+    return from_raw(static_cast<std::int32_t>(r));
   }
   static constexpr Q max() { return from_raw(INT32_MAX); }
   static constexpr Q min() { return from_raw(INT32_MIN); }
@@ -168,9 +176,14 @@ constexpr R div(Q<IA, FA> a, Q<IB, FB> b) {
     if (-shift > 31) return R::zero();
     den *= std::int64_t{1} << -shift;
   }
+  // q + rem / den with |rem| < den: to the nearest, ties upwards.
   std::int64_t q = num / den;
   const std::int64_t rem = num % den;
-  if (2 * (rem < 0 ? -rem : rem) >= den) q += num < 0 ? -1 : 1;  // nearest, ties away
+  if (2 * rem >= den) {
+    ++q;
+  } else if (2 * rem < -den) {
+    --q;
+  }
   return R::from_raw(detail::saturate32(detail::shift_round(q, -post)));
 }
 
