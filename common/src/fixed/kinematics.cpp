@@ -19,16 +19,18 @@ constexpr i64 prod48(Q7_24 a, Q7_24 b) {
 }
 
 // Shifts a, b, c right together until all magnitudes are below 2^30, so
-// that squares and their sums fit in 64 bits. Ratios are unchanged.
+// that squares and their sums fit in 64 bits. Ratios are unchanged to
+// within a unit in 2^29 (the shifts round down: the discarded bits are
+// below the precision that is kept).
 void normalise(i64& a, i64& b, i64& c) {
   const auto mag = [](i64 v) { return static_cast<std::uint64_t>(v < 0 ? -v : v); };
   const std::uint64_t m = mag(a) | mag(b) | mag(c);
   // The shift that brings the top set bit below bit 30 (one clz, no loop).
   const int shift = m == 0 ? 0 : 34 - __builtin_clzll(m);
   if (shift > 0) {
-    a = detail::shift_round(a, shift);
-    b = detail::shift_round(b, shift);
-    c = detail::shift_round(c, shift);
+    a >>= shift;
+    b >>= shift;
+    c >>= shift;
   }
 }
 
