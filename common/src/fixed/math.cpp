@@ -1,6 +1,7 @@
 #include "delta/fixed/math.hpp"
 
 #include <array>
+#include <cstddef>
 
 namespace delta::fx {
 
@@ -13,8 +14,9 @@ constexpr std::int64_t kHalfPiQ58 = 452751216129820178LL;
 constexpr std::int64_t kTwoOverPiQ32 = 2734261102LL;
 
 // atan(t) / t as a polynomial in u = t^2 on [0, tan^2(pi/8)], highest power
-// first, Q1.30 (mpmath chebyfit, degree 5: 6.2e-10, 1.5e-9 with the Q1.30
-// coefficients and Horner steps); pi, pi/2 and pi/4 in Q2.29.
+// first, Q1.30 (mpmath chebyfit, degree 5: 6.2e-10; t P(u) is within
+// 5.5e-10 rad of atan t with the Q1.30 coefficients and the Horner steps
+// below); pi, pi/2 and pi/4 in Q2.29.
 constexpr std::int32_t kAtanPolyQ30[6] = {-64706960, 113492673,  -152895818,
                                           214728855, -357913657, 1073741823};
 // tan(pi/8) in Q0.32.
@@ -33,10 +35,13 @@ constexpr std::int32_t kPiQ29 = 1686629713;
 constexpr std::int32_t kHalfPiQ29 = 843314857;
 constexpr std::int32_t kQuarterPiQ29 = 421657428;
 
-// Taylor coefficients 1/k! in Q1.30.
-constexpr std::int32_t kInvFact[14] = {1073741824, 1073741824, 536870912, 178956971, 44739243,
-                                       8947849,    1491308,    213044,    26631,     2959,
-                                       296,        27,         2,         0};
+// cos r and sin(r) / r as polynomials in v = r^2 / 2 on [0, (pi/4)^2 / 2],
+// highest power first, Q1.30 (mpmath chebyfit, degree 4: 4.8e-11 and
+// 3.4e-12; the Taylor series would need two more terms for cos and one for
+// sin). With the Q1.30 coefficients and rounded Horner steps the error is
+// 0.81 LSB for cos and 1.04 LSB for sin at exact r.
+constexpr std::int32_t kCosPolyQ30[5] = {418842, -11928514, 178956756, -1073741816, 1073741824};
+constexpr std::int32_t kSinPolyQ30[5] = {46684, -1704174, 35791375, -357913941, 1073741824};
 
 constexpr std::int64_t kOneQ30 = std::int64_t{1} << 30;
 
@@ -45,6 +50,21 @@ constexpr std::int64_t kOneQ30 = std::int64_t{1} << 30;
 // and 32-bit arithmetic around it).
 constexpr std::int32_t mul30(std::int32_t a, std::int32_t b) {
   return static_cast<std::int32_t>((std::int64_t{a} * b + (std::int64_t{1} << 29)) >> 30);
+}
+
+// p * v for a fraction v in Q0.32 (0 <= v < 1/2), in p's format, rounded
+// half up: the result is the high word of the product, so a Horner step
+// is one multiply-accumulate and an add on Cortex-M4.
+constexpr std::int32_t times_fraction(std::int32_t p, std::int32_t v_q32) {
+  return static_cast<std::int32_t>((std::int64_t{p} * v_q32 + (std::int64_t{1} << 31)) >> 32);
+}
+
+// c[0] v^(n-1) + ... + c[n-1], Horner's rule with times_fraction().
+template <std::size_t N>
+constexpr std::int32_t horner(const std::int32_t (&c)[N], std::int32_t v_q32) {
+  std::int32_t p = c[0];
+  for (std::size_t k = 1; k < N; ++k) p = c[k] + times_fraction(p, v_q32);
+  return p;
 }
 
 }  // namespace
@@ -66,19 +86,20 @@ Reduced reduce(Q3_28 angle_rad) {
   return {static_cast<int>(n & 3), static_cast<std::int32_t>(detail::shift_round(r58, 28))};
 }
 
-// sin r = r (1 - r^2/3! + r^4/5! - ... - r^10/11!), Taylor error < 7e-12.
-// |r| <= pi/4 keeps every partial sum within Q1.30.
-std::int32_t sin_poly(std::int32_t x, std::int32_t x2) {
-  std::int32_t s = kInvFact[11];
-  for (int k = 9; k >= 1; k -= 2) s = kInvFact[k] - mul30(x2, s);
-  return mul30(x, s);
+// v = r^2 / 2 in Q0.32 from r in Q1.30: below 0.31 for |r| <= pi/4 (+ a
+// hair), so it fits and times_fraction() applies.
+std::int32_t half_square_q32(std::int32_t r) {
+  return static_cast<std::int32_t>((std::int64_t{r} * r + (std::int64_t{1} << 28)) >> 29);
 }
 
-// cos r = 1 - r^2/2! + r^4/4! - ... + r^12/12!, Taylor error < 4e-13.
-std::int32_t cos_poly(std::int32_t x2) {
-  std::int32_t c = kInvFact[12];
-  for (int k = 10; k >= 0; k -= 2) c = kInvFact[k] - mul30(x2, c);
-  return c;
+// sin r = r S(v); every partial sum stays within Q1.30.
+std::int32_t sin_poly(std::int32_t r, std::int32_t v) {
+  return mul30(r, horner(kSinPolyQ30, v));
+}
+
+// cos r = C(v).
+std::int32_t cos_poly(std::int32_t v) {
+  return horner(kCosPolyQ30, v);
 }
 
 Q1_30 clamp_unit(std::int64_t v) {
@@ -90,9 +111,9 @@ Q1_30 clamp_unit(std::int64_t v) {
 
 SinCos sincos(Q3_28 angle_rad) {
   const Reduced red = reduce(angle_rad);
-  const std::int32_t x2 = mul30(red.r, red.r);
-  const std::int64_t s = sin_poly(red.r, x2);
-  const std::int64_t c = cos_poly(x2);
+  const std::int32_t v = half_square_q32(red.r);
+  const std::int64_t s = sin_poly(red.r, v);
+  const std::int64_t c = cos_poly(v);
   switch (red.quadrant) {
     case 0:
       return {clamp_unit(s), clamp_unit(c)};
@@ -107,16 +128,16 @@ SinCos sincos(Q3_28 angle_rad) {
 
 Q1_30 cos(Q3_28 angle_rad) {
   const Reduced red = reduce(angle_rad);
-  const std::int32_t x2 = mul30(red.r, red.r);
+  const std::int32_t v = half_square_q32(red.r);
   switch (red.quadrant) {
     case 0:
-      return clamp_unit(cos_poly(x2));
+      return clamp_unit(cos_poly(v));
     case 1:
-      return clamp_unit(-sin_poly(red.r, x2));
+      return clamp_unit(-std::int64_t{sin_poly(red.r, v)});
     case 2:
-      return clamp_unit(-cos_poly(x2));
+      return clamp_unit(-std::int64_t{cos_poly(v)});
     default:
-      return clamp_unit(sin_poly(red.r, x2));
+      return clamp_unit(sin_poly(red.r, v));
   }
 }
 
@@ -150,11 +171,10 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
     r = static_cast<u32>((u64{r} * e) >> 30);
   }
   const auto t = static_cast<std::int32_t>((u64{num} * r + (u64{1} << 31)) >> 32);  // Q1.30
-  // atan(t) = t P(t^2). t, u and every partial sum of P fit 32 bits in
-  // Q1.30, so 32-bit arithmetic around each 64-bit product.
-  const std::int32_t u = mul30(t, t);
-  std::int32_t p = kAtanPolyQ30[0];
-  for (int j = 1; j < 6; ++j) p = kAtanPolyQ30[j] + mul30(u, p);
+  // atan(t) = t P(u), u = t^2 in Q0.32 (below 0.172). Every partial sum
+  // of P fits 32 bits in Q1.30, so 32-bit arithmetic around each product.
+  const auto u = static_cast<std::int32_t>((std::int64_t{t} * t + (std::int64_t{1} << 27)) >> 28);
+  const std::int32_t p = horner(kAtanPolyQ30, u);
   // Q2.29 from here on, 32 bits.
   auto angle = static_cast<std::int32_t>((std::int64_t{t} * p + (std::int64_t{1} << 30)) >> 31);
   if (upper) angle = kQuarterPiQ29 - angle;
