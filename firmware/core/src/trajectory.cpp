@@ -162,12 +162,6 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
   const auto& p = config_.pick_and_place;
   if (tick < 0) tick = 0;
   if (tick > length_ticks_) tick = length_ticks_;
-  for (const IkCacheEntry& e : ik_cache_) {
-    if (e.tick == tick) {
-      q = e.q;
-      return e.status;
-    }
-  }
   const auto t = static_cast<std::uint32_t>(tick);
   const std::uint32_t seg = (t / p.segment_ticks) % p.waypoints;
   const std::uint32_t in_seg = t % p.segment_ticks;
@@ -179,28 +173,37 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
                   a.z_m + mul<Q7_24>(b.z_m - a.z_m, f)};
   const auto ik = delta::fx::inverse_kinematics(geometry_, pos);
   q = ik.theta_rad;
-  ik_cache_[ik_cache_next_] = {tick, ik.status, ik.theta_rad};
-  ik_cache_next_ = (ik_cache_next_ + 1) % 3;
   return ik.status;
 }
 
 KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& out) const {
-  JointAnglesQ before{}, now{}, after{};
-  for (const auto& [t, q] : {std::pair<i64, JointAnglesQ*>{i64{tick} - 1, &before},
-                             std::pair<i64, JointAnglesQ*>{i64{tick}, &now},
-                             std::pair<i64, JointAnglesQ*>{i64{tick} + 1, &after}}) {
-    const auto st = cartesian_ik(t, *q);
+  IkWindow& w = ik_window_;
+  const i64 centre = tick;
+  if (centre == w.centre + 1) {  // the next tick: one new IK
+    w.q[0] = w.q[1];
+    w.q[1] = w.q[2];
+    w.status[0] = w.status[1];
+    w.status[1] = w.status[2];
+    w.status[2] = cartesian_ik(centre + 1, w.q[2]);
+  } else if (centre != w.centre) {
+    for (unsigned k = 0; k < 3; ++k) w.status[k] = cartesian_ik(centre - 1 + k, w.q[k]);
+  }
+  w.centre = centre;
+  for (const KinematicsStatus st : w.status) {
     if (st != KinematicsStatus::kOk) return st;
   }
+  const JointAnglesQ& before = w.q[0];
+  const JointAnglesQ& now = w.q[1];
+  const JointAnglesQ& after = w.q[2];
   const std::uint32_t rate = ticks_per_second_;
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).
+    // |d1| < 2^33 and rate <= 10^6: d1 * rate fits 64 bits.
     const i64 d1 = i64{after[j].raw()} - before[j].raw();
     const i64 d2 = i64{after[j].raw()} - 2 * i64{now[j].raw()} + before[j].raw();
-    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(per_second(d1, rate), 8)));
-    out.qdd_rad_s2[j] =
-        Q14_17::from_raw(saturate32(shift_round(per_second(per_second(d2, rate), rate), 11)));
+    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(d1 * rate, 8)));
+    out.qdd_rad_s2[j] = Q14_17::from_raw(saturate32(shift_round(per_second(d2 * rate, rate), 11)));
   }
   return KinematicsStatus::kOk;
 }

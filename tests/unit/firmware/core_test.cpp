@@ -225,6 +225,61 @@ TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) 
   EXPECT_EQ(start.tick, 0u);
 }
 
+// reference() keeps the IK of the last three ticks, so that stepping tick by
+// tick solves one new IK. The reference must not depend on what was asked
+// before: stepping, a scrambled order and a fresh Trajectory per tick agree
+// bit for bit, also where the path leaves the workspace.
+TEST(TrajectoryTest, PickAndPlaceReferenceDoesNotDependOnTheTicksAskedBefore) {
+  const GeometryQ g = default_geometry();
+  TrajectoryConfig c;
+  c.kind = TrajectoryKind::kPickAndPlace;
+  auto& p = c.pick_and_place;
+  p.waypoints = 2;
+  p.points[0] = {to_q<Q7_24>(-0.05), to_q<Q7_24>(0.02), to_q<Q7_24>(-0.45)};
+  p.points[1] = {to_q<Q7_24>(0.06), to_q<Q7_24>(-0.03), to_q<Q7_24>(-0.9)};  // out of reach
+  p.segment_ticks = 200;
+  p.cycles = 1;
+  const Trajectory stepped(g, c);
+  const Trajectory scrambled(g, c);
+  const std::uint32_t n = stepped.length_ticks();
+  ASSERT_EQ(n, 400u);
+  const auto same = [](const JointReference& a, const JointReference& b) {
+    for (unsigned j = 0; j < 3; ++j) {
+      if (a.q_rad[j] != b.q_rad[j] || a.qd_rad_s[j] != b.qd_rad_s[j] ||
+          a.qdd_rad_s2[j] != b.qdd_rad_s2[j]) {
+        return false;
+      }
+    }
+    return true;
+  };
+  int unreachable = 0;
+  for (std::uint32_t tick = 0; tick <= n + 2; ++tick) {  // past the end too
+    JointReference fresh_ref, stepped_ref;
+    const auto fresh_status = Trajectory(g, c).reference(tick, fresh_ref);
+    ASSERT_EQ(stepped.reference(tick, stepped_ref), fresh_status) << tick;
+    if (fresh_status == KinematicsStatus::kOk) {
+      EXPECT_TRUE(same(stepped_ref, fresh_ref)) << tick;
+    } else {
+      ++unreachable;
+    }
+    // Scrambled: a stride coprime to n + 1, each tick asked twice, and a
+    // step back now and then.
+    const std::uint32_t t = tick * 97 % (n + 1);
+    for (const std::uint32_t asked : {t, t, t > 0 ? t - 1 : t, t}) {
+      JointReference cold, warm;
+      const auto cold_status = Trajectory(g, c).reference(asked, cold);
+      ASSERT_EQ(scrambled.reference(asked, warm), cold_status) << asked;
+      if (cold_status == KinematicsStatus::kOk) {
+        EXPECT_TRUE(same(warm, cold)) << asked;
+      }
+    }
+  }
+  // The path does leave the workspace, and comes back to the first point:
+  // windows across both edges were compared.
+  EXPECT_GT(unreachable, 100);
+  EXPECT_LT(unreachable, 300);
+}
+
 TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
   JointGains gains;
   gains.kp_Nm_per_rad = Q16_15::from(50.0);

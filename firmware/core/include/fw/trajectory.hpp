@@ -120,16 +120,16 @@ class Trajectory {
   std::uint32_t length_ticks_{0};
   std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
-  // The IK of the last three ticks asked for: stepping tick by tick, each
-  // reference() then solves one new IK instead of three. (Single-threaded
-  // use, as everything in the core.)
-  struct IkCacheEntry {
-    std::int64_t tick{-2};
-    KinematicsStatus status{KinematicsStatus::kUnreachable};
-    JointAnglesQ q{};
+  // The IK at ticks centre - 1, centre and centre + 1 of the last
+  // pick-and-place reference(): stepping tick by tick, each reference()
+  // then solves one new IK instead of three. (Single-threaded use, as
+  // everything in the core.)
+  struct IkWindow {
+    std::int64_t centre{-10};  // none yet
+    std::array<KinematicsStatus, 3> status{};
+    std::array<JointAnglesQ, 3> q{};
   };
-  mutable std::array<IkCacheEntry, 3> ik_cache_{};
-  mutable unsigned ik_cache_next_{0};
+  mutable IkWindow ik_window_{};
 };
 
 // Walks every tick of the trajectory (a rejected configuration gives
