@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <initializer_list>
 
 #include "delta/kinematics.hpp"
 #include "fw/joint_controller.hpp"
@@ -21,6 +23,21 @@ GeometryQ default_geometry() {
   const delta::Geometry g = delta::kDefaultGeometry;
   return {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
           to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
+}
+
+// A pick-and-place trajectory through points [m], one segment each.
+TrajectoryConfig pick_and_place(std::initializer_list<std::array<double, 3>> points,
+                                std::uint32_t segment_ticks, std::uint32_t cycles) {
+  TrajectoryConfig c;
+  c.kind = TrajectoryKind::kPickAndPlace;
+  auto& p = c.pick_and_place;
+  p.waypoints = 0;
+  for (const auto& pt : points) {
+    p.points[p.waypoints++] = {to_q<Q7_24>(pt[0]), to_q<Q7_24>(pt[1]), to_q<Q7_24>(pt[2])};
+  }
+  p.segment_ticks = segment_ticks;
+  p.cycles = cycles;
+  return c;
 }
 
 TEST(TorqueFromCurrentTest, GearRatioTorqueConstantEfficiencySignAndOffset) {
@@ -181,15 +198,9 @@ TEST(TrajectoryTest, LimitCheckNamesTheBrokenLimitTickAndJoint) {
 
 TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) {
   const GeometryQ g = default_geometry();
-  TrajectoryConfig c;
-  c.kind = TrajectoryKind::kPickAndPlace;
+  TrajectoryConfig c =
+      pick_and_place({{-0.08, 0.0, -0.48}, {0.08, 0.05, -0.42}, {0.0, -0.08, -0.5}}, 500, 2);
   auto& p = c.pick_and_place;
-  p.waypoints = 3;
-  p.points[0] = {to_q<Q7_24>(-0.08), to_q<Q7_24>(0.0), to_q<Q7_24>(-0.48)};
-  p.points[1] = {to_q<Q7_24>(0.08), to_q<Q7_24>(0.05), to_q<Q7_24>(-0.42)};
-  p.points[2] = {to_q<Q7_24>(0.0), to_q<Q7_24>(-0.08), to_q<Q7_24>(-0.5)};
-  p.segment_ticks = 500;
-  p.cycles = 2;
   ASSERT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kOk);
   const Trajectory traj(g, c);
   ASSERT_EQ(traj.length_ticks(), 3000u);
@@ -231,14 +242,8 @@ TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) 
 // bit for bit, also where the path leaves the workspace.
 TEST(TrajectoryTest, PickAndPlaceReferenceDoesNotDependOnTheTicksAskedBefore) {
   const GeometryQ g = default_geometry();
-  TrajectoryConfig c;
-  c.kind = TrajectoryKind::kPickAndPlace;
-  auto& p = c.pick_and_place;
-  p.waypoints = 2;
-  p.points[0] = {to_q<Q7_24>(-0.05), to_q<Q7_24>(0.02), to_q<Q7_24>(-0.45)};
-  p.points[1] = {to_q<Q7_24>(0.06), to_q<Q7_24>(-0.03), to_q<Q7_24>(-0.9)};  // out of reach
-  p.segment_ticks = 200;
-  p.cycles = 1;
+  // The second point is out of reach.
+  const TrajectoryConfig c = pick_and_place({{-0.05, 0.02, -0.45}, {0.06, -0.03, -0.9}}, 200, 1);
   const Trajectory stepped(g, c);
   const Trajectory scrambled(g, c);
   const std::uint32_t n = stepped.length_ticks();
