@@ -44,9 +44,11 @@ Q3_28 harmonic_phase(std::uint32_t tick, unsigned k, std::uint32_t f_mHz, std::u
   return Q3_28::from_raw(static_cast<std::int32_t>(shift_round(signed_turns * kTwoPi.raw(), 32)));
 }
 
-// x * ticks_per_second, saturating: a per-tick difference to a per-second
-// rate (a multiply: the tick period divides one second exactly). Inputs
-// beyond 2^40 saturate; real differences of Q3.28 angles stay far below.
+// x * ticks_per_second, saturating: the second of the two multiplies that
+// take a second difference per tick^2 to per s^2 (the tick period divides
+// one second exactly). After the first, x can reach 2^54, and the second
+// could leave 64 bits: inputs beyond 2^40 saturate. Real motion stays far
+// below. (A first difference needs no check: |d1| * 10^6 < 2^53.)
 i64 per_second(i64 x, std::uint32_t ticks_per_second) {
   constexpr i64 kLimit = i64{1} << 40;  // * (at most 1e6 ticks/s) < 2^60
   if (x > kLimit) return INT64_MAX;
@@ -199,7 +201,8 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).
-    // |d1| < 2^33 and rate <= 10^6: d1 * rate fits 64 bits.
+    // |d1|, |d2| < 2^34 and rate <= 10^6: d1 * rate and d2 * rate fit 64
+    // bits; only the second multiply of d2 needs per_second's check.
     const i64 d1 = i64{after[j].raw()} - before[j].raw();
     const i64 d2 = i64{after[j].raw()} - 2 * i64{now[j].raw()} + before[j].raw();
     out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(d1 * rate, 8)));
