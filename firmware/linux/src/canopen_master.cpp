@@ -117,7 +117,8 @@ CanopenMaster::Drive* CanopenMaster::drive_for(std::uint8_t node) {
 
 void CanopenMaster::fail(const std::string& why) {
   phase_ = Phase::kFailed;
-  problem_ = why;
+  bring_up_problem_ = why;
+  cyclic_problem_.kind = CyclicProblem::Kind::kNone;
 }
 
 void CanopenMaster::restart() {
@@ -131,7 +132,7 @@ void CanopenMaster::restart() {
   phase_ = Phase::kIdle;
   failure_reported_ = false;
   bus_error_ = false;
-  problem_.clear();
+  clear_problem();
 }
 
 bool CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
@@ -175,14 +176,14 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     // Done when every drive answered and none is in fault any more.
     for (const Drive& d : drives_) {
       if (!d.got_tpdo1 || d.state == State::kFault || d.state == State::kFaultReactionActive) {
-        problem_ = "node " + std::to_string(d.node) +
-                   (d.got_tpdo1 ? " stays in fault after a fault reset"
-                                : " sends no TPDO1 after the NMT start");
+        record({.kind = d.got_tpdo1 ? CyclicProblem::Kind::kStaysInFault
+                                    : CyclicProblem::Kind::kSilentAfterStart,
+                .node = d.node});
         return fw::DriveConfigProgress::kInProgress;
       }
     }
     phase_ = Phase::kCyclic;
-    problem_.clear();
+    clear_problem();
     return fw::DriveConfigProgress::kDone;
   }
   // A failure found while frames came in (an abort, a wrong value) is
@@ -293,16 +294,21 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {
   if (f.dlc != expected) {
     d.malformed = true;
     (second ? d.got_tpdo2 : d.got_tpdo1) = true;  // answered, if badly
-    problem_ = "node " + std::to_string(d.node) + ": " + (second ? "TPDO2" : "TPDO1") + " " +
-               hex(f.id, 3) + " has " + std::to_string(f.dlc) + " bytes, expected " +
-               std::to_string(expected);
+    record({.kind = CyclicProblem::Kind::kMalformedPdo,
+            .node = d.node,
+            .second_pdo = second,
+            .can_id = f.id,
+            .dlc = f.dlc,
+            .expected_dlc = expected});
     return;
   }
   if (!window_open_) {
     d.late = true;
     ++late_frames_;
-    problem_ = "node " + std::to_string(d.node) + ": " + (second ? "TPDO2" : "TPDO1") + " " +
-               hex(f.id, 3) + " arrived after the cycle's deadline";
+    record({.kind = CyclicProblem::Kind::kLatePdo,
+            .node = d.node,
+            .second_pdo = second,
+            .can_id = f.id});
     return;
   }
   if (second) {
@@ -322,8 +328,9 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
   if (r.error) {
     if (r.error->bus_off || r.error->error_passive) {
       bus_error_ = true;
-      problem_ = std::string("CAN bus error: ") + (r.error->bus_off ? "bus-off" : "error passive") +
-                 " (error frame class " + hex(r.error->raw_class, 8) + ")";
+      record({.kind = CyclicProblem::Kind::kBusError,
+              .bus_off = r.error->bus_off,
+              .error_class = r.error->raw_class});
     }
     return;
   }
@@ -343,15 +350,14 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
     const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcy.signals[0]));
     if (code != od::kEmcyErrorReset) {
       d->emergency = true;
-      problem_ = "node " + std::to_string(node) + ": emergency " + hex(code, 4) +
-                 (code == od::kEmcyOvercurrent ? " (over-current)" : "");
+      record({.kind = CyclicProblem::Kind::kEmergency, .node = node, .emcy_code = code});
     }
   } else if (function == p::kHeartbeat.base_id) {
     d->heartbeat_seen = true;
     d->last_heartbeat_cycle = cycle_;
     if (f.dlc >= 1 && f.data[0] == p::kNmtStateBootUp && phase_ == Phase::kCyclic) {
       d->rebooted = true;
-      problem_ = "node " + std::to_string(node) + " restarted (boot-up message)";
+      record({.kind = CyclicProblem::Kind::kRebooted, .node = node});
     }
   }
 }
@@ -398,12 +404,11 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
     fw::DriveFeedback& fb = out[j];
     const bool heartbeat_ok = cycle_ - d.last_heartbeat_cycle <= heartbeat_timeout_cycles_;
     if (!heartbeat_ok && phase_ == Phase::kCyclic) {
-      problem_ = "node " + std::to_string(d.node) + ": no heartbeat for " +
-                 std::to_string((cycle_ - d.last_heartbeat_cycle) * config_.period_us / 1000) +
-                 " ms (timeout " + std::to_string(config_.heartbeat_timeout_ms) + " ms)";
+      record({.kind = CyclicProblem::Kind::kHeartbeatLost,
+              .node = d.node,
+              .cycle = cycle_ - d.last_heartbeat_cycle});
     } else if (!d.got_tpdo1 && phase_ == Phase::kCyclic && !d.late) {
-      problem_ = "node " + std::to_string(d.node) + ": no TPDO1 answered the SYNC of cycle " +
-                 std::to_string(cycle_);
+      record({.kind = CyclicProblem::Kind::kNoTpdo1, .node = d.node, .cycle = cycle_});
     }
     const bool sample = d.got_tpdo1 && !d.malformed;
     if (sample) {
@@ -433,6 +438,40 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
     d.late = false;
   }
   bus_error_ = false;
+}
+
+std::string CanopenMaster::last_problem() const {
+  using Kind = CyclicProblem::Kind;
+  const CyclicProblem& p = cyclic_problem_;
+  const std::string node = "node " + std::to_string(p.node);
+  const std::string pdo = std::string(p.second_pdo ? "TPDO2 " : "TPDO1 ") + hex(p.can_id, 3);
+  switch (p.kind) {
+    case Kind::kNone:
+      return bring_up_problem_;
+    case Kind::kMalformedPdo:
+      return node + ": " + pdo + " has " + std::to_string(p.dlc) + " bytes, expected " +
+             std::to_string(p.expected_dlc);
+    case Kind::kLatePdo:
+      return node + ": " + pdo + " arrived after the cycle's deadline";
+    case Kind::kBusError:
+      return std::string("CAN bus error: ") + (p.bus_off ? "bus-off" : "error passive") +
+             " (error frame class " + hex(p.error_class, 8) + ")";
+    case Kind::kEmergency:
+      return node + ": emergency " + hex(p.emcy_code, 4) +
+             (p.emcy_code == od::kEmcyOvercurrent ? " (over-current)" : "");
+    case Kind::kRebooted:
+      return node + " restarted (boot-up message)";
+    case Kind::kHeartbeatLost:
+      return node + ": no heartbeat for " + std::to_string(p.cycle * config_.period_us / 1000) +
+             " ms (timeout " + std::to_string(config_.heartbeat_timeout_ms) + " ms)";
+    case Kind::kNoTpdo1:
+      return node + ": no TPDO1 answered the SYNC of cycle " + std::to_string(p.cycle);
+    case Kind::kSilentAfterStart:
+      return node + " sends no TPDO1 after the NMT start";
+    case Kind::kStaysInFault:
+      return node + " stays in fault after a fault reset";
+  }
+  return bring_up_problem_;
 }
 
 void CanopenMaster::command_torque(const std::array<Q12_19, 3>& joint_torque_Nm) {

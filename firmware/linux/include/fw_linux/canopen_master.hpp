@@ -59,8 +59,9 @@ class CanopenMaster {
   // and their heartbeat consumers fault them).
   void leave_network();
 
-  // What went wrong most recently, in words (node, object, value).
-  const std::string& last_problem() const { return problem_; }
+  // What went wrong most recently, in words (node, object, value). Built
+  // when asked, outside the control loop: the cycle only records the facts.
+  std::string last_problem() const;
   std::uint64_t late_frames() const { return late_frames_; }
 
  private:
@@ -119,7 +120,40 @@ class CanopenMaster {
   std::uint64_t late_frames_{0};
   std::uint64_t heartbeat_timeout_cycles_{1};
   std::uint64_t sdo_timeout_us_{0};
-  std::string problem_;
+
+  // The facts of the most recent problem of the cyclic exchange, recorded
+  // without allocating; last_problem() puts them into words.
+  struct CyclicProblem {
+    enum class Kind : std::uint8_t {
+      kNone,
+      kMalformedPdo,
+      kLatePdo,
+      kBusError,
+      kEmergency,
+      kRebooted,
+      kHeartbeatLost,
+      kNoTpdo1,
+      kSilentAfterStart,  // no TPDO1 yet after the NMT start
+      kStaysInFault,      // still in fault after a fault reset
+    };
+    Kind kind{Kind::kNone};
+    std::uint8_t node{0};
+    bool second_pdo{false};        // kMalformedPdo, kLatePdo: TPDO2, else TPDO1
+    std::uint32_t can_id{0};       // kMalformedPdo, kLatePdo
+    std::uint8_t dlc{0};           // kMalformedPdo: received and expected
+    std::uint8_t expected_dlc{0};  //
+    bool bus_off{false};           // kBusError: bus-off, else error passive
+    std::uint32_t error_class{0};  // kBusError: the error frame's class bits
+    std::uint16_t emcy_code{0};    // kEmergency
+    std::uint64_t cycle{0};        // kNoTpdo1: the cycle; kHeartbeatLost: cycles silent
+  };
+  void record(const CyclicProblem& p) {
+    cyclic_problem_ = p;
+    bring_up_problem_.clear();  // keeps its capacity: no allocation
+  }
+  void clear_problem() { record({}); }
+  CyclicProblem cyclic_problem_{};
+  std::string bring_up_problem_;  // set by fail(), outside the cyclic exchange
 };
 
 }  // namespace fw_linux
