@@ -2,7 +2,7 @@
 
 #include <ostream>
 
-#include "fw_linux/port.hpp"
+#include "fw_linux/exit_codes.hpp"
 #include "fw_linux/trajectories.hpp"
 
 namespace fw_linux {

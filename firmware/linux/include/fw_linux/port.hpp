@@ -10,6 +10,7 @@
 
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
+#include "fw_linux/exit_codes.hpp"
 #include "fw_linux/safety_io.hpp"
 
 namespace fw_linux {
@@ -22,15 +23,6 @@ struct RunOptions {
   int rt_priority{0};                     // SCHED_FIFO priority in real time; 0: none
   ControlPanel* panel{nullptr};           // commands and status for Modbus; may be null
 };
-
-// Exit codes of delta_fw.
-inline constexpr int kExitDone = 0;
-inline constexpr int kExitCanError = 1;
-inline constexpr int kExitUsage = 2;
-inline constexpr int kExitFault = 3;
-inline constexpr int kExitRejected = 4;
-inline constexpr int kExitStopped = 5;  // SIGINT/SIGTERM before the runs finished
-inline constexpr int kExitIo = 6;       // the Modbus server or the GPIO lines could not start
 
 struct CycleStats {
   std::uint64_t cycles{0};
