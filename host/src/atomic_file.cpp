@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 
@@ -17,13 +17,14 @@ void write_file_atomically(const std::string& path, std::string_view content) {
   std::string tmpl = path + ".tmp.XXXXXX";
   const int fd = mkstemp(tmpl.data());
   if (fd < 0) {
-    throw InputError(path + ": cannot create a temporary file beside it: " + std::strerror(errno));
+    throw delta::InputError(path +
+                            ": cannot create a temporary file beside it: " + std::strerror(errno));
   }
   const auto fail = [&](const char* what) {
     const std::string reason = std::strerror(errno);
     ::close(fd);
     ::unlink(tmpl.c_str());
-    throw InputError(path + ": " + what + ": " + reason);
+    throw delta::InputError(path + ": " + what + ": " + reason);
   };
   const char* data = content.data();
   std::size_t left = content.size();
@@ -41,22 +42,13 @@ void write_file_atomically(const std::string& path, std::string_view content) {
   if (::close(fd) != 0) {
     const std::string reason = std::strerror(errno);
     ::unlink(tmpl.c_str());
-    throw InputError(path + ": close failed: " + reason);
+    throw delta::InputError(path + ": close failed: " + reason);
   }
   if (std::rename(tmpl.c_str(), path.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     ::unlink(tmpl.c_str());
-    throw InputError(path + ": cannot rename the finished file into place: " + reason);
+    throw delta::InputError(path + ": cannot rename the finished file into place: " + reason);
   }
-}
-
-std::string read_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": read failed");
-  return s.str();
 }
 
 }  // namespace host_id

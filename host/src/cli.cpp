@@ -6,6 +6,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "delta/parameter_file.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/controller_commands.hpp"
 #include "host_id/dbc.hpp"
@@ -322,7 +323,7 @@ int cmd_simulate(const std::vector<std::string>& args, std::ostream& out) {
   s.encoder_bits = static_cast<unsigned>(o.whole("--encoder-bits", 0, 0, 32));
   s.with_derivatives = o.flag("--with-derivatives");
   s.name = o.value("--name").value_or("");
-  if (const auto p = o.value("--params")) s.parameters = read_lumped_parameters(*p);
+  if (const auto p = o.value("--params")) s.parameters = delta::read_lumped_parameters(*p);
   const DeltaLog log = simulate_log(s);
   write_file_atomically(*path, format_delta_log(log));
   out << "host_id simulate: wrote " << *path << " (" << log.size() << " samples, " << s.trajectory
@@ -419,7 +420,7 @@ int cmd_dbc(const std::vector<std::string>& args, std::ostream& out) {
   if (wants_help(args)) {
     out << "usage: host_id dbc [-o FILE.dbc]\n\nWrites the DBC description of the controller's CAN "
            "bus (the "
-           "protocol table in common/include/delta/can/protocol.hpp) to FILE or stdout.\n";
+           "protocol table in common/portable/include/delta/can/protocol.hpp) to FILE or stdout.\n";
     return 0;
   }
   const ParsedOptions o("dbc", {{"--out", true, false, "-o"}}, args);
@@ -456,7 +457,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 2;
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     err << "host_id: error: " << e.what() << "\n";
     return 1;
   } catch (const std::invalid_argument& e) {

@@ -14,7 +14,7 @@
 #include <sstream>
 #include <thread>
 
-#include "fw/controller.hpp"
+#include "delta/controller/vocabulary.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/controller_link.hpp"
 #include "host_id/delta_log.hpp"
@@ -62,11 +62,12 @@ void on_interrupt(int) {
 }
 
 std::string fault_text(std::int64_t code) {
-  return std::to_string(code) + " (" + fw::fault_name(static_cast<fw::Fault>(code)) + ")";
+  return std::to_string(code) + " (" +
+         delta::controller::fault_name(static_cast<delta::controller::Fault>(code)) + ")";
 }
 
 std::string state_text(std::int64_t s) {
-  return fw::state_name(static_cast<fw::State>(s));
+  return delta::controller::state_name(static_cast<delta::controller::State>(s));
 }
 
 const char* run_result_text(std::int64_t r) {
@@ -230,14 +231,14 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
   ControllerLink link(address);
   std::vector<std::uint16_t> in = link.inputs();
   const auto state = raw("state", in);
-  if (state == static_cast<int>(fw::State::kFault)) {
-    throw InputError("excite: the controller at " + address + " is in fault " +
-                     fault_text(raw("fault_code", in)) +
-                     "; clear the cause and reset it (Modbus command 3) first");
+  if (state == static_cast<int>(delta::controller::State::kFault)) {
+    throw delta::InputError("excite: the controller at " + address + " is in fault " +
+                            fault_text(raw("fault_code", in)) +
+                            "; clear the cause and reset it (Modbus command 3) first");
   }
-  if (state != static_cast<int>(fw::State::kReady)) {
-    throw InputError("excite: the controller at " + address + " is " + state_text(state) +
-                     ", not ready");
+  if (state != static_cast<int>(delta::controller::State::kReady)) {
+    throw delta::InputError("excite: the controller at " + address + " is " + state_text(state) +
+                            ", not ready");
   }
   // The settings in one write: trajectory, amplitude, repetitions, log on.
   link.write(mb::kTrajectory.address, {static_cast<std::uint16_t>(id),
@@ -321,7 +322,7 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
       std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the poll period
     }
     if (tty) err << "\r" << std::string(50, ' ') << "\r";
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     ending = std::string("lost the controller: ") + e.what();
   }
   std::signal(SIGINT, previous_handler);
@@ -332,16 +333,17 @@ int cmd_excite(const std::vector<std::string>& args, std::ostream& out, std::ost
     try {
       expected.store(static_cast<std::uint64_t>(raw("log_records", link.inputs())) -
                      records_before);
-    } catch (const InputError&) {
+    } catch (const delta::InputError&) {
     }
   }
   if (recording.wait_for(std::chrono::seconds(2)) != std::future_status::ready) finish.store(true);
   Recording rec;
   try {
     rec = recording.get();
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     if (!ending.empty()) {
-      throw InputError("excite: " + ending + "; no log sample was recorded, nothing written");
+      throw delta::InputError("excite: " + ending +
+                              "; no log sample was recorded, nothing written");
     }
     throw;
   }

@@ -4,8 +4,8 @@
 
 #include <cerrno>
 
-#include "fw/controller.hpp"
-#include "host_id/input_error.hpp"
+#include "delta/controller/vocabulary.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 
@@ -14,22 +14,24 @@ namespace mb = delta::modbus;
 ControllerLink::ControllerLink(const std::string& host_port) : address_(host_port) {
   const auto colon = host_port.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == host_port.size()) {
-    throw InputError("--modbus: expected HOST:PORT, got '" + host_port + "'");
+    throw delta::InputError("--modbus: expected HOST:PORT, got '" + host_port + "'");
   }
   const std::string host = host_port.substr(0, colon);
   const std::string port = host_port.substr(colon + 1);
   if (port.find_first_not_of("0123456789") != std::string::npos || port.size() > 5 ||
       std::stoi(port) > 65535) {
-    throw InputError("--modbus: the port must be a number from 1 to 65535, got '" + port + "'");
+    throw delta::InputError("--modbus: the port must be a number from 1 to 65535, got '" + port +
+                            "'");
   }
   ctx_ = modbus_new_tcp_pi(host.c_str(), port.c_str());
-  if (ctx_ == nullptr) throw InputError("--modbus " + host_port + ": " + modbus_strerror(errno));
+  if (ctx_ == nullptr)
+    throw delta::InputError("--modbus " + host_port + ": " + modbus_strerror(errno));
   modbus_set_response_timeout(ctx_, 3, 0);
   if (modbus_connect(ctx_) != 0) {
     const std::string why = modbus_strerror(errno);
     modbus_free(ctx_);
-    throw InputError("cannot connect to the controller at " + host_port + ": " + why +
-                     " (is delta_fw running with modbus.tcp set?)");
+    throw delta::InputError("cannot connect to the controller at " + host_port + ": " + why +
+                            " (is delta_fw running with modbus.tcp set?)");
   }
 }
 
@@ -39,7 +41,7 @@ ControllerLink::~ControllerLink() {
 }
 
 void ControllerLink::fail(const std::string& what) {
-  throw InputError("controller " + address_ + ": " + what + ": " + modbus_strerror(errno));
+  throw delta::InputError("controller " + address_ + ": " + what + ": " + modbus_strerror(errno));
 }
 
 std::vector<std::uint16_t> ControllerLink::inputs() {
@@ -48,9 +50,9 @@ std::vector<std::uint16_t> ControllerLink::inputs() {
     fail("reading the input registers");
   }
   if (r[mb::named("protocol_version").address] != mb::kMapVersion) {
-    throw InputError("controller " + address_ + ": register map version " +
-                     std::to_string(r[mb::named("protocol_version").address]) +
-                     ", this host_id speaks version " + std::to_string(mb::kMapVersion));
+    throw delta::InputError("controller " + address_ + ": register map version " +
+                            std::to_string(r[mb::named("protocol_version").address]) +
+                            ", this host_id speaks version " + std::to_string(mb::kMapVersion));
   }
   return r;
 }
@@ -89,20 +91,20 @@ void ControllerLink::write(std::uint16_t first, const std::vector<std::uint16_t>
     why = std::string(mb::describe(rejection)) + " (register " + (reg ? reg->name : "?") +
           ", Modbus exception " + std::to_string(mb::exception_code(rejection)) + ")";
     if (rejection == mb::Rejection::kWrongState) {
-      why += "; the controller is " +
-             std::string(fw::state_name(static_cast<fw::State>(raw("state", in))));
+      why += "; the controller is " + std::string(delta::controller::state_name(
+                                          static_cast<delta::controller::State>(raw("state", in))));
     }
     if (rejection == mb::Rejection::kTrajectoryLimit) {
       why += ": " +
-             std::string(fw::trajectory_fault_name(
-                 static_cast<fw::TrajectoryFault>(raw("trajectory_check", in)))) +
+             std::string(delta::controller::trajectory_fault_name(
+                 static_cast<delta::controller::TrajectoryFault>(raw("trajectory_check", in)))) +
              " at tick " + std::to_string(raw("trajectory_check_tick", in));
       if (raw("trajectory_check_joint", in) > 0) {
         why += ", joint " + std::to_string(raw("trajectory_check_joint", in));
       }
     }
   }
-  throw InputError("controller " + address_ + " refused " + what + ": " + why);
+  throw delta::InputError("controller " + address_ + " refused " + what + ": " + why);
 }
 
 std::int64_t raw(const char* name, const std::vector<std::uint16_t>& table) {

@@ -6,8 +6,9 @@
 #include <map>
 #include <sstream>
 
+#include "delta/input_error.hpp"
+#include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/input_error.hpp"
 
 namespace host_id {
 
@@ -21,7 +22,7 @@ struct Cursor {
   [[noreturn]] void fail(std::size_t column, const std::string& message) const {
     std::ostringstream s;
     s << name << ':' << line << ':' << column << ": " << message;
-    throw InputError(s.str());
+    throw delta::InputError(s.str());
   }
 };
 
@@ -349,7 +350,7 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
 }
 
 DeltaLog read_delta_log(const std::string& path) {
-  return parse_delta_log(read_whole_file(path), path);
+  return parse_delta_log(delta::read_whole_file(path), path);
 }
 
 std::string format_number(double v) {

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -49,7 +49,7 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
         << r.min_speed_rad_s
         << " rad/s, so none of its equations is left to fit; lower --min-speed (0 uses every "
            "sample)";
-      throw InputError(s.str());
+      throw delta::InputError(s.str());
     }
   }
 

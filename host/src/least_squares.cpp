@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 
@@ -70,9 +70,9 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
   for (Eigen::Index c = 0; c < p; ++c) {
     if (!(col_norm(c) > 0.0)) {
-      throw InputError(log_name + ": parameter '" +
-                       model.parameters()[static_cast<unsigned>(c)].name +
-                       "' is not excited at all by this log (its regressor column is zero)");
+      throw delta::InputError(log_name + ": parameter '" +
+                              model.parameters()[static_cast<unsigned>(c)].name +
+                              "' is not excited at all by this log (its regressor column is zero)");
     }
   }
   const Eigen::MatrixXd scaled = r.psi * col_norm.cwiseInverse().asDiagonal();
@@ -92,7 +92,7 @@ LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSol
         s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
     }
     s << "; use a richer excitation or a model with fewer parameters";
-    throw InputError(s.str());
+    throw delta::InputError(s.str());
   }
   Eigen::VectorXd beta_scaled;
   if (solver == LsSolver::kSvd) {

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 
@@ -118,15 +118,15 @@ class Paper14Model final : public Model {
 
 std::unique_ptr<Model> make_model(const ModelOptions& options) {
   if (!(options.coulomb_smoothing_rad_s > 0.0)) {
-    throw InputError("--coulomb-smoothing must be a positive speed in rad/s");
+    throw delta::InputError("--coulomb-smoothing must be a positive speed in rad/s");
   }
   if (options.name == "delta") return std::make_unique<DeltaModel>(options);
   if (options.name == "paper14") {
-    if (options.per_joint) throw InputError("--per-joint applies to --model delta only");
-    if (options.offsets) throw InputError("--offsets applies to --model delta only");
+    if (options.per_joint) throw delta::InputError("--per-joint applies to --model delta only");
+    if (options.offsets) throw delta::InputError("--offsets applies to --model delta only");
     return std::make_unique<Paper14Model>(options);
   }
-  throw InputError("--model must be 'delta' or 'paper14', got '" + options.name + "'");
+  throw delta::InputError("--model must be 'delta' or 'paper14', got '" + options.name + "'");
 }
 
 std::vector<double> delta_parameter_vector(const ModelOptions& options,

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "delta/can/protocol.hpp"
+#include "delta/input_error.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/input_error.hpp"
 
 namespace host_id {
 
@@ -193,9 +193,9 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
 
 Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   delta::require_valid_geometry(o.geometry);
-  if (!(o.sample_rate_hz > 0)) throw InputError("record: --rate must be positive");
+  if (!(o.sample_rate_hz > 0)) throw delta::InputError("record: --rate must be positive");
   if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0 && !o.keep_going) {
-    throw InputError("record: give a limit: --duration S, --samples N or --idle S");
+    throw delta::InputError("record: give a limit: --duration S, --samples N or --idle S");
   }
   delta::can::Socket sock = [&] {
     try {
@@ -211,7 +211,7 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
       return delta::can::Socket::open(o.iface, filters,
                                       8 << 20);  // 8 MB: about 10 000 frames of burst
     } catch (const delta::can::CanError& e) {
-      throw InputError(std::string("record: ") + e.what());
+      throw delta::InputError(std::string("record: ") + e.what());
     }
   }();
   if (ready) ready();
@@ -287,14 +287,14 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   summary.stale = assembler.stale_samples();
   summary.stale_runs = assembler.stale_runs();
   if (samples.empty()) {
-    throw InputError("record: no complete log sample arrived on " + o.iface +
-                     " (controller log frames 0x" +
-                     [] {
-                       char b[8];
-                       std::snprintf(b, sizeof b, "%03X", kLogA.base_id);
-                       return std::string(b);
-                     }() +
-                     ".. ); nothing written");
+    throw delta::InputError("record: no complete log sample arrived on " + o.iface +
+                            " (controller log frames 0x" +
+                            [] {
+                              char b[8];
+                              std::snprintf(b, sizeof b, "%03X", kLogA.base_id);
+                              return std::string(b);
+                            }() +
+                            ".. ); nothing written");
   }
   DeltaLog log;
   log.geometry = o.geometry;

@@ -7,7 +7,7 @@
 #include <thread>
 #include <vector>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 #include "host_id/signal.hpp"
 
 namespace host_id {
@@ -47,7 +47,7 @@ Regression build_regression(const Model& model, const delta::Geometry& g, double
       << q[1] << ", " << q[2] << ") rad have "
       << "no forward kinematics for this geometry (unreachable or singular pose); "
       << "check the geometry metadata and the angle convention";
-    throw InputError(s.str());
+    throw delta::InputError(s.str());
   }
   std::vector<double> tau(3 * n);
   for (std::size_t k = 0; k < n; ++k) {

@@ -4,8 +4,9 @@
 #include <cstdio>
 #include <sstream>
 
+#include "delta/input_error.hpp"
+#include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/input_error.hpp"
 
 namespace host_id {
 
@@ -202,18 +203,19 @@ SavedResult read_saved_result(const std::string& path) {
   using nlohmann::json;
   json j;
   try {
-    j = json::parse(read_whole_file(path));
+    j = json::parse(delta::read_whole_file(path));
   } catch (const json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
+    throw delta::InputError(path + ": not valid JSON: " + e.what());
   }
   const auto need = [&](const json& parent, const char* key, const char* where) -> const json& {
     if (!parent.is_object() || !parent.contains(key)) {
-      throw InputError(path + ": missing key '" + std::string(where) + key + "'");
+      throw delta::InputError(path + ": missing key '" + std::string(where) + key + "'");
     }
     return parent[key];
   };
   if (!j.is_object() || need(j, "format", "") != "host_id-result/1") {
-    throw InputError(path + ": not a host_id result (expected \"format\": \"host_id-result/1\")");
+    throw delta::InputError(path +
+                            ": not a host_id result (expected \"format\": \"host_id-result/1\")");
   }
   SavedResult s;
   try {
@@ -226,7 +228,8 @@ SavedResult read_saved_result(const std::string& path) {
     s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
     s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();
   } catch (const json::type_error& e) {
-    throw InputError(path + ": a model or preprocessing value has the wrong type: " + e.what());
+    throw delta::InputError(path +
+                            ": a model or preprocessing value has the wrong type: " + e.what());
   }
   const auto model = make_model(s.model);
   const json& params = need(j, "parameters", "");
@@ -234,7 +237,8 @@ SavedResult read_saved_result(const std::string& path) {
   for (std::size_t i = 0; i < model->size(); ++i) {
     const std::string& name = model->parameters()[i].name;
     const json& v = need(params, name.c_str(), "parameters.");
-    if (!v.is_number()) throw InputError(path + ": parameters." + name + " must be a number");
+    if (!v.is_number())
+      throw delta::InputError(path + ": parameters." + name + " must be a number");
     s.beta(static_cast<Eigen::Index>(i)) = v.get<double>();
   }
   return s;

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 #include "host_id/signal.hpp"
 
 namespace host_id {
@@ -40,7 +40,7 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
       std::ostringstream s;
       s << log.name << ": the filter cut-off " << options.cutoff_hz
         << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log";
-      throw InputError(s.str());
+      throw delta::InputError(s.str());
     }
   }
   const std::size_t trim =
@@ -116,7 +116,7 @@ Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options) {
     s << log.name << ": nothing left to fit: " << log.size() << " samples in " << bounds.size() - 1
       << " segment(s), each shorter than the " << 2 * trim + 5 << " samples needed after trimming "
       << trim << " at each end";
-    throw InputError(s.str());
+    throw delta::InputError(s.str());
   }
   std::ostringstream d;
   if (logged) {

@@ -4,9 +4,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "delta/input_error.hpp"
 #include "delta/trajectory.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/input_error.hpp"
 
 namespace host_id {
 
@@ -37,36 +37,36 @@ class Noise {
 DeltaLog simulate_log(const SimulateOptions& o) {
   delta::require_valid_geometry(o.geometry);
   if (!(o.duration_s > 0.0) || !(o.duration_s <= 3600.0)) {
-    throw InputError("--duration must be between 0 and 3600 s");
+    throw delta::InputError("--duration must be between 0 and 3600 s");
   }
   if (!(o.sample_rate_hz >= 1.0) || !(o.sample_rate_hz <= 100000.0)) {
-    throw InputError("--rate must be between 1 and 100000 Hz");
+    throw delta::InputError("--rate must be between 1 and 100000 Hz");
   }
   if (!(o.torque_noise >= 0.0) || !(o.torque_noise < 1.0)) {
-    throw InputError("--torque-noise is a fraction of the RMS torque, between 0 and 1");
+    throw delta::InputError("--torque-noise is a fraction of the RMS torque, between 0 and 1");
   }
-  if (o.encoder_bits > 32) throw InputError("--encoder-bits must be between 0 (off) and 32");
+  if (o.encoder_bits > 32) throw delta::InputError("--encoder-bits must be between 0 (off) and 32");
 
   delta::FourierTrajectory fourier;
   delta::PickAndPlaceTrajectory pnp;
   const bool is_fourier = o.trajectory == "fourier";
   if (is_fourier) {
     if (o.harmonics == 0 || o.harmonics > 20)
-      throw InputError("--harmonics must be between 1 and 20");
+      throw delta::InputError("--harmonics must be between 1 and 20");
     if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
-      throw InputError("--base-hz must be between 0 and 5 Hz");
+      throw delta::InputError("--base-hz must be between 0 and 5 Hz");
     }
     const delta::Vec3<double> centre{0.0, 0.0, -0.42};
     if (!delta::make_fourier_excitation(o.geometry, centre, o.harmonics, o.base_frequency_hz,
                                         o.amplitude_rad, o.seed, fourier)) {
-      throw InputError(
+      throw delta::InputError(
           "no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
     }
   } else if (o.trajectory == "pick-and-place") {
     pnp = delta::default_pick_and_place(o.geometry);
   } else {
-    throw InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" + o.trajectory +
-                     "'");
+    throw delta::InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" +
+                            o.trajectory + "'");
   }
 
   DeltaLog log;
@@ -89,13 +89,13 @@ DeltaLog simulate_log(const SimulateOptions& o) {
     if (is_fourier) {
       s = fourier.at(t);
     } else if (pnp.at(t, s) != delta::KinematicsStatus::kOk) {
-      throw InputError("the pick-and-place path leaves the workspace of this geometry");
+      throw delta::InputError("the pick-and-place path leaves the workspace of this geometry");
     }
     delta::Joint3 tau{};
     if (delta::inverse_dynamics(o.geometry, o.parameters, s, tau) != delta::KinematicsStatus::kOk) {
       std::ostringstream m;
       m << "the trajectory reaches a pose without kinematics at t = " << t << " s";
-      throw InputError(m.str());
+      throw delta::InputError(m.str());
     }
     log.t.push_back(t);
     log.seq.push_back(k);
@@ -126,48 +126,6 @@ DeltaLog simulate_log(const SimulateOptions& o) {
     log.metadata.emplace_back("encoder_bits", std::to_string(o.encoder_bits));
   }
   return log;
-}
-
-delta::LumpedParameters read_lumped_parameters(const std::string& path) {
-  delta::LumpedParameters p = delta::default_lumped_parameters();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_whole_file(path));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
-  if (j.contains("parameters")) j = j["parameters"];  // a saved fit result
-  if (!j.is_object()) throw InputError(path + ": expected a JSON object of parameters");
-  const auto get = [&](const std::string& key, double& target) {
-    if (!j.contains(key)) return;
-    if (!j[key].is_number()) throw InputError(path + ": parameter '" + key + "' must be a number");
-    target = j[key].get<double>();
-  };
-  const char* suffix[3] = {"_1", "_2", "_3"};
-  for (unsigned i = 0; i < 3; ++i) {
-    get("arm_inertia", p.arm_inertia_kg_m2[i]);
-    get("arm_gravity_moment", p.arm_gravity_moment_Nm[i]);
-    get(std::string("arm_inertia") + suffix[i], p.arm_inertia_kg_m2[i]);
-    get(std::string("arm_gravity_moment") + suffix[i], p.arm_gravity_moment_Nm[i]);
-    get(std::string("viscous_friction") + suffix[i], p.viscous_friction_Nm_s_per_rad[i]);
-    get(std::string("coulomb_friction") + suffix[i], p.coulomb_friction_Nm[i]);
-    get(std::string("torque_offset") + suffix[i], p.torque_offset_Nm[i]);
-  }
-  get("platform_mass", p.platform_mass_kg);
-  get("gravity_m_s2", p.gravity_m_s2);
-  for (const auto& [key, value] : j.items()) {
-    (void)value;
-    static const char* known[] = {"arm_inertia", "arm_gravity_moment", "platform_mass",
-                                  "gravity_m_s2"};
-    bool ok = false;
-    for (const char* k : known) ok = ok || key == k;
-    for (const char* base : {"arm_inertia", "arm_gravity_moment", "viscous_friction",
-                             "coulomb_friction", "torque_offset"}) {
-      for (const char* s : suffix) ok = ok || key == std::string(base) + s;
-    }
-    if (!ok) throw InputError(path + ": unknown parameter '" + key + "'");
-  }
-  return p;
 }
 
 }  // namespace host_id

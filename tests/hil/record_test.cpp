@@ -11,6 +11,7 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
+#include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/recorder.hpp"
@@ -112,7 +113,7 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
     EXPECT_NEAR(log.tau[2][k], -0.5 + 0.0005 * static_cast<double>(k), 2e-5);
   }
   // The raw log is candump -L: one line per frame.
-  const std::string raw = read_whole_file(*o.raw_path);
+  const std::string raw = delta::read_whole_file(*o.raw_path);
   EXPECT_EQ(std::count(raw.begin(), raw.end(), '\n'), 1500);
   // "(seconds.micros) vcan0 190#<16 hex digits>"
   const std::string first = raw.substr(0, raw.find('\n'));

@@ -12,9 +12,9 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
+#include "delta/input_error.hpp"
+#include "delta/parameter_file.hpp"
 #include "emu/emulator.hpp"
-#include "host_id/input_error.hpp"
-#include "host_id/simulate.hpp"
 
 namespace {
 
@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
         if (plant != "lumped")
           return usage_error("--plant: only 'lumped' exists, got '" + plant + "'");
       } else if (a == "--truth") {
-        config.truth = host_id::read_lumped_parameters(value());
+        config.truth = delta::read_lumped_parameters(value());
       } else if (a == "--inject") {
         config.faults.push_back(emu::parse_fault(value()));
       } else if (a == "--initial-q") {
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
       } else {
         return usage_error("unknown option '" + a + "'");
       }
-    } catch (const host_id::InputError& e) {
+    } catch (const delta::InputError& e) {
       std::cerr << "delta_drive_emu: " << e.what() << "\n";
       return 2;
     } catch (const std::exception& e) {

@@ -7,10 +7,10 @@ namespace host_id {
 
 // Writes content to path atomically: into a temporary file in the same
 // folder, flushed to disk, then renamed over path. On any failure the
-// temporary file is removed, path is left as it was, and InputError is thrown.
+// temporary file is removed, path is left as it was, and delta::InputError is thrown.
 void write_file_atomically(const std::string& path, std::string_view content);
 
-// Reads a whole file; InputError names the file when it cannot be read.
+// Reads a whole file; delta::InputError names the file when it cannot be read.
 std::string read_whole_file(const std::string& path);
 
 }  // namespace host_id

@@ -1,6 +1,6 @@
 // The host's side of the controller's Modbus interface (docs/modbus.md),
 // over TCP with libmodbus: the register map is common's. Errors are
-// InputErrors that say which controller, which register and why.
+// delta::InputErrors that say which controller, which register and why.
 #pragma once
 
 #include <cstdint>
@@ -15,7 +15,7 @@ namespace host_id {
 
 class ControllerLink {
  public:
-  // Connects to "HOST:PORT"; throws InputError.
+  // Connects to "HOST:PORT"; throws delta::InputError.
   explicit ControllerLink(const std::string& host_port);
   ~ControllerLink();
   ControllerLink(const ControllerLink&) = delete;
@@ -24,7 +24,7 @@ class ControllerLink {
   // The whole input table (decode with delta::modbus::decode).
   std::vector<std::uint16_t> inputs();
   std::vector<std::uint16_t> holding();
-  // Writes holding registers from `first`; a refusal throws InputError with
+  // Writes holding registers from `first`; a refusal throws delta::InputError with
   // the controller's reason (read back from last_rejection).
   void write(std::uint16_t first, const std::vector<std::uint16_t>& values);
   const std::string& address() const { return address_; }

@@ -1,5 +1,5 @@
 // The DBC description of the bus, written from the protocol table
-// (common/include/delta/can/protocol.hpp), so that standard CAN tools
+// (common/portable/include/delta/can/protocol.hpp), so that standard CAN tools
 // (cantools, SavvyCAN, Vector tools) decode the traffic.
 #pragma once
 

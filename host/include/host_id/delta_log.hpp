@@ -1,4 +1,4 @@
-// The delta-log/1 file format (../shared/spec/conventions.md, docs/log-format.md):
+// The delta-log/1 file format (docs/log-format.md, docs/conventions.md):
 // a strict reader that rejects every breach of the contract with
 // file:line:column, and a writer that round-trips every double exactly.
 #pragma once
@@ -55,7 +55,7 @@ struct DeltaLog {
 };
 
 // Parses text as delta-log/1; name is used in messages ("name:line:col: ...").
-// Throws InputError on any breach of the contract.
+// Throws delta::InputError on any breach of the contract.
 DeltaLog parse_delta_log(std::string_view text, const std::string& name);
 
 // Reads and parses a file.

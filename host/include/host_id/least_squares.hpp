@@ -31,7 +31,7 @@ Regression weighted(const Regression& r, const std::array<double, 3>& w);
 
 // Solves min |tau - Psi beta|^2. With kJoint, two steps: ordinary least
 // squares, then weights 1 / sigma_j^2 from each joint's residual variance.
-// Throws InputError when Psi is rank-deficient, naming the parameters that
+// Throws delta::InputError when Psi is rank-deficient, naming the parameters that
 // the data cannot tell apart.
 //
 // The covariance allows for residuals correlated over up to

@@ -1,6 +1,6 @@
 // Identification models: tau = Psi(q, qd, qdd) beta, linear in beta.
 //   delta   - the lumped-mass model with lambda resolved at every sample
-//             (common/include/delta/dynamics.hpp), physical parameters.
+//             (common/model/include/delta/dynamics.hpp), physical parameters.
 //   paper14 - the paper's 14-coefficient regressor with constant lambda.
 #pragma once
 
@@ -43,7 +43,7 @@ class Model {
   std::vector<ParameterInfo> parameters_;
 };
 
-// Throws InputError for an unknown model name or options that do not apply.
+// Throws delta::InputError for an unknown model name or options that do not apply.
 std::unique_ptr<Model> make_model(const ModelOptions& options);
 
 // The delta model's parameter vector for known physical parameters, in the

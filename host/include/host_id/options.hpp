@@ -9,13 +9,13 @@
 #include <utility>
 #include <vector>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 
-class UsageError : public InputError {
+class UsageError : public delta::InputError {
  public:
-  using InputError::InputError;
+  using delta::InputError::InputError;
 };
 
 struct OptionSpec {

@@ -121,7 +121,7 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready = {});
 
 // The same, without writing: the log, the summary and the candump text
-// (with raw_path). Throws InputError when no complete sample arrived.
+// (with raw_path). Throws delta::InputError when no complete sample arrived.
 struct Recording {
   DeltaLog log;
   RecordSummary summary;

@@ -34,7 +34,7 @@ struct Regression {
 // through the same zero-phase filter per segment and joint ("parallel
 // filtering": filtering is linear, so filt(tau) = filt(Psi) beta holds
 // exactly), and samples.trim samples are then dropped at each segment end.
-// Throws InputError naming the log and the sample time of a pose without
+// Throws delta::InputError naming the log and the sample time of a pose without
 // kinematics.
 Regression build_regression(const Model& model, const delta::Geometry& g, double gravity_m_s2,
                             const Samples& samples, const std::string& log_name,

@@ -20,7 +20,7 @@ struct SavedResult {
   Eigen::VectorXd beta;  // in the model's parameter order
 };
 
-// Throws InputError naming the file and the key that is missing or wrong.
+// Throws delta::InputError naming the file and the key that is missing or wrong.
 SavedResult read_saved_result(const std::string& path);
 
 // The RMSE table of validation runs, as text and JSON.

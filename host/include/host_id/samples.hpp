@@ -55,7 +55,7 @@ struct Samples {
   std::size_t size() const { return states.size(); }
 };
 
-// Throws InputError (naming the log) if the options do not suit the log, or
+// Throws delta::InputError (naming the log) if the options do not suit the log, or
 // if nothing is left to fit.
 Samples prepare_samples(const DeltaLog& log, const PrepareOptions& options);
 

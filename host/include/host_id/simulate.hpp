@@ -27,14 +27,8 @@ struct SimulateOptions {
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};
 };
 
-// Throws InputError for options out of range or a trajectory that leaves
+// Throws delta::InputError for options out of range or a trajectory that leaves
 // the workspace.
 DeltaLog simulate_log(const SimulateOptions& options);
-
-// Reads physical parameters from a JSON object whose keys are those of
-// `host_id fit --model delta --per-joint --offsets` (arm_inertia_1, ...) or
-// the shared names (arm_inertia, arm_gravity_moment); missing keys keep the
-// defaults. Throws InputError naming the file and key.
-delta::LumpedParameters read_lumped_parameters(const std::string& path);
 
 }  // namespace host_id

@@ -1,6 +1,6 @@
 // The controller's state machine and control loop against a fake of the
 // hardware interface, closed around the shared lumped model of the delta
-// (common/include/delta/dynamics.hpp) as the plant: software in the loop.
+// (common/model/include/delta/dynamics.hpp) as the plant: software in the loop.
 #include "fw/controller.hpp"
 
 #include <gtest/gtest.h>

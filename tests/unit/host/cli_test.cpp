@@ -11,8 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "delta/input_error.hpp"
+#include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/input_error.hpp"
 
 namespace host_id {
 namespace {
@@ -100,14 +101,14 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
             0)
       << err_.str();
   EXPECT_NE(out_.str().find("torque RMSE [N m]"), std::string::npos);
-  const auto j = nlohmann::json::parse(read_whole_file(path("r.json")));
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
   EXPECT_EQ(j["format"], "host_id-result/1");
   EXPECT_EQ(j["parameters"].size(), 9u);
   EXPECT_NEAR(j["parameters"]["platform_mass"].get<double>(), 0.40, 0.02);
   ASSERT_EQ(j["fit"]["rmse_Nm"].size(), 3u);
   ASSERT_EQ(j["validation"].size(), 1u);
   EXPECT_EQ(j["validation"][0]["log"], path("p2.csv"));
-  const std::string svg = read_whole_file(path("p.svg"));
+  const std::string svg = delta::read_whole_file(path("p.svg"));
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
   EXPECT_NE(svg.find("<polyline"), std::string::npos);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
@@ -179,26 +180,26 @@ TEST_F(CliTest, SimulateValidatesItsOptions) {
   ASSERT_EQ(run({"simulate", "-o", path("s.csv"), "--trajectory", "pick-and-place", "--duration",
                  "1", "--with-derivatives"}),
             0);
-  const std::string text = read_whole_file(path("s.csv"));
+  const std::string text = delta::read_whole_file(path("s.csv"));
   EXPECT_NE(text.find("seq,t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n"),
             std::string::npos);
 }
 
 TEST_F(CliTest, TheShippedDbcIsTheOneTheProtocolTableGives) {
   ASSERT_EQ(run({"dbc"}), 0);
-  EXPECT_EQ(out_.str(), read_whole_file("docs/delta.dbc"))
+  EXPECT_EQ(out_.str(), delta::read_whole_file("docs/delta.dbc"))
       << "docs/delta.dbc is stale: regenerate it with host_id dbc -o docs/delta.dbc";
   EXPECT_NE(out_.str().find("BO_ 400 LOG_A: 8 Controller"), std::string::npos);
   EXPECT_NE(out_.str().find(" SG_ q1 : 16|24@1- (9.5367431640625e-07,0)"), std::string::npos);
   ASSERT_EQ(run({"dbc", "-o", path("bus.dbc")}), 0);
-  EXPECT_EQ(read_whole_file(path("bus.dbc")), read_whole_file("docs/delta.dbc"));
+  EXPECT_EQ(delta::read_whole_file(path("bus.dbc")), delta::read_whole_file("docs/delta.dbc"));
 }
 
 TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {
   std::ofstream(path("keep.txt")) << "old";
   write_file_atomically(path("keep.txt"), "new");
-  EXPECT_EQ(read_whole_file(path("keep.txt")), "new");
-  EXPECT_THROW(write_file_atomically(path("no/such/dir/f.txt"), "x"), InputError);
+  EXPECT_EQ(delta::read_whole_file(path("keep.txt")), "new");
+  EXPECT_THROW(write_file_atomically(path("no/such/dir/f.txt"), "x"), delta::InputError);
   // Only the written file is left: no temporary files.
   std::size_t files = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir_)) {

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 
 namespace host_id {
 namespace {
@@ -16,11 +16,11 @@ const std::string kMeta =
     "# base_radius_m = 0.1\n"
     "# platform_radius_m = 0.035\n";
 
-// The message of the InputError that parsing text throws, or "" if none.
+// The message of the delta::InputError that parsing text throws, or "" if none.
 std::string error_of(const std::string& text) {
   try {
     parse_delta_log(text, "log.csv");
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     return e.what();
   }
   return "";
@@ -189,7 +189,7 @@ TEST(DeltaLogTest, MissingFileIsNamed) {
   try {
     read_delta_log("/nonexistent/dir/log.csv");
     FAIL();
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     EXPECT_EQ(std::string(e.what()),
               "/nonexistent/dir/log.csv: cannot open: No such file or directory");
   }

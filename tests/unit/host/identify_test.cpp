@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "host_id/input_error.hpp"
+#include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/regression.hpp"
 #include "host_id/simulate.hpp"
@@ -182,8 +182,8 @@ TEST(IdentifyTest, ATrajectoryThatDoesNotExciteAParameterIsRejectedByName) {
   // By default the slow equations are left out: none is left.
   try {
     fit_log(log, least_squares());
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
+    FAIL() << "expected delta::InputError";
+  } catch (const delta::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("sim-1: joint 1 is never faster than the minimum speed"),
               std::string::npos)
         << e.what();
@@ -193,8 +193,8 @@ TEST(IdentifyTest, ATrajectoryThatDoesNotExciteAParameterIsRejectedByName) {
   every_sample.min_speed_rad_s = 0.0;
   try {
     fit_log(log, every_sample);
-    FAIL() << "expected InputError";
-  } catch (const InputError& e) {
+    FAIL() << "expected delta::InputError";
+  } catch (const delta::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("is not excited at all by this log"), std::string::npos)
         << e.what();
   }
@@ -307,7 +307,7 @@ TEST(IdentifyTest, CutoffAboveNyquistIsRejected) {
   try {
     fit_log(log, f);
     FAIL();
-  } catch (const InputError& e) {
+  } catch (const delta::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("must lie between 0 and the Nyquist frequency 500 Hz"),
               std::string::npos)
         << e.what();

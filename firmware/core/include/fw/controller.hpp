@@ -20,16 +20,8 @@
 
 namespace fw {
 
-enum class State : std::uint8_t {
-  kBoot = 0,
-  kConfiguring = 1,
-  kReady = 2,
-  kRunning = 3,
-  kStopping = 4,
-  kFault = 5,
-};
-
-const char* state_name(State s);
+using delta::controller::State;
+using delta::controller::state_name;
 
 struct ControllerConfig {
   GeometryQ geometry{};

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 
+#include "delta/controller/vocabulary.hpp"
 #include "delta/fixed/kinematics.hpp"
 
 namespace fw {
@@ -82,17 +83,8 @@ struct JointLimits {
   friend constexpr bool operator==(const JointLimits&, const JointLimits&) = default;
 };
 
-enum class TrajectoryFault : std::uint8_t {
-  kOk = 0,
-  kInvalidConfig = 1,  // zero harmonics, too few waypoints, zero period...
-  kJointLimit = 2,
-  kVelocityLimit = 3,
-  kAccelerationLimit = 4,
-  kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
-};
-
-// A short name for messages: "joint limit".
-const char* trajectory_fault_name(TrajectoryFault f);
+using delta::controller::trajectory_fault_name;
+using delta::controller::TrajectoryFault;
 
 struct TrajectoryCheck {
   TrajectoryFault fault{TrajectoryFault::kOk};

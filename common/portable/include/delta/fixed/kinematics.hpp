@@ -1,4 +1,4 @@
-// Delta kinematics in fixed point, following ../shared/spec/conventions.md
+// Delta kinematics in fixed point, following docs/conventions.md
 // like the double version in delta/kinematics.hpp (same equations, same
 // branch choices), for the firmware core. Lengths are Q7.24 metres, angles
 // Q3.28 radians. Agreement with the double version over the workspace grid

@@ -1,4 +1,4 @@
-// The delta's geometry: the four lengths of ../shared/spec/conventions.md,
+// The delta's geometry: the four lengths of docs/conventions.md,
 // named as in the contract, and its validation.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Delta kinematics following ../shared/spec/conventions.md, written once and
+// Delta kinematics following docs/conventions.md, written once and
 // templated on the scalar type T. The math functions (sqrt, sin, cos, atan2,
 // abs) are found by argument-dependent lookup, so a scalar type that brings
 // its own can reuse this code. No heap, no exceptions.

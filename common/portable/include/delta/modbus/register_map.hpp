@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <string_view>
 
+#include "delta/controller/vocabulary.hpp"
+
 namespace delta::modbus {
 
 inline constexpr std::uint16_t kMapVersion = 2;  // the input register protocol_version
@@ -40,7 +42,37 @@ struct Register {
   const char* description;
 };
 
-// The controller's state (the input register `state`), as fw::State.
+// "0 boot, 1 configuring, ...": a register's values and their names, made
+// at compile time from a list of names (values 0 to 9), NUL-terminated.
+namespace detail {
+template <std::size_t N>
+constexpr std::size_t enumerated_length(const std::array<std::string_view, N>& names) {
+  std::size_t n = 1;  // the NUL
+  for (std::size_t i = 0; i < N; ++i) n += (i == 0 ? 0 : 2) + 2 + names[i].size();
+  return n;
+}
+template <const auto& names>
+constexpr auto enumerated_text() {
+  static_assert(names.size() <= 10, "one digit per value");
+  std::array<char, enumerated_length(names)> text{};
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (i != 0) {
+      text[at++] = ',';
+      text[at++] = ' ';
+    }
+    text[at++] = static_cast<char>('0' + i);
+    text[at++] = ' ';
+    for (char c : names[i]) text[at++] = c;
+  }
+  return text;
+}
+}  // namespace detail
+
+// The controller's state (the input register `state`): the values of
+// delta::controller::State, with their names.
+inline constexpr auto kStateText = detail::enumerated_text<controller::kStateNames>();
+
 // Run results (the input register `run_result`).
 enum class RunResult : std::uint16_t {
   kNone = 0,      // no run started yet
@@ -129,7 +161,7 @@ inline constexpr std::array<Register, 53> kRegisters{{
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
     {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (2)"},
     // State
-    {"state", Table::kInput, 4, Type::kU16, 1, 1, "", "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault"},
+    {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
     {"cycle_counter", Table::kInput, 6, Type::kU32, 1, 1, "", "control cycles since start"},
     {"period_us", Table::kInput, 8, Type::kU32, 1, 1, "us", "control cycle period"},

@@ -1,0 +1,31 @@
+// The controller's vocabulary (common/portable): names by value, and the
+// Modbus map's state text made from them.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "delta/controller/vocabulary.hpp"
+#include "delta/modbus/register_map.hpp"
+
+namespace delta::controller {
+namespace {
+
+TEST(ControllerVocabularyTest, NamesFollowTheStableNumbers) {
+  EXPECT_STREQ(state_name(State::kBoot), "boot");
+  EXPECT_STREQ(state_name(State::kFault), "fault");
+  EXPECT_STREQ(fault_name(Fault::kNone), "none");
+  EXPECT_STREQ(fault_name(Fault::kHeartbeatLost), "heartbeat lost");
+  EXPECT_STREQ(fault_name(Fault::kFeedbackLate), "feedback late");
+  EXPECT_STREQ(trajectory_fault_name(TrajectoryFault::kOutsideWorkspace), "outside the workspace");
+  // A number the vocabulary does not know (a newer controller's) is named so.
+  EXPECT_STREQ(fault_name(static_cast<Fault>(14)), "unknown");
+  EXPECT_STREQ(state_name(static_cast<State>(200)), "unknown");
+}
+
+TEST(ControllerVocabularyTest, TheModbusMapDescribesTheStateRegisterWithTheNames) {
+  EXPECT_EQ(std::string(modbus::named("state").description),
+            "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault");
+}
+
+}  // namespace
+}  // namespace delta::controller
