@@ -83,7 +83,7 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options) {
   }
 
   if (options.method == Method::kPso) {
-    const NormalEquationCost cost(cost_reg);
+    const QuadraticCost cost(cost_reg, ls.beta);
     r.pso =
         run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, lower, upper, options.pso);
     r.beta = r.pso->best;

@@ -135,15 +135,18 @@ double direct_cost(const Regression& r, const Eigen::VectorXd& beta) {
   return (r.tau - r.psi * beta).squaredNorm() / static_cast<double>(r.tau.size());
 }
 
-NormalEquationCost::NormalEquationCost(const Regression& r)
-    : psi_t_psi_(r.psi.transpose() * r.psi),
-      psi_t_tau_(r.psi.transpose() * r.tau),
-      tau_t_tau_(r.tau.squaredNorm()),
-      rows_(static_cast<double>(r.tau.size())) {}
+QuadraticCost::QuadraticCost(const Regression& r, const Eigen::VectorXd& beta0)
+    : beta0_(beta0), rows_(static_cast<double>(r.tau.size())) {
+  const Eigen::VectorXd r0 = r.tau - r.psi * beta0;
+  psi_t_psi_ = r.psi.transpose() * r.psi;
+  psi_t_r0_ = r.psi.transpose() * r0;
+  r0_t_r0_ = r0.squaredNorm();
+}
 
-double NormalEquationCost::operator()(const Eigen::VectorXd& beta) const {
-  const double quad = beta.dot(psi_t_psi_.selfadjointView<Eigen::Upper>() * beta);
-  return std::max(0.0, (tau_t_tau_ - 2.0 * beta.dot(psi_t_tau_) + quad) / rows_);
+double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
+  const Eigen::VectorXd d = beta - beta0_;
+  const double quad = d.dot(psi_t_psi_.selfadjointView<Eigen::Upper>() * d);
+  return std::max(0.0, (r0_t_r0_ - 2.0 * d.dot(psi_t_r0_) + quad) / rows_);
 }
 
 std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::VectorXd& e) {

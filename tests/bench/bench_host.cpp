@@ -53,12 +53,13 @@ void BM_CostDirect(benchmark::State& state) {
 }
 BENCHMARK(BM_CostDirect)->Unit(benchmark::kMicrosecond);
 
-void BM_CostNormalEquation(benchmark::State& state) {
-  const NormalEquationCost cost(regression60());
-  const Eigen::VectorXd beta = Eigen::VectorXd::Constant(cost.psi_t_tau().size(), 0.1);
+void BM_CostQuadratic(benchmark::State& state) {
+  const Regression& r = regression60();
+  const QuadraticCost cost(r, Eigen::VectorXd::Zero(r.psi.cols()));
+  const Eigen::VectorXd beta = Eigen::VectorXd::Constant(cost.parameters(), 0.1);
   for (auto _ : state) benchmark::DoNotOptimize(cost(beta));
 }
-BENCHMARK(BM_CostNormalEquation)->Unit(benchmark::kNanosecond);
+BENCHMARK(BM_CostQuadratic)->Unit(benchmark::kNanosecond);
 
 void BM_FitPso10000Iterations60s(benchmark::State& state) {
   FitOptions f;

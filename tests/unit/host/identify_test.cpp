@@ -123,19 +123,38 @@ TEST(IdentifyTest, PaperModelShowsTheValidationGapThatTheDeltaModelDoesNot) {
   }
 }
 
-TEST(IdentifyTest, NormalEquationCostEqualsDirectSumOfSquares) {
+// PSO compares costs to 1e-12 (its stall tolerance), so the O(p^2) cost
+// must equal the direct sum of squares that well at and near the optimum,
+// where the expansion about zero lost about 5e-9 to cancellation.
+TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
   const DeltaLog log = simulated(4, 0.02, 17, false);
   const auto model = make_model({});
   const Samples s = prepare_samples(log, PrepareOptions{});
   const Regression reg = build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name);
-  const NormalEquationCost fast(reg);
-  Eigen::VectorXd beta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(model->size()));
+  const LeastSquaresResult ls =
+      solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 0);
+  const QuadraticCost fast(reg, ls.beta);
+  EXPECT_NEAR(fast(ls.beta), direct_cost(reg, ls.beta), 1e-12 * direct_cost(reg, ls.beta));
+  for (const double scale : {1e-9, 1e-6, 1e-3, 1e-1}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::VectorXd beta = ls.beta;
+      for (Eigen::Index i = 0; i < beta.size(); ++i) {
+        beta(i) *= 1.0 + scale * std::sin(1.7 * static_cast<double>(trial * 13 + i));
+      }
+      const double direct = direct_cost(reg, beta);
+      EXPECT_NEAR(fast(beta), direct, 1e-12 * direct) << "relative step " << scale;
+    }
+  }
+  // Far from it (and about any point) too.
+  const QuadraticCost about_zero(reg, Eigen::VectorXd::Zero(ls.beta.size()));
+  Eigen::VectorXd beta = Eigen::VectorXd::Zero(ls.beta.size());
   for (int trial = 0; trial < 20; ++trial) {
     for (Eigen::Index i = 0; i < beta.size(); ++i) {
       beta(i) = 0.1 * std::sin(1.7 * static_cast<double>(trial * 13 + i)) + 0.05;
     }
     const double direct = direct_cost(reg, beta);
-    EXPECT_NEAR(fast(beta), direct, 1e-10 * direct);
+    EXPECT_NEAR(fast(beta), direct, 1e-12 * direct);
+    EXPECT_NEAR(about_zero(beta), direct, 1e-10 * direct);
   }
 }
 
