@@ -11,18 +11,27 @@ namespace host_id {
 
 namespace mb = delta::modbus;
 
-ControllerLink::ControllerLink(const std::string& host_port) : address_(host_port) {
+HostPort parse_host_port(const std::string& host_port) {
   const auto colon = host_port.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == host_port.size()) {
-    throw delta::InputError("--modbus: expected HOST:PORT, got '" + host_port + "'");
+    throw delta::InputError("expected HOST:PORT, got '" + host_port + "'");
   }
-  const std::string host = host_port.substr(0, colon);
-  const std::string port = host_port.substr(colon + 1);
-  if (port.find_first_not_of("0123456789") != std::string::npos || port.size() > 5 ||
-      std::stoi(port) > 65535) {
-    throw delta::InputError("--modbus: the port must be a number from 1 to 65535, got '" + port +
-                            "'");
+  HostPort hp{host_port.substr(0, colon), host_port.substr(colon + 1)};
+  if (hp.port.find_first_not_of("0123456789") != std::string::npos || hp.port.size() > 5 ||
+      std::stoi(hp.port) > 65535 || std::stoi(hp.port) == 0) {
+    throw delta::InputError("the port must be a number from 1 to 65535, got '" + hp.port + "'");
   }
+  return hp;
+}
+
+ControllerLink::ControllerLink(const std::string& host_port) : address_(host_port) {
+  HostPort hp;
+  try {
+    hp = parse_host_port(host_port);
+  } catch (const delta::InputError& e) {
+    throw delta::InputError(std::string("--modbus: ") + e.what());
+  }
+  const auto& [host, port] = hp;
   ctx_ = modbus_new_tcp_pi(host.c_str(), port.c_str());
   if (ctx_ == nullptr)
     throw delta::InputError("--modbus " + host_port + ": " + modbus_strerror(errno));

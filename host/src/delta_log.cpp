@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <map>
+#include <ostream>
 #include <sstream>
 
 #include "delta/input_error.hpp"
@@ -423,6 +424,13 @@ std::string format_delta_log(const DeltaLog& log) {
     out += '\n';
   }
   return out;
+}
+
+void warn_about_gaps(std::ostream& err, const DeltaLog& log) {
+  for (const auto& g : log.gaps) {
+    err << log.name << ":" << g.line << ": warning: " << g.what
+        << "; segments are fitted separately\n";
+  }
 }
 
 }  // namespace host_id

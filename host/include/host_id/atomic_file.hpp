@@ -10,6 +10,10 @@ namespace host_id {
 // temporary file is removed, path is left as it was, and delta::InputError is thrown.
 void write_file_atomically(const std::string& path, std::string_view content);
 
+// Where a command keeps what it has when it could not finish:
+// "run.csv" -> "run.partial.csv"; "run" -> "run.partial".
+std::string partial_log_path(const std::string& path);
+
 // Reads a whole file; delta::InputError names the file when it cannot be read.
 std::string read_whole_file(const std::string& path);
 

@@ -13,6 +13,13 @@ struct _modbus;
 
 namespace host_id {
 
+struct HostPort {
+  std::string host;
+  std::string port;  // digits, 1 to 65535
+};
+// Splits "HOST:PORT"; InputError says what is wrong with it.
+HostPort parse_host_port(const std::string& host_port);
+
 class ControllerLink {
  public:
   // Connects to "HOST:PORT"; throws delta::InputError.

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -64,6 +65,10 @@ DeltaLog read_delta_log(const std::string& path);
 // Formats a log as delta-log/1 text. Numbers are written in the shortest form
 // that reads back to the same double.
 std::string format_delta_log(const DeltaLog& log);
+
+// One warning line per gap in the log ("LOG:LINE: warning: ...; segments
+// are fitted separately"), for every log a command fits or validates.
+void warn_about_gaps(std::ostream& err, const DeltaLog& log);
 
 // Shortest round-trip decimal form of a double.
 std::string format_number(double v);

@@ -27,8 +27,8 @@
 #include "fw_linux/modbus_server.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
+#include "host_id/atomic_file.hpp"
 #include "host_id/cli.hpp"
-#include "host_id/controller_commands.hpp"
 #include "in_process_rig.hpp"
 
 namespace fw_linux {
@@ -406,7 +406,7 @@ TEST_F(Fixture, HostIdStatusReadsTheController) {
   EXPECT_EQ(host_id::run_cli({"status", "--modbus", "127.0.0.1:1"}, o, e1), 1);
   EXPECT_NE(e1.str().find("cannot connect to the controller at 127.0.0.1:1"), std::string::npos)
       << e1.str();
-  EXPECT_EQ(host_id::run_cli({"status", "--modbus", "localhost"}, o, e2), 1);
+  EXPECT_EQ(host_id::run_cli({"status", "--modbus", "localhost"}, o, e2), 2);
   EXPECT_NE(e2.str().find("expected HOST:PORT"), std::string::npos) << e2.str();
 }
 
@@ -417,12 +417,14 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
                               "vcan0", "-o", "x.csv"},
                              o, e1),
             2);
-  EXPECT_NE(e1.str().find("unknown trajectory 'figure8'"), std::string::npos) << e1.str();
+  EXPECT_NE(e1.str().find("--trajectory: figure8 not in {path1,path2,pick-and-place}"),
+            std::string::npos)
+      << e1.str();
   EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can",
                               "vcan0", "-o", "x.csv", "--amplitude-scale", "3"},
                              o, e2),
             2);
-  EXPECT_NE(e2.str().find("--amplitude-scale must be from 0.001 to 2"), std::string::npos)
+  EXPECT_NE(e2.str().find("--amplitude-scale: must be in [0.001, 2], got '3'"), std::string::npos)
       << e2.str();
   loop.io().open_estop(true);
   ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {

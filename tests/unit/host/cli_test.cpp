@@ -14,6 +14,7 @@
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
+#include "host_id/identify.hpp"
 
 namespace host_id {
 namespace {
@@ -46,10 +47,28 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, NoArgumentsPrintsUsageAndFails) {
   EXPECT_EQ(run({}), 2);
-  EXPECT_NE(err_.str().find("usage: host_id <command>"), std::string::npos);
+  EXPECT_NE(err_.str().find("Usage: host_id [OPTIONS] SUBCOMMAND"), std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("host_id: error: A subcommand is required"), std::string::npos);
   EXPECT_EQ(run({"--help"}), 0);
+  EXPECT_NE(out_.str().find("record"), std::string::npos);
   EXPECT_EQ(run({"fit", "--help"}), 0);
-  EXPECT_NE(out_.str().find("--validate LOG2.csv"), std::string::npos);
+  EXPECT_NE(out_.str().find("--validate"), std::string::npos);
+  // The documented default of --min-speed is the code's.
+  EXPECT_NE(out_.str().find("(delta: 0.05,"), std::string::npos) << out_.str();
+  EXPECT_NEAR(min_speed_for(FitOptions{}), 0.05, 0.0);
+}
+
+// The version is the project's, which the firmware reports in its version
+// registers; every command takes --version.
+TEST_F(CliTest, VersionIsPrintedByTheProgramAndEveryCommand) {
+  const std::string expected = std::string("host_id ") + DELTA_PROJECT_VERSION + "\n";
+  EXPECT_EQ(run({"--version"}), 0);
+  EXPECT_EQ(out_.str(), expected);
+  for (const char* command : {"fit", "validate", "simulate", "record", "excite", "status", "dbc"}) {
+    EXPECT_EQ(run({command, "--version"}), 0) << command;
+    EXPECT_EQ(out_.str(), expected) << command;
+  }
 }
 
 TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
@@ -58,21 +77,52 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_NE(err_.str().find("unknown command 'frobnicate'"), std::string::npos);
   EXPECT_EQ(run({"fit", path("a.csv"), "--itertions", "5"}), 2);
   EXPECT_EQ(err_.str(),
-            "host_id: error: fit: unknown option '--itertions' (see host_id fit --help)\n");
+            "host_id: error: fit: The following arguments were not expected: 5 --itertions (see "
+            "host_id fit --help)\n");
   EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "many"}), 2);
-  EXPECT_EQ(err_.str(),
-            "host_id: error: fit: option --iterations expects a whole number from 1 to 100000000, "
-            "got 'many'\n");
+  EXPECT_NE(err_.str().find("fit: --iterations: Value many not in range 1 to 100000000"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "0"}), 2);
+  EXPECT_NE(err_.str().find("--iterations: Value 0 not in range 1 to 100000000"), std::string::npos)
+      << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper"}), 2);
-  EXPECT_NE(err_.str().find("--model must be one of delta, paper14, got 'paper'"),
-            std::string::npos);
+  EXPECT_NE(err_.str().find("--model: paper not in {delta,paper14}"), std::string::npos)
+      << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--seed"}), 2);
-  EXPECT_NE(err_.str().find("option --seed needs a value"), std::string::npos);
+  EXPECT_NE(err_.str().find("--seed"), std::string::npos);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--seed", "1", "--seed", "2"}), 2);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--cutoff-hz", "inf"}), 2);
+  EXPECT_NE(err_.str().find("--cutoff-hz: expects a finite number, got 'inf'"), std::string::npos)
+      << err_.str();
   EXPECT_EQ(run({"fit"}), 2);
+  EXPECT_NE(err_.str().find("log is required"), std::string::npos) << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--plot", path("p.png")}), 2);
-  EXPECT_NE(err_.str().find("--plot writes SVG"), std::string::npos);
+  EXPECT_NE(err_.str().find("--plot: writes SVG"), std::string::npos) << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--offsets"}), 1);
   EXPECT_NE(err_.str().find("--offsets applies to --model delta only"), std::string::npos);
+}
+
+// Found when the product was tried as a new user would: values out of range
+// and missing limits are usage errors (2), not input errors (1).
+TEST_F(CliTest, OutOfRangeValuesAndMissingLimitsExitTwo) {
+  EXPECT_EQ(run({"record", "--can", "vcan0", "-o", path("r.csv")}), 2);
+  EXPECT_NE(err_.str().find("record: give a limit"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"record", "--can", "vcan0", "-o", path("r.csv"), "--idle", "-1"}), 2);
+  EXPECT_NE(err_.str().find("--idle: must be > 0, got '-1'"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"status", "--modbus", "nohostport"}), 2);
+  EXPECT_NE(err_.str().find("expected HOST:PORT, got 'nohostport'"), std::string::npos);
+  EXPECT_EQ(run({"status", "--modbus", "127.0.0.1:99999"}), 2);
+  EXPECT_NE(err_.str().find("the port must be a number from 1 to 65535, got '99999'"),
+            std::string::npos);
+  EXPECT_EQ(run({"excite", "--modbus", "127.0.0.1:0", "--trajectory", "path1", "--can", "vcan0",
+                 "-o", path("x.csv")}),
+            2);
+  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--rate", "0"}), 2);
+  EXPECT_NE(err_.str().find("--rate: must be in [1, 100000], got '0'"), std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("r.csv"));
+  EXPECT_FALSE(exists("s.csv"));
 }
 
 TEST_F(CliTest, BadLogFailsWithFileLineColumnAndWritesNothing) {
@@ -154,7 +204,8 @@ TEST_F(CliTest, MinSpeedLeavesOutSlowEquationsAndSaysHowMany) {
     EXPECT_GT(used.get<std::size_t>(), samples / 2);
   }
   EXPECT_EQ(run({"fit", path("p1.csv"), "--min-speed", "-1"}), 2);
-  EXPECT_NE(err_.str().find("fit: --min-speed must be 0 or more"), std::string::npos);
+  EXPECT_NE(err_.str().find("fit: --min-speed: must be >= 0, got '-1'"), std::string::npos)
+      << err_.str();
   EXPECT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "100"}), 1);
   EXPECT_NE(err_.str().find("p1.csv: joint 1 is never faster than the minimum speed of 100"),
             std::string::npos)
@@ -173,9 +224,10 @@ TEST_F(CliTest, ValidateRejectsWhatIsNotAResult) {
 
 TEST_F(CliTest, SimulateValidatesItsOptions) {
   EXPECT_EQ(run({"simulate"}), 2);
-  EXPECT_NE(err_.str().find("-o LOG.csv is required"), std::string::npos);
-  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--torque-noise", "2"}), 1);
-  EXPECT_NE(err_.str().find("--torque-noise is a fraction"), std::string::npos);
+  EXPECT_NE(err_.str().find("--out is required"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--torque-noise", "1"}), 2);
+  EXPECT_NE(err_.str().find("--torque-noise: must be in [0, 1), got '1'"), std::string::npos)
+      << err_.str();
   EXPECT_FALSE(exists("s.csv"));
   ASSERT_EQ(run({"simulate", "-o", path("s.csv"), "--trajectory", "pick-and-place", "--duration",
                  "1", "--with-derivatives"}),

@@ -1,0 +1,47 @@
+// What every host_id command is made of: it adds its subcommand with its
+// options to the application (CLI11), and the subcommand's callback runs it
+// and sets the exit status. cli.cpp holds the table of commands.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <iosfwd>
+#include <string>
+
+#include "delta/input_error.hpp"
+
+namespace host_id {
+
+struct CommandContext {
+  std::ostream& out;
+  std::ostream& err;
+  int exit_code{0};
+};
+
+// A usage error found after parsing (options that contradict each other, a
+// file name of the wrong kind): exit status 2, like CLI11's parse errors.
+class UsageError : public delta::InputError {
+ public:
+  using delta::InputError::InputError;
+};
+
+// Validators for CLI11 options. Numbers must be finite ("inf" and "nan"
+// are refused; CLI::Range lets NaN through).
+extern const CLI::Validator kFinite;
+extern const CLI::Validator kPositive;     // > 0
+extern const CLI::Validator kNonNegative;  // >= 0
+// lo <= v <= hi, or lo <= v < hi when open_above.
+CLI::Validator finite_range(double lo, double hi, bool open_above = false);
+// HOST:PORT with a port from 1 to 65535.
+extern const CLI::Validator kHostPort;
+// A file name ending in .svg.
+extern const CLI::Validator kSvgPath;
+
+void add_fit_command(CLI::App& app, CommandContext& context);
+void add_validate_command(CLI::App& app, CommandContext& context);
+void add_simulate_command(CLI::App& app, CommandContext& context);
+void add_record_command(CLI::App& app, CommandContext& context);
+void add_excite_command(CLI::App& app, CommandContext& context);
+void add_status_command(CLI::App& app, CommandContext& context);
+void add_dbc_command(CLI::App& app, CommandContext& context);
+
+}  // namespace host_id

@@ -1,0 +1,236 @@
+// host_id fit LOG.csv: estimate the parameters, validate, report, save, plot.
+#include <unistd.h>
+
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "commands/command.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/delta_log.hpp"
+#include "host_id/identify.hpp"
+#include "host_id/report.hpp"
+#include "host_id/svg_plot.hpp"
+
+namespace host_id {
+
+namespace {
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled) : enabled_(enabled) {}
+  void operator()(std::size_t it, std::size_t max, double cost) const {
+    if (!enabled_) return;
+    const int width = 40;
+    const int filled = max ? static_cast<int>(static_cast<double>(width) * static_cast<double>(it) /
+                                              static_cast<double>(max))
+                           : width;
+    std::fprintf(stderr, "\rpso [%-*s] %6zu/%zu  cost %.6e", width,
+                 std::string(static_cast<std::size_t>(std::min(filled, width)), '#').c_str(), it,
+                 max, cost);
+    std::fflush(stderr);
+  }
+  void finish() const {
+    if (enabled_) std::fprintf(stderr, "\r%*s\r", 90, "");
+  }
+
+ private:
+  bool enabled_;
+};
+
+// The fitted log first, then the validation logs.
+std::vector<const DeltaLog*> all_logs(const DeltaLog& fitted, const std::vector<DeltaLog>& others) {
+  std::vector<const DeltaLog*> all{&fitted};
+  for (const DeltaLog& l : others) all.push_back(&l);
+  return all;
+}
+
+// What the command line gives, before it becomes FitOptions.
+struct FitArguments {
+  std::string log;
+  FitOptions fit;
+  std::string method{"pso"};
+  std::string topology{"gbest"};
+  std::string solver{"qr"};
+  std::string weights{"none"};
+  std::size_t trim{0};
+  double min_speed_rad_s{0};
+  std::vector<std::string> validate;
+  std::string out_path;
+  std::string plot_path;
+  bool json{false};
+  bool quiet{false};
+  CLI::Option* trim_given{nullptr};
+  CLI::Option* min_speed_given{nullptr};
+};
+
+void add_model_options(CLI::App& c, FitArguments& a) {
+  c.add_option("--model", a.fit.model.name,
+               "delta: lumped model with lambda solved per sample; paper14: the paper's 14 "
+               "coefficients")
+      ->check(CLI::IsMember({"delta", "paper14"}))
+      ->capture_default_str()
+      ->group("model");
+  c.add_flag("--per-joint", a.fit.model.per_joint,
+             "delta: arm inertia and gravity moment per joint")
+      ->group("model");
+  c.add_flag("--offsets", a.fit.model.offsets, "delta: a torque offset per joint")->group("model");
+  c.add_option("--coulomb-smoothing", a.fit.model.coulomb_smoothing_rad_s,
+               "Coulomb sign smoothed as tanh(qd/W), rad/s")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group("model");
+}
+
+void add_estimator_options(CLI::App& c, FitArguments& a) {
+  const char* g = "estimator";
+  PsoOptions& p = a.fit.pso;
+  c.add_option("--method", a.method, "particle swarm or least squares")
+      ->check(CLI::IsMember({"pso", "ls"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--particles", p.particles, "swarm size")
+      ->check(CLI::Range(2, 100000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--iterations", p.iterations, "maximum iterations (as in the paper)")
+      ->check(CLI::Range(1, 100000000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--topology", a.topology, "swarm topology")
+      ->check(CLI::IsMember({"gbest", "ring"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--seed", p.seed, "random seed; same seed, same result")
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--stall-iterations", p.stall_iterations,
+               "stop or restart after N iterations without improvement")
+      ->check(CLI::Range(1, 100000000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--restarts", p.restarts, "restarts on stall before stopping")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--bound-factor", a.fit.bound_factor, "PSO box: |beta_j| <= K rms(tau)/rms(Psi_j)")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--solver", a.solver, "least-squares solver")
+      ->check(CLI::IsMember({"qr", "svd"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--weights", a.weights, "ordinary, or weighted by each joint's residual variance")
+      ->check(CLI::IsMember({"none", "joint"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--threads", a.fit.threads, "threads for building the regressor (0: all cores)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str()
+      ->group(g);
+}
+
+void add_sample_options(CLI::App& c, FitArguments& a) {
+  c.add_option("--cutoff-hz", a.fit.prepare.cutoff_hz,
+               "low-pass cut-off for q and tau when the log has no qd/qdd columns")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group("samples");
+  a.trim_given = c.add_option("--trim", a.trim,
+                              "samples dropped at each segment end (default: "
+                              "auto)")
+                     ->check(CLI::Range(0, 1000000))
+                     ->group("samples");
+  a.min_speed_given =
+      c.add_option("--min-speed", a.min_speed_rad_s,
+                   "leave out a joint's equation where its |qd| < W rad/s (delta: 0.05, paper14: "
+                   "0 = every sample)")
+          ->check(kNonNegative)
+          ->group("samples");
+}
+
+void add_output_options(CLI::App& c, FitArguments& a) {
+  c.add_option("--validate", a.validate, "torque RMSE on another log (repeatable)")
+      ->allow_extra_args(false)
+      ->group("output");
+  c.add_option("--out", a.out_path, "save the result as JSON (atomically)")->group("output");
+  c.add_flag("--json", a.json, "print the whole report as JSON instead of text")->group("output");
+  c.add_option("--plot", a.plot_path, "measured vs predicted torque and the residuals")
+      ->check(kSvgPath)
+      ->group("output");
+  c.add_flag("--quiet", a.quiet, "no progress bar")->group("output");
+}
+
+// The options the strings and the optional values stand for.
+FitOptions fit_options(const FitArguments& a) {
+  FitOptions f = a.fit;
+  f.method = a.method == "pso" ? Method::kPso : Method::kLeastSquares;
+  f.pso.topology = a.topology == "gbest" ? PsoTopology::kGlobal : PsoTopology::kRing;
+  f.solver = a.solver == "qr" ? LsSolver::kQr : LsSolver::kSvd;
+  f.weights = a.weights == "none" ? LsWeights::kNone : LsWeights::kJoint;
+  f.prepare.trim_samples = a.trim_given->count() ? static_cast<long>(a.trim) : -1;
+  if (a.min_speed_given->count()) f.min_speed_rad_s = a.min_speed_rad_s;
+  return f;
+}
+
+void write_outputs(const FitArguments& a, const FitResult& r, const std::vector<Prediction>& all,
+                   std::ostream& out) {
+  const nlohmann::json j = json_report(r);
+  if (!a.out_path.empty()) write_file_atomically(a.out_path, j.dump(2) + "\n");
+  if (!a.plot_path.empty()) {
+    write_file_atomically(a.plot_path,
+                          svg_torque_plot(all, "host_id fit, model " + a.fit.model.name));
+  }
+  if (a.json) {
+    out << j.dump(2) << "\n";
+    return;
+  }
+  out << text_report(r);
+  if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
+  if (!a.plot_path.empty()) out << "  plot      " << a.plot_path << "\n";
+}
+
+int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
+  FitOptions f = fit_options(a);
+  const ProgressBar bar(!a.quiet && isatty(STDERR_FILENO) && f.method == Method::kPso);
+  f.pso.progress = [&bar](std::size_t it, std::size_t max, double c) { bar(it, max, c); };
+  f.pso.progress_every = 200;
+
+  // Read every input before doing any work, so a bad validation log fails fast.
+  const DeltaLog log = read_delta_log(a.log);
+  std::vector<DeltaLog> validation_logs;
+  for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
+  for (const DeltaLog* l : all_logs(log, validation_logs)) warn_about_gaps(err, *l);
+  FitResult r = fit_log(log, f);
+  bar.finish();
+  const auto model = make_model(f.model);
+  std::vector<Prediction> predictions;
+  for (const DeltaLog* l : all_logs(log, validation_logs)) {
+    predictions.push_back(predict(*model, r.beta, *l, f.prepare, f.threads));
+    if (l != &log) {
+      r.validation.push_back({l->name, predictions.back().t_s.size(), predictions.back().rmse_Nm});
+    }
+  }
+  write_outputs(a, r, predictions, out);
+  return 0;
+}
+
+}  // namespace
+
+void add_fit_command(CLI::App& app, CommandContext& context) {
+  CLI::App* c = app.add_subcommand("fit", "estimate the parameters (PSO by default)");
+  c->description(
+      "Estimates the dynamic parameters from LOG.csv and prints a report "
+      "(docs/identification.md).");
+  auto a = std::make_shared<FitArguments>();
+  c->add_option("log", a->log, "the delta-log/1 file to fit")->required();
+  add_model_options(*c, *a);
+  add_estimator_options(*c, *a);
+  add_sample_options(*c, *a);
+  add_output_options(*c, *a);
+  c->callback([a, &context] { context.exit_code = run_fit(*a, context.out, context.err); });
+}
+
+}  // namespace host_id

@@ -1,0 +1,79 @@
+// host_id simulate -o LOG.csv: a log from known parameters.
+#include "host_id/simulate.hpp"
+
+#include <memory>
+#include <ostream>
+
+#include "commands/command.hpp"
+#include "delta/parameter_file.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/delta_log.hpp"
+
+namespace host_id {
+
+namespace {
+
+struct SimulateArguments {
+  std::string out_path;
+  std::string params_path;
+  SimulateOptions simulate;
+};
+
+void add_path_options(CLI::App& c, SimulateOptions& s) {
+  c.add_option("--trajectory", s.trajectory, "the path")
+      ->check(CLI::IsMember({"fourier", "pick-and-place"}))
+      ->capture_default_str();
+  c.add_option("--duration", s.duration_s, "seconds")
+      ->check(finite_range(0.0, 3600.0) & kPositive)
+      ->capture_default_str();
+  c.add_option("--rate", s.sample_rate_hz, "sample rate, Hz")
+      ->check(finite_range(1.0, 100000.0))
+      ->capture_default_str();
+  c.add_option("--seed", s.seed, "Fourier coefficients and noise")->capture_default_str();
+  c.add_option("--harmonics", s.harmonics, "Fourier harmonics")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
+  c.add_option("--base-hz", s.base_frequency_hz, "Fourier base frequency")
+      ->check(finite_range(0.0, 5.0) & kPositive)
+      ->capture_default_str();
+  c.add_option("--amplitude", s.amplitude_rad, "largest joint amplitude of the Fourier path, rad")
+      ->check(kPositive)
+      ->capture_default_str();
+}
+
+void add_measurement_options(CLI::App& c, SimulateOptions& s) {
+  c.add_option("--torque-noise", s.torque_noise,
+               "Gaussian torque noise, a fraction of each joint's RMS torque")
+      ->check(finite_range(0.0, 1.0, true))
+      ->capture_default_str();
+  c.add_option("--encoder-bits", s.encoder_bits, "quantise q to 2 pi / 2^N (0: off)")
+      ->check(CLI::Range(0, 32))
+      ->capture_default_str();
+  c.add_flag("--with-derivatives", s.with_derivatives, "also write exact qd and qdd columns");
+  c.add_option("--name", s.name, "the log's trajectory name");
+}
+
+}  // namespace
+
+void add_simulate_command(CLI::App& app, CommandContext& context) {
+  CLI::App* c = app.add_subcommand("simulate", "write a log from known parameters");
+  c->description(
+      "Writes a delta-log/1 file by inverse dynamics of the lumped model with known parameters "
+      "(the default robot's unless --params is given).");
+  auto a = std::make_shared<SimulateArguments>();
+  c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
+  add_path_options(*c, a->simulate);
+  add_measurement_options(*c, a->simulate);
+  c->add_option("--params", a->params_path, "parameters, JSON (keys as in 'host_id fit' output)");
+  c->callback([a, &context] {
+    SimulateOptions s = a->simulate;
+    if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
+    const DeltaLog log = simulate_log(s);
+    write_file_atomically(a->out_path, format_delta_log(log));
+    context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
+                << s.trajectory << ")\n";
+    context.exit_code = 0;
+  });
+}
+
+}  // namespace host_id

@@ -1,0 +1,67 @@
+// host_id validate RESULT.json LOG.csv...: torque RMSE of a saved fit.
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "commands/command.hpp"
+#include "host_id/atomic_file.hpp"
+#include "host_id/delta_log.hpp"
+#include "host_id/identify.hpp"
+#include "host_id/report.hpp"
+#include "host_id/svg_plot.hpp"
+
+namespace host_id {
+
+namespace {
+
+struct ValidateArguments {
+  std::string result_path;
+  std::vector<std::string> logs;
+  bool json{false};
+  std::string plot_path;
+};
+
+int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& err) {
+  const SavedResult saved = read_saved_result(a.result_path);
+  const auto model = make_model(saved.model);
+  std::vector<DeltaLog> logs;
+  for (const auto& path : a.logs) logs.push_back(read_delta_log(path));
+  std::vector<LogRmse> rows;
+  std::vector<Prediction> predictions;
+  for (const auto& l : logs) {
+    warn_about_gaps(err, l);
+    predictions.push_back(predict(*model, saved.beta, l, saved.prepare, 0));
+    rows.push_back({l.name, predictions.back().t_s.size(), predictions.back().rmse_Nm});
+  }
+  if (!a.plot_path.empty()) {
+    write_file_atomically(a.plot_path,
+                          svg_torque_plot(predictions, "host_id validate " + a.result_path));
+  }
+  if (a.json) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& r : rows) j.push_back(json_rmse(r));
+    out << nlohmann::json{{"result", a.result_path}, {"validation", j}}.dump(2) << "\n";
+  } else {
+    out << "host_id validate: " << a.result_path << " (model " << saved.model.name << ")\n";
+    out << text_rmse_table(rows, "validate");
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_validate_command(CLI::App& app, CommandContext& context) {
+  CLI::App* c = app.add_subcommand("validate", "torque RMSE of a saved fit on other logs");
+  c->description(
+      "Prints the torque RMSE per joint of the parameters saved by 'host_id fit --out "
+      "RESULT.json' on each log.");
+  auto a = std::make_shared<ValidateArguments>();
+  c->add_option("result", a->result_path, "RESULT.json saved by host_id fit --out")->required();
+  c->add_option("logs", a->logs, "the delta-log/1 files (one or more)")->required();
+  c->add_flag("--json", a->json, "print JSON instead of text");
+  c->add_option("--plot", a->plot_path, "measured vs predicted torque and the residuals")
+      ->check(kSvgPath);
+  c->callback([a, &context] { context.exit_code = run_validate(*a, context.out, context.err); });
+}
+
+}  // namespace host_id
