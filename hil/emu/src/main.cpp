@@ -3,11 +3,15 @@
 #include <poll.h>
 #include <time.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
+#include <charconv>
+#include <cmath>
 #include <csignal>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "delta/can/protocol.hpp"
@@ -30,21 +34,70 @@ std::uint64_t monotonic_us() {
          static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
 }
 
-constexpr const char* kUsage =
-    "usage: delta_drive_emu --can IFACE [--plant lumped] [--truth FILE] [--inject FAULT]...\n"
-    "                       [--initial-q RAD] [--current-noise A] [--seed N]\n"
-    "\n"
-    "Emulates three CiA 402 drives (nodes 1-3) and the default delta robot they move.\n"
-    "  --truth FILE     the plant's parameters, JSON as `host_id simulate --params` reads\n"
-    "  --inject FAULT   KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC:\n"
-    "                   heartbeat-drop:N, silent:N, error-frame, corrupt-pdo:N,\n"
-    "                   delay-pdo:N:MS, overcurrent:N\n"
-    "Prints 'delta_drive_emu: ready on IFACE' on stdout once listening; stops on SIGINT or\n"
-    "SIGTERM and prints the drives' final states.\n";
+constexpr const char* kDescription =
+    "Emulates three CiA 402 drives (nodes 1-3) and the default delta robot they move "
+    "(docs/hil.md). Prints 'delta_drive_emu: ready on IFACE' on stdout once listening; stops on "
+    "SIGINT or SIGTERM and prints the drives' final states.";
 
-int usage_error(const std::string& m) {
-  std::cerr << "delta_drive_emu: " << m << "\n" << kUsage;
-  return 2;
+// A number, or NaN when s is none (so that every range check fails).
+double number(const std::string& s) {
+  double v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size() ? v : std::nan("");
+}
+
+// The command line into config, or the exit code when it asked for help or
+// was wrong.
+std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
+                                   emu::EmulatorConfig& config) {
+  CLI::App app(kDescription, "delta_drive_emu");
+  app.set_version_flag("--version", std::string("delta_drive_emu ") + DELTA_VERSION);
+  app.add_option("--can", iface, "the CAN interface (vcan0)")->required();
+  std::string plant = "lumped";
+  app.add_option("--plant", plant, "the robot's model")
+      ->check(CLI::IsMember({"lumped"}))
+      ->capture_default_str();
+  std::string truth_path;
+  app.add_option("--truth", truth_path,
+                 "the plant's parameters, JSON as `host_id simulate --params` reads");
+  std::vector<std::string> faults;
+  app.add_option("--inject", faults,
+                 "KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC: "
+                 "heartbeat-drop:N, silent:N, error-frame, corrupt-pdo:N, delay-pdo:N:MS, "
+                 "overcurrent:N (repeatable)")
+      ->allow_extra_args(false);
+  double initial_q = config.initial_q_rad[0];
+  // CLI::Range and CLI::NonNegativeNumber let NaN through: compare so that it fails.
+  auto* initial = app.add_option("--initial-q", initial_q, "the three joints' angle at start, rad")
+                      ->check(CLI::Validator(
+                          [](std::string& s) {
+                            const double q = number(s);
+                            return q >= -1.5 && q <= 1.5 ? std::string() : "must be in [-1.5, 1.5]";
+                          },
+                          "[-1.5, 1.5]"));
+  app.add_option("--current-noise", config.current_noise_A, "current noise, A (standard deviation)")
+      ->check(CLI::Validator(
+          [](std::string& s) {
+            const double a = number(s);
+            return a >= 0 && a < 1e3 ? std::string() : "must be from 0 to 1000";
+          },
+          ">= 0"))
+      ->capture_default_str();
+  app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
+  try {
+    app.parse(argc, argv);
+    if (initial->count()) config.initial_q_rad = {initial_q, initial_q, initial_q};
+    if (!truth_path.empty()) config.truth = delta::read_lumped_parameters(truth_path);
+    for (const std::string& f : faults) config.faults.push_back(emu::parse_fault(f));
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "delta_drive_emu: " << e.what() << " (see delta_drive_emu --help)\n";
+    return 2;
+  } catch (const std::exception& e) {  // a parameter file or a fault spec
+    std::cerr << "delta_drive_emu: " << e.what() << "\n";
+    return 2;
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -52,45 +105,7 @@ int usage_error(const std::string& m) {
 int main(int argc, char** argv) {
   std::string iface;
   emu::EmulatorConfig config;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-      return argv[++i];
-    };
-    try {
-      if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return 0;
-      } else if (a == "--can") {
-        iface = value();
-      } else if (a == "--plant") {
-        const std::string plant = value();
-        if (plant != "lumped")
-          return usage_error("--plant: only 'lumped' exists, got '" + plant + "'");
-      } else if (a == "--truth") {
-        config.truth = delta::read_lumped_parameters(value());
-      } else if (a == "--inject") {
-        config.faults.push_back(emu::parse_fault(value()));
-      } else if (a == "--initial-q") {
-        const double q = std::stod(value());
-        config.initial_q_rad = {q, q, q};
-      } else if (a == "--current-noise") {
-        config.current_noise_A = std::stod(value());
-        if (!(config.current_noise_A >= 0)) return usage_error("--current-noise must be >= 0");
-      } else if (a == "--seed") {
-        config.seed = std::stoull(value());
-      } else {
-        return usage_error("unknown option '" + a + "'");
-      }
-    } catch (const delta::InputError& e) {
-      std::cerr << "delta_drive_emu: " << e.what() << "\n";
-      return 2;
-    } catch (const std::exception& e) {
-      return usage_error(a + ": " + e.what());
-    }
-  }
-  if (iface.empty()) return usage_error("--can IFACE is required");
+  if (const auto exit_code = parse_arguments(argc, argv, iface, config)) return *exit_code;
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
