@@ -20,103 +20,128 @@ Regression weighted(const Regression& r, const std::array<double, 3>& w) {
 
 namespace {
 
-// S of the covariance in the scaled coordinates, per joint: each joint's
-// g = a e laid out by sample (zero where the joint has no equation), then
+// h_k = sum over |l| <= L of (1 - |l|/(L+1)) g_(k+l), for k < n, with g
+// zero from n to n + L - 1: the triangle as two boxes of L + 1 samples,
+//   box_k = sum of g over [k - L, k],  h_k = sum of box over [k, k + L] / (L + 1),
+// each a difference of running sums. sums holds n + L + 1 values, box n + L.
+void bartlett_smooth(const double* g, Eigen::Index n, Eigen::Index l, double* sums, double* box,
+                     double* h) {
+  const Eigen::Index m = n + l;
+  sums[0] = 0.0;
+  for (Eigen::Index k = 0; k < m; ++k) sums[k + 1] = sums[k] + g[k];
+  for (Eigen::Index k = 0; k < m; ++k)
+    box[k] = sums[k + 1] - sums[std::max<Eigen::Index>(0, k - l)];
+  for (Eigen::Index k = 0; k < m; ++k) sums[k + 1] = sums[k] + box[k];
+  const double norm = 1.0 / static_cast<double>(l + 1);
+  for (Eigen::Index k = 0; k < n; ++k) h[k] = (sums[std::min(m, k + l + 1)] - sums[k]) * norm;
+}
+
+// S of the covariance in the scaled coordinates (the columns of Psi divided
+// by col_norm), per joint: each joint's g = a e laid out by sample (zero
+// where the joint has no equation), then
 //   S += G^T H,  H = G smoothed by the Bartlett weights 1 - |l|/(L+1),
 // which is the sum over lags in one product. The triangle is two boxes of
 // L+1 samples, each a difference of running sums: O(n p) for H. Lags run
 // over the sample index, across a gap between segments too (a few pairs).
-Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::MatrixXd& scaled,
+Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::VectorXd& col_norm,
                                         const Eigen::VectorXd& e, std::size_t lags) {
-  const Eigen::Index p = scaled.cols();
+  const Eigen::Index p = r.psi.cols();
   const auto n = static_cast<Eigen::Index>(r.samples());
   const auto l = std::min<Eigen::Index>(static_cast<Eigen::Index>(lags), n);
+  const Eigen::RowVectorXd inverse_norm = col_norm.cwiseInverse().transpose();
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
   // L zero rows after the last sample, so that the boxes reaching past it
   // are whole.
   const Eigen::Index m = n + l;
-  Eigen::MatrixXd g(m, p), sums(m + 1, p), box(m, p), h(m, p);
+  Eigen::MatrixXd g(m, p), h(m, p);
+  Eigen::VectorXd sums(m + 1), box(m);
   for (unsigned char j = 0; j < 3; ++j) {
+    // Column by column: Psi is column-major, so each pass reads one column
+    // in order.
     g.setZero();
-    for (std::size_t row = 0; row < r.rows(); ++row) {
-      if (r.joint[row] != j) continue;
-      const auto i = static_cast<Eigen::Index>(row);
-      g.row(static_cast<Eigen::Index>(r.sample[row])) = scaled.row(i) * e(i);
+    for (Eigen::Index c = 0; c < p; ++c) {
+      const double* psi_c = r.psi.col(c).data();
+      double* g_c = g.col(c).data();
+      for (std::size_t row = 0; row < r.rows(); ++row) {
+        if (r.joint[row] == j) g_c[r.sample[row]] = psi_c[row] * e(static_cast<Eigen::Index>(row));
+      }
+      g.col(c) *= inverse_norm(c);
     }
     if (l == 0) {
       s.noalias() += g.transpose() * g;
       continue;
     }
-    // box_k = sum of g over [k - L, k]; h_k = sum of box over [k, k + L] / (L + 1).
-    sums.row(0).setZero();
-    for (Eigen::Index k = 0; k < m; ++k) sums.row(k + 1) = sums.row(k) + g.row(k);
-    for (Eigen::Index k = 0; k < m; ++k)
-      box.row(k) = sums.row(k + 1) - sums.row(std::max<Eigen::Index>(0, k - l));
-    sums.row(0).setZero();
-    for (Eigen::Index k = 0; k < m; ++k) sums.row(k + 1) = sums.row(k) + box.row(k);
-    const double norm = 1.0 / static_cast<double>(l + 1);
-    for (Eigen::Index k = 0; k < n; ++k)
-      h.row(k) = (sums.row(std::min(m, k + l + 1)) - sums.row(k)) * norm;
+    for (Eigen::Index c = 0; c < p; ++c) {
+      bartlett_smooth(g.col(c).data(), n, l, sums.data(), box.data(), h.col(c).data());
+    }
     s.noalias() += g.topRows(n).transpose() * h.topRows(n);
   }
   // Symmetric in exact arithmetic; make it so in floating point.
   return 0.5 * (s + s.transpose());
 }
 
-LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSolver solver,
-                                  const std::string& log_name, std::size_t lags) {
-  const Eigen::Index p = r.psi.cols();
-  const Eigen::Index rows = r.psi.rows();
+Eigen::VectorXd column_norms(const Regression& r, const Model& model, const std::string& log_name) {
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
-  for (Eigen::Index c = 0; c < p; ++c) {
+  for (Eigen::Index c = 0; c < col_norm.size(); ++c) {
     if (!(col_norm(c) > 0.0)) {
       throw delta::InputError(log_name + ": parameter '" +
                               model.parameters()[static_cast<unsigned>(c)].name +
                               "' is not excited at all by this log (its regressor column is zero)");
     }
   }
-  const Eigen::MatrixXd scaled = r.psi * col_norm.cwiseInverse().asDiagonal();
-  // Singular values of the scaled regressor: conditioning and rank.
-  Eigen::BDCSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  return col_norm;
+}
+
+[[noreturn]] void throw_rank_deficient(const Eigen::VectorXd& sv, const Eigen::VectorXd& v,
+                                       const Model& model, const std::string& log_name) {
+  // The right singular vector of the smallest value names the mix of
+  // parameters the data cannot separate.
+  std::ostringstream s;
+  s << log_name << ": the regressor is rank-deficient (smallest scaled singular value "
+    << sv(sv.size() - 1) / sv(0) << " of the largest): this trajectory cannot tell apart";
+  for (Eigen::Index c = 0; c < v.size(); ++c) {
+    if (std::abs(v(c)) > 0.2) s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
+  }
+  s << "; use a richer excitation or a model with fewer parameters";
+  throw delta::InputError(s.str());
+}
+
+// One Householder QR of the column-scaled regressor, Psi D^-1 = Q R, in
+// place in one copy of Psi. Everything else is p x p: the singular values
+// and right singular vectors of R are those of the scaled regressor (Q has
+// orthonormal columns), and Q^T tau carries what the solve needs of tau.
+LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSolver solver,
+                                  const std::string& log_name, std::size_t lags) {
+  const Eigen::Index p = r.psi.cols();
+  const Eigen::Index rows = r.psi.rows();
+  const Eigen::VectorXd col_norm = column_norms(r, model, log_name);
+  Eigen::MatrixXd factors = r.psi * col_norm.cwiseInverse().asDiagonal();
+  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(factors);
+  const Eigen::MatrixXd rr = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+  const Eigen::VectorXd qt_tau = (qr.householderQ().transpose() * r.tau).head(p);
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
-  const double tol = 1e-10 * sv(0);
-  if (sv(p - 1) <= tol) {
-    // The right singular vector of the smallest value names the mix of
-    // parameters the data cannot separate.
-    const Eigen::VectorXd v = svd.matrixV().col(p - 1);
-    std::ostringstream s;
-    s << log_name << ": the regressor is rank-deficient (smallest scaled singular value "
-      << sv(p - 1) / sv(0) << " of the largest): this trajectory cannot tell apart";
-    for (Eigen::Index c = 0; c < p; ++c) {
-      if (std::abs(v(c)) > 0.2)
-        s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
-    }
-    s << "; use a richer excitation or a model with fewer parameters";
-    throw delta::InputError(s.str());
-  }
-  Eigen::VectorXd beta_scaled;
-  if (solver == LsSolver::kSvd) {
-    beta_scaled = svd.solve(r.tau);
-  } else {
-    beta_scaled = scaled.colPivHouseholderQr().solve(r.tau);
-  }
+  if (sv(p - 1) <= 1e-10 * sv(0))
+    throw_rank_deficient(sv, svd.matrixV().col(p - 1), model, log_name);
+  const Eigen::VectorXd beta_scaled =
+      solver == LsSolver::kSvd ? Eigen::VectorXd(svd.solve(qt_tau))
+                               : Eigen::VectorXd(rr.triangularView<Eigen::Upper>().solve(qt_tau));
   LeastSquaresResult out;
   out.beta = beta_scaled.cwiseQuotient(col_norm);
-  const double rss = (r.tau - r.psi * out.beta).squaredNorm();
-  out.cost = rss / static_cast<double>(rows);
+  const Eigen::VectorXd e = r.tau - r.psi * out.beta;
+  out.cost = e.squaredNorm() / static_cast<double>(rows);
   // (A^T A)^-1 = V Sigma^-2 V^T for the scaled regressor A = U Sigma V^T.
   const Eigen::MatrixXd vs = svd.matrixV() * sv.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd inv_ata = vs * vs.transpose();
-  const Eigen::VectorXd e = r.tau - scaled * beta_scaled;
   const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
   const Eigen::MatrixXd cov_scaled =
-      dof * inv_ata * lagged_score_covariance(r, scaled, e, lags) * inv_ata;
+      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags) * inv_ata;
   out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
   out.correlation_lags = lags;
   out.condition_number_scaled = sv(0) / sv(p - 1);
-  Eigen::JacobiSVD<Eigen::MatrixXd> raw(r.psi.transpose() * r.psi);
-  const Eigen::VectorXd ev = raw.singularValues();
-  out.condition_number = std::sqrt(ev(0) / ev(p - 1));
+  // Psi = Q R D: its singular values are those of R D.
+  const Eigen::VectorXd raw_sv = (rr * col_norm.asDiagonal()).jacobiSvd().singularValues();
+  out.condition_number = raw_sv(0) / raw_sv(p - 1);
   return out;
 }
 
