@@ -1,6 +1,7 @@
-// One identification run: prepare the samples, build the regression, solve
-// least squares (always: it is the exact reference and gives the
-// covariance), and with --method pso run the swarm on the same cost.
+// One identification run: preprocess the log (preprocess.hpp), solve least
+// squares (always: it is the exact reference and gives the covariance), with
+// --method pso run the swarm on the same cost, and predict the fitted and
+// the validation logs.
 #pragma once
 
 #include <Eigen/Dense>
@@ -12,8 +13,8 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/model.hpp"
+#include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
-#include "host_id/samples.hpp"
 
 namespace host_id {
 
@@ -60,6 +61,14 @@ struct LogRmse {
   std::array<double, 3> rmse_Nm{};
 };
 
+// Measured and predicted torques of one log under fitted parameters.
+struct Prediction {
+  std::string log;
+  std::vector<double> t_s;
+  std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
+  std::array<double, 3> rmse_Nm{};
+};
+
 struct FitResult {
   FitOptions options;
   LogRmse fit;  // over every sample of the fit log, slow ones included
@@ -82,17 +91,16 @@ struct FitResult {
   double seconds_estimator{0};
   double seconds_total{0};
   std::vector<LogRmse> validation;
+  std::vector<Prediction> predictions;  // with keep_predictions: fitted log, then validation
 };
 
-FitResult fit_log(const DeltaLog& log, const FitOptions& options);
-
-// Measured and predicted torques of one log under fitted parameters.
-struct Prediction {
-  std::string log;
-  std::vector<double> t_s;
-  std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
-  std::array<double, 3> rmse_Nm{};
-};
+// Fits log; result.validation gets the RMSE of each validation log. With
+// keep_predictions, result.predictions holds the measured and predicted
+// torques of the fitted log and then of each validation log (for a plot).
+// Every log is preprocessed once.
+FitResult fit_log(const DeltaLog& log, const FitOptions& options,
+                  const std::vector<const DeltaLog*>& validation = {},
+                  bool keep_predictions = false);
 
 Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                    const PrepareOptions& prepare, unsigned threads);

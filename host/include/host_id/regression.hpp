@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "host_id/model.hpp"
-#include "host_id/samples.hpp"
 
 namespace host_id {
 
@@ -28,17 +27,6 @@ struct Regression {
   std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
   std::array<std::size_t, 3> rows_per_joint() const;
 };
-
-// Builds the regression, in parallel over `threads` threads (0: all cores).
-// Where samples.parallel_filter is set, every column of Psi and tau are run
-// through the same zero-phase filter per segment and joint ("parallel
-// filtering": filtering is linear, so filt(tau) = filt(Psi) beta holds
-// exactly), and samples.trim samples are then dropped at each segment end.
-// Throws delta::InputError naming the log and the sample time of a pose without
-// kinematics.
-Regression build_regression(const Model& model, const delta::Geometry& g, double gravity_m_s2,
-                            const Samples& samples, const std::string& log_name,
-                            unsigned threads = 0);
 
 // The regression without the equations of joints slower than min_speed_rad_s
 // at their sample. Near a reversal the Coulomb term switches within a few

@@ -24,6 +24,13 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,
                              std::size_t pad);
 
+// The same, in place, on `lanes` series at once: sample k of series l is
+// data[k * stride + l] (lanes <= stride). Each series is filtered exactly as
+// filtfilt() filters it alone; the lanes only let one pass over time serve
+// them all, so the recursion's latency is paid once, not once per series.
+void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
+                    std::size_t lanes, std::size_t stride, std::size_t pad);
+
 // First and second derivatives of uniformly sampled x with spacing h: the
 // five-point central stencils (error O(h^4)) inside, three-point and
 // one-sided stencils at the two samples of each end.

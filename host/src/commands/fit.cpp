@@ -39,11 +39,10 @@ class ProgressBar {
   bool enabled_;
 };
 
-// The fitted log first, then the validation logs.
-std::vector<const DeltaLog*> all_logs(const DeltaLog& fitted, const std::vector<DeltaLog>& others) {
-  std::vector<const DeltaLog*> all{&fitted};
-  for (const DeltaLog& l : others) all.push_back(&l);
-  return all;
+std::vector<const DeltaLog*> pointers(const std::vector<DeltaLog>& logs) {
+  std::vector<const DeltaLog*> out;
+  for (const DeltaLog& l : logs) out.push_back(&l);
+  return out;
 }
 
 // What the command line gives, before it becomes FitOptions.
@@ -175,13 +174,12 @@ FitOptions fit_options(const FitArguments& a) {
   return f;
 }
 
-void write_outputs(const FitArguments& a, const FitResult& r, const std::vector<Prediction>& all,
-                   std::ostream& out) {
+void write_outputs(const FitArguments& a, const FitResult& r, std::ostream& out) {
   const nlohmann::json j = json_report(r);
   if (!a.out_path.empty()) write_file_atomically(a.out_path, j.dump(2) + "\n");
   if (!a.plot_path.empty()) {
     write_file_atomically(a.plot_path,
-                          svg_torque_plot(all, "host_id fit, model " + a.fit.model.name));
+                          svg_torque_plot(r.predictions, "host_id fit, model " + a.fit.model.name));
   }
   if (a.json) {
     out << j.dump(2) << "\n";
@@ -202,18 +200,11 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   const DeltaLog log = read_delta_log(a.log);
   std::vector<DeltaLog> validation_logs;
   for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
-  for (const DeltaLog* l : all_logs(log, validation_logs)) warn_about_gaps(err, *l);
-  FitResult r = fit_log(log, f);
+  warn_about_gaps(err, log);
+  for (const DeltaLog& l : validation_logs) warn_about_gaps(err, l);
+  const FitResult r = fit_log(log, f, pointers(validation_logs), !a.plot_path.empty());
   bar.finish();
-  const auto model = make_model(f.model);
-  std::vector<Prediction> predictions;
-  for (const DeltaLog* l : all_logs(log, validation_logs)) {
-    predictions.push_back(predict(*model, r.beta, *l, f.prepare, f.threads));
-    if (l != &log) {
-      r.validation.push_back({l->name, predictions.back().t_s.size(), predictions.back().rmse_Nm});
-    }
-  }
-  write_outputs(a, r, predictions, out);
+  write_outputs(a, r, out);
   return 0;
 }
 

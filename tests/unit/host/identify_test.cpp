@@ -8,6 +8,7 @@
 
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/preprocess.hpp"
 #include "host_id/regression.hpp"
 #include "host_id/simulate.hpp"
 
@@ -129,8 +130,7 @@ TEST(IdentifyTest, PaperModelShowsTheValidationGapThatTheDeltaModelDoesNot) {
 TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
   const DeltaLog log = simulated(4, 0.02, 17, false);
   const auto model = make_model({});
-  const Samples s = prepare_samples(log, PrepareOptions{});
-  const Regression reg = build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name);
+  const Regression reg = preprocess(*model, log, PrepareOptions{}).regression;
   const LeastSquaresResult ls =
       solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 0);
   const QuadraticCost fast(reg, ls.beta);
@@ -222,8 +222,7 @@ TEST(IdentifyTest, ATrajectoryThatDoesNotExciteAParameterIsRejectedByName) {
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const DeltaLog log = simulated(2, 0.01, 17, false);
   const auto model = make_model({});
-  const Samples s = prepare_samples(log, PrepareOptions{});
-  const Regression all = build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name);
+  const Regression all = preprocess(*model, log, PrepareOptions{}).regression;
   ASSERT_EQ(all.rows(), 3 * all.samples());
   const Regression fast = without_slow_rows(all, 0.2);
   std::array<std::size_t, 3> expected{};
@@ -264,9 +263,8 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
 TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
   const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 3.0);
   const auto model = make_model({});
-  const Samples s = prepare_samples(log, PrepareOptions{});
   const Regression reg =
-      without_slow_rows(build_regression(*model, log.geometry, log.gravity_m_s2, s, log.name), 0.1);
+      without_slow_rows(preprocess(*model, log, PrepareOptions{}).regression, 0.1);
   ASSERT_LT(reg.rows(), 3 * reg.samples());
   const auto rows = static_cast<Eigen::Index>(reg.rows());
   const Eigen::Index p = reg.psi.cols();

@@ -1,0 +1,276 @@
+#include "host_id/preprocess.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "delta/input_error.hpp"
+#include "host_id/signal.hpp"
+
+namespace host_id {
+
+namespace {
+
+// A contiguous run of samples [begin, end) between gaps.
+struct Segment {
+  std::size_t begin{0}, end{0};
+};
+
+// The filter and how much it needs at the ends, designed for one log.
+struct FilterDesign {
+  bool logged_derivatives{false};  // the log has qd and qdd: no filtering at all
+  std::array<Biquad, 2> filter{};
+  std::size_t pad{0};   // reflected samples at each end of a filtered series
+  std::size_t trim{0};  // samples dropped at each segment end after filtering
+  double sample_rate_hz{0};
+};
+
+// Joint states and torques of every sample of every segment long enough to
+// use, with q filtered and differentiated unless the log carries qd, qdd.
+struct States {
+  std::vector<delta::JointState> states;
+  std::vector<delta::Joint3> tau_Nm;
+  std::vector<double> t_s;
+  std::vector<Segment> segments;
+  bool any_nonuniform{false};
+  std::size_t segments_dropped{0};
+  std::size_t size() const { return states.size(); }
+};
+
+double median_step(const std::vector<double>& t) {
+  std::vector<double> dt;
+  dt.reserve(t.size());
+  for (std::size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
+  if (dt.empty()) return 0.0;
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
+std::vector<double> slice(const std::vector<double>& v, std::size_t b, std::size_t e) {
+  return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(b),
+                             v.begin() + static_cast<std::ptrdiff_t>(e));
+}
+
+FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
+  FilterDesign d;
+  const double h_median = median_step(log.t);
+  const double fs =
+      log.sample_rate_hz ? *log.sample_rate_hz : (h_median > 0 ? 1.0 / h_median : 0.0);
+  d.sample_rate_hz = fs;
+  d.logged_derivatives = log.has_qd && log.has_qdd;
+  if (d.logged_derivatives) return d;
+  if (!(options.cutoff_hz > 0.0) || !(options.cutoff_hz < 0.5 * fs)) {
+    std::ostringstream s;
+    s << log.name << ": the filter cut-off " << options.cutoff_hz
+      << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log";
+    throw delta::InputError(s.str());
+  }
+  d.trim = options.trim_samples >= 0
+               ? static_cast<std::size_t>(options.trim_samples)
+               : static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz));
+  d.pad = static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz));
+  d.filter = butterworth4_lowpass(options.cutoff_hz, fs);
+  return d;
+}
+
+// q, qd, qdd and tau of one segment [b, e) of the log, appended to out.
+void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
+                    States& out) {
+  const std::size_t n = e - b;
+  out.segments.push_back({out.states.size(), out.states.size() + n});
+  const std::vector<double> t = slice(log.t, b, e);
+  std::array<std::vector<double>, 3> q, qd, qdd;
+  bool uniform = true;
+  double h = 0.0;
+  if (!d.logged_derivatives) {
+    h = median_step(t);
+    double worst = 0.0;
+    for (std::size_t i = 1; i < n; ++i) worst = std::max(worst, std::abs((t[i] - t[i - 1]) - h));
+    uniform = worst <= 1e-6 * h;
+    out.any_nonuniform = out.any_nonuniform || !uniform;
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    if (d.logged_derivatives) {
+      q[j] = slice(log.q[j], b, e);
+      qd[j] = slice(log.qd[j], b, e);
+      qdd[j] = slice(log.qdd[j], b, e);
+    } else {
+      q[j] = filtfilt(d.filter, slice(log.q[j], b, e), d.pad);
+      if (uniform) {
+        differentiate_uniform(q[j], h, qd[j], qdd[j]);
+      } else {
+        differentiate_nonuniform(t, q[j], qd[j], qdd[j]);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    delta::JointState st;
+    for (unsigned j = 0; j < 3; ++j) {
+      st.q_rad[j] = q[j][i];
+      st.qd_rad_s[j] = qd[j][i];
+      st.qdd_rad_s2[j] = qdd[j][i];
+    }
+    out.states.push_back(st);
+    // tau stays raw here: it is filtered with the regressor's columns.
+    out.tau_Nm.push_back({log.tau[0][b + i], log.tau[1][b + i], log.tau[2][b + i]});
+    out.t_s.push_back(t[i]);
+  }
+}
+
+States joint_states(const DeltaLog& log, const FilterDesign& d) {
+  States out;
+  std::vector<std::size_t> bounds{0};
+  for (const SampleGap& g : log.gaps) bounds.push_back(g.index);
+  bounds.push_back(log.size());
+  for (std::size_t s = 0; s + 1 < bounds.size(); ++s) {
+    if (bounds[s + 1] - bounds[s] < 2 * d.trim + 5) {
+      ++out.segments_dropped;
+      continue;
+    }
+    append_segment(log, d, bounds[s], bounds[s + 1], out);
+  }
+  if (out.states.empty()) {
+    std::ostringstream s;
+    s << log.name << ": nothing left to fit: " << log.size() << " samples in " << bounds.size() - 1
+      << " segment(s), each shorter than the " << 2 * d.trim + 5
+      << " samples needed after trimming " << d.trim << " at each end";
+    throw delta::InputError(s.str());
+  }
+  return out;
+}
+
+std::string describe(const FilterDesign& d, const PrepareOptions& options, const States& s) {
+  std::ostringstream text;
+  if (d.logged_derivatives) {
+    text << "qd and qdd from the log's columns (no filtering)";
+  } else {
+    text << "q low-pass filtered at " << options.cutoff_hz
+         << " Hz (4th-order Butterworth, forward-backward), "
+         << (s.any_nonuniform ? "three-point differences on uneven time"
+                              : "five-point central differences")
+         << "; tau and the regressor filtered alike; " << d.trim
+         << " samples trimmed at each segment end";
+  }
+  return text.str();
+}
+
+// The regressor's rows of every sample, row-major (sample k's three rows,
+// joints 1..3, at rows[3 k p]), on `threads` threads; and tau alike.
+struct RawRegression {
+  std::vector<double> rows;
+  std::vector<double> tau;
+};
+
+RawRegression regressor_rows(const Model& model, const DeltaLog& log, const States& s,
+                             unsigned threads) {
+  const std::size_t n = s.size();
+  const std::size_t p = model.size();
+  RawRegression raw;
+  raw.rows.resize(3 * n * p);
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  // Below ~20k samples a second thread does not pay for its start-up.
+  const std::size_t workers = std::min<std::size_t>(threads, std::max<std::size_t>(1, n / 20000));
+  std::atomic<std::size_t> first_bad{n};
+  const auto work = [&](std::size_t w) {
+    const std::size_t b = n * w / workers, e = n * (w + 1) / workers;
+    for (std::size_t k = b; k < e; ++k) {
+      const auto st = model.rows(log.geometry, log.gravity_m_s2, s.states[k], &raw.rows[3 * k * p]);
+      if (st != delta::KinematicsStatus::kOk) {
+        std::size_t expected = first_bad.load();
+        while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
+        }
+        return;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
+  work(0);
+  for (auto& t : pool) t.join();
+  if (const std::size_t k = first_bad.load(); k < n) {
+    const auto& q = s.states[k].q_rad;
+    std::ostringstream m;
+    m << log.name << ": sample at t = " << s.t_s[k] << " s: joint angles (" << q[0] << ", " << q[1]
+      << ", " << q[2] << ") rad have "
+      << "no forward kinematics for this geometry (unreachable or singular pose); "
+      << "check the geometry metadata and the angle convention";
+    throw delta::InputError(m.str());
+  }
+  raw.tau.resize(3 * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    for (unsigned j = 0; j < 3; ++j) raw.tau[3 * k + j] = s.tau_Nm[k][j];
+  }
+  return raw;
+}
+
+// Filters every column of Psi and tau per segment and joint with the same
+// zero-phase filter as q ("parallel filtering": filtering is linear, so
+// filt(tau) = filt(Psi) beta holds exactly). Within a segment, joint j's p
+// columns at sample k are contiguous at rows[(3k + j) p]: p lanes with a
+// stride of 3p; tau's three joints are three lanes with a stride of 3.
+void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments, std::size_t p,
+                    RawRegression& raw) {
+  for (const Segment& seg : segments) {
+    const std::size_t len = seg.end - seg.begin;
+    for (unsigned j = 0; j < 3; ++j) {
+      filtfilt_lanes(d.filter, &raw.rows[(3 * seg.begin + j) * p], len, p, 3 * p, d.pad);
+    }
+    filtfilt_lanes(d.filter, &raw.tau[3 * seg.begin], len, 3, 3, d.pad);
+  }
+}
+
+// The samples away from the segment ends, as the regression.
+Regression trimmed(const States& s, const RawRegression& raw, std::size_t p, std::size_t trim) {
+  std::vector<std::size_t> keep;
+  keep.reserve(s.size());
+  for (const Segment& seg : s.segments) {
+    for (std::size_t k = seg.begin + trim; k + trim < seg.end; ++k) keep.push_back(k);
+  }
+  Regression r;
+  const auto m = static_cast<Eigen::Index>(3 * keep.size());
+  r.psi.resize(m, static_cast<Eigen::Index>(p));
+  r.tau.resize(m);
+  r.t_s.reserve(keep.size());
+  r.joint.reserve(3 * keep.size());
+  r.speed_rad_s.reserve(3 * keep.size());
+  r.sample.reserve(3 * keep.size());
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    const std::size_t k = keep[i];
+    r.t_s.push_back(s.t_s[k]);
+    for (unsigned j = 0; j < 3; ++j) {
+      const auto row = static_cast<Eigen::Index>(3 * i + j);
+      r.joint.push_back(static_cast<unsigned char>(j));
+      r.speed_rad_s.push_back(std::abs(s.states[k].qd_rad_s[j]));
+      r.sample.push_back(i);
+      r.tau(row) = raw.tau[3 * k + j];
+      for (std::size_t c = 0; c < p; ++c)
+        r.psi(row, static_cast<Eigen::Index>(c)) = raw.rows[(3 * k + j) * p + c];
+    }
+  }
+  return r;
+}
+
+}  // namespace
+
+Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
+                        unsigned threads) {
+  const FilterDesign design = design_filter(log, options);
+  Preprocessed out;
+  {
+    const States states = joint_states(log, design);
+    RawRegression raw = regressor_rows(model, log, states, threads);
+    if (!design.logged_derivatives) filter_columns(design, states.segments, model.size(), raw);
+    out.regression = trimmed(states, raw, model.size(), design.trim);
+    out.report.segments_used = states.segments.size();
+    out.report.segments_dropped = states.segments_dropped;
+    out.report.derivatives = describe(design, options, states);
+  }  // the states and the raw rows are freed here
+  out.report.samples_in_log = log.size();
+  out.report.sample_rate_hz = design.sample_rate_hz;
+  return out;
+}
+
+}  // namespace host_id
