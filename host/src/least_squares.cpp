@@ -53,8 +53,8 @@ Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::Vector
   // L zero rows after the last sample, so that the boxes reaching past it
   // are whole.
   const Eigen::Index m = n + l;
-  Eigen::MatrixXd g(m, p), h(m, p);
-  Eigen::VectorXd sums(m + 1), box(m);
+  Eigen::MatrixXd g(m, p);
+  Eigen::VectorXd sums(m + 1), box(m), h(m);
   for (unsigned char j = 0; j < 3; ++j) {
     // Column by column: Psi is column-major, so each pass reads one column
     // in order.
@@ -71,10 +71,11 @@ Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::Vector
       s.noalias() += g.transpose() * g;
       continue;
     }
+    // One smoothed column at a time: S's column c is G^T H_c.
     for (Eigen::Index c = 0; c < p; ++c) {
-      bartlett_smooth(g.col(c).data(), n, l, sums.data(), box.data(), h.col(c).data());
+      bartlett_smooth(g.col(c).data(), n, l, sums.data(), box.data(), h.data());
+      s.col(c).noalias() += g.topRows(n).transpose() * h.head(n);
     }
-    s.noalias() += g.topRows(n).transpose() * h.topRows(n);
   }
   // Symmetric in exact arithmetic; make it so in floating point.
   return 0.5 * (s + s.transpose());
@@ -106,19 +107,46 @@ Eigen::VectorXd column_norms(const Regression& r, const Model& model, const std:
   throw delta::InputError(s.str());
 }
 
-// One Householder QR of the column-scaled regressor, Psi D^-1 = Q R, in
-// place in one copy of Psi. Everything else is p x p: the singular values
-// and right singular vectors of R are those of the scaled regressor (Q has
-// orthonormal columns), and Q^T tau carries what the solve needs of tau.
+// R of the column-scaled regressor A = Psi D^-1 = Q R, and the first p
+// entries of Q^T tau, without a copy of A: blocks of rows are factored one
+// after the other, each stacked under the R of those before (QR of the
+// stack [R; A_block] gives the R of all the rows so far). tau rides along
+// as a last column, so that the same reflections give Q^T tau.
+struct TriangularFactor {
+  Eigen::MatrixXd r;       // p x p, upper triangular
+  Eigen::VectorXd qt_tau;  // p
+};
+
+TriangularFactor scaled_qr(const Regression& reg, const Eigen::VectorXd& col_norm) {
+  const Eigen::Index p = reg.psi.cols();
+  const Eigen::Index m = reg.psi.rows();
+  constexpr Eigen::Index kBlockRows = 4096;
+  const Eigen::RowVectorXd inverse_norm = col_norm.cwiseInverse().transpose();
+  Eigen::MatrixXd stack(p + kBlockRows, p + 1);
+  Eigen::MatrixXd top = Eigen::MatrixXd::Zero(p, p + 1);  // [R | Q^T tau] so far
+  for (Eigen::Index start = 0; start < m; start += kBlockRows) {
+    const Eigen::Index len = std::min(kBlockRows, m - start);
+    const Eigen::Index above = start == 0 ? 0 : p;  // no R yet before the first block
+    stack.topRows(above) = top;
+    stack.block(above, 0, len, p) =
+        reg.psi.middleRows(start, len).array().rowwise() * inverse_norm.array();
+    stack.block(above, p, len, 1) = reg.tau.segment(start, len);
+    Eigen::Ref<Eigen::MatrixXd> rows = stack.topRows(above + len);
+    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(rows);  // in place
+    top = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+  }
+  return {top.leftCols(p), top.col(p)};
+}
+
+// The least-squares solution from R: everything after the QR is p x p. The
+// singular values and right singular vectors of R are those of the scaled
+// regressor (Q has orthonormal columns).
 LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSolver solver,
                                   const std::string& log_name, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
   const Eigen::VectorXd col_norm = column_norms(r, model, log_name);
-  Eigen::MatrixXd factors = r.psi * col_norm.cwiseInverse().asDiagonal();
-  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(factors);
-  const Eigen::MatrixXd rr = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
-  const Eigen::VectorXd qt_tau = (qr.householderQ().transpose() * r.tau).head(p);
+  const auto [rr, qt_tau] = scaled_qr(r, col_norm);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
   if (sv(p - 1) <= 1e-10 * sv(0))

@@ -101,23 +101,29 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size
   // 2 xn - x[n-2..n-1-pad], with x0 and xn from lines through the ends.
   const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
   const std::size_t len = n + 2 * pad;
-  std::vector<double> ext(len * lanes), z1(lanes), z2(lanes);
-  for (std::size_t l = 0; l < lanes; ++l) {
-    const double* x = data + l;
-    const double x0 = line_end_value(x, stride, 0, m, 0.0);
-    const double xn = line_end_value(x, stride, n - m, m, static_cast<double>(n - 1));
-    for (std::size_t i = 0; i < pad; ++i) {
-      ext[i * lanes + l] = 2.0 * x0 - x[(pad - i) * stride];
-      ext[(pad + n + i) * lanes + l] = 2.0 * xn - x[(n - 2 - i) * stride];
+  // Up to four lanes at a time: enough to hide the recursion's latency,
+  // and the extended copy stays at four series.
+  constexpr std::size_t kBlock = 4;
+  std::vector<double> ext(len * std::min(lanes, kBlock)), z1(kBlock), z2(kBlock);
+  for (std::size_t first = 0; first < lanes; first += kBlock) {
+    const std::size_t w = std::min(kBlock, lanes - first);
+    for (std::size_t l = 0; l < w; ++l) {
+      const double* x = data + first + l;
+      const double x0 = line_end_value(x, stride, 0, m, 0.0);
+      const double xn = line_end_value(x, stride, n - m, m, static_cast<double>(n - 1));
+      for (std::size_t i = 0; i < pad; ++i) {
+        ext[i * w + l] = 2.0 * x0 - x[(pad - i) * stride];
+        ext[(pad + n + i) * w + l] = 2.0 * xn - x[(n - 2 - i) * stride];
+      }
+      for (std::size_t k = 0; k < n; ++k) ext[(pad + k) * w + l] = x[k * stride];
     }
-    for (std::size_t k = 0; k < n; ++k) ext[(pad + k) * lanes + l] = x[k * stride];
-  }
-  for (const Biquad& s : filter)
-    run_section_forward(s, ext.data(), len, lanes, z1.data(), z2.data());
-  for (const Biquad& s : filter)
-    run_section_backward(s, ext.data(), len, lanes, z1.data(), z2.data());
-  for (std::size_t k = 0; k < n; ++k) {
-    for (std::size_t l = 0; l < lanes; ++l) data[k * stride + l] = ext[(pad + k) * lanes + l];
+    for (const Biquad& s : filter) run_section_forward(s, ext.data(), len, w, z1.data(), z2.data());
+    for (const Biquad& s : filter) {
+      run_section_backward(s, ext.data(), len, w, z1.data(), z2.data());
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      for (std::size_t l = 0; l < w; ++l) data[k * stride + first + l] = ext[(pad + k) * w + l];
+    }
   }
 }
 
