@@ -93,6 +93,7 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
   std::vector<double> row;
   double nominal_dt = 0.0;
   std::size_t blank_line = 0;  // first blank line seen, only allowed at the end
+  bool has_seq = false;        // the header names a seq column
 
   while (pos < text.size()) {
     std::size_t end = text.find('\n', pos);
@@ -253,6 +254,15 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       }
       if (log.sample_rate_hz) nominal_dt = 1.0 / *log.sample_rate_hz;
       row.resize(columns.size());
+      // At most one sample per remaining line: sized once, the columns never
+      // move while they fill.
+      const auto rows_left = static_cast<std::size_t>(
+          std::count(text.begin() + static_cast<std::ptrdiff_t>(pos), text.end(), '\n') + 1);
+      for (Column& c : columns) {
+        if (c.target) c.target->reserve(rows_left);
+        has_seq = has_seq || c.role == Role::kSeq;
+      }
+      if (has_seq) log.seq.reserve(rows_left);
       continue;
     }
 
@@ -262,6 +272,21 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
     double seq_value = 0.0;
     std::size_t t_col = 1, seq_col = 1;
     for (std::size_t i = 0; i < columns.size(); ++i) {
+      // The common case first: a plain number right up to the comma (or the
+      // line's end for the last field). Anything else (spaces, a '+', a
+      // wrong field count, not a number) takes the careful path below,
+      // which names the problem.
+      if (double v = 0.0; columns[i].role != Role::kSeq && columns[i].role != Role::kT) {
+        const char* field_end = line.data() + line.size();
+        const auto r = std::from_chars(line.data() + start, field_end, v);
+        const bool last = i + 1 == columns.size();
+        if (r.ec == std::errc() && r.ptr != line.data() + start && std::isfinite(v) &&
+            (last ? r.ptr == field_end : (r.ptr != field_end && *r.ptr == ','))) {
+          columns[i].target->push_back(v);
+          start = static_cast<std::size_t>(r.ptr - line.data()) + 1;
+          continue;
+        }
+      }
       const std::size_t comma = line.find(',', start);
       if (comma == std::string_view::npos && i + 1 < columns.size()) {
         cur.fail(line.size() + 1, "row has " + std::to_string(i + 1) + " fields, the header has " +
@@ -297,8 +322,7 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
       start = comma + 1;
     }
     const std::size_t k = log.t.size() - 1;
-    if (std::any_of(columns.begin(), columns.end(),
-                    [](const Column& c) { return c.role == Role::kSeq; })) {
+    if (has_seq) {
       if (seq_value < 0.0 || seq_value != std::floor(seq_value) ||
           seq_value > 9.007199254740992e15) {
         cur.fail(seq_col, "column 'seq': must be a non-negative whole number");
