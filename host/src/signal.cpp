@@ -27,20 +27,22 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 
 namespace {
 
-// Runs one section forward over the n samples of every lane of a buffer
-// laid out by sample (lanes contiguous), starting each lane in the steady
-// state for a constant input equal to its first sample (unity DC gain).
-// (__restrict: the three buffers never overlap, which lets the compiler run
-// the lanes in vector registers.)
-void run_section_forward(const Biquad& s, double* __restrict x, std::size_t n, std::size_t lanes,
-                         double* __restrict z1, double* __restrict z2) {
-  for (std::size_t l = 0; l < lanes; ++l) {
-    z1[l] = x[l] - s.b0 * x[l];
-    z2[l] = s.b2 * x[l] - s.a2 * x[l];
+// Runs one section over the n samples of every lane of a buffer laid out
+// by sample (W lanes contiguous), forward or backward in time, starting each
+// lane in the steady state for a constant input equal to its first sample
+// (unity DC gain). W is a template argument so that the lanes' states live
+// in registers and the lanes run side by side.
+template <std::size_t W>
+void run_section(const Biquad& s, double* x, std::size_t n, bool backward) {
+  double z1[W], z2[W];
+  const double* first = backward ? x + (n - 1) * W : x;
+  for (std::size_t l = 0; l < W; ++l) {
+    z1[l] = first[l] - s.b0 * first[l];
+    z2[l] = s.b2 * first[l] - s.a2 * first[l];
   }
-  for (std::size_t k = 0; k < n; ++k) {
-    double* v = x + k * lanes;
-    for (std::size_t l = 0; l < lanes; ++l) {
+  for (std::size_t i = 0; i < n; ++i) {
+    double* v = x + (backward ? n - 1 - i : i) * W;
+    for (std::size_t l = 0; l < W; ++l) {
       const double in = v[l];
       const double out = s.b0 * in + z1[l];
       z1[l] = s.b1 * in - s.a1 * out + z2[l];
@@ -50,23 +52,24 @@ void run_section_forward(const Biquad& s, double* __restrict x, std::size_t n, s
   }
 }
 
-// The same, backward in time.
-void run_section_backward(const Biquad& s, double* __restrict x, std::size_t n, std::size_t lanes,
-                          double* __restrict z1, double* __restrict z2) {
-  const double* last = x + (n - 1) * lanes;
-  for (std::size_t l = 0; l < lanes; ++l) {
-    z1[l] = last[l] - s.b0 * last[l];
-    z2[l] = s.b2 * last[l] - s.a2 * last[l];
-  }
-  for (std::size_t k = n; k-- > 0;) {
-    double* v = x + k * lanes;
-    for (std::size_t l = 0; l < lanes; ++l) {
-      const double in = v[l];
-      const double out = s.b0 * in + z1[l];
-      z1[l] = s.b1 * in - s.a1 * out + z2[l];
-      z2[l] = s.b2 * in - s.a2 * out;
-      v[l] = out;
-    }
+// Forward through both sections, then backward through both.
+template <std::size_t W>
+void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n) {
+  for (const Biquad& s : filter) run_section<W>(s, x, n, false);
+  for (const Biquad& s : filter) run_section<W>(s, x, n, true);
+}
+
+void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n,
+                             std::size_t lanes) {
+  switch (lanes) {
+    case 1:
+      return filter_forward_backward<1>(filter, x, n);
+    case 2:
+      return filter_forward_backward<2>(filter, x, n);
+    case 3:
+      return filter_forward_backward<3>(filter, x, n);
+    default:
+      return filter_forward_backward<4>(filter, x, n);
   }
 }
 
@@ -104,7 +107,7 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size
   // Up to four lanes at a time: enough to hide the recursion's latency,
   // and the extended copy stays at four series.
   constexpr std::size_t kBlock = 4;
-  std::vector<double> ext(len * std::min(lanes, kBlock)), z1(kBlock), z2(kBlock);
+  std::vector<double> ext(len * std::min(lanes, kBlock));
   for (std::size_t first = 0; first < lanes; first += kBlock) {
     const std::size_t w = std::min(kBlock, lanes - first);
     for (std::size_t l = 0; l < w; ++l) {
@@ -117,10 +120,7 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size
       }
       for (std::size_t k = 0; k < n; ++k) ext[(pad + k) * w + l] = x[k * stride];
     }
-    for (const Biquad& s : filter) run_section_forward(s, ext.data(), len, w, z1.data(), z2.data());
-    for (const Biquad& s : filter) {
-      run_section_backward(s, ext.data(), len, w, z1.data(), z2.data());
-    }
+    filter_forward_backward(filter, ext.data(), len, w);
     for (std::size_t k = 0; k < n; ++k) {
       for (std::size_t l = 0; l < w; ++l) data[k * stride + first + l] = ext[(pad + k) * w + l];
     }
