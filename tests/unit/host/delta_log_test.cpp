@@ -134,6 +134,20 @@ TEST(DeltaLogTest, MissingColumnAndPartialGroups) {
             "log.csv:6:27: column 'q1' appears twice in the header");
 }
 
+// Plain numbers take the reader's quick path, fields with spaces or a '+'
+// its careful one: both give the same values.
+TEST(DeltaLogTest, SpacesAndPlusSignsReadAsThePlainNumbers) {
+  const std::string h = kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n";
+  const DeltaLog plain = parse_delta_log(h + "0,0.25,-1e-3,3,0.5,7,8\n", "a.csv");
+  const DeltaLog spaced = parse_delta_log(h + "0, 0.25 ,-1e-3 , +3,0.5\t,+7,8 \n", "b.csv");
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(plain.q[j], spaced.q[j]);
+    EXPECT_EQ(plain.tau[j], spaced.tau[j]);
+  }
+  EXPECT_EQ(plain.q[1][0], -1e-3);
+  EXPECT_EQ(plain.tau[1][0], 7.0);
+}
+
 TEST(DeltaLogTest, NonNumbersNanInfAndFieldCountsNameLineAndColumn) {
   const std::string h = kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n";
   EXPECT_EQ(error_of(h + "0.001,0.1,abc,0,0,0,0\n"),
