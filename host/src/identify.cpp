@@ -35,7 +35,7 @@ struct Box {
 
 // PSO's box from physical priors and the data's scale; the parameters whose
 // least-squares value lies outside it are named in r.
-Box pso_box(const Regression& reg, const Model& model, const FitOptions& options,
+Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
             const Eigen::VectorXd& ls_beta, FitResult& r) {
   const Eigen::Index p = reg.psi.cols();
   const double tau_rms = std::sqrt(reg.tau.squaredNorm() / static_cast<double>(reg.tau.size()));
@@ -56,7 +56,7 @@ Box pso_box(const Regression& reg, const Model& model, const FitOptions& options
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
 // the conditioning and the box.
-LeastSquaresResult estimate(const Regression& reg, const Model& model, const FitOptions& options,
+LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitOptions& options,
                             std::size_t lags, const std::string& log_name, FitResult& r, Box& box) {
   const LeastSquaresResult ls =
       solve_least_squares(reg, model, options.solver, options.weights, log_name, lags);
@@ -67,7 +67,7 @@ LeastSquaresResult estimate(const Regression& reg, const Model& model, const Fit
   r.ls_cost_Nm2 = ls.cost;
   const Regression weighted_reg =
       options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
-  const Regression& cost_reg = options.weights == LsWeights::kNone ? reg : weighted_reg;
+  const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
   box = pso_box(cost_reg, model, options, ls.beta, r);
   if (options.method == Method::kPso) {
     const QuadraticCost cost(cost_reg, ls.beta);
@@ -112,12 +112,10 @@ Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
     out.measured_Nm[j].resize(n);
     out.predicted_Nm[j].resize(n);
   }
-  for (std::size_t k = 0; k < n; ++k) {
-    for (unsigned j = 0; j < 3; ++j) {
-      const auto row = static_cast<Eigen::Index>(3 * k + j);
-      out.measured_Nm[j][k] = reg.tau(row);
-      out.predicted_Nm[j][k] = yhat(row);
-    }
+  for (std::size_t row = 0; row < reg.rows(); ++row) {
+    const auto i = static_cast<Eigen::Index>(row);
+    out.measured_Nm[reg.joint[row]][reg.sample[row]] = reg.tau(i);
+    out.predicted_Nm[reg.joint[row]][reg.sample[row]] = yhat(i);
   }
   out.rmse_Nm = rmse_per_joint(reg, beta);
   return out;
@@ -136,17 +134,15 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options,
   FitResult r;
   r.options = options;
   const auto model = make_model(options.model);
-  const Preprocessed pre = preprocess(*model, log, options.prepare, options.threads);
-  const Regression& all_rows = pre.regression;
+  Preprocessed pre = preprocess(*model, log, options.prepare, options.threads);
+  Regression& all_rows = pre.regression;
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
   r.gaps = log.gaps;
   r.segments_used = pre.report.segments_used;
   r.segments_dropped = pre.report.segments_dropped;
   r.min_speed_rad_s = min_speed_for(options);
-  const Regression fast_rows =
-      r.min_speed_rad_s > 0.0 ? without_slow_rows(all_rows, r.min_speed_rad_s) : Regression{};
-  const Regression& reg = r.min_speed_rad_s > 0.0 ? fast_rows : all_rows;
+  const Equations reg(all_rows, fast_rows_first(all_rows, r.min_speed_rad_s));
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name);
 

@@ -8,8 +8,13 @@
 
 namespace host_id {
 
-Regression weighted(const Regression& r, const std::array<double, 3>& w) {
-  Regression out = r;
+Regression weighted(const Equations& r, const std::array<double, 3>& w) {
+  Regression out;
+  out.psi = r.psi;
+  out.tau = r.tau;
+  out.t_s.assign(r.t_s.begin(), r.t_s.end());
+  out.joint.assign(r.joint.begin(), r.joint.end());
+  out.sample.assign(r.sample.begin(), r.sample.end());
   for (Eigen::Index row = 0; row < out.tau.size(); ++row) {
     const double s = std::sqrt(w[out.joint[static_cast<std::size_t>(row)]]);
     out.psi.row(row) *= s;
@@ -43,7 +48,7 @@ void bartlett_smooth(const double* g, Eigen::Index n, Eigen::Index l, double* su
 // which is the sum over lags in one product. The triangle is two boxes of
 // L+1 samples, each a difference of running sums: O(n p) for H. Lags run
 // over the sample index, across a gap between segments too (a few pairs).
-Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::VectorXd& col_norm,
+Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorXd& col_norm,
                                         const Eigen::VectorXd& e, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const auto n = static_cast<Eigen::Index>(r.samples());
@@ -81,7 +86,7 @@ Eigen::MatrixXd lagged_score_covariance(const Regression& r, const Eigen::Vector
   return 0.5 * (s + s.transpose());
 }
 
-Eigen::VectorXd column_norms(const Regression& r, const Model& model, const std::string& log_name) {
+Eigen::VectorXd column_norms(const Equations& r, const Model& model, const std::string& log_name) {
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
   for (Eigen::Index c = 0; c < col_norm.size(); ++c) {
     if (!(col_norm(c) > 0.0)) {
@@ -117,7 +122,7 @@ struct TriangularFactor {
   Eigen::VectorXd qt_tau;  // p
 };
 
-TriangularFactor scaled_qr(const Regression& reg, const Eigen::VectorXd& col_norm) {
+TriangularFactor scaled_qr(const Equations& reg, const Eigen::VectorXd& col_norm) {
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kBlockRows = 4096;
@@ -141,7 +146,7 @@ TriangularFactor scaled_qr(const Regression& reg, const Eigen::VectorXd& col_nor
 // The least-squares solution from R: everything after the QR is p x p. The
 // singular values and right singular vectors of R are those of the scaled
 // regressor (Q has orthonormal columns).
-LeastSquaresResult solve_ordinary(const Regression& r, const Model& model, LsSolver solver,
+LeastSquaresResult solve_ordinary(const Equations& r, const Model& model, LsSolver solver,
                                   const std::string& log_name, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
@@ -180,7 +185,7 @@ std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
   return static_cast<std::size_t>(std::ceil(2.0 * sample_rate_hz / cutoff_hz));
 }
 
-LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, LsSolver solver,
+LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags) {
   LeastSquaresResult ols = solve_ordinary(r, model, solver, log_name, correlation_lags);

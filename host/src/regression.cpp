@@ -18,33 +18,68 @@ std::array<std::size_t, 3> Regression::rows_per_joint() const {
   return n;
 }
 
-Regression without_slow_rows(const Regression& r, double min_speed_rad_s) {
-  std::vector<Eigen::Index> kept;
-  kept.reserve(r.rows());
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    if (r.speed_rad_s[row] >= min_speed_rad_s) kept.push_back(static_cast<Eigen::Index>(row));
-  }
-  Regression out;
-  out.t_s = r.t_s;
-  out.psi = r.psi(kept, Eigen::all);
-  out.tau = r.tau(kept);
-  out.joint.reserve(kept.size());
-  out.speed_rad_s.reserve(kept.size());
-  out.sample.reserve(kept.size());
-  for (const Eigen::Index row : kept) {
-    const auto i = static_cast<std::size_t>(row);
-    out.joint.push_back(r.joint[i]);
-    out.speed_rad_s.push_back(r.speed_rad_s[i]);
-    out.sample.push_back(r.sample[i]);
-  }
-  return out;
+Equations::Equations(const Regression& r) : Equations(r, r.rows()) {}
+
+Equations::Equations(const Regression& r, std::size_t first_rows)
+    : psi(r.psi.topRows(static_cast<Eigen::Index>(first_rows))),
+      tau(r.tau.head(static_cast<Eigen::Index>(first_rows))),
+      joint(r.joint.data(), first_rows),
+      sample(r.sample.data(), first_rows),
+      t_s(r.t_s) {}
+
+std::array<std::size_t, 3> Equations::rows_per_joint() const {
+  std::array<std::size_t, 3> n{};
+  for (const unsigned char j : joint) ++n[j];
+  return n;
 }
 
-double direct_cost(const Regression& r, const Eigen::VectorXd& beta) {
+namespace {
+
+// Applies a permutation of rows (row i takes old row from[i]) to v in place.
+template <class T>
+void permute(std::vector<T>& v, const std::vector<std::size_t>& from, std::vector<T>& buffer) {
+  buffer.resize(from.size());
+  for (std::size_t i = 0; i < from.size(); ++i) buffer[i] = v[from[i]];
+  std::swap(v, buffer);
+}
+
+}  // namespace
+
+std::size_t fast_rows_first(Regression& r, double min_speed_rad_s) {
+  std::vector<std::size_t> from;
+  from.reserve(r.rows());
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    if (r.speed_rad_s[row] >= min_speed_rad_s) from.push_back(row);
+  }
+  const std::size_t fast = from.size();
+  if (fast == r.rows()) return fast;
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    if (r.speed_rad_s[row] < min_speed_rad_s) from.push_back(row);
+  }
+  std::vector<double> column;
+  for (Eigen::Index c = 0; c < r.psi.cols(); ++c) {
+    column.assign(r.psi.col(c).data(), r.psi.col(c).data() + r.psi.rows());
+    for (std::size_t i = 0; i < from.size(); ++i) {
+      r.psi(static_cast<Eigen::Index>(i), c) = column[from[i]];
+    }
+  }
+  column.assign(r.tau.data(), r.tau.data() + r.tau.size());
+  for (std::size_t i = 0; i < from.size(); ++i)
+    r.tau(static_cast<Eigen::Index>(i)) = column[from[i]];
+  std::vector<double> speed_buffer;
+  permute(r.speed_rad_s, from, speed_buffer);
+  std::vector<unsigned char> joint_buffer;
+  permute(r.joint, from, joint_buffer);
+  std::vector<std::size_t> sample_buffer;
+  permute(r.sample, from, sample_buffer);
+  return fast;
+}
+
+double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
   return (r.tau - r.psi * beta).squaredNorm() / static_cast<double>(r.tau.size());
 }
 
-QuadraticCost::QuadraticCost(const Regression& r, const Eigen::VectorXd& beta0)
+QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
     : beta0_(beta0), rows_(static_cast<double>(r.tau.size())) {
   const Eigen::VectorXd r0 = r.tau - r.psi * beta0;
   psi_t_psi_ = r.psi.transpose() * r.psi;
@@ -58,7 +93,7 @@ double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
   return std::max(0.0, (r0_t_r0_ - 2.0 * d.dot(psi_t_r0_) + quad) / rows_);
 }
 
-std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::VectorXd& e) {
+std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e) {
   std::array<double, 3> sum{};
   for (std::size_t row = 0; row < r.rows(); ++row)
     sum[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
@@ -67,7 +102,7 @@ std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::Ve
   return sum;
 }
 
-std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta) {
+std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta) {
   std::array<double, 3> ms = mean_square_per_joint(r, r.tau - r.psi * beta);
   for (double& m : ms) m = std::sqrt(m);
   return ms;

@@ -27,7 +27,7 @@ struct LeastSquaresResult {
 };
 
 // Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
-Regression weighted(const Regression& r, const std::array<double, 3>& w);
+Regression weighted(const Equations& r, const std::array<double, 3>& w);
 
 // Solves min |tau - Psi beta|^2. With kJoint, two steps: ordinary least
 // squares, then weights 1 / sigma_j^2 from each joint's residual variance.
@@ -41,7 +41,7 @@ Regression weighted(const Regression& r, const std::array<double, 3>& w);
 //   g_k = psi_k e_k.
 // Filtered residuals are correlated over about fs / f_cutoff samples, and
 // the white-noise formula (L = 0) then understates the spread several times.
-LeastSquaresResult solve_least_squares(const Regression& r, const Model& model, LsSolver solver,
+LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags = 0);
 

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 #include "host_id/model.hpp"
@@ -14,12 +15,12 @@
 namespace host_id {
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
-// sample k, joints 1..3; without_slow_rows() leaves some out, so code that
-// needs a row's joint reads joint[row].
+// sample k, joints 1..3; fast_rows_first() reorders them, so code that
+// needs a row's joint or sample reads joint[row] and sample[row].
 struct Regression {
   Eigen::MatrixXd psi;               // N m per unit of each parameter
   Eigen::VectorXd tau;               // N m
-  std::vector<double> t_s;           // time of sample k (of the full regression)
+  std::vector<double> t_s;           // time of sample k
   std::vector<unsigned char> joint;  // the joint of each row, 0..2
   std::vector<double> speed_rad_s;   // |qd| of that joint at that row's sample
   std::vector<std::size_t> sample;   // the index into t_s of each row's sample
@@ -28,14 +29,32 @@ struct Regression {
   std::array<std::size_t, 3> rows_per_joint() const;
 };
 
-// The regression without the equations of joints slower than min_speed_rad_s
-// at their sample. Near a reversal the Coulomb term switches within a few
+// The first rows of a regression, without a copy: the equations an
+// estimate uses (all of them, or the fast ones after fast_rows_first()).
+struct Equations {
+  Equations(const Regression& r);  // every row (implicit: a regression is its equations)
+  Equations(const Regression& r, std::size_t first_rows);
+  Eigen::Ref<const Eigen::MatrixXd> psi;
+  Eigen::Ref<const Eigen::VectorXd> tau;
+  std::span<const unsigned char> joint;
+  std::span<const std::size_t> sample;
+  std::span<const double> t_s;  // every sample of the regression
+  std::size_t samples() const { return t_s.size(); }
+  std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
+  std::array<std::size_t, 3> rows_per_joint() const;
+};
+
+// Puts the equations of joints at least min_speed_rad_s fast at their sample
+// first, in their order, and the others after them; returns how many are
+// fast. Near a reversal the Coulomb term switches within a few
 // milliseconds, faster than the filtered velocity can place it, and the
-// residual it leaves there biases the viscous estimate (docs/identification.md).
-Regression without_slow_rows(const Regression& r, double min_speed_rad_s);
+// residual it leaves there biases the viscous estimate, so a fit uses only
+// the fast ones (docs/identification.md). In place: one column at a time
+// passes through a buffer.
+std::size_t fast_rows_first(Regression& r, double min_speed_rad_s);
 
 // Direct evaluation: one pass over all rows.
-double direct_cost(const Regression& r, const Eigen::VectorXd& beta);
+double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
 
 // The cost in O(p^2), expanded about a reference point beta0 (the
 // least-squares solution), with d = beta - beta0 and r0 = tau - Psi beta0:
@@ -47,7 +66,7 @@ double direct_cost(const Regression& r, const Eigen::VectorXd& beta);
 // it (Psi^T r0 is zero at the exact optimum, and is kept for the rest).
 class QuadraticCost {
  public:
-  QuadraticCost(const Regression& r, const Eigen::VectorXd& beta0);
+  QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0);
   double operator()(const Eigen::VectorXd& beta) const;
   Eigen::Index parameters() const { return beta0_.size(); }
 
@@ -60,9 +79,9 @@ class QuadraticCost {
 };
 
 // The mean of e^2 over each joint's rows (0 for a joint without rows).
-std::array<double, 3> mean_square_per_joint(const Regression& r, const Eigen::VectorXd& e);
+std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e);
 
 // Root mean square error per joint of the prediction Psi beta.
-std::array<double, 3> rmse_per_joint(const Regression& r, const Eigen::VectorXd& beta);
+std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta);
 
 }  // namespace host_id

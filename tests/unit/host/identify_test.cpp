@@ -224,7 +224,8 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const auto model = make_model({});
   const Regression all = preprocess(*model, log, PrepareOptions{}).regression;
   ASSERT_EQ(all.rows(), 3 * all.samples());
-  const Regression fast = without_slow_rows(all, 0.2);
+  Regression reordered = all;
+  const Equations fast(reordered, fast_rows_first(reordered, 0.2));
   std::array<std::size_t, 3> expected{};
   for (std::size_t row = 0; row < all.rows(); ++row) {
     if (all.speed_rad_s[row] >= 0.2) ++expected[all.joint[row]];
@@ -232,11 +233,20 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   EXPECT_EQ(fast.rows_per_joint(), expected);
   EXPECT_LT(fast.rows(), all.rows());
   EXPECT_GT(fast.rows(), all.rows() / 2);
-  for (std::size_t row = 0; row < fast.rows(); ++row) {
-    EXPECT_GE(fast.speed_rad_s[row], 0.2);
-    // The row is the one of its sample and joint in the full regression.
-    const auto full = static_cast<Eigen::Index>(3 * fast.sample[row] + fast.joint[row]);
-    ASSERT_EQ(fast.tau(static_cast<Eigen::Index>(row)), all.tau(full));
+  // Every row is still the one of its sample and joint, fast ones first, in
+  // their order, and nothing is lost.
+  ASSERT_EQ(reordered.rows(), all.rows());
+  for (std::size_t row = 0; row < reordered.rows(); ++row) {
+    const bool is_fast = row < fast.rows();
+    EXPECT_EQ(reordered.speed_rad_s[row] >= 0.2, is_fast) << row;
+    const auto full = static_cast<Eigen::Index>(3 * reordered.sample[row] + reordered.joint[row]);
+    const auto i = static_cast<Eigen::Index>(row);
+    ASSERT_EQ(reordered.tau(i), all.tau(full));
+    ASSERT_EQ(reordered.psi.row(i), all.psi.row(full));
+    if (row > 0 && (row < fast.rows()) == (row - 1 < fast.rows())) {
+      EXPECT_LT(reordered.sample[row - 1] * 3 + reordered.joint[row - 1],
+                reordered.sample[row] * 3 + reordered.joint[row]);
+    }
   }
 
   FitOptions o = least_squares();
@@ -246,8 +256,9 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   EXPECT_EQ(r.equations_used, expected);
   // The RMSE is over every sample of the log, the cost over the equations used.
   EXPECT_EQ(r.fit.samples, all.samples());
+  // (The fit sums the rows fast ones first: the same sums in another order.)
   const auto rmse = rmse_per_joint(all, r.beta);
-  for (unsigned j = 0; j < 3; ++j) EXPECT_DOUBLE_EQ(r.fit.rmse_Nm[j], rmse[j]);
+  for (unsigned j = 0; j < 3; ++j) EXPECT_NEAR(r.fit.rmse_Nm[j], rmse[j], 1e-13 * rmse[j]);
   EXPECT_DOUBLE_EQ(r.cost_Nm2, direct_cost(fast, r.beta));
   // paper14 keeps every sample unless told.
   FitOptions paper = least_squares();
@@ -263,8 +274,8 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
 TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
   const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 3.0);
   const auto model = make_model({});
-  const Regression reg =
-      without_slow_rows(preprocess(*model, log, PrepareOptions{}).regression, 0.1);
+  Regression all = preprocess(*model, log, PrepareOptions{}).regression;
+  const Equations reg(all, fast_rows_first(all, 0.1));
   ASSERT_LT(reg.rows(), 3 * reg.samples());
   const auto rows = static_cast<Eigen::Index>(reg.rows());
   const Eigen::Index p = reg.psi.cols();
