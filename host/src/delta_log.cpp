@@ -450,6 +450,19 @@ std::string format_delta_log(const DeltaLog& log) {
   return out;
 }
 
+void release_samples(DeltaLog& log) {
+  log.t = Series{};
+  for (unsigned j = 0; j < 3; ++j) {
+    log.q[j] = Series{};
+    log.tau[j] = Series{};
+    log.qd[j] = Series{};
+    log.qdd[j] = Series{};
+  }
+  log.seq = std::vector<std::uint64_t>{};
+  log.extra_columns.clear();
+  log.extra_columns.shrink_to_fit();
+}
+
 void warn_about_gaps(std::ostream& err, const DeltaLog& log) {
   for (const auto& g : log.gaps) {
     err << log.name << ":" << g.line << ": warning: " << g.what

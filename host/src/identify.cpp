@@ -128,7 +128,7 @@ double min_speed_for(const FitOptions& options) {
   return options.model.name == "paper14" ? 0.0 : kDefaultMinSpeedRadS;
 }
 
-FitResult fit_log(const DeltaLog& log, const FitOptions& options,
+FitResult fit_log(DeltaLog log, const FitOptions& options,
                   const std::vector<const DeltaLog*>& validation, bool keep_predictions) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
@@ -136,6 +136,7 @@ FitResult fit_log(const DeltaLog& log, const FitOptions& options,
   const auto model = make_model(options.model);
   Preprocessed pre = preprocess(*model, log, options.prepare, options.threads);
   Regression& all_rows = pre.regression;
+  release_samples(log);  // preprocessed: from here on only its name and gaps
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
   r.gaps = log.gaps;

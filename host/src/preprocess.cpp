@@ -157,32 +157,85 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   return text.str();
 }
 
-// The regressor's rows of every sample, row-major (sample k's three rows,
-// joints 1..3, at rows[3 k p]), on `threads` threads; and tau alike.
-struct RawRegression {
-  std::vector<double> rows;
-  std::vector<double> tau;
+// Where each sample's three rows go. The samples kept after trimming go
+// straight into the regression (rows 3i..3i+2 of kept sample i); the few
+// trimmed at each segment end, which only the filter needs, go into a side
+// buffer (rows 3t..3t+2 of trimmed sample t). So the regressor is built in
+// its final place, with no full-size scratch copy.
+class RowLayout {
+ public:
+  RowLayout(const std::vector<Segment>& segments, std::size_t trim) : trim_(trim) {
+    for (const Segment& seg : segments) {
+      kept_before_.push_back(kept_);
+      side_before_.push_back(side_);
+      kept_ += seg.end - seg.begin - 2 * trim;
+      side_ += 2 * trim;
+    }
+  }
+  std::size_t kept() const { return kept_; }
+  std::size_t trimmed() const { return side_; }
+  // Sample q of segment s (of length len): its kept index, or its side index
+  // with on_side set.
+  std::size_t place(std::size_t s, std::size_t q, std::size_t len, bool& on_side) const {
+    on_side = q < trim_ || q >= len - trim_;
+    if (!on_side) return kept_before_[s] + q - trim_;
+    return side_before_[s] + (q < trim_ ? q : q - (len - 2 * trim_));
+  }
+
+ private:
+  std::size_t trim_;
+  std::size_t kept_{0}, side_{0};
+  std::vector<std::size_t> kept_before_, side_before_;
 };
 
-RawRegression regressor_rows(const Model& model, const DeltaLog& log, const States& s,
-                             unsigned threads) {
+// The regression's rows and tau in their places: psi column-major (the
+// regression's own storage), the side rows row-major, tau of both alike.
+struct RowStore {
+  Eigen::MatrixXd& psi;
+  Eigen::VectorXd& tau;
+  std::vector<double> side_rows;  // 3 p per trimmed sample
+  std::vector<double> side_tau;   // 3 per trimmed sample
+  std::size_t p;
+  double& at(bool on_side, std::size_t row, std::size_t c) {
+    return on_side ? side_rows[row * p + c]
+                   : psi(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(c));
+  }
+  double& tau_at(bool on_side, std::size_t row) {
+    return on_side ? side_tau[row] : tau(static_cast<Eigen::Index>(row));
+  }
+};
+
+// Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
+// their places, on `threads` threads; and tau alike.
+void fill_rows(const Model& model, const DeltaLog& log, const States& s, const RowLayout& layout,
+               RowStore& store, unsigned threads) {
   const std::size_t n = s.size();
   const std::size_t p = model.size();
-  RawRegression raw;
-  raw.rows.resize(3 * n * p);
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   // Below ~20k samples a second thread does not pay for its start-up.
   const std::size_t workers = std::min<std::size_t>(threads, std::max<std::size_t>(1, n / 20000));
   std::atomic<std::size_t> first_bad{n};
   const auto work = [&](std::size_t w) {
-    const std::size_t b = n * w / workers, e = n * (w + 1) / workers;
-    for (std::size_t k = b; k < e; ++k) {
-      const auto st = model.rows(log.geometry, log.gravity_m_s2, s.states[k], &raw.rows[3 * k * p]);
-      if (st != delta::KinematicsStatus::kOk) {
-        std::size_t expected = first_bad.load();
-        while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
+    std::vector<double> rows(3 * p);
+    for (std::size_t si = 0; si < s.segments.size(); ++si) {
+      const Segment& seg = s.segments[si];
+      const std::size_t len = seg.end - seg.begin;
+      const std::size_t b = std::max(seg.begin, n * w / workers);
+      const std::size_t e = std::min(seg.end, n * (w + 1) / workers);
+      for (std::size_t k = b; k < e; ++k) {
+        if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows.data()) !=
+            delta::KinematicsStatus::kOk) {
+          std::size_t expected = first_bad.load();
+          while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
+          }
+          return;
         }
-        return;
+        bool side = false;
+        const std::size_t i = layout.place(si, k - seg.begin, len, side);
+        for (unsigned j = 0; j < 3; ++j) {
+          for (std::size_t c = 0; c < p; ++c) store.at(side, 3 * i + j, c) = rows[j * p + c];
+          store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
+        }
       }
     }
   };
@@ -199,57 +252,68 @@ RawRegression regressor_rows(const Model& model, const DeltaLog& log, const Stat
       << "check the geometry metadata and the angle convention";
     throw delta::InputError(m.str());
   }
-  raw.tau.resize(3 * n);
-  for (std::size_t k = 0; k < n; ++k) {
-    for (unsigned j = 0; j < 3; ++j) raw.tau[3 * k + j] = s.tau_Nm[k][j];
-  }
-  return raw;
 }
 
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
-// filt(tau) = filt(Psi) beta holds exactly). Within a segment, joint j's p
-// columns at sample k are contiguous at rows[(3k + j) p]: p lanes with a
-// stride of 3p; tau's three joints are three lanes with a stride of 3.
-void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments, std::size_t p,
-                    RawRegression& raw) {
-  for (const Segment& seg : segments) {
-    const std::size_t len = seg.end - seg.begin;
+// filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
+void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
+                    const RowLayout& layout, RowStore& store) {
+  for (std::size_t si = 0; si < segments.size(); ++si) {
+    const std::size_t len = segments[si].end - segments[si].begin;
     for (unsigned j = 0; j < 3; ++j) {
-      filtfilt_lanes(d.filter, &raw.rows[(3 * seg.begin + j) * p], len, p, 3 * p, d.pad);
+      const auto column = [&](std::size_t q, std::size_t c) -> double& {
+        bool side = false;
+        const std::size_t i = layout.place(si, q, len, side);
+        return store.at(side, 3 * i + j, c);
+      };
+      filtfilt_lanes(d.filter, len, store.p, d.pad, column);
     }
-    filtfilt_lanes(d.filter, &raw.tau[3 * seg.begin], len, 3, 3, d.pad);
+    const auto torque = [&](std::size_t q, std::size_t j) -> double& {
+      bool side = false;
+      const std::size_t i = layout.place(si, q, len, side);
+      return store.tau_at(side, 3 * i + j);
+    };
+    filtfilt_lanes(d.filter, len, 3, d.pad, torque);
   }
 }
 
-// The samples away from the segment ends, as the regression.
-Regression trimmed(const States& s, const RawRegression& raw, std::size_t p, std::size_t trim) {
-  std::vector<std::size_t> keep;
-  keep.reserve(s.size());
+// The rows' joints, speeds, samples and times.
+void label_rows(const States& s, const RowLayout& layout, std::size_t trim, Regression& r) {
+  r.t_s.reserve(layout.kept());
+  r.joint.reserve(3 * layout.kept());
+  r.speed_rad_s.reserve(3 * layout.kept());
+  r.sample.reserve(3 * layout.kept());
   for (const Segment& seg : s.segments) {
-    for (std::size_t k = seg.begin + trim; k + trim < seg.end; ++k) keep.push_back(k);
-  }
-  Regression r;
-  const auto m = static_cast<Eigen::Index>(3 * keep.size());
-  r.psi.resize(m, static_cast<Eigen::Index>(p));
-  r.tau.resize(m);
-  r.t_s.reserve(keep.size());
-  r.joint.reserve(3 * keep.size());
-  r.speed_rad_s.reserve(3 * keep.size());
-  r.sample.reserve(3 * keep.size());
-  for (std::size_t i = 0; i < keep.size(); ++i) {
-    const std::size_t k = keep[i];
-    r.t_s.push_back(s.t_s[k]);
-    for (unsigned j = 0; j < 3; ++j) {
-      const auto row = static_cast<Eigen::Index>(3 * i + j);
-      r.joint.push_back(static_cast<unsigned char>(j));
-      r.speed_rad_s.push_back(std::abs(s.states[k].qd_rad_s[j]));
-      r.sample.push_back(i);
-      r.tau(row) = raw.tau[3 * k + j];
-      for (std::size_t c = 0; c < p; ++c)
-        r.psi(row, static_cast<Eigen::Index>(c)) = raw.rows[(3 * k + j) * p + c];
+    for (std::size_t k = seg.begin + trim; k + trim < seg.end; ++k) {
+      const std::size_t i = r.t_s.size();
+      r.t_s.push_back(s.t_s[k]);
+      for (unsigned j = 0; j < 3; ++j) {
+        r.joint.push_back(static_cast<unsigned char>(j));
+        r.speed_rad_s.push_back(std::abs(s.states[k].qd_rad_s[j]));
+        r.sample.push_back(i);
+      }
     }
   }
+}
+
+// The regression of the states: built in place, labelled, filtered,
+// trimmed. The states are freed once the rows are built, before filtering
+// needs its buffers.
+Regression regression_of(const Model& model, const DeltaLog& log, States&& s, const FilterDesign& d,
+                         unsigned threads) {
+  const std::size_t p = model.size();
+  const RowLayout layout(s.segments, d.trim);
+  Regression r;
+  r.psi.resize(static_cast<Eigen::Index>(3 * layout.kept()), static_cast<Eigen::Index>(p));
+  r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
+  RowStore store{r.psi, r.tau, std::vector<double>(3 * layout.trimmed() * p),
+                 std::vector<double>(3 * layout.trimmed()), p};
+  fill_rows(model, log, s, layout, store, threads);
+  label_rows(s, layout, d.trim, r);
+  const std::vector<Segment> segments = s.segments;
+  s = States{};
+  if (!d.logged_derivatives) filter_columns(d, segments, layout, store);
   return r;
 }
 
@@ -259,15 +323,11 @@ Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOp
                         unsigned threads) {
   const FilterDesign design = design_filter(log, options);
   Preprocessed out;
-  {
-    const States states = joint_states(log, design);
-    RawRegression raw = regressor_rows(model, log, states, threads);
-    if (!design.logged_derivatives) filter_columns(design, states.segments, model.size(), raw);
-    out.regression = trimmed(states, raw, model.size(), design.trim);
-    out.report.segments_used = states.segments.size();
-    out.report.segments_dropped = states.segments_dropped;
-    out.report.derivatives = describe(design, options, states);
-  }  // the states and the raw rows are freed here
+  States states = joint_states(log, design);
+  out.report.segments_used = states.segments.size();
+  out.report.segments_dropped = states.segments_dropped;
+  out.report.derivatives = describe(design, options, states);
+  out.regression = regression_of(model, log, std::move(states), design, threads);
   out.report.samples_in_log = log.size();
   out.report.sample_rate_hz = design.sample_rate_hz;
   return out;

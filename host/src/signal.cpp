@@ -96,35 +96,32 @@ double line_end_value(const double* x, std::size_t stride, std::size_t first, st
 
 }  // namespace
 
-void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
-                    std::size_t lanes, std::size_t stride, std::size_t pad) {
-  if (n < 2 || lanes == 0) return;
-  pad = std::min(pad, n - 1);
+FiltfiltBlock::FiltfiltBlock(std::size_t n, std::size_t pad) : n_(n), pad_(std::min(pad, n - 1)) {
+  ext_.resize((n_ + 2 * pad_) * kMaxLanes);
+}
+
+void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) {
+  lanes_ = lanes;
+  const std::size_t w = lanes;
+  double* x = ext_.data() + pad_ * w;  // the samples, as sample() placed them
   // Odd reflection about robust end values: 2 x0 - x[pad..1], x,
   // 2 xn - x[n-2..n-1-pad], with x0 and xn from lines through the ends.
-  const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
-  const std::size_t len = n + 2 * pad;
-  // Up to four lanes at a time: enough to hide the recursion's latency,
-  // and the extended copy stays at four series.
-  constexpr std::size_t kBlock = 4;
-  std::vector<double> ext(len * std::min(lanes, kBlock));
-  for (std::size_t first = 0; first < lanes; first += kBlock) {
-    const std::size_t w = std::min(kBlock, lanes - first);
-    for (std::size_t l = 0; l < w; ++l) {
-      const double* x = data + first + l;
-      const double x0 = line_end_value(x, stride, 0, m, 0.0);
-      const double xn = line_end_value(x, stride, n - m, m, static_cast<double>(n - 1));
-      for (std::size_t i = 0; i < pad; ++i) {
-        ext[i * w + l] = 2.0 * x0 - x[(pad - i) * stride];
-        ext[(pad + n + i) * w + l] = 2.0 * xn - x[(n - 2 - i) * stride];
-      }
-      for (std::size_t k = 0; k < n; ++k) ext[(pad + k) * w + l] = x[k * stride];
-    }
-    filter_forward_backward(filter, ext.data(), len, w);
-    for (std::size_t k = 0; k < n; ++k) {
-      for (std::size_t l = 0; l < w; ++l) data[k * stride + first + l] = ext[(pad + k) * w + l];
+  const std::size_t m = std::min(n_, std::max<std::size_t>(3, pad_ / 3));
+  for (std::size_t l = 0; l < w; ++l) {
+    const double x0 = line_end_value(x + l, w, 0, m, 0.0);
+    const double xn = line_end_value(x + l, w, n_ - m, m, static_cast<double>(n_ - 1));
+    for (std::size_t i = 0; i < pad_; ++i) {
+      ext_[i * w + l] = 2.0 * x0 - x[(pad_ - i) * w + l];
+      ext_[(pad_ + n_ + i) * w + l] = 2.0 * xn - x[(n_ - 2 - i) * w + l];
     }
   }
+  filter_forward_backward(filter, ext_.data(), n_ + 2 * pad_, w);
+}
+
+void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
+                    std::size_t lanes, std::size_t stride, std::size_t pad) {
+  filtfilt_lanes(filter, n, lanes, pad,
+                 [=](std::size_t k, std::size_t l) -> double& { return data[k * stride + l]; });
 }
 
 std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,

@@ -66,6 +66,10 @@ DeltaLog read_delta_log(const std::string& path);
 // that reads back to the same double.
 std::string format_delta_log(const DeltaLog& log);
 
+// Frees the sample columns (t, q, tau, qd, qdd, seq, extra columns); the
+// name, metadata and gaps stay.
+void release_samples(DeltaLog& log);
+
 // One warning line per gap in the log ("LOG:LINE: warning: ...; segments
 // are fitted separately"), for every log a command fits or validates.
 void warn_about_gaps(std::ostream& err, const DeltaLog& log);

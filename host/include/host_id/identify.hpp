@@ -98,7 +98,10 @@ struct FitResult {
 // keep_predictions, result.predictions holds the measured and predicted
 // torques of the fitted log and then of each validation log (for a plot).
 // Every log is preprocessed once.
-FitResult fit_log(const DeltaLog& log, const FitOptions& options,
+// The log is taken by value: a caller that moves it in lets the fit free
+// its samples once they are preprocessed (the CLI does, for a long log's
+// memory).
+FitResult fit_log(DeltaLog log, const FitOptions& options,
                   const std::vector<const DeltaLog*>& validation = {},
                   bool keep_predictions = false);
 

@@ -2,6 +2,7 @@
 // signals, for logs without qd and qdd columns.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <vector>
@@ -30,6 +31,45 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vec
 // them all, so the recursion's latency is paid once, not once per series.
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
                     std::size_t lanes, std::size_t stride, std::size_t pad);
+
+// Up to four series of n samples, extended at both ends by odd reflection
+// over pad samples and filtered forward and backward: the work of
+// filtfilt_lanes, with the samples placed and taken by the caller.
+class FiltfiltBlock {
+ public:
+  static constexpr std::size_t kMaxLanes = 4;
+  FiltfiltBlock(std::size_t n, std::size_t pad);  // n >= 2
+  // Sample k of lane l of the block being filled (lanes: as given to run()).
+  double& sample(std::size_t k, std::size_t l, std::size_t lanes) {
+    return ext_[(pad_ + k) * lanes + l];
+  }
+  void run(const std::array<Biquad, 2>& filter, std::size_t lanes);
+  // Sample k of lane l after run().
+  double filtered(std::size_t k, std::size_t l) const { return ext_[(pad_ + k) * lanes_ + l]; }
+
+ private:
+  std::size_t n_, pad_, lanes_{0};
+  std::vector<double> ext_;
+};
+
+// filtfilt_lanes where the caller says where each sample lives: at(k, l) is
+// sample k of series l, read once and written once with its filtered value.
+template <class At>
+void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
+                    std::size_t pad, At at) {
+  if (n < 2 || lanes == 0) return;
+  FiltfiltBlock block(n, pad);
+  for (std::size_t first = 0; first < lanes; first += FiltfiltBlock::kMaxLanes) {
+    const std::size_t w = std::min(FiltfiltBlock::kMaxLanes, lanes - first);
+    for (std::size_t k = 0; k < n; ++k) {
+      for (std::size_t l = 0; l < w; ++l) block.sample(k, l, w) = at(k, first + l);
+    }
+    block.run(filter, w);
+    for (std::size_t k = 0; k < n; ++k) {
+      for (std::size_t l = 0; l < w; ++l) at(k, first + l) = block.filtered(k, l);
+    }
+  }
+}
 
 // First and second derivatives of uniformly sampled x with spacing h: the
 // five-point central stencils (error O(h^4)) inside, three-point and

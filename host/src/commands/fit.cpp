@@ -197,12 +197,12 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   f.pso.progress_every = 200;
 
   // Read every input before doing any work, so a bad validation log fails fast.
-  const DeltaLog log = read_delta_log(a.log);
+  DeltaLog log = read_delta_log(a.log);
   std::vector<DeltaLog> validation_logs;
   for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
   warn_about_gaps(err, log);
   for (const DeltaLog& l : validation_logs) warn_about_gaps(err, l);
-  const FitResult r = fit_log(log, f, pointers(validation_logs), !a.plot_path.empty());
+  const FitResult r = fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty());
   bar.finish();
   write_outputs(a, r, out);
   return 0;
