@@ -77,301 +77,359 @@ std::optional<std::string> DeltaLog::metadata_value(std::string_view key) const 
   return std::nullopt;
 }
 
-DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
-  DeltaLog log;
-  log.name = name;
-  Cursor cur{name};
-  if (text.size() >= 3 && text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // BOM
+namespace {
 
-  std::map<std::string, std::size_t> key_line;
-  std::vector<Column> columns;
-  std::vector<Series> extra_storage;
-  std::vector<std::string> extra_names;
-  bool header_seen = false;
-  std::size_t header_line = 0;
-  std::size_t pos = 0;
-  std::vector<double> row;
-  double nominal_dt = 0.0;
-  std::size_t blank_line = 0;  // first blank line seen, only allowed at the end
-  bool has_seq = false;        // the header names a seq column
+// The reader's state over one file: a line at a time, metadata, then the
+// header, then data rows. Each kind of line has its own step.
+class LogParser {
+ public:
+  LogParser(std::string_view text, const std::string& name) : text_(text), cur_{name} {
+    log_.name = name;
+    if (text_.size() >= 3 && text_.substr(0, 3) == "\xEF\xBB\xBF") text_.remove_prefix(3);  // BOM
+  }
 
-  while (pos < text.size()) {
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(pos, end - pos);
-    pos = end + 1;
-    ++cur.line;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-
-    if (trim(line).empty()) {
-      if (blank_line == 0) blank_line = cur.line;
-      continue;
-    }
-    if (blank_line != 0) {
-      cur.line = blank_line;
-      cur.fail(1, "empty line inside the file (only allowed at the end)");
-    }
-
-    if (line.front() == '#') {
-      if (header_seen) continue;  // a comment
-      // "# key = value" is metadata; anything else is a comment.
-      std::string_view body = line.substr(1);
-      const std::size_t eq = body.find('=');
-      if (eq == std::string_view::npos) continue;
-      std::size_t key_lead = 0;
-      const std::string_view key = trim(body.substr(0, eq), &key_lead);
-      if (key.empty() || !std::all_of(key.begin(), key.end(), is_key_char)) continue;
-      std::size_t value_lead = 0;
-      const std::string_view value = trim(body.substr(eq + 1), &value_lead);
-      const std::size_t value_col = 1 + 1 + eq + 1 + value_lead;
-      if (value.empty())
-        cur.fail(value_col, "metadata key '" + std::string(key) + "' has no value");
-      const std::string k(key);
-      if (const auto it = key_line.find(k); it != key_line.end()) {
-        cur.fail(2 + key_lead, "metadata key '" + k + "' appears twice (first on line " +
-                                   std::to_string(it->second) + ")");
+  DeltaLog parse() {
+    while (pos_ < text_.size()) {
+      std::size_t end = text_.find('\n', pos_);
+      if (end == std::string_view::npos) end = text_.size();
+      std::string_view line = text_.substr(pos_, end - pos_);
+      pos_ = end + 1;
+      ++cur_.line;
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      if (trim(line).empty()) {
+        if (blank_line_ == 0) blank_line_ = cur_.line;
+        continue;
       }
-      key_line[k] = cur.line;
-      log.metadata.emplace_back(k, std::string(value));
+      if (blank_line_ != 0) {
+        cur_.line = blank_line_;
+        cur_.fail(1, "empty line inside the file (only allowed at the end)");
+      }
+      if (line.front() == '#') {
+        if (!header_seen_) metadata_line(line);  // after the header: a comment
+      } else if (!header_seen_) {
+        header_line(line);
+      } else {
+        data_row(line);
+      }
+    }
+    return finish();
+  }
 
-      const auto number = [&](const char* unit) {
-        double v = 0.0;
-        if (!parse_double(value, v)) {
-          cur.fail(value_col, "metadata key '" + k + "' must be a number in " + unit + ", got " +
-                                  quoted(value));
+ private:
+  // "# key = value" is metadata; anything else is a comment.
+  void metadata_line(std::string_view line) {
+    const std::string_view body = line.substr(1);
+    const std::size_t eq = body.find('=');
+    if (eq == std::string_view::npos) return;
+    std::size_t key_lead = 0;
+    const std::string_view key = trim(body.substr(0, eq), &key_lead);
+    if (key.empty() || !std::all_of(key.begin(), key.end(), is_key_char)) return;
+    std::size_t value_lead = 0;
+    const std::string_view value = trim(body.substr(eq + 1), &value_lead);
+    const std::size_t value_col = 1 + 1 + eq + 1 + value_lead;
+    if (value.empty()) cur_.fail(value_col, "metadata key '" + std::string(key) + "' has no value");
+    const std::string k(key);
+    if (const auto it = key_line_.find(k); it != key_line_.end()) {
+      cur_.fail(2 + key_lead, "metadata key '" + k + "' appears twice (first on line " +
+                                  std::to_string(it->second) + ")");
+    }
+    key_line_[k] = cur_.line;
+    log_.metadata.emplace_back(k, std::string(value));
+    known_metadata(k, value, value_col);
+  }
+
+  // The keys the reader uses, checked and stored.
+  void known_metadata(const std::string& k, std::string_view value, std::size_t value_col) {
+    const auto number = [&](const char* unit) {
+      double v = 0.0;
+      if (!parse_double(value, v)) {
+        cur_.fail(value_col, "metadata key '" + k + "' must be a number in " + unit + ", got " +
+                                 quoted(value));
+      }
+      if (!std::isfinite(v)) cur_.fail(value_col, "metadata key '" + k + "' is not finite");
+      return v;
+    };
+    delta::Geometry& g = log_.geometry;
+    if (k == "format") {
+      if (value != kFormat) {
+        cur_.fail(value_col, "unsupported format " + quoted(value) + "; this reader reads " +
+                                 std::string(kFormat));
+      }
+    } else if (k == "upper_arm_length_m") {
+      g.upper_arm_length_m = number("m");
+    } else if (k == "forearm_length_m") {
+      g.forearm_length_m = number("m");
+    } else if (k == "base_radius_m") {
+      g.base_radius_m = number("m");
+    } else if (k == "platform_radius_m") {
+      g.platform_radius_m = number("m");
+    } else if (k == "gravity_m_s2") {
+      log_.gravity_m_s2 = number("m/s^2");
+      if (!(log_.gravity_m_s2 > 0.0)) cur_.fail(value_col, "gravity_m_s2 must be positive");
+    } else if (k == "sample_rate_hz") {
+      log_.sample_rate_hz = number("Hz");
+      if (!(*log_.sample_rate_hz > 0.0)) cur_.fail(value_col, "sample_rate_hz must be positive");
+    }
+  }
+
+  // The first line that is not metadata: the column names, after the
+  // metadata has been checked.
+  void header_line(std::string_view line) {
+    header_seen_ = true;
+    header_line_ = cur_.line;
+    check_required_metadata();
+    const std::map<std::string, std::size_t> seen = column_names(line);
+    const auto has = [&](const std::string& n) { return seen.count(n) > 0; };
+    for (const char* required : {"t", "q1", "q2", "q3", "tau1", "tau2", "tau3"}) {
+      if (!has(required)) {
+        cur_.fail(1, std::string("required column '") + required + "' is missing from the header");
+      }
+    }
+    for (const char* group : {"qd", "qdd"}) {
+      int n = 0;
+      for (int j = 1; j <= 3; ++j) n += has(group + std::to_string(j)) ? 1 : 0;
+      if (n != 0 && n != 3) {
+        cur_.fail(1, std::string("columns ") + group + "1.." + group +
+                         "3 must be given all three or none");
+      }
+    }
+    log_.has_qd = has("qd1");
+    log_.has_qdd = has("qdd1");
+    bind_columns();
+    if (log_.sample_rate_hz) nominal_dt_ = 1.0 / *log_.sample_rate_hz;
+    reserve_rows();
+  }
+
+  void check_required_metadata() {
+    for (const char* required : {"format", "upper_arm_length_m", "forearm_length_m",
+                                 "base_radius_m", "platform_radius_m"}) {
+      if (!key_line_.count(required)) {
+        cur_.fail(1, std::string("required metadata key '") + required +
+                         "' is missing before the header (expected a line '# " + required +
+                         " = ...')");
+      }
+    }
+    if (delta::check_geometry(log_.geometry) != delta::GeometryFault::kOk) {
+      cur_.line = key_line_["upper_arm_length_m"];
+      cur_.fail(
+          1, "invalid geometry in the metadata: " + delta::describe_geometry_fault(log_.geometry));
+    }
+  }
+
+  // The header's names, each with its column number.
+  std::map<std::string, std::size_t> column_names(std::string_view line) {
+    std::size_t start = 0;
+    std::map<std::string, std::size_t> seen;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      const std::string_view field =
+          line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+      std::size_t lead = 0;
+      const std::string col_name(trim(field, &lead));
+      const std::size_t col = start + lead + 1;
+      if (col_name.empty()) cur_.fail(col, "empty column name in the header");
+      if (seen.count(col_name))
+        cur_.fail(col, "column '" + col_name + "' appears twice in the header");
+      seen[col_name] = col;
+      columns_.push_back(Column{col_name});
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+    return seen;
+  }
+
+  // Each column's role and the series it fills.
+  void bind_columns() {
+    for (Column& c : columns_) {
+      const auto joint_of = [&](std::string_view prefix) -> int {
+        if (c.name.size() == prefix.size() + 1 && c.name.compare(0, prefix.size(), prefix) == 0 &&
+            c.name.back() >= '1' && c.name.back() <= '3') {
+          return c.name.back() - '1';
         }
-        if (!std::isfinite(v)) cur.fail(value_col, "metadata key '" + k + "' is not finite");
-        return v;
+        return -1;
       };
-      if (k == "format") {
-        if (value != kFormat) {
-          cur.fail(value_col, "unsupported format " + quoted(value) + "; this reader reads " +
-                                  std::string(kFormat));
-        }
-      } else if (k == "upper_arm_length_m") {
-        log.geometry.upper_arm_length_m = number("m");
-      } else if (k == "forearm_length_m") {
-        log.geometry.forearm_length_m = number("m");
-      } else if (k == "base_radius_m") {
-        log.geometry.base_radius_m = number("m");
-      } else if (k == "platform_radius_m") {
-        log.geometry.platform_radius_m = number("m");
-      } else if (k == "gravity_m_s2") {
-        log.gravity_m_s2 = number("m/s^2");
-        if (!(log.gravity_m_s2 > 0.0)) cur.fail(value_col, "gravity_m_s2 must be positive");
-      } else if (k == "sample_rate_hz") {
-        log.sample_rate_hz = number("Hz");
-        if (!(*log.sample_rate_hz > 0.0)) cur.fail(value_col, "sample_rate_hz must be positive");
+      const auto bind = [&](Role role, Series* target) {
+        c.role = role;
+        c.target = target;
+      };
+      if (c.name == "t") {
+        bind(Role::kT, &log_.t);
+      } else if (c.name == "seq") {
+        bind(Role::kSeq, nullptr);
+        has_seq_ = true;
+      } else if (const int j = joint_of("q"); j >= 0) {
+        bind(Role::kQ, &log_.q[static_cast<unsigned>(j)]);
+      } else if (const int j2 = joint_of("tau"); j2 >= 0) {
+        bind(Role::kTau, &log_.tau[static_cast<unsigned>(j2)]);
+      } else if (const int j3 = joint_of("qd"); j3 >= 0) {
+        bind(Role::kQd, &log_.qd[static_cast<unsigned>(j3)]);
+      } else if (const int j4 = joint_of("qdd"); j4 >= 0) {
+        bind(Role::kQdd, &log_.qdd[static_cast<unsigned>(j4)]);
+      } else {
+        c.role = Role::kExtra;
+        extra_names_.push_back(c.name);
       }
-      continue;
     }
-
-    if (!header_seen) {
-      // Check the metadata before the header.
-      header_seen = true;
-      header_line = cur.line;
-      for (const char* required : {"format", "upper_arm_length_m", "forearm_length_m",
-                                   "base_radius_m", "platform_radius_m"}) {
-        if (!key_line.count(required)) {
-          cur.fail(1, std::string("required metadata key '") + required +
-                          "' is missing before the header (expected a line '# " + required +
-                          " = ...')");
-        }
-      }
-      if (delta::check_geometry(log.geometry) != delta::GeometryFault::kOk) {
-        cur.line = key_line["upper_arm_length_m"];
-        cur.fail(
-            1, "invalid geometry in the metadata: " + delta::describe_geometry_fault(log.geometry));
-      }
-      // Header: column names.
-      std::size_t start = 0;
-      std::map<std::string, std::size_t> seen;
-      while (true) {
-        const std::size_t comma = line.find(',', start);
-        const std::string_view field =
-            line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-        std::size_t lead = 0;
-        const std::string col_name(trim(field, &lead));
-        const std::size_t col = start + lead + 1;
-        if (col_name.empty()) cur.fail(col, "empty column name in the header");
-        if (seen.count(col_name))
-          cur.fail(col, "column '" + col_name + "' appears twice in the header");
-        seen[col_name] = col;
-        columns.push_back(Column{col_name});
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
-      }
-      const auto has = [&](const std::string& n) { return seen.count(n) > 0; };
-      for (const char* required : {"t", "q1", "q2", "q3", "tau1", "tau2", "tau3"}) {
-        if (!has(required)) {
-          cur.fail(1, std::string("required column '") + required + "' is missing from the header");
-        }
-      }
-      for (const char* group : {"qd", "qdd"}) {
-        int n = 0;
-        for (int j = 1; j <= 3; ++j) n += has(group + std::to_string(j)) ? 1 : 0;
-        if (n != 0 && n != 3) {
-          cur.fail(1, std::string("columns ") + group + "1.." + group +
-                          "3 must be given all three or none");
-        }
-      }
-      log.has_qd = has("qd1");
-      log.has_qdd = has("qdd1");
-      for (Column& c : columns) {
-        const auto joint_of = [&](std::string_view prefix) -> int {
-          if (c.name.size() == prefix.size() + 1 && c.name.compare(0, prefix.size(), prefix) == 0 &&
-              c.name.back() >= '1' && c.name.back() <= '3') {
-            return c.name.back() - '1';
-          }
-          return -1;
-        };
-        if (c.name == "t") {
-          c.role = Role::kT;
-          c.target = &log.t;
-        } else if (c.name == "seq") {
-          c.role = Role::kSeq;
-        } else if (int j = joint_of("q"); j >= 0) {
-          c.role = Role::kQ;
-          c.target = &log.q[static_cast<unsigned>(j)];
-        } else if (int j2 = joint_of("tau"); j2 >= 0) {
-          c.role = Role::kTau;
-          c.target = &log.tau[static_cast<unsigned>(j2)];
-        } else if (int j3 = joint_of("qd"); j3 >= 0) {
-          c.role = Role::kQd;
-          c.target = &log.qd[static_cast<unsigned>(j3)];
-        } else if (int j4 = joint_of("qdd"); j4 >= 0) {
-          c.role = Role::kQdd;
-          c.target = &log.qdd[static_cast<unsigned>(j4)];
-        } else {
-          c.role = Role::kExtra;
-          extra_names.push_back(c.name);
-        }
-      }
-      extra_storage.resize(extra_names.size());
-      std::size_t e = 0;
-      for (Column& c : columns) {
-        if (c.role == Role::kExtra) c.target = &extra_storage[e++];
-      }
-      if (log.sample_rate_hz) nominal_dt = 1.0 / *log.sample_rate_hz;
-      row.resize(columns.size());
-      // At most one sample per remaining line: sized once, the columns never
-      // move while they fill.
-      const auto rows_left = static_cast<std::size_t>(
-          std::count(text.begin() + static_cast<std::ptrdiff_t>(pos), text.end(), '\n') + 1);
-      for (Column& c : columns) {
-        if (c.target) c.target->reserve(rows_left);
-        has_seq = has_seq || c.role == Role::kSeq;
-      }
-      if (has_seq) log.seq.reserve(rows_left);
-      continue;
+    extra_storage_.resize(extra_names_.size());
+    std::size_t e = 0;
+    for (Column& c : columns_) {
+      if (c.role == Role::kExtra) c.target = &extra_storage_[e++];
     }
+  }
 
-    // A data row.
-    if (log.first_data_line == 0) log.first_data_line = cur.line;
+  // At most one sample per remaining line: sized once, the columns never
+  // move while they fill.
+  void reserve_rows() {
+    const auto rows_left = static_cast<std::size_t>(
+        std::count(text_.begin() + static_cast<std::ptrdiff_t>(pos_), text_.end(), '\n') + 1);
+    for (Column& c : columns_) {
+      if (c.target) c.target->reserve(rows_left);
+    }
+    if (has_seq_) log_.seq.reserve(rows_left);
+  }
+
+  void data_row(std::string_view line) {
+    if (log_.first_data_line == 0) log_.first_data_line = cur_.line;
     std::size_t start = 0;
     double seq_value = 0.0;
     std::size_t t_col = 1, seq_col = 1;
-    for (std::size_t i = 0; i < columns.size(); ++i) {
-      // The common case first: a plain number right up to the comma (or the
-      // line's end for the last field). Anything else (spaces, a '+', a
-      // wrong field count, not a number) takes the careful path below,
-      // which names the problem.
-      if (double v = 0.0; columns[i].role != Role::kSeq && columns[i].role != Role::kT) {
-        const char* field_end = line.data() + line.size();
-        const auto r = std::from_chars(line.data() + start, field_end, v);
-        const bool last = i + 1 == columns.size();
-        if (r.ec == std::errc() && r.ptr != line.data() + start && std::isfinite(v) &&
-            (last ? r.ptr == field_end : (r.ptr != field_end && *r.ptr == ','))) {
-          columns[i].target->push_back(v);
-          start = static_cast<std::size_t>(r.ptr - line.data()) + 1;
-          continue;
-        }
-      }
-      const std::size_t comma = line.find(',', start);
-      if (comma == std::string_view::npos && i + 1 < columns.size()) {
-        cur.fail(line.size() + 1, "row has " + std::to_string(i + 1) + " fields, the header has " +
-                                      std::to_string(columns.size()));
-      }
-      if (comma != std::string_view::npos && i + 1 == columns.size()) {
-        std::size_t fields = columns.size();
-        for (std::size_t p = comma; p != std::string_view::npos; p = line.find(',', p + 1))
-          ++fields;
-        cur.fail(comma + 1, "row has " + std::to_string(fields) + " fields, the header has " +
-                                std::to_string(columns.size()));
-      }
-      const std::string_view raw =
-          line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-      std::size_t lead = 0;
-      const std::string_view field = trim(raw, &lead);
-      const std::size_t col = start + lead + 1;
-      double v = 0.0;
-      if (!parse_double(field, v)) {
-        cur.fail(col, "column '" + columns[i].name + "': " +
-                          (field.empty() ? std::string("empty field")
-                                         : "not a number: " + quoted(field)));
-      }
-      if (!std::isfinite(v))
-        cur.fail(col, "column '" + columns[i].name + "': NaN or Inf is not allowed");
-      if (columns[i].role == Role::kSeq) {
-        seq_value = v;
+    for (std::size_t i = 0; i < columns_.size(); ++i) {
+      if (quick_field(line, i, start)) continue;
+      const std::size_t col = careful_field(line, i, start);
+      if (columns_[i].role == Role::kSeq) {
+        seq_value = last_value_;
         seq_col = col;
       } else {
-        columns[i].target->push_back(v);
+        columns_[i].target->push_back(last_value_);
       }
-      if (columns[i].role == Role::kT) t_col = col;
-      start = comma + 1;
+      if (columns_[i].role == Role::kT) t_col = col;
     }
-    const std::size_t k = log.t.size() - 1;
-    if (has_seq) {
-      if (seq_value < 0.0 || seq_value != std::floor(seq_value) ||
-          seq_value > 9.007199254740992e15) {
-        cur.fail(seq_col, "column 'seq': must be a non-negative whole number");
-      }
-      const auto s = static_cast<std::uint64_t>(seq_value);
-      if (!log.seq.empty()) {
-        const std::uint64_t prev = log.seq.back();
-        if (s <= prev) {
-          cur.fail(seq_col, "column 'seq': " + std::to_string(s) + " does not increase (previous " +
-                                std::to_string(prev) + ")");
-        }
-        if (s != prev + 1) {
-          log.gaps.push_back({k, cur.line,
-                              "seq jumps from " + std::to_string(prev) + " to " +
-                                  std::to_string(s) + " (" + std::to_string(s - prev - 1) +
-                                  " samples lost)"});
-        }
-      }
-      log.seq.push_back(s);
+    const std::size_t k = log_.t.size() - 1;
+    if (has_seq_) check_seq(seq_value, seq_col, k);
+    if (k > 0) check_time(t_col, k);
+  }
+
+  // The common case: a plain number right up to the comma (or the line's
+  // end for the last field), taken by one from_chars. Anything else
+  // (spaces, a '+', a wrong field count, not a number) is left to
+  // careful_field(), which names the problem.
+  bool quick_field(std::string_view line, std::size_t i, std::size_t& start) {
+    if (columns_[i].role == Role::kSeq || columns_[i].role == Role::kT) return false;
+    double v = 0.0;
+    const char* field_end = line.data() + line.size();
+    const auto r = std::from_chars(line.data() + start, field_end, v);
+    const bool last = i + 1 == columns_.size();
+    if (r.ec != std::errc() || r.ptr == line.data() + start || !std::isfinite(v) ||
+        !(last ? r.ptr == field_end : (r.ptr != field_end && *r.ptr == ','))) {
+      return false;
     }
-    if (k > 0) {
-      const double dt = log.t[k] - log.t[k - 1];
-      if (!(dt > 0.0)) {
-        cur.fail(t_col, "column 't': time " + format_number(log.t[k]) +
-                            " s is not after the previous sample's " + format_number(log.t[k - 1]) +
-                            " s");
+    columns_[i].target->push_back(v);
+    start = static_cast<std::size_t>(r.ptr - line.data()) + 1;
+    return true;
+  }
+
+  // Field i, starting at start: its value in last_value_; returns its column
+  // and moves start past it. Names every breach of the format.
+  std::size_t careful_field(std::string_view line, std::size_t i, std::size_t& start) {
+    const std::size_t comma = line.find(',', start);
+    if (comma == std::string_view::npos && i + 1 < columns_.size()) {
+      cur_.fail(line.size() + 1, "row has " + std::to_string(i + 1) + " fields, the header has " +
+                                     std::to_string(columns_.size()));
+    }
+    if (comma != std::string_view::npos && i + 1 == columns_.size()) {
+      std::size_t fields = columns_.size();
+      for (std::size_t p = comma; p != std::string_view::npos; p = line.find(',', p + 1)) ++fields;
+      cur_.fail(comma + 1, "row has " + std::to_string(fields) + " fields, the header has " +
+                               std::to_string(columns_.size()));
+    }
+    const std::string_view raw =
+        line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+    std::size_t lead = 0;
+    const std::string_view field = trim(raw, &lead);
+    const std::size_t col = start + lead + 1;
+    if (!parse_double(field, last_value_)) {
+      cur_.fail(
+          col, "column '" + columns_[i].name + "': " +
+                   (field.empty() ? std::string("empty field") : "not a number: " + quoted(field)));
+    }
+    if (!std::isfinite(last_value_))
+      cur_.fail(col, "column '" + columns_[i].name + "': NaN or Inf is not allowed");
+    start = comma + 1;
+    return col;
+  }
+
+  void check_seq(double seq_value, std::size_t seq_col, std::size_t k) {
+    if (seq_value < 0.0 || seq_value != std::floor(seq_value) || seq_value > 9.007199254740992e15) {
+      cur_.fail(seq_col, "column 'seq': must be a non-negative whole number");
+    }
+    const auto s = static_cast<std::uint64_t>(seq_value);
+    if (!log_.seq.empty()) {
+      const std::uint64_t prev = log_.seq.back();
+      if (s <= prev) {
+        cur_.fail(seq_col, "column 'seq': " + std::to_string(s) + " does not increase (previous " +
+                               std::to_string(prev) + ")");
       }
-      if (nominal_dt == 0.0) nominal_dt = dt;  // no sample_rate_hz: the first step
-      const bool already = !log.gaps.empty() && log.gaps.back().index == k;
-      if (dt > 1.5 * nominal_dt && !already) {
-        std::ostringstream w;
-        w << "time jumps by " << dt << " s from " << log.t[k - 1] << " s, "
-          << "more than 1.5 sample periods (" << nominal_dt << " s)";
-        log.gaps.push_back({k, cur.line, w.str()});
+      if (s != prev + 1) {
+        log_.gaps.push_back({k, cur_.line,
+                             "seq jumps from " + std::to_string(prev) + " to " + std::to_string(s) +
+                                 " (" + std::to_string(s - prev - 1) + " samples lost)"});
       }
     }
+    log_.seq.push_back(s);
   }
-  if (!header_seen) {
-    cur.line = std::max<std::size_t>(cur.line, 1);
-    cur.fail(1, "no header row: the file has no line of column names");
+
+  void check_time(std::size_t t_col, std::size_t k) {
+    const double dt = log_.t[k] - log_.t[k - 1];
+    if (!(dt > 0.0)) {
+      cur_.fail(t_col, "column 't': time " + format_number(log_.t[k]) +
+                           " s is not after the previous sample's " + format_number(log_.t[k - 1]) +
+                           " s");
+    }
+    if (nominal_dt_ == 0.0) nominal_dt_ = dt;  // no sample_rate_hz: the first step
+    const bool already = !log_.gaps.empty() && log_.gaps.back().index == k;
+    if (dt > 1.5 * nominal_dt_ && !already) {
+      std::ostringstream w;
+      w << "time jumps by " << dt << " s from " << log_.t[k - 1] << " s, "
+        << "more than 1.5 sample periods (" << nominal_dt_ << " s)";
+      log_.gaps.push_back({k, cur_.line, w.str()});
+    }
   }
-  if (log.t.empty()) {
-    cur.line = header_line;
-    cur.fail(1, "no data rows after the header");
+
+  DeltaLog finish() {
+    if (!header_seen_) {
+      cur_.line = std::max<std::size_t>(cur_.line, 1);
+      cur_.fail(1, "no header row: the file has no line of column names");
+    }
+    if (log_.t.empty()) {
+      cur_.line = header_line_;
+      cur_.fail(1, "no data rows after the header");
+    }
+    for (std::size_t i = 0; i < extra_names_.size(); ++i) {
+      log_.extra_columns.emplace_back(extra_names_[i], std::move(extra_storage_[i]));
+    }
+    return std::move(log_);
   }
-  for (std::size_t i = 0; i < extra_names.size(); ++i) {
-    log.extra_columns.emplace_back(extra_names[i], std::move(extra_storage[i]));
-  }
-  return log;
+
+  std::string_view text_;
+  Cursor cur_;
+  DeltaLog log_;
+  std::size_t pos_{0};
+  std::map<std::string, std::size_t> key_line_;
+  std::vector<Column> columns_;
+  std::vector<Series> extra_storage_;
+  std::vector<std::string> extra_names_;
+  bool header_seen_{false};
+  std::size_t header_line_{0};
+  double nominal_dt_{0.0};
+  std::size_t blank_line_{0};  // first blank line seen, only allowed at the end
+  bool has_seq_{false};        // the header names a seq column
+  double last_value_{0.0};     // of careful_field()
+};
+
+}  // namespace
+
+DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
+  return LogParser(text, name).parse();
 }
 
 DeltaLog read_delta_log(const std::string& path) {
