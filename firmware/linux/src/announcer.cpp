@@ -22,10 +22,10 @@ void Announcer::after_step(fw::Fault fault, std::uint32_t cycle) {
             : static_cast<std::uint16_t>(delta::can::od::kEmcyControllerFaultBase +
                                          static_cast<std::uint16_t>(fault));
     const p::Message& m = p::kControllerEmcy;
-    p::pack(d, m.signals[0], code);
-    p::pack(d, m.signals[1], fault == fw::Fault::kNone ? 0 : 1);
-    p::pack(d, m.signals[2], static_cast<std::uint16_t>(fault));
-    p::pack(d, m.signals[3], cycle);
+    p::pack(d, p::kControllerEmcyErrorCode, code);
+    p::pack(d, p::kControllerEmcyErrorRegister, fault == fw::Fault::kNone ? 0 : 1);
+    p::pack(d, p::kControllerEmcyFaultCode, static_cast<std::uint16_t>(fault));
+    p::pack(d, p::kControllerEmcyCycle, cycle);
     send(m.base_id, m.dlc, d);
     last_fault_ = fault;
   }

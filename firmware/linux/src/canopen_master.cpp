@@ -225,8 +225,8 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
   if (!all_done) return fw::DriveConfigProgress::kInProgress;
   // Every drive configured: start the network; the cyclic exchange begins.
   std::array<std::uint8_t, 8> nmt{};
-  p::pack(nmt, p::kNmt.signals[0], p::kNmtStart);
-  p::pack(nmt, p::kNmt.signals[1], 0);
+  p::pack(nmt, p::kNmtCommand, p::kNmtStart);
+  p::pack(nmt, p::kNmtNode, 0);
   bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
   phase_ = Phase::kStarting;
   for (Drive& d : drives_) d.last_heartbeat_cycle = cycle_;
@@ -235,8 +235,8 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
 
 void CanopenMaster::leave_network() {
   std::array<std::uint8_t, 8> nmt{};
-  p::pack(nmt, p::kNmt.signals[0], p::kNmtEnterPreOperational);
-  p::pack(nmt, p::kNmt.signals[1], 0);
+  p::pack(nmt, p::kNmtCommand, p::kNmtEnterPreOperational);
+  p::pack(nmt, p::kNmtNode, 0);
   bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
 }
 
@@ -312,14 +312,14 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {
     return;
   }
   if (second) {
-    d.velocity_counts_s = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2.signals[0]));
+    d.velocity_counts_s = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2VelocityActual));
     d.got_tpdo2 = true;
     return;
   }
-  d.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1.signals[0]));
+  d.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1Statusword));
   d.state = delta::can::cia402::decode_statusword(d.statusword);
-  d.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1.signals[1]));
-  d.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1.signals[2]));
+  d.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1PositionActual));
+  d.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1CurrentActual));
   d.got_tpdo1 = true;
 }
 
@@ -336,8 +336,8 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
   }
   const Frame& f = r.frame;
   if (f.extended || f.remote) return;
-  const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
-  const std::uint32_t function = f.id & 0x780;
+  const std::uint8_t node = p::node_id(f.id);
+  const std::uint32_t function = p::function_code(f.id);
   Drive* d = drive_for(node);
   if (d == nullptr) return;
   if (function == p::kSdoTx.base_id) {
@@ -347,7 +347,7 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
   } else if (function == p::kTpdo2.base_id) {
     if (cyclic()) handle_tpdo(*d, f, true);
   } else if (function == p::kEmcy.base_id) {
-    const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcy.signals[0]));
+    const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcyErrorCode));
     if (code != od::kEmcyErrorReset) {
       d->emergency = true;
       record({.kind = CyclicProblem::Kind::kEmergency, .node = node, .emcy_code = code});
@@ -490,10 +490,10 @@ void CanopenMaster::send_commands() {
                         : delta::can::cia402::controlword_towards(d.state, enable_, d.controlword);
     const bool driving = enable_ && d.state == State::kOperationEnabled;
     std::array<std::uint8_t, 8> data{};
-    p::pack(data, p::kRpdo1.signals[0], d.controlword);
-    p::pack(data, p::kRpdo1.signals[1],
+    p::pack(data, p::kRpdo1Controlword, d.controlword);
+    p::pack(data, p::kRpdo1TargetTorque,
             driving ? d.units.target_torque_per_mille(d.command_current_A) : 0);
-    p::pack(data, p::kRpdo1.signals[2], d.position_counts);
+    p::pack(data, p::kRpdo1TargetPosition, d.position_counts);
     bus_.send(frame(p::cob_id(p::kRpdo1, d.node), 8, data));
   }
 }

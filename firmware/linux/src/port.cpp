@@ -102,13 +102,14 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
 
   // What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats
   // (and error frames, which need no filter).
-  delta::can::Socket socket = delta::can::Socket::open(options.iface,
-                                                       {{p::kTpdo1.base_id, 0x780, false},
-                                                        {p::kTpdo2.base_id, 0x780, false},
-                                                        {p::kSdoTx.base_id, 0x780, false},
-                                                        {p::kEmcy.base_id, 0x780, false},
-                                                        {p::kHeartbeat.base_id, 0x780, false}},
-                                                       1 << 20);
+  delta::can::Socket socket =
+      delta::can::Socket::open(options.iface,
+                               {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
+                                {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
+                                {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
+                                {p::kEmcy.base_id, p::kFunctionCodeMask, false},
+                                {p::kHeartbeat.base_id, p::kFunctionCodeMask, false}},
+                               1 << 20);
   SocketSink sink(socket);
   CanopenMaster master(config, sink);
   LinuxHardware hw(master, io, sink);

@@ -204,14 +204,14 @@ void Emulator::on_frame(const Frame& f) {
   if (f.extended || f.remote) return;
   if (f.id == p::cob_id(p::kNmt, 0)) return handle_nmt(f);
   if (f.id == p::cob_id(p::kSync, 0)) return handle_sync();
-  if ((f.id & 0x780) == p::kHeartbeat.base_id && f.dlc == 1) {
-    return handle_consumed_heartbeat(static_cast<std::uint8_t>(f.id & 0x7F));
+  if (p::function_code(f.id) == p::kHeartbeat.base_id && f.dlc == 1) {
+    return handle_consumed_heartbeat(p::node_id(f.id));
   }
-  const auto node = static_cast<std::uint8_t>(f.id & 0x7F);
+  const std::uint8_t node = p::node_id(f.id);
   if (node < p::kFirstDriveNode || node >= p::kFirstDriveNode + p::kDriveCount) return;
   Drive& d = drives_[node - p::kFirstDriveNode];
   if (d.silent) return;
-  const std::uint32_t function = f.id & 0x780;
+  const std::uint32_t function = p::function_code(f.id);
   if (function == p::kSdoRx.base_id) {
     handle_sdo(d, f);
   } else if (function == p::kRpdo1.base_id) {
@@ -374,11 +374,11 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
 
 void Emulator::handle_rpdo(Drive& d, const Frame& f) {
   if (d.nmt != p::kNmtStateOperational || f.dlc != p::kRpdo1.dlc) return;
-  const auto cw = static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1.signals[0]));
+  const auto cw = static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1Controlword));
   const cia::State before = d.state;
   d.state = cia::drive_transition(d.state, cw, d.controlword);
   d.controlword = cw;
-  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1.signals[1]));
+  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1TargetTorque));
   if (before == cia::State::kFault && d.state != cia::State::kFault) {
     send(p::cob_id(p::kEmcy, d.node), 8, {});  // error reset
   }
@@ -389,8 +389,8 @@ void Emulator::enter_fault(Drive& d, std::uint16_t emcy_code) {
   d.target_torque_pm = 0;
   if (d.silent) return;
   std::array<std::uint8_t, 8> data{};
-  p::pack(data, p::kEmcy.signals[0], emcy_code);
-  p::pack(data, p::kEmcy.signals[1], 1);
+  p::pack(data, p::kEmcyErrorCode, emcy_code);
+  p::pack(data, p::kEmcyErrorRegister, 1);
   send(p::cob_id(p::kEmcy, d.node), 8, data);
 }
 
@@ -505,18 +505,18 @@ void Emulator::handle_sync() {
     const double q = q_[j];
     const double qd = qd_[j];
     std::array<std::uint8_t, 8> tpdo1{};
-    p::pack(tpdo1, p::kTpdo1.signals[0], cia::encode_statusword(d.state));
-    p::pack(tpdo1, p::kTpdo1.signals[1], position_counts(d, q));
+    p::pack(tpdo1, p::kTpdo1Statusword, cia::encode_statusword(d.state));
+    p::pack(tpdo1, p::kTpdo1PositionActual, position_counts(d, q));
     const double measured_A = d.current_A + config_.current_noise_A * noise();
     const long pm = std::lround(measured_A / d.model.rated_current_A * 1000.0);
-    p::pack(tpdo1, p::kTpdo1.signals[2], std::max(-32768L, std::min(32767L, pm)));
+    p::pack(tpdo1, p::kTpdo1CurrentActual, std::max(-32768L, std::min(32767L, pm)));
     const std::uint8_t dlc = d.corrupt_next ? 5 : 8;
     d.corrupt_next = false;
     send(p::cob_id(p::kTpdo1, d.node), dlc, tpdo1, d.delay_us);
     if ((d.tpdo2_cob & od::kPdoInvalid) == 0) {
       std::array<std::uint8_t, 8> tpdo2{};
       const double counts_s = qd / kTwoPi * d.model.gear_ratio * d.model.counts_per_rev;
-      p::pack(tpdo2, p::kTpdo2.signals[0],
+      p::pack(tpdo2, p::kTpdo2VelocityActual,
               (d.model.inverted ? -1 : 1) * static_cast<std::int64_t>(std::llround(counts_s)));
       send(p::cob_id(p::kTpdo2, d.node), 4, tpdo2, d.delay_us);
     }

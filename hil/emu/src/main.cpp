@@ -112,12 +112,13 @@ int main(int argc, char** argv) {
   try {
     // What the controller sends to drives: NMT, SYNC, RPDO1 and SDO requests.
     namespace p = delta::can::protocol;
-    delta::can::Socket socket = delta::can::Socket::open(iface,
-                                                         {{p::kNmt.base_id, 0x7FF, false},
-                                                          {p::kSync.base_id, 0x7FF, false},
-                                                          {p::kRpdo1.base_id, 0x780, false},
-                                                          {p::kSdoRx.base_id, 0x780, false}},
-                                                         1 << 20);
+    delta::can::Socket socket =
+        delta::can::Socket::open(iface,
+                                 {{p::kNmt.base_id, p::kStandardIdMask, false},
+                                  {p::kSync.base_id, p::kStandardIdMask, false},
+                                  {p::kRpdo1.base_id, p::kFunctionCodeMask, false},
+                                  {p::kSdoRx.base_id, p::kFunctionCodeMask, false}},
+                                 1 << 20);
     // Frames due later (delay-pdo), by wall time.
     std::multimap<std::uint64_t, delta::can::Frame> delayed;
     std::uint64_t send_failures = 0;

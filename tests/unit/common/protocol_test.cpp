@@ -41,6 +41,16 @@ TEST(ProtocolTest, SignalsFitTheirFrameAndDoNotOverlap) {
   }
 }
 
+// The named signals are the table's, by name.
+TEST(ProtocolTest, NamedSignalsAreTheTablesByName) {
+  EXPECT_EQ(&kTpdo1PositionActual, &kTpdo1.signals[1]);
+  EXPECT_STREQ(kTpdo1PositionActual.name, "position_actual");
+  EXPECT_EQ(&kLogAStale, &kLogA.signals[3]);
+  EXPECT_EQ(&kControllerEmcyCycle, &kControllerEmcy.signals[3]);
+  EXPECT_EQ(function_code(cob_id(kTpdo1, 3)), kTpdo1.base_id);
+  EXPECT_EQ(node_id(cob_id(kTpdo1, 3)), 3);
+}
+
 TEST(ProtocolTest, PackAndUnpackRoundTripWithSignExtension) {
   const Message& log_a = kMessages[9];
   std::array<std::uint8_t, 8> d{};

@@ -42,7 +42,7 @@ Path1Run record_path1(const emu::EmulatorConfig& ec, const std::vector<int>& lat
     rig.cycle();
     for (auto f : rig.bus.sent_) {
       if (ignore_stale_mark)
-        delta::can::protocol::pack(f.data, delta::can::protocol::kLogA.signals[3], 0);
+        delta::can::protocol::pack(f.data, delta::can::protocol::kLogAStale, 0);
       assembler.feed(f);
     }
     if (i > 0 && rig.controller.state() == fw::State::kReady) break;

@@ -162,7 +162,7 @@ delta::can::Frame tpdo1(std::uint8_t node, std::int16_t current_pm) {
   delta::can::Frame f;
   f.id = p::cob_id(p::kTpdo1, node);
   f.dlc = p::kTpdo1.dlc;
-  p::pack(f.data, p::kTpdo1.signals[2], current_pm);
+  p::pack(f.data, p::kTpdo1CurrentActual, current_pm);
   return f;
 }
 

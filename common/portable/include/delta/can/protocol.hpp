@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string_view>
 
 namespace delta::can::protocol {
 
@@ -235,6 +236,61 @@ inline constexpr const Message& kLogC = kMessages[11];
 inline constexpr const Message& kControllerEmcy = kMessages[12];
 inline constexpr const Message& kControllerHeartbeat = kMessages[13];
 
+// The signals by name: a wrong name does not compile.
+namespace detail {
+void no_such_signal();  // not constexpr, so a call in a constant expression fails
+}  // namespace detail
+consteval const Signal& signal_named(const Message& m, std::string_view name) {
+  for (unsigned i = 0; i < m.signal_count; ++i) {
+    if (name == m.signals[i].name) return m.signals[i];
+  }
+  detail::no_such_signal();
+  return m.signals[0];
+}
+
+inline constexpr const Signal& kNmtCommand = signal_named(kNmt, "command");
+inline constexpr const Signal& kNmtNode = signal_named(kNmt, "node");
+inline constexpr const Signal& kEmcyErrorCode = signal_named(kEmcy, "error_code");
+inline constexpr const Signal& kEmcyErrorRegister = signal_named(kEmcy, "error_register");
+inline constexpr const Signal& kEmcyVendor = signal_named(kEmcy, "vendor");
+inline constexpr const Signal& kTpdo1Statusword = signal_named(kTpdo1, "statusword");
+inline constexpr const Signal& kTpdo1PositionActual = signal_named(kTpdo1, "position_actual");
+inline constexpr const Signal& kTpdo1CurrentActual = signal_named(kTpdo1, "current_actual");
+inline constexpr const Signal& kTpdo2VelocityActual = signal_named(kTpdo2, "velocity_actual");
+inline constexpr const Signal& kRpdo1Controlword = signal_named(kRpdo1, "controlword");
+inline constexpr const Signal& kRpdo1TargetTorque = signal_named(kRpdo1, "target_torque");
+inline constexpr const Signal& kRpdo1TargetPosition = signal_named(kRpdo1, "target_position");
+inline constexpr const Signal& kSdoRxCommand = signal_named(kSdoRx, "command");
+inline constexpr const Signal& kSdoRxIndex = signal_named(kSdoRx, "index");
+inline constexpr const Signal& kSdoRxSubindex = signal_named(kSdoRx, "subindex");
+inline constexpr const Signal& kSdoRxData = signal_named(kSdoRx, "data");
+inline constexpr const Signal& kSdoTxCommand = signal_named(kSdoTx, "command");
+inline constexpr const Signal& kSdoTxIndex = signal_named(kSdoTx, "index");
+inline constexpr const Signal& kSdoTxSubindex = signal_named(kSdoTx, "subindex");
+inline constexpr const Signal& kSdoTxData = signal_named(kSdoTx, "data");
+inline constexpr const Signal& kHeartbeatNmtState = signal_named(kHeartbeat, "nmt_state");
+inline constexpr const Signal& kLogASeq = signal_named(kLogA, "seq");
+inline constexpr const Signal& kLogAQ1 = signal_named(kLogA, "q1");
+inline constexpr const Signal& kLogAQ2 = signal_named(kLogA, "q2");
+inline constexpr const Signal& kLogAStale = signal_named(kLogA, "stale");
+inline constexpr const Signal& kLogBSeq = signal_named(kLogB, "seq");
+inline constexpr const Signal& kLogBQ3 = signal_named(kLogB, "q3");
+inline constexpr const Signal& kLogBTau1 = signal_named(kLogB, "tau1");
+inline constexpr const Signal& kLogBStale = signal_named(kLogB, "stale");
+inline constexpr const Signal& kLogCSeq = signal_named(kLogC, "seq");
+inline constexpr const Signal& kLogCTau2 = signal_named(kLogC, "tau2");
+inline constexpr const Signal& kLogCTau3 = signal_named(kLogC, "tau3");
+inline constexpr const Signal& kLogCStale = signal_named(kLogC, "stale");
+inline constexpr const Signal& kControllerEmcyErrorCode =
+    signal_named(kControllerEmcy, "error_code");
+inline constexpr const Signal& kControllerEmcyErrorRegister =
+    signal_named(kControllerEmcy, "error_register");
+inline constexpr const Signal& kControllerEmcyFaultCode =
+    signal_named(kControllerEmcy, "fault_code");
+inline constexpr const Signal& kControllerEmcyCycle = signal_named(kControllerEmcy, "cycle");
+inline constexpr const Signal& kControllerHeartbeatNmtState =
+    signal_named(kControllerHeartbeat, "nmt_state");
+
 // NMT commands and states (CiA 301).
 inline constexpr std::uint8_t kNmtStart = 1;
 inline constexpr std::uint8_t kNmtStop = 2;
@@ -245,6 +301,19 @@ inline constexpr std::uint8_t kNmtStateBootUp = 0;
 inline constexpr std::uint8_t kNmtStateStopped = 4;
 inline constexpr std::uint8_t kNmtStateOperational = 5;
 inline constexpr std::uint8_t kNmtStatePreOperational = 127;
+
+// A CANopen COB-ID of the predefined connection set (CiA 301): a 4-bit
+// function code over a 7-bit node ID.
+inline constexpr std::uint32_t kFunctionCodeMask = 0x780;
+inline constexpr std::uint32_t kNodeIdMask = 0x07F;
+inline constexpr std::uint32_t kStandardIdMask = 0x7FF;  // every bit of an 11-bit ID
+
+constexpr std::uint32_t function_code(std::uint32_t can_id) {
+  return can_id & kFunctionCodeMask;
+}
+constexpr std::uint8_t node_id(std::uint32_t can_id) {
+  return static_cast<std::uint8_t>(can_id & kNodeIdMask);
+}
 
 // The COB-ID of a message for a node (node ignored unless per_node).
 constexpr std::uint16_t cob_id(const Message& m, std::uint8_t node) {
@@ -296,17 +365,18 @@ constexpr LogPayloads pack_log(std::uint32_t seq, bool stale,
                                const std::array<std::int32_t, 3>& q_raw20,
                                const std::array<std::int32_t, 3>& tau_raw16) {
   LogPayloads p;
-  const Message* parts[3] = {&kLogA, &kLogB, &kLogC};
+  const Signal* seq_of[3] = {&kLogASeq, &kLogBSeq, &kLogCSeq};
+  const Signal* stale_of[3] = {&kLogAStale, &kLogBStale, &kLogCStale};
   for (unsigned i = 0; i < 3; ++i) {
-    pack(p.data[i], parts[i]->signals[0], seq % kLogSeqModulo);
-    pack(p.data[i], parts[i]->signals[3], stale ? 1 : 0);
+    pack(p.data[i], *seq_of[i], seq % kLogSeqModulo);
+    pack(p.data[i], *stale_of[i], stale ? 1 : 0);
   }
-  pack(p.data[0], kLogA.signals[1], saturate_signal(kLogA.signals[1], q_raw20[0]));
-  pack(p.data[0], kLogA.signals[2], saturate_signal(kLogA.signals[2], q_raw20[1]));
-  pack(p.data[1], kLogB.signals[1], saturate_signal(kLogB.signals[1], q_raw20[2]));
-  pack(p.data[1], kLogB.signals[2], saturate_signal(kLogB.signals[2], tau_raw16[0]));
-  pack(p.data[2], kLogC.signals[1], saturate_signal(kLogC.signals[1], tau_raw16[1]));
-  pack(p.data[2], kLogC.signals[2], saturate_signal(kLogC.signals[2], tau_raw16[2]));
+  pack(p.data[0], kLogAQ1, saturate_signal(kLogAQ1, q_raw20[0]));
+  pack(p.data[0], kLogAQ2, saturate_signal(kLogAQ2, q_raw20[1]));
+  pack(p.data[1], kLogBQ3, saturate_signal(kLogBQ3, q_raw20[2]));
+  pack(p.data[1], kLogBTau1, saturate_signal(kLogBTau1, tau_raw16[0]));
+  pack(p.data[2], kLogCTau2, saturate_signal(kLogCTau2, tau_raw16[1]));
+  pack(p.data[2], kLogCTau3, saturate_signal(kLogCTau3, tau_raw16[2]));
   return p;
 }
 
