@@ -67,8 +67,8 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   if (f.id == kLogC.base_id) part = 2;
   if (part < 0) return false;
   // seq and stale sit in the same bits of all three frames.
-  const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, kLogA.signals[0])));
-  const bool stale = p::unpack(f.data, kLogA.signals[3]) != 0;
+  const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, p::kLogASeq)));
+  const bool stale = p::unpack(f.data, p::kLogAStale) != 0;
   if (!next_to_emit_) next_to_emit_ = seq;
   if (seq < *next_to_emit_) return true;  // too late: already given up on
   auto it = std::find_if(pending_.begin(), pending_.end(),
@@ -80,14 +80,14 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   LogSample& s = it->sample;
   s.stale = s.stale || stale;
   if (part == 0) {
-    s.q_rad[0] = scaled(kLogA.signals[1], p::unpack(f.data, kLogA.signals[1]));
-    s.q_rad[1] = scaled(kLogA.signals[2], p::unpack(f.data, kLogA.signals[2]));
+    s.q_rad[0] = scaled(p::kLogAQ1, p::unpack(f.data, p::kLogAQ1));
+    s.q_rad[1] = scaled(p::kLogAQ2, p::unpack(f.data, p::kLogAQ2));
   } else if (part == 1) {
-    s.q_rad[2] = scaled(kLogB.signals[1], p::unpack(f.data, kLogB.signals[1]));
-    s.tau_Nm[0] = scaled(kLogB.signals[2], p::unpack(f.data, kLogB.signals[2]));
+    s.q_rad[2] = scaled(p::kLogBQ3, p::unpack(f.data, p::kLogBQ3));
+    s.tau_Nm[0] = scaled(p::kLogBTau1, p::unpack(f.data, p::kLogBTau1));
   } else {
-    s.tau_Nm[1] = scaled(kLogC.signals[1], p::unpack(f.data, kLogC.signals[1]));
-    s.tau_Nm[2] = scaled(kLogC.signals[2], p::unpack(f.data, kLogC.signals[2]));
+    s.tau_Nm[1] = scaled(p::kLogCTau2, p::unpack(f.data, p::kLogCTau2));
+    s.tau_Nm[2] = scaled(p::kLogCTau3, p::unpack(f.data, p::kLogCTau3));
   }
   it->parts = static_cast<std::uint8_t>(it->parts | (1u << part));
   // Emit every complete sample in order; give up on those that fell out of
@@ -145,7 +145,7 @@ void DriveCurrentTracker::feed(const delta::can::Frame& f) {
   if (f.extended || f.error_frame || f.remote) return;
   if (f.id == kLogA.base_id && f.dlc == 8) {
     if (fresh_ == 0x7) {
-      const auto seq15 = static_cast<std::uint16_t>(p::unpack(f.data, kLogA.signals[0]));
+      const auto seq15 = static_cast<std::uint16_t>(p::unpack(f.data, p::kLogASeq));
       by_seq_.emplace_back(seq15, current_pm_);
       if (by_seq_.size() > 4 * kReorderWindow) by_seq_.erase(by_seq_.begin());
     }
@@ -155,7 +155,7 @@ void DriveCurrentTracker::feed(const delta::can::Frame& f) {
   const std::uint32_t base = p::kTpdo1.base_id;
   if (f.id > base && f.id <= base + p::kDriveCount && f.dlc == p::kTpdo1.dlc) {
     const unsigned j = f.id - base - p::kFirstDriveNode;
-    current_pm_[j] = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1.signals[2]));
+    current_pm_[j] = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1CurrentActual));
     fresh_ = static_cast<std::uint8_t>(fresh_ | (1u << j));
     any_seen_ = true;
   }
@@ -191,131 +191,152 @@ RecordSummary record(const RecordOptions& o, const std::function<void()>& ready)
   return r.summary;
 }
 
-Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
-  delta::require_valid_geometry(o.geometry);
-  if (!(o.sample_rate_hz > 0)) throw delta::InputError("record: --rate must be positive");
-  if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0 && !o.keep_going) {
-    throw delta::InputError("record: give a limit: --duration S, --samples N or --idle S");
-  }
-  delta::can::Socket sock = [&] {
-    try {
-      // With --raw, every frame of the session (a candump of it); else only
-      // the log frames.
-      std::vector<delta::can::Filter> filters;
-      if (!o.raw_path) {
-        filters = {{kLogA.base_id, 0x7FF, false},
-                   {kLogB.base_id, 0x7FF, false},
-                   {kLogC.base_id, 0x7FF, false},
-                   {p::kTpdo1.base_id, 0x780, false}};  // the drives' currents
-      }
-      return delta::can::Socket::open(o.iface, filters,
-                                      8 << 20);  // 8 MB: about 10 000 frames of burst
-    } catch (const delta::can::CanError& e) {
-      throw delta::InputError(std::string("record: ") + e.what());
+namespace {
+
+delta::can::Socket open_socket(const RecordOptions& o) {
+  try {
+    // With --raw, every frame of the session (a candump of it); else only
+    // the log frames and the drives' currents.
+    std::vector<delta::can::Filter> filters;
+    if (!o.raw_path) {
+      filters = {{kLogA.base_id, p::kStandardIdMask, false},
+                 {kLogB.base_id, p::kStandardIdMask, false},
+                 {kLogC.base_id, p::kStandardIdMask, false},
+                 {p::kTpdo1.base_id, p::kFunctionCodeMask, false}};
     }
-  }();
-  if (ready) ready();
-  LogAssembler assembler;
-  DriveCurrentTracker currents;
-  std::vector<LogSample> samples;
-  std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents;
-  std::string raw;
-  RecordSummary summary;
-  const auto t0 = std::chrono::steady_clock::now();
-  // --idle counts from the latest log frame, and only once one came: a
-  // controller may take a while to bring its drives up before it logs.
-  std::optional<std::chrono::steady_clock::time_point> last_log_frame;
-  const auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  };
-  for (;;) {
-    if (o.keep_going && !o.keep_going(samples.size() + assembler.stale_samples())) break;
-    if (o.duration_s > 0 && elapsed() >= o.duration_s) break;
-    if (o.samples > 0 && samples.size() >= o.samples) break;
-    if (o.idle_s > 0 && last_log_frame &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - *last_log_frame).count() >=
-            o.idle_s)
-      break;
-    if (!sock.wait_readable(std::chrono::milliseconds(50))) continue;
-    while (auto r = sock.receive()) {
-      ++summary.frames;
-      summary.socket_drops = r->socket_drops;
-      if (o.raw_path) {
-        char buf[96];
-        const auto ns = r->kernel_time.count();
-        // candump -L: 3 hex digits for a standard ID, 8 for an extended or
-        // error frame (with its flag bit), R for a remote request.
-        const delta::can::Frame& f = r->frame;
-        const std::uint32_t id =
-            f.error_frame ? (0x20000000u | f.id) : (f.extended ? (0x80000000u | f.id) : f.id);
-        std::snprintf(
-            buf, sizeof buf,
-            (f.error_frame || f.extended) ? "(%lld.%06lld) %s %08X#" : "(%lld.%06lld) %s %03X#",
-            static_cast<long long>(ns / 1000000000),
-            static_cast<long long>((ns % 1000000000) / 1000), o.iface.c_str(),
-            f.extended ? (id & 0x1FFFFFFFu) : id);
-        raw += buf;
-        if (f.remote) raw += 'R';
-        for (unsigned i = 0; !f.remote && i < r->frame.dlc; ++i) {
-          std::snprintf(buf, sizeof buf, "%02X", r->frame.data[i]);
-          raw += buf;
-        }
-        raw += '\n';
+    return delta::can::Socket::open(o.iface, filters,
+                                    8 << 20);  // 8 MB: about 10 000 frames of burst
+  } catch (const delta::can::CanError& e) {
+    throw delta::InputError(std::string("record: ") + e.what());
+  }
+}
+
+// One frame as a candump -L line: 3 hex digits for a standard ID, 8 for an
+// extended or error frame (with its flag bit), R for a remote request.
+void append_candump_line(const delta::can::Received& r, const std::string& iface,
+                         std::string& raw) {
+  char buf[96];
+  const auto ns = r.kernel_time.count();
+  const delta::can::Frame& f = r.frame;
+  const std::uint32_t id =
+      f.error_frame ? (0x20000000u | f.id) : (f.extended ? (0x80000000u | f.id) : f.id);
+  std::snprintf(buf, sizeof buf,
+                (f.error_frame || f.extended) ? "(%lld.%06lld) %s %08X#" : "(%lld.%06lld) %s %03X#",
+                static_cast<long long>(ns / 1000000000),
+                static_cast<long long>((ns % 1000000000) / 1000), iface.c_str(),
+                f.extended ? (id & 0x1FFFFFFFu) : id);
+  raw += buf;
+  if (f.remote) raw += 'R';
+  for (unsigned i = 0; !f.remote && i < f.dlc; ++i) {
+    std::snprintf(buf, sizeof buf, "%02X", f.data[i]);
+    raw += buf;
+  }
+  raw += '\n';
+}
+
+// The frames of one recording session, put together into samples.
+class Session {
+ public:
+  explicit Session(const RecordOptions& o) : o_(o), t0_(std::chrono::steady_clock::now()) {}
+
+  // Reads until a limit is reached or keep_going says no.
+  void run(delta::can::Socket& sock) {
+    while (!done()) {
+      if (!sock.wait_readable(std::chrono::milliseconds(50))) continue;
+      while (auto r = sock.receive()) {
+        take(*r);
+        if (o_.samples > 0 && samples_.size() >= o_.samples) break;
       }
-      if (!r->error) currents.feed(r->frame);
-      if (!r->error && assembler.feed(r->frame)) last_log_frame = std::chrono::steady_clock::now();
-      for (auto& s : assembler.take_complete()) {
-        samples.push_back(s);
-        sample_currents.push_back(currents.take(s.seq));
-      }
-      if (o.samples > 0 && samples.size() >= o.samples) break;
+    }
+    assembler_.finish();
+    collect();
+    if (o_.samples > 0 && samples_.size() > o_.samples) {
+      samples_.resize(o_.samples);
+      sample_currents_.resize(o_.samples);
     }
   }
-  assembler.finish();
-  for (auto& s : assembler.take_complete()) {
-    samples.push_back(s);
-    sample_currents.push_back(currents.take(s.seq));
+
+  RecordSummary summary() const {
+    RecordSummary s = summary_;
+    s.seconds = elapsed();
+    s.samples = samples_.size();
+    s.lost = assembler_.lost_samples();  // dropped frames show up as incomplete cycles
+    s.gaps = assembler_.gaps();
+    s.stale = assembler_.stale_samples();
+    s.stale_runs = assembler_.stale_runs();
+    return s;
   }
-  if (o.samples > 0 && samples.size() > o.samples) {
-    samples.resize(o.samples);
-    sample_currents.resize(o.samples);
+  const std::vector<LogSample>& samples() const { return samples_; }
+  const std::vector<std::optional<std::array<std::int16_t, 3>>>& sample_currents() const {
+    return sample_currents_;
   }
-  summary.seconds = elapsed();
-  summary.samples = samples.size();
-  summary.lost = assembler.lost_samples();  // dropped frames show up as incomplete cycles
-  summary.gaps = assembler.gaps();
-  summary.stale = assembler.stale_samples();
-  summary.stale_runs = assembler.stale_runs();
-  if (samples.empty()) {
-    throw delta::InputError("record: no complete log sample arrived on " + o.iface +
-                            " (controller log frames 0x" +
-                            [] {
-                              char b[8];
-                              std::snprintf(b, sizeof b, "%03X", kLogA.base_id);
-                              return std::string(b);
-                            }() +
-                            ".. ); nothing written");
+  bool currents_seen() const { return currents_.any_seen(); }
+  std::string& raw() { return raw_; }
+
+ private:
+  double elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
   }
+  bool done() const {
+    if (o_.keep_going && !o_.keep_going(samples_.size() + assembler_.stale_samples())) return true;
+    if (o_.duration_s > 0 && elapsed() >= o_.duration_s) return true;
+    if (o_.samples > 0 && samples_.size() >= o_.samples) return true;
+    // --idle counts from the latest log frame, and only once one came: a
+    // controller may take a while to bring its drives up before it logs.
+    return o_.idle_s > 0 && last_log_frame_ &&
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - *last_log_frame_)
+                   .count() >= o_.idle_s;
+  }
+  void take(const delta::can::Received& r) {
+    ++summary_.frames;
+    summary_.socket_drops = r.socket_drops;
+    if (o_.raw_path) append_candump_line(r, o_.iface, raw_);
+    if (!r.error) currents_.feed(r.frame);
+    if (!r.error && assembler_.feed(r.frame)) last_log_frame_ = std::chrono::steady_clock::now();
+    collect();
+  }
+  void collect() {
+    for (auto& s : assembler_.take_complete()) {
+      samples_.push_back(s);
+      sample_currents_.push_back(currents_.take(s.seq));
+    }
+  }
+
+  const RecordOptions& o_;
+  std::chrono::steady_clock::time_point t0_;
+  std::optional<std::chrono::steady_clock::time_point> last_log_frame_;
+  LogAssembler assembler_;
+  DriveCurrentTracker currents_;
+  std::vector<LogSample> samples_;
+  std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents_;
+  std::string raw_;
+  RecordSummary summary_;
+};
+
+// The session's samples as a delta-log/1 log; i1..i3 only when every sample
+// has its drives' currents: never a guess.
+DeltaLog session_log(const RecordOptions& o, const Session& session, RecordSummary& summary) {
+  const auto& samples = session.samples();
+  const auto& currents = session.sample_currents();
   DeltaLog log;
   log.geometry = o.geometry;
   log.sample_rate_hz = o.sample_rate_hz;
   log.metadata.emplace_back("source", "robot");
   log.metadata.emplace_back("can_interface", o.iface);
   if (summary.stale > 0) log.metadata.emplace_back("stale_samples", std::to_string(summary.stale));
-  const std::uint64_t first = samples.front().seq;
-  // i1..i3 only when every sample has its drives' currents: never a guess.
-  summary.samples_without_currents = static_cast<std::uint64_t>(
-      std::count(sample_currents.begin(), sample_currents.end(), std::nullopt));
-  summary.currents = currents.any_seen() && summary.samples_without_currents == 0;
+  summary.samples_without_currents =
+      static_cast<std::uint64_t>(std::count(currents.begin(), currents.end(), std::nullopt));
+  summary.currents = session.currents_seen() && summary.samples_without_currents == 0;
   if (summary.currents) {
     const char* names[] = {"i1", "i2", "i3"};
     for (unsigned j = 0; j < 3; ++j) {
       Series column;
-      for (const auto& c : sample_currents) column.push_back((*c)[j] * o.rated_current_A / 1000.0);
+      for (const auto& c : currents) column.push_back((*c)[j] * o.rated_current_A / 1000.0);
       log.extra_columns.emplace_back(names[j], std::move(column));
     }
   }
-  if (!currents.any_seen()) summary.samples_without_currents = 0;
+  if (!session.currents_seen()) summary.samples_without_currents = 0;
+  const std::uint64_t first = samples.front().seq;
   for (const LogSample& s : samples) {
     log.seq.push_back(s.seq - first);
     log.t.push_back(static_cast<double>(s.seq - first) / o.sample_rate_hz);
@@ -324,7 +345,30 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
       log.tau[j].push_back(s.tau_Nm[j]);
     }
   }
-  return Recording{std::move(log), summary, std::move(raw)};
+  return log;
+}
+
+}  // namespace
+
+Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
+  delta::require_valid_geometry(o.geometry);
+  if (!(o.sample_rate_hz > 0)) throw delta::InputError("record: --rate must be positive");
+  if (o.duration_s <= 0 && o.samples == 0 && o.idle_s <= 0 && !o.keep_going) {
+    throw delta::InputError("record: give a limit: --duration S, --samples N or --idle S");
+  }
+  delta::can::Socket sock = open_socket(o);
+  if (ready) ready();
+  Session session(o);
+  session.run(sock);
+  RecordSummary summary = session.summary();
+  if (session.samples().empty()) {
+    char id[8];
+    std::snprintf(id, sizeof id, "%03X", kLogA.base_id);
+    throw delta::InputError("record: no complete log sample arrived on " + o.iface +
+                            " (controller log frames 0x" + id + ".. ); nothing written");
+  }
+  DeltaLog log = session_log(o, session, summary);
+  return Recording{std::move(log), summary, std::move(session.raw())};
 }
 
 }  // namespace host_id
