@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <optional>
 #include <ostream>
 
 #include "delta/can/cia402.hpp"
@@ -77,12 +78,14 @@ bool send_log_frames(FrameSink& bus, const fw::LogRecord& r) {
   return ok;
 }
 
-int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
-             const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
-  // The trajectories are built and checked against the limits before
-  // touching the bus (the check walks every tick: not in the loop).
-  const fw::ControllerConfig core_config = controller_config(config);
-  std::vector<NamedRun> runs;
+namespace {
+
+// The command line's trajectories, built and checked against the limits
+// before the bus is touched (the check walks every tick: not in the loop);
+// or the exit code when one is unknown or breaks a limit.
+std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerConfig& core,
+                                const RunOptions& options, std::vector<NamedRun>& runs,
+                                std::ostream& out) {
   for (const std::string& name : options.trajectories) {
     auto t = named_trajectory(name, config);
     if (!t) {
@@ -91,137 +94,141 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
       out << ")\n";
       return kExitUsage;
     }
-    runs.push_back(
-        {name, fw::CheckedTrajectory::check(core_config.geometry, *t, core_config.limits)});
+    runs.push_back({name, fw::CheckedTrajectory::check(core.geometry, *t, core.limits)});
     if (!runs.back().trajectory.ok()) {
       out << "delta_fw: trajectory '" << name
           << "' rejected: " << describe_check(runs.back().trajectory.result()) << "\n";
       return kExitRejected;
     }
   }
+  return std::nullopt;
+}
 
-  // What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats
-  // (and error frames, which need no filter).
-  delta::can::Socket socket =
-      delta::can::Socket::open(options.iface,
-                               {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
-                                {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
-                                {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
-                                {p::kEmcy.base_id, p::kFunctionCodeMask, false},
-                                {p::kHeartbeat.base_id, p::kFunctionCodeMask, false}},
-                               1 << 20);
-  SocketSink sink(socket);
-  CanopenMaster master(config, sink);
-  LinuxHardware hw(master, io, sink);
-  if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
-  fw::Controller<LinuxHardware> controller(hw, core_config);
-  Announcer announcer(sink, config);
-  RunCoordinator coordinator(std::move(runs), options.exit_when_done, options.panel, out);
+// What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats (and
+// error frames, which need no filter).
+delta::can::Socket open_drive_socket(const std::string& iface) {
+  return delta::can::Socket::open(iface,
+                                  {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
+                                   {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
+                                   {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
+                                   {p::kEmcy.base_id, p::kFunctionCodeMask, false},
+                                   {p::kHeartbeat.base_id, p::kFunctionCodeMask, false}},
+                                  1 << 20);
+}
 
-  const bool realtime = config.mode == CycleMode::kRealTime;
-  const std::uint64_t window_us =
-      config.response_window_us != 0 ? config.response_window_us : config.period_us / 2;
-  int timer = -1;
-  std::uint64_t t0 = 0;
-  if (realtime) {
-    set_realtime(options.rt_priority, out);
-    timer = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC);
-    if (timer < 0) {
+// The real-time tick: a timerfd every period, and the wake-up latencies in
+// 10 us bins up to 100 ms (the last bin holds the rest), allocated once so
+// that a long run never allocates in the loop.
+class CycleTimer {
+ public:
+  static constexpr std::int64_t kBinUs = 10;
+  CycleTimer() : bins_(10001) {}
+  CycleTimer(const CycleTimer&) = delete;
+  CycleTimer& operator=(const CycleTimer&) = delete;
+  ~CycleTimer() {
+    if (fd_ >= 0) close(fd_);
+  }
+  bool start(std::uint32_t period_us, std::ostream& out) {
+    period_us_ = period_us;
+    fd_ = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC);
+    if (fd_ < 0) {
       out << "delta_fw: timerfd_create failed: " << std::strerror(errno) << "\n";
-      return kExitCanError;
+      return false;
     }
-    t0 = monotonic_us() + config.period_us;
+    t0_ = monotonic_us() + period_us;
     itimerspec spec{};
-    spec.it_value = {static_cast<time_t>(t0 / 1000000), static_cast<long>(t0 % 1000000 * 1000)};
-    spec.it_interval = {0, static_cast<long>(config.period_us) * 1000};
-    if (config.period_us >= 1000000) spec.it_interval = {1, 0};
-    timerfd_settime(timer, TFD_TIMER_ABSTIME, &spec, nullptr);
+    spec.it_value = {static_cast<time_t>(t0_ / 1000000), static_cast<long>(t0_ % 1000000 * 1000)};
+    spec.it_interval = {0, static_cast<long>(period_us) * 1000};
+    if (period_us >= 1000000) spec.it_interval = {1, 0};
+    timerfd_settime(fd_, TFD_TIMER_ABSTIME, &spec, nullptr);
+    return true;
   }
-
-  out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
-      << 1000000 / config.period_us << " Hz\n";
-  CycleStats stats;
-  // Wake-up latencies in 10 us bins up to 100 ms (the last bin holds the
-  // rest): allocated once, so a long run never allocates in the loop.
-  constexpr std::int64_t kBinUs = 10;
-  std::vector<std::uint64_t> latency_bins(realtime ? 10001 : 0);
-  std::uint64_t latency_count = 0;
-  std::uint64_t expirations = 0;
-  double latency_sum = 0;
-  const std::uint64_t wall_start = monotonic_us();
-  int exit_code = -1;
-  while (!stop.load() && exit_code < 0) {
-    std::uint64_t tick_us = monotonic_us();
-    if (realtime) {
-      std::uint64_t n = 0;
-      if (read(timer, &n, sizeof n) != static_cast<ssize_t>(sizeof n)) continue;
-      expirations += n;
-      stats.overruns += n - 1;
-      const std::uint64_t now = monotonic_us();
-      tick_us = t0 + (expirations - 1) * config.period_us;
-      const auto latency = static_cast<std::int64_t>(now - tick_us);
-      ++latency_bins[static_cast<std::size_t>(
-          std::min<std::int64_t>(std::max<std::int64_t>(latency, 0) / kBinUs, 10000))];
-      ++latency_count;
-      latency_sum += static_cast<double>(latency);
-      stats.latency_max_us = std::max(stats.latency_max_us, latency);
-    }
-    drain(socket, master);  // whatever came after the last window is late
-    master.begin_cycle(monotonic_us());
-    std::uint64_t deadline =
-        realtime ? tick_us + window_us : monotonic_us() + config.lockstep_timeout_ms * 1000ull;
-    if (!realtime && master.sdo_deadline_us() != 0) {
-      deadline = std::min(deadline, master.sdo_deadline_us());
-    }
-    while (!master.exchange_complete()) {
-      if (!wait_readable_until(socket.fd(), deadline)) break;
-      drain(socket, master);
-    }
-    master.end_window();
-
-    const std::uint64_t step_start = monotonic_us();
-    controller.step();
-    master.send_commands();
-    stats.step_max_us =
-        std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
-    announcer.after_step(controller.fault(), controller.cycles());
-    ++stats.cycles;
-
-    coordinator.after_step(controller, hw, master);
-    if (const auto code = coordinator.exit_code()) exit_code = *code;
-    if (options.max_cycles != 0 && stats.cycles >= options.max_cycles) {
-      exit_code = controller.state() == fw::State::kFault ? kExitFault : kExitDone;
-    }
+  // The next tick's time, once it has come (nothing when the read failed).
+  std::optional<std::uint64_t> wait(CycleStats& stats) {
+    std::uint64_t n = 0;
+    if (read(fd_, &n, sizeof n) != static_cast<ssize_t>(sizeof n)) return std::nullopt;
+    expirations_ += n;
+    stats.overruns += n - 1;
+    const std::uint64_t now = monotonic_us();
+    const std::uint64_t tick_us = t0_ + (expirations_ - 1) * period_us_;
+    const auto latency = static_cast<std::int64_t>(now - tick_us);
+    ++bins_[static_cast<std::size_t>(
+        std::min<std::int64_t>(std::max<std::int64_t>(latency, 0) / kBinUs, 10000))];
+    ++count_;
+    sum_ += static_cast<double>(latency);
+    stats.latency_max_us = std::max(stats.latency_max_us, latency);
+    return tick_us;
   }
-  if (exit_code < 0) {
-    // Stopped by a signal: a fault stays a fault; unfinished runs are not done.
-    exit_code = controller.state() == fw::State::kFault ? kExitFault
-                : coordinator.unfinished()              ? kExitStopped
-                                                        : kExitDone;
-  }
-  // Whatever ended the loop, the drives are left disabled (controlword 0,
-  // no torque) and the safety outputs off: nothing keeps running after us.
-  master.enable_drives(false);
-  master.send_commands();
-  master.leave_network();
-  io.set_outputs(fw::SafetyOutputs{});
-  if (timer >= 0) close(timer);
-
-  stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
-  stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
-  stats.late_frames = master.late_frames();
-  stats.stale_log_records = controller.stale_log_records();
-  stats.send_failures = sink.failures();
-  if (latency_count != 0) {
+  void summarise(CycleStats& stats) const {
+    if (count_ == 0) return;
     std::uint64_t below = 0;
     std::size_t bin = 0;
-    while (bin + 1 < latency_bins.size() &&
-           (below += latency_bins[bin]) < latency_count * 99 / 100) {
-      ++bin;
-    }
+    while (bin + 1 < bins_.size() && (below += bins_[bin]) < count_ * 99 / 100) ++bin;
     stats.latency_p99_us = static_cast<std::int64_t>(bin + 1) * kBinUs;  // upper edge of the bin
-    stats.latency_mean_us = latency_sum / static_cast<double>(latency_count);
+    stats.latency_mean_us = sum_ / static_cast<double>(count_);
   }
+
+ private:
+  int fd_{-1};
+  std::uint32_t period_us_{0};
+  std::uint64_t t0_{0};
+  std::uint64_t expirations_{0};
+  std::vector<std::uint64_t> bins_;
+  std::uint64_t count_{0};
+  double sum_{0};
+};
+
+// The controller and everything it is wired to, for one run of the loop.
+struct Loop {
+  Loop(const PortConfig& config, const RunOptions& options, SafetyIo& io,
+       const fw::ControllerConfig& core, std::vector<NamedRun> runs, std::ostream& out)
+      : socket(open_drive_socket(options.iface)),
+        sink(socket),
+        master(config, sink),
+        hw(master, io, sink),
+        controller(hw, core),
+        announcer(sink, config),
+        coordinator(std::move(runs), options.exit_when_done, options.panel, out) {
+    if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
+  }
+  delta::can::Socket socket;
+  SocketSink sink;
+  CanopenMaster master;
+  LinuxHardware hw;
+  fw::Controller<LinuxHardware> controller;
+  Announcer announcer;
+  RunCoordinator coordinator;
+};
+
+// One cycle's exchange: late frames, SYNC, the TPDOs until all came or the
+// deadline passed, end of the window. In real time the deadline is the
+// tick's window; in lock-step it is the timeout from now (or a pending SDO
+// request's, if sooner).
+void exchange(Loop& l, std::optional<std::uint64_t> window_end_us,
+              std::uint64_t lockstep_timeout_us) {
+  drain(l.socket, l.master);  // whatever came after the last window is late
+  l.master.begin_cycle(monotonic_us());
+  std::uint64_t deadline_us = window_end_us ? *window_end_us : monotonic_us() + lockstep_timeout_us;
+  if (!window_end_us && l.master.sdo_deadline_us() != 0) {
+    deadline_us = std::min(deadline_us, l.master.sdo_deadline_us());
+  }
+  while (!l.master.exchange_complete()) {
+    if (!wait_readable_until(l.socket.fd(), deadline_us)) break;
+    drain(l.socket, l.master);
+  }
+  l.master.end_window();
+}
+
+// Whatever ended the loop, the drives are left disabled (controlword 0, no
+// torque) and the safety outputs off: nothing keeps running after us.
+void shut_down(Loop& l, SafetyIo& io) {
+  l.master.enable_drives(false);
+  l.master.send_commands();
+  l.master.leave_network();
+  io.set_outputs(fw::SafetyOutputs{});
+}
+
+void report(const CycleStats& stats, bool realtime, std::ostream& out) {
   out << "delta_fw: " << stats.cycles << " cycles in " << stats.wall_s << " s ("
       << stats.simulated_s << " s of bus time); step max " << stats.step_max_us
       << " us; late frames " << stats.late_frames << "; log records marked stale "
@@ -231,6 +238,64 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
         << " us, max " << stats.latency_max_us << " us; overruns " << stats.overruns;
   }
   out << "\n";
+}
+
+}  // namespace
+
+int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
+             const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
+  const fw::ControllerConfig core = controller_config(config);
+  std::vector<NamedRun> runs;
+  if (const auto refused = checked_runs(config, core, options, runs, out)) return *refused;
+  Loop l(config, options, io, core, std::move(runs), out);
+  const bool realtime = config.mode == CycleMode::kRealTime;
+  const std::uint64_t window_us =
+      config.response_window_us != 0 ? config.response_window_us : config.period_us / 2;
+  CycleTimer timer;
+  if (realtime) {
+    set_realtime(options.rt_priority, out);
+    if (!timer.start(config.period_us, out)) return kExitCanError;
+  }
+  out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
+      << 1000000 / config.period_us << " Hz\n";
+  CycleStats stats;
+  const std::uint64_t wall_start = monotonic_us();
+  int exit_code = -1;
+  while (!stop.load() && exit_code < 0) {
+    std::optional<std::uint64_t> window_end_us;
+    if (realtime) {
+      const auto tick_us = timer.wait(stats);
+      if (!tick_us) continue;
+      window_end_us = *tick_us + window_us;
+    }
+    exchange(l, window_end_us, config.lockstep_timeout_ms * 1000ull);
+    const std::uint64_t step_start = monotonic_us();
+    l.controller.step();
+    l.master.send_commands();
+    stats.step_max_us =
+        std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
+    l.announcer.after_step(l.controller.fault(), l.controller.cycles());
+    ++stats.cycles;
+    l.coordinator.after_step(l.controller, l.hw, l.master);
+    if (const auto code = l.coordinator.exit_code()) exit_code = *code;
+    if (options.max_cycles != 0 && stats.cycles >= options.max_cycles) {
+      exit_code = l.controller.state() == fw::State::kFault ? kExitFault : kExitDone;
+    }
+  }
+  if (exit_code < 0) {
+    // Stopped by a signal: a fault stays a fault; unfinished runs are not done.
+    exit_code = l.controller.state() == fw::State::kFault ? kExitFault
+                : l.coordinator.unfinished()              ? kExitStopped
+                                                          : kExitDone;
+  }
+  shut_down(l, io);
+  stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
+  stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
+  stats.late_frames = l.master.late_frames();
+  stats.stale_log_records = l.controller.stale_log_records();
+  stats.send_failures = l.sink.failures();
+  timer.summarise(stats);
+  report(stats, realtime, out);
   if (stats_out != nullptr) *stats_out = stats;
   return exit_code;
 }
