@@ -34,7 +34,9 @@ class Noise {
 
 }  // namespace
 
-DeltaLog simulate_log(const SimulateOptions& o) {
+namespace {
+
+void check_options(const SimulateOptions& o) {
   delta::require_valid_geometry(o.geometry);
   if (!(o.duration_s > 0.0) || !(o.duration_s <= 3600.0)) {
     throw delta::InputError("--duration must be between 0 and 3600 s");
@@ -46,29 +48,48 @@ DeltaLog simulate_log(const SimulateOptions& o) {
     throw delta::InputError("--torque-noise is a fraction of the RMS torque, between 0 and 1");
   }
   if (o.encoder_bits > 32) throw delta::InputError("--encoder-bits must be between 0 (off) and 32");
+}
 
-  delta::FourierTrajectory fourier;
-  delta::PickAndPlaceTrajectory pnp;
-  const bool is_fourier = o.trajectory == "fourier";
-  if (is_fourier) {
-    if (o.harmonics == 0 || o.harmonics > 20)
-      throw delta::InputError("--harmonics must be between 1 and 20");
-    if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
-      throw delta::InputError("--base-hz must be between 0 and 5 Hz");
+// The joint states of the chosen path at time t.
+class Path {
+ public:
+  explicit Path(const SimulateOptions& o) : fourier_(o.trajectory == "fourier") {
+    if (fourier_) {
+      if (o.harmonics == 0 || o.harmonics > 20)
+        throw delta::InputError("--harmonics must be between 1 and 20");
+      if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
+        throw delta::InputError("--base-hz must be between 0 and 5 Hz");
+      }
+      const delta::Vec3<double> centre{0.0, 0.0, -0.42};
+      if (!delta::make_fourier_excitation(o.geometry, centre, o.harmonics, o.base_frequency_hz,
+                                          o.amplitude_rad, o.seed, fourier_path_)) {
+        throw delta::InputError(
+            "no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
+      }
+    } else if (o.trajectory == "pick-and-place") {
+      pnp_ = delta::default_pick_and_place(o.geometry);
+    } else {
+      throw delta::InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" +
+                              o.trajectory + "'");
     }
-    const delta::Vec3<double> centre{0.0, 0.0, -0.42};
-    if (!delta::make_fourier_excitation(o.geometry, centre, o.harmonics, o.base_frequency_hz,
-                                        o.amplitude_rad, o.seed, fourier)) {
-      throw delta::InputError(
-          "no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
+  }
+  delta::JointState at(double t) const {
+    if (fourier_) return fourier_path_.at(t);
+    delta::JointState s;
+    if (pnp_.at(t, s) != delta::KinematicsStatus::kOk) {
+      throw delta::InputError("the pick-and-place path leaves the workspace of this geometry");
     }
-  } else if (o.trajectory == "pick-and-place") {
-    pnp = delta::default_pick_and_place(o.geometry);
-  } else {
-    throw delta::InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" +
-                            o.trajectory + "'");
+    return s;
   }
 
+ private:
+  bool fourier_;
+  delta::FourierTrajectory fourier_path_;
+  delta::PickAndPlaceTrajectory pnp_;
+};
+
+// The exact log: the path sampled, the torques by inverse dynamics.
+DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
   DeltaLog log;
   log.name = "simulate";
   log.geometry = o.geometry;
@@ -85,12 +106,7 @@ DeltaLog simulate_log(const SimulateOptions& o) {
   }
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) / o.sample_rate_hz;
-    delta::JointState s;
-    if (is_fourier) {
-      s = fourier.at(t);
-    } else if (pnp.at(t, s) != delta::KinematicsStatus::kOk) {
-      throw delta::InputError("the pick-and-place path leaves the workspace of this geometry");
-    }
+    const delta::JointState s = path.at(t);
     delta::Joint3 tau{};
     if (delta::inverse_dynamics(o.geometry, o.parameters, s, tau) != delta::KinematicsStatus::kOk) {
       std::ostringstream m;
@@ -108,12 +124,17 @@ DeltaLog simulate_log(const SimulateOptions& o) {
       }
     }
   }
+  return log;
+}
+
+// Torque noise, then encoder quantisation, as a real log has them.
+void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
   Noise noise(o.seed);
   if (o.torque_noise > 0.0) {
     for (unsigned j = 0; j < 3; ++j) {
       double ss = 0.0;
       for (double v : log.tau[j]) ss += v * v;
-      const double sigma = o.torque_noise * std::sqrt(ss / static_cast<double>(n));
+      const double sigma = o.torque_noise * std::sqrt(ss / static_cast<double>(log.size()));
       for (double& v : log.tau[j]) v += sigma * noise.normal();
     }
     log.metadata.emplace_back("torque_noise_fraction", format_number(o.torque_noise));
@@ -125,6 +146,14 @@ DeltaLog simulate_log(const SimulateOptions& o) {
     }
     log.metadata.emplace_back("encoder_bits", std::to_string(o.encoder_bits));
   }
+}
+
+}  // namespace
+
+DeltaLog simulate_log(const SimulateOptions& o) {
+  check_options(o);
+  DeltaLog log = exact_log(o, Path(o));
+  add_measurement_effects(o, log);
   return log;
 }
 
