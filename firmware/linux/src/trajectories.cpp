@@ -1,8 +1,9 @@
 #include "fw_linux/trajectories.hpp"
 
 #include <cmath>
+#include <iterator>
 
-#include "delta/modbus/register_map.hpp"
+#include "delta/controller/vocabulary.hpp"
 #include "delta/trajectory.hpp"
 
 namespace fw_linux {
@@ -11,25 +12,36 @@ namespace {
 using delta::fx::Q3_28;
 using delta::fx::Q7_24;
 
-struct FourierPreset {
-  const char* name;
-  unsigned long long seed;
-  unsigned base_frequency_mHz;
-  std::uint32_t periods;
+using delta::controller::TrajectoryId;
+
+// The catalogue: what each trajectory of the controller's vocabulary is
+// (its id and name are the vocabulary's; docs/firmware.md describes them).
+struct Preset {
+  TrajectoryId id;
+  bool fourier;                 // else the default pick-and-place cycle
+  unsigned long long seed;      // Fourier: of its coefficients
+  unsigned base_frequency_mHz;  // Fourier
+  std::uint32_t repetitions;    // Fourier periods or pick-and-place cycles
 };
 
-constexpr FourierPreset kFourier[] = {{"path1", 1, 200, 2}, {"path2", 2, 250, 2}};
+constexpr Preset kCatalogue[] = {
+    {TrajectoryId::kPath1, true, 1, 200, 2},
+    {TrajectoryId::kPath2, true, 2, 250, 2},
+    {TrajectoryId::kPickAndPlace, false, 0, 0, 3},
+};
+static_assert(std::size(kCatalogue) == delta::controller::kTrajectoryNames.size(),
+              "one catalogue entry per trajectory id");
 constexpr unsigned kHarmonics = 5;
 constexpr double kAmplitudeRad = 0.35;
 const delta::Vec3<double> kCentre{0.0, 0.0, -0.42};
 
-fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c,
+fw::TrajectoryConfig fourier(const Preset& preset, const PortConfig& c,
                              const TrajectoryParams& params) {
   delta::FourierTrajectory f;
   const double hz = preset.base_frequency_mHz / 1000.0;
   if (!delta::make_fourier_excitation(c.geometry, kCentre, kHarmonics, hz, kAmplitudeRad,
                                       preset.seed, f)) {
-    throw ConfigError(std::string(preset.name) +
+    throw ConfigError(std::string(delta::controller::trajectory_name(preset.id)) +
                       ": no Fourier excitation fits this geometry's workspace");
   }
   fw::TrajectoryConfig t;
@@ -38,7 +50,7 @@ fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c,
   t.blend_ticks = static_cast<std::uint32_t>(std::lround(c.blend_s * 1e6 / c.period_us));
   t.fourier.base_frequency_mHz = preset.base_frequency_mHz;
   t.fourier.harmonics = kHarmonics;
-  t.fourier.periods = params.repetitions != 0 ? params.repetitions : preset.periods;
+  t.fourier.periods = params.repetitions != 0 ? params.repetitions : preset.repetitions;
   const double scale = params.scale_permille / 1000.0;
   const double w = 2.0 * 3.141592653589793 * hz;
   for (unsigned j = 0; j < 3; ++j) {
@@ -53,7 +65,8 @@ fw::TrajectoryConfig fourier(const FourierPreset& preset, const PortConfig& c,
   return t;
 }
 
-fw::TrajectoryConfig pick_and_place(const PortConfig& c, const TrajectoryParams& params) {
+fw::TrajectoryConfig pick_and_place(const Preset& preset, const PortConfig& c,
+                                    const TrajectoryParams& params) {
   const delta::PickAndPlaceTrajectory p = delta::default_pick_and_place(c.geometry);
   fw::TrajectoryConfig t;
   t.kind = fw::TrajectoryKind::kPickAndPlace;
@@ -76,24 +89,24 @@ fw::TrajectoryConfig pick_and_place(const PortConfig& c, const TrajectoryParams&
   }
   t.pick_and_place.segment_ticks =
       static_cast<std::uint32_t>(std::lround(p.segment_duration_s * 1e6 / c.period_us));
-  t.pick_and_place.cycles = params.repetitions != 0 ? params.repetitions : 3u;
+  t.pick_and_place.cycles = params.repetitions != 0 ? params.repetitions : preset.repetitions;
   return t;
 }
 
 }  // namespace
 
 std::vector<std::string> trajectory_names() {
-  return {delta::modbus::kTrajectoryNames.begin(), delta::modbus::kTrajectoryNames.end()};
+  const auto& names = delta::controller::kTrajectoryNames;
+  return {names.begin(), names.end()};
 }
 
 std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,
                                                      const PortConfig& config,
                                                      const TrajectoryParams& params) {
-  for (const FourierPreset& p : kFourier) {
-    if (name == p.name) return fourier(p, config, params);
-  }
-  if (name == "pick-and-place") return pick_and_place(config, params);
-  return std::nullopt;
+  TrajectoryId id{};
+  if (!delta::controller::trajectory_id(name, id)) return std::nullopt;
+  const Preset& preset = kCatalogue[static_cast<std::size_t>(id)];
+  return preset.fourier ? fourier(preset, config, params) : pick_and_place(preset, config, params);
 }
 
 }  // namespace fw_linux

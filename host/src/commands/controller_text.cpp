@@ -33,8 +33,8 @@ const char* run_result_text(std::int64_t result) {
 }
 
 std::string trajectory_name(std::int64_t id) {
-  if (id >= 0 && static_cast<std::size_t>(id) < mb::kTrajectoryNames.size()) {
-    return mb::kTrajectoryNames[static_cast<std::size_t>(id)];
+  if (id >= 0 && static_cast<std::size_t>(id) < delta::controller::kTrajectoryNames.size()) {
+    return delta::controller::trajectory_name(static_cast<delta::controller::TrajectoryId>(id));
   }
   // Appended, not "#" + to_string(): GCC 12 warns falsely (-Wrestrict) on that.
   std::string unknown = "#";

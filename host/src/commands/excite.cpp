@@ -51,9 +51,9 @@ void on_interrupt(int) {
 }
 
 std::uint16_t trajectory_id(const std::string& name) {
-  std::uint16_t id = 0;
-  while (id < mb::kTrajectoryNames.size() && name != mb::kTrajectoryNames[id]) ++id;
-  return id;
+  delta::controller::TrajectoryId id{};
+  delta::controller::trajectory_id(name, id);  // the option's check took only known names
+  return static_cast<std::uint16_t>(id);
 }
 
 // Refuses a controller that is not ready, then writes the settings in one
@@ -270,8 +270,8 @@ void add_excite_command(CLI::App& app, CommandContext& context) {
       ->check(kHostPort);
   c->add_option("--trajectory", a->trajectory, "the excitation")
       ->required()
-      ->check(CLI::IsMember(
-          std::vector<std::string>(mb::kTrajectoryNames.begin(), mb::kTrajectoryNames.end())));
+      ->check(CLI::IsMember(std::vector<std::string>(delta::controller::kTrajectoryNames.begin(),
+                                                     delta::controller::kTrajectoryNames.end())));
   c->add_option("--can", a->iface, "the CAN interface to record")->required();
   c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
   c->add_option("--amplitude-scale", a->amplitude_scale, "the trajectory's amplitude")

@@ -22,9 +22,21 @@ TEST(ControllerVocabularyTest, NamesFollowTheStableNumbers) {
   EXPECT_STREQ(state_name(static_cast<State>(200)), "unknown");
 }
 
-TEST(ControllerVocabularyTest, TheModbusMapDescribesTheStateRegisterWithTheNames) {
+TEST(ControllerVocabularyTest, TheModbusMapDescribesItsRegistersWithTheNames) {
   EXPECT_EQ(std::string(modbus::named("state").description),
             "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault");
+  EXPECT_EQ(std::string(modbus::named("trajectory").description),
+            "0 path1, 1 path2, 2 pick-and-place; not while running");
+}
+
+TEST(ControllerVocabularyTest, TrajectoriesByNameAndId) {
+  TrajectoryId id{};
+  ASSERT_TRUE(trajectory_id("pick-and-place", id));
+  EXPECT_EQ(id, TrajectoryId::kPickAndPlace);
+  EXPECT_STREQ(trajectory_name(TrajectoryId::kPath2), "path2");
+  EXPECT_FALSE(trajectory_id("figure8", id));
+  EXPECT_FALSE(trajectory_id("path", id));
+  EXPECT_STREQ(trajectory_name(static_cast<TrajectoryId>(3)), "unknown");
 }
 
 }  // namespace

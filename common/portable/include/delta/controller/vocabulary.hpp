@@ -48,6 +48,15 @@ enum class TrajectoryFault : std::uint8_t {
   kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
 };
 
+// The excitation trajectories the controller knows, by id (the Modbus
+// holding register `trajectory`, docs/modbus.md); the firmware's catalogue
+// defines each (docs/firmware.md).
+enum class TrajectoryId : std::uint16_t {
+  kPath1 = 0,         // 5-harmonic Fourier at 0.2 Hz, for fitting
+  kPath2 = 1,         // 5-harmonic Fourier at 0.25 Hz, for validation
+  kPickAndPlace = 2,  // the default pick-and-place cycle
+};
+
 // The names, indexed by the enumerators' values.
 inline constexpr std::array<std::string_view, 6> kStateNames{"boot",    "configuring", "ready",
                                                              "running", "stopping",    "fault"};
@@ -72,6 +81,9 @@ inline constexpr std::array<std::string_view, 6> kTrajectoryFaultNames{"ok",
                                                                        "acceleration limit",
                                                                        "outside the workspace"};
 
+inline constexpr std::array<std::string_view, 3> kTrajectoryNames{"path1", "path2",
+                                                                  "pick-and-place"};
+
 namespace detail {
 template <std::size_t N>
 constexpr const char* name_at(const std::array<std::string_view, N>& names, unsigned index) {
@@ -91,7 +103,22 @@ constexpr const char* trajectory_fault_name(TrajectoryFault f) {
   return detail::name_at(kTrajectoryFaultNames, static_cast<unsigned>(f));
 }
 
+constexpr const char* trajectory_name(TrajectoryId id) {
+  return detail::name_at(kTrajectoryNames, static_cast<unsigned>(id));
+}
+// The id of a trajectory's name; false when there is none of that name.
+constexpr bool trajectory_id(std::string_view name, TrajectoryId& id) {
+  for (unsigned i = 0; i < kTrajectoryNames.size(); ++i) {
+    if (kTrajectoryNames[i] == name) {
+      id = static_cast<TrajectoryId>(i);
+      return true;
+    }
+  }
+  return false;
+}
+
 static_assert(kStateNames.size() == static_cast<unsigned>(State::kFault) + 1);
+static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kPickAndPlace) + 1);
 static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kFeedbackLate) + 1);
 static_assert(kTrajectoryFaultNames.size() ==
               static_cast<unsigned>(TrajectoryFault::kOutsideWorkspace) + 1);

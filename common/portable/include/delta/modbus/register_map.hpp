@@ -19,10 +19,6 @@ namespace delta::modbus {
 inline constexpr std::uint16_t kMapVersion = 2;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
-// The trajectories the controller knows, by id (the holding register
-// `trajectory`): docs/firmware.md describes them.
-inline constexpr std::array<const char*, 3> kTrajectoryNames{"path1", "path2", "pick-and-place"};
-
 enum class Table : std::uint8_t { kInput, kHolding };
 enum class Type : std::uint8_t { kU16, kI16, kU32, kI32 };
 
@@ -51,10 +47,12 @@ constexpr std::size_t enumerated_length(const std::array<std::string_view, N>& n
   for (std::size_t i = 0; i < N; ++i) n += (i == 0 ? 0 : 2) + 2 + names[i].size();
   return n;
 }
-template <const auto& names>
+inline constexpr char kNoSuffix[] = "";
+// Then `suffix`.
+template <const auto& names, const auto& suffix = kNoSuffix>
 constexpr auto enumerated_text() {
   static_assert(names.size() <= 10, "one digit per value");
-  std::array<char, enumerated_length(names)> text{};
+  std::array<char, enumerated_length(names) + sizeof(suffix) - 1> text{};
   std::size_t at = 0;
   for (std::size_t i = 0; i < names.size(); ++i) {
     if (i != 0) {
@@ -65,6 +63,7 @@ constexpr auto enumerated_text() {
     text[at++] = ' ';
     for (char c : names[i]) text[at++] = c;
   }
+  for (std::size_t i = 0; i + 1 < sizeof(suffix); ++i) text[at++] = suffix[i];
   return text;
 }
 }  // namespace detail
@@ -72,6 +71,11 @@ constexpr auto enumerated_text() {
 // The controller's state (the input register `state`): the values of
 // delta::controller::State, with their names.
 inline constexpr auto kStateText = detail::enumerated_text<controller::kStateNames>();
+// The trajectories (the holding register `trajectory`): only their ids are
+// here; the names are the controller's vocabulary.
+inline constexpr char kNotWhileRunning[] = "; not while running";
+inline constexpr auto kTrajectoryText =
+    detail::enumerated_text<controller::kTrajectoryNames, kNotWhileRunning>();
 
 // Run results (the input register `run_result`).
 enum class RunResult : std::uint16_t {
@@ -210,7 +214,7 @@ inline constexpr std::array<Register, 53> kRegisters{{
     {"trajectory_count", Table::kInput, 72, Type::kU16, 1, 1, "", "trajectories the controller knows (ids 0 .. count-1)"},
     {"stale_log_records", Table::kInput, 73, Type::kU32, 1, 1, "", "of log_records, those marked stale (a drive's feedback missed the cycle)"},
     // Settings and the command
-    {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", "0 path1, 1 path2, 2 pick-and-place; not while running"},
+    {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", kTrajectoryText.data()},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},
     {"repetitions", Table::kHolding, 2, Type::kU16, 1, 1, "", "0-100 Fourier periods or pick-and-place cycles, 0 the preset's (2 or 3); not while running"},
     {"log_enable", Table::kHolding, 3, Type::kU16, 1, 1, "", "1: send the log frames while running, 0: not"},
