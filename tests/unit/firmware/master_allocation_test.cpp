@@ -15,18 +15,28 @@
 
 namespace {
 std::atomic<long> g_allocations{0};
+
+// malloc and free behind calls the compiler does not look into: GCC 12
+// otherwise takes the replaced operator delete's free() for a mismatch with
+// operator new (-Wmismatched-new-delete), which it is not.
+[[gnu::noinline]] void* take_memory(std::size_t size) {
+  return std::malloc(size == 0 ? 1 : size);
+}
+[[gnu::noinline]] void give_back(void* p) {
+  std::free(p);
+}
 }  // namespace
 
 void* operator new(std::size_t size) {
   ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  if (void* p = take_memory(size)) return p;
   throw std::bad_alloc();
 }
 void operator delete(void* p) noexcept {
-  std::free(p);
+  give_back(p);
 }
 void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
+  give_back(p);
 }
 
 namespace fw_linux {
