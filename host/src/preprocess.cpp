@@ -157,6 +157,13 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   return text.str();
 }
 
+// How many threads for n samples: below ~20k samples a second thread does
+// not pay for its start-up.
+std::size_t workers_for(std::size_t n, unsigned threads) {
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  return std::min<std::size_t>(threads, std::max<std::size_t>(1, n / 20000));
+}
+
 // Where each sample's three rows go. The samples kept after trimming go
 // straight into the regression (rows 3i..3i+2 of kept sample i); the few
 // trimmed at each segment end, which only the filter needs, go into a side
@@ -211,9 +218,7 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
                RowStore& store, unsigned threads) {
   const std::size_t n = s.size();
   const std::size_t p = model.size();
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  // Below ~20k samples a second thread does not pay for its start-up.
-  const std::size_t workers = std::min<std::size_t>(threads, std::max<std::size_t>(1, n / 20000));
+  const std::size_t workers = workers_for(n, threads);
   std::atomic<std::size_t> first_bad{n};
   const auto work = [&](std::size_t w) {
     std::vector<double> rows(3 * p);
@@ -257,25 +262,51 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
 // filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
+// The series are independent: blocks of up to four columns of one joint
+// (and tau's three joints) are shared out over the threads.
 void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
-                    const RowLayout& layout, RowStore& store) {
+                    const RowLayout& layout, RowStore& store, std::size_t samples,
+                    unsigned threads) {
+  struct Task {
+    std::size_t segment;
+    unsigned joint;     // 3: tau's three joints
+    std::size_t first;  // column
+    std::size_t lanes;
+  };
+  std::vector<Task> tasks;
   for (std::size_t si = 0; si < segments.size(); ++si) {
-    const std::size_t len = segments[si].end - segments[si].begin;
     for (unsigned j = 0; j < 3; ++j) {
-      const auto column = [&](std::size_t q, std::size_t c) -> double& {
+      for (std::size_t c = 0; c < store.p; c += FiltfiltBlock::kMaxLanes) {
+        tasks.push_back({si, j, c, std::min(FiltfiltBlock::kMaxLanes, store.p - c)});
+      }
+    }
+    tasks.push_back({si, 3, 0, 3});
+  }
+  const auto run = [&](const Task& t) {
+    const std::size_t si = t.segment;
+    const std::size_t len = segments[si].end - segments[si].begin;
+    if (t.joint == 3) {
+      filtfilt_lanes(d.filter, len, 3, d.pad, [&](std::size_t q, std::size_t j) -> double& {
         bool side = false;
         const std::size_t i = layout.place(si, q, len, side);
-        return store.at(side, 3 * i + j, c);
-      };
-      filtfilt_lanes(d.filter, len, store.p, d.pad, column);
+        return store.tau_at(side, 3 * i + j);
+      });
+      return;
     }
-    const auto torque = [&](std::size_t q, std::size_t j) -> double& {
+    filtfilt_lanes(d.filter, len, t.lanes, d.pad, [&](std::size_t q, std::size_t l) -> double& {
       bool side = false;
       const std::size_t i = layout.place(si, q, len, side);
-      return store.tau_at(side, 3 * i + j);
-    };
-    filtfilt_lanes(d.filter, len, 3, d.pad, torque);
-  }
+      return store.at(side, 3 * i + t.joint, t.first + l);
+    });
+  };
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t k = next++; k < tasks.size(); k = next++) run(tasks[k]);
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers_for(samples, threads); ++w) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
 }
 
 // The rows' joints, speeds, samples and times.
@@ -312,8 +343,9 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   fill_rows(model, log, s, layout, store, threads);
   label_rows(s, layout, d.trim, r);
   const std::vector<Segment> segments = s.segments;
+  const std::size_t samples = s.size();
   s = States{};
-  if (!d.logged_derivatives) filter_columns(d, segments, layout, store);
+  if (!d.logged_derivatives) filter_columns(d, segments, layout, store, samples, threads);
   return r;
 }
 

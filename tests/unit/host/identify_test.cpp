@@ -219,6 +219,20 @@ TEST(IdentifyTest, ATrajectoryThatDoesNotExciteAParameterIsRejectedByName) {
   }
 }
 
+// The regressor is built and filtered on several threads for long logs:
+// the same regression, bit for bit, as on one.
+TEST(IdentifyTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
+  // 45 001 samples: two workers (one per 20 000 samples, up to the threads given).
+  const DeltaLog log = simulated(3, 0.01, 17, false, "fourier", 45.0);
+  const auto model = make_model({});
+  const Regression one = preprocess(*model, log, PrepareOptions{}, 1).regression;
+  const Regression three = preprocess(*model, log, PrepareOptions{}, 3).regression;
+  ASSERT_EQ(one.rows(), three.rows());
+  EXPECT_TRUE(one.psi == three.psi);
+  EXPECT_TRUE(one.tau == three.tau);
+  EXPECT_EQ(one.speed_rad_s, three.speed_rad_s);
+}
+
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const DeltaLog log = simulated(2, 0.01, 17, false);
   const auto model = make_model({});
