@@ -294,8 +294,8 @@ class LogParser {
     double seq_value = 0.0;
     std::size_t t_col = 1, seq_col = 1;
     for (std::size_t i = 0; i < columns_.size(); ++i) {
-      if (quick_field(line, i, start)) continue;
-      const std::size_t col = careful_field(line, i, start);
+      const std::size_t col =
+          quick_field(line, i, start) ? last_col_ : careful_field(line, i, start);
       if (columns_[i].role == Role::kSeq) {
         seq_value = last_value_;
         seq_col = col;
@@ -310,20 +310,19 @@ class LogParser {
   }
 
   // The common case: a plain number right up to the comma (or the line's
-  // end for the last field), taken by one from_chars. Anything else
-  // (spaces, a '+', a wrong field count, not a number) is left to
-  // careful_field(), which names the problem.
+  // end for the last field), taken by one from_chars into last_value_ (its
+  // column in last_col_). Anything else (spaces, a '+', a wrong field
+  // count, not a number) is left to careful_field(), which names the
+  // problem.
   bool quick_field(std::string_view line, std::size_t i, std::size_t& start) {
-    if (columns_[i].role == Role::kSeq || columns_[i].role == Role::kT) return false;
-    double v = 0.0;
     const char* field_end = line.data() + line.size();
-    const auto r = std::from_chars(line.data() + start, field_end, v);
+    const auto r = std::from_chars(line.data() + start, field_end, last_value_);
     const bool last = i + 1 == columns_.size();
-    if (r.ec != std::errc() || r.ptr == line.data() + start || !std::isfinite(v) ||
+    if (r.ec != std::errc() || r.ptr == line.data() + start || !std::isfinite(last_value_) ||
         !(last ? r.ptr == field_end : (r.ptr != field_end && *r.ptr == ','))) {
       return false;
     }
-    columns_[i].target->push_back(v);
+    last_col_ = start + 1;
     start = static_cast<std::size_t>(r.ptr - line.data()) + 1;
     return true;
   }
@@ -423,7 +422,8 @@ class LogParser {
   double nominal_dt_{0.0};
   std::size_t blank_line_{0};  // first blank line seen, only allowed at the end
   bool has_seq_{false};        // the header names a seq column
-  double last_value_{0.0};     // of careful_field()
+  double last_value_{0.0};     // of the field just read
+  std::size_t last_col_{0};    // its column, from quick_field()
 };
 
 }  // namespace
