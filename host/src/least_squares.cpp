@@ -1,7 +1,9 @@
 #include "host_id/least_squares.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include "delta/input_error.hpp"
@@ -60,6 +62,11 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
   const Eigen::Index m = n + l;
   Eigen::MatrixXd g(m, p);
   Eigen::VectorXd sums(m + 1), box(m), h(m);
+  // Each joint's rows, listed once.
+  std::array<std::vector<std::uint32_t>, 3> rows_of;
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    rows_of[r.joint[row]].push_back(static_cast<std::uint32_t>(row));
+  }
   for (unsigned char j = 0; j < 3; ++j) {
     // Column by column: Psi is column-major, so each pass reads one column
     // in order.
@@ -67,10 +74,10 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
     for (Eigen::Index c = 0; c < p; ++c) {
       const double* psi_c = r.psi.col(c).data();
       double* g_c = g.col(c).data();
-      for (std::size_t row = 0; row < r.rows(); ++row) {
-        if (r.joint[row] == j) g_c[r.sample[row]] = psi_c[row] * e(static_cast<Eigen::Index>(row));
+      const double scale = inverse_norm(c);
+      for (const std::uint32_t row : rows_of[j]) {
+        g_c[r.sample[row]] = psi_c[row] * e(static_cast<Eigen::Index>(row)) * scale;
       }
-      g.col(c) *= inverse_norm(c);
     }
     if (l == 0) {
       s.noalias() += g.transpose() * g;

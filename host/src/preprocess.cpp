@@ -210,6 +210,17 @@ struct RowStore {
   double& tau_at(bool on_side, std::size_t row) {
     return on_side ? side_tau[row] : tau(static_cast<Eigen::Index>(row));
   }
+  // Columns first.. of a row, as lanes: psi's are a column apart, the side
+  // rows' next to each other.
+  LaneRef lanes(bool on_side, std::size_t row, std::size_t first) {
+    return on_side ? LaneRef{&side_rows[row * p + first], 1}
+                   : LaneRef{&psi(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(first)),
+                             psi.outerStride()};
+  }
+  // tau of a sample's three rows (joints 1..3), as lanes.
+  LaneRef tau_lanes(bool on_side, std::size_t row) {
+    return on_side ? LaneRef{&side_tau[row], 1} : LaneRef{&tau(static_cast<Eigen::Index>(row)), 1};
+  }
 };
 
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
@@ -285,18 +296,11 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
   const auto run = [&](const Task& t) {
     const std::size_t si = t.segment;
     const std::size_t len = segments[si].end - segments[si].begin;
-    if (t.joint == 3) {
-      filtfilt_lanes(d.filter, len, 3, d.pad, [&](std::size_t q, std::size_t j) -> double& {
-        bool side = false;
-        const std::size_t i = layout.place(si, q, len, side);
-        return store.tau_at(side, 3 * i + j);
-      });
-      return;
-    }
-    filtfilt_lanes(d.filter, len, t.lanes, d.pad, [&](std::size_t q, std::size_t l) -> double& {
+    filtfilt_lanes(d.filter, len, t.lanes, d.pad, [&](std::size_t q) {
       bool side = false;
       const std::size_t i = layout.place(si, q, len, side);
-      return store.at(side, 3 * i + t.joint, t.first + l);
+      return t.joint == 3 ? store.tau_lanes(side, 3 * i)
+                          : store.lanes(side, 3 * i + t.joint, t.first);
     });
   };
   std::atomic<std::size_t> next{0};

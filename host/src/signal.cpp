@@ -120,8 +120,9 @@ void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) 
 
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
                     std::size_t lanes, std::size_t stride, std::size_t pad) {
-  filtfilt_lanes(filter, n, lanes, pad,
-                 [=](std::size_t k, std::size_t l) -> double& { return data[k * stride + l]; });
+  filtfilt_lanes(filter, n, lanes, pad, [=](std::size_t k) {
+    return LaneRef{data + k * stride, 1};
+  });
 }
 
 std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,

@@ -52,8 +52,16 @@ class FiltfiltBlock {
   std::vector<double> ext_;
 };
 
-// filtfilt_lanes where the caller says where each sample lives: at(k, l) is
-// sample k of series l, read once and written once with its filtered value.
+// Where sample k of a set of lanes lives: lane l at at[l * stride].
+struct LaneRef {
+  double* at;
+  std::ptrdiff_t stride;
+  double& operator[](std::size_t l) const { return at[static_cast<std::ptrdiff_t>(l) * stride]; }
+};
+
+// filtfilt_lanes where the caller says where each sample lives: at(k) is
+// sample k of every lane (lanes 0..lanes-1), each read once and written
+// once with its filtered value.
 template <class At>
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
                     std::size_t pad, At at) {
@@ -62,11 +70,13 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
   for (std::size_t first = 0; first < lanes; first += FiltfiltBlock::kMaxLanes) {
     const std::size_t w = std::min(FiltfiltBlock::kMaxLanes, lanes - first);
     for (std::size_t k = 0; k < n; ++k) {
-      for (std::size_t l = 0; l < w; ++l) block.sample(k, l, w) = at(k, first + l);
+      const LaneRef x = at(k);
+      for (std::size_t l = 0; l < w; ++l) block.sample(k, l, w) = x[first + l];
     }
     block.run(filter, w);
     for (std::size_t k = 0; k < n; ++k) {
-      for (std::size_t l = 0; l < w; ++l) at(k, first + l) = block.filtered(k, l);
+      const LaneRef x = at(k);
+      for (std::size_t l = 0; l < w; ++l) x[first + l] = block.filtered(k, l);
     }
   }
 }
