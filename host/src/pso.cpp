@@ -46,9 +46,11 @@ PsoResult run_pso(const CostFunction& cost, const Eigen::VectorXd& lower,
   Eigen::VectorXd gbest_u = Eigen::VectorXd::Constant(dim, 0.5);
   double gbest_cost = std::numeric_limits<double>::infinity();
 
+  Eigen::VectorXd beta(dim);  // the point evaluated, in one buffer: no allocation per call
   const auto evaluate = [&](const Eigen::VectorXd& u) {
     ++result.evaluations;
-    return cost(lower + u.cwiseProduct(span));
+    beta.noalias() = lower + u.cwiseProduct(span);
+    return cost(beta);
   };
   const auto scatter = [&](bool keep_best) {
     for (std::size_t i = 0; i < n; ++i) {

@@ -80,7 +80,10 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
 }
 
 QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
-    : beta0_(beta0), rows_(static_cast<double>(r.tau.size())) {
+    : beta0_(beta0),
+      rows_(static_cast<double>(r.tau.size())),
+      d_(beta0.size()),
+      g_d_(beta0.size()) {
   const Eigen::VectorXd r0 = r.tau - r.psi * beta0;
   psi_t_psi_ = r.psi.transpose() * r.psi;
   psi_t_r0_ = r.psi.transpose() * r0;
@@ -88,9 +91,9 @@ QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
 }
 
 double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
-  const Eigen::VectorXd d = beta - beta0_;
-  const double quad = d.dot(psi_t_psi_.selfadjointView<Eigen::Upper>() * d);
-  return std::max(0.0, (r0_t_r0_ - 2.0 * d.dot(psi_t_r0_) + quad) / rows_);
+  d_.noalias() = beta - beta0_;
+  g_d_.noalias() = psi_t_psi_.selfadjointView<Eigen::Upper>() * d_;
+  return std::max(0.0, (r0_t_r0_ - 2.0 * d_.dot(psi_t_r0_) + d_.dot(g_d_)) / rows_);
 }
 
 std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e) {

@@ -64,6 +64,8 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
 // whose large terms cancel to about 5e-9 relative near the optimum: here
 // r0^T r0 is the cost at beta0 itself, and the other terms are small near
 // it (Psi^T r0 is zero at the exact optimum, and is kept for the rest).
+// An evaluation allocates nothing (PSO makes a hundred thousand of them):
+// it works in two scratch vectors, so one object serves one thread.
 class QuadraticCost {
  public:
   QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0);
@@ -76,6 +78,7 @@ class QuadraticCost {
   Eigen::VectorXd psi_t_r0_;
   double r0_t_r0_{0};
   double rows_{1};
+  mutable Eigen::VectorXd d_, g_d_;  // beta - beta0 and Psi^T Psi (beta - beta0)
 };
 
 // The mean of e^2 over each joint's rows (0 for a joint without rows).
