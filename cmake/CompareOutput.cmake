@@ -1,6 +1,11 @@
 # cmake -DCOMMAND="prog;args" -DSTREAM=stdout|stderr -DEXPECTED=file -P CompareOutput.cmake
-# Runs COMMAND and fails unless it exits 0 and the chosen stream equals
-# EXPECTED byte for byte; on a difference it names the first differing line.
+# cmake -DCOMMAND="prog;args" -DSTREAM=stdout|stderr -DREGEX=re [-DEXIT=N] -P CompareOutput.cmake
+# Runs COMMAND and fails unless it exits with EXIT (default 0) and the
+# chosen stream equals EXPECTED byte for byte (on a difference it names the
+# first differing line), or matches REGEX.
+if(NOT DEFINED EXIT)
+  set(EXIT 0)
+endif()
 execute_process(COMMAND ${COMMAND} OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc
                 TIMEOUT 300)
 if(STREAM STREQUAL "stderr")
@@ -8,8 +13,14 @@ if(STREAM STREQUAL "stderr")
 else()
   set(got "${out}")
 endif()
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "command exited with '${rc}': ${COMMAND}\nstderr: ${err}")
+if(NOT rc STREQUAL "${EXIT}")
+  message(FATAL_ERROR "command exited with '${rc}', expected ${EXIT}: ${COMMAND}\nstdout: ${out}\nstderr: ${err}")
+endif()
+if(DEFINED REGEX)
+  if(NOT got MATCHES "${REGEX}")
+    message(FATAL_ERROR "${STREAM} of ${COMMAND} does not match '${REGEX}':\n${got}")
+  endif()
+  return()
 endif()
 file(READ ${EXPECTED} expected)
 if(NOT got STREQUAL expected)
