@@ -33,10 +33,6 @@ std::string version_text() {
   return std::string("host_id ") + DELTA_VERSION;
 }
 
-}  // namespace
-
-namespace {
-
 // A finite number, or why not.
 std::string finite_number(const std::string& s, double& v) {
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
