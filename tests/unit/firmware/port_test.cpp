@@ -3,6 +3,7 @@
 // in-process around the emulator (the same code as delta_fw and
 // delta_drive_emu, frames passed by hand in bus order).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,8 +23,10 @@
 namespace fw_linux {
 namespace {
 
+// A file of this process's own: ctest runs each test as a process of its
+// own, in parallel, and a shared name let two tests overwrite each other's.
 std::string write_temp(const std::string& text) {
-  std::string path = ::testing::TempDir() + "/port_test.conf";
+  std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_port_test.conf";
   std::ofstream(path) << text;
   return path;
 }
