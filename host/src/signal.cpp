@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace host_id {
 
@@ -27,26 +28,34 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 
 namespace {
 
-// Runs one section over the n samples of every lane of a buffer laid out
-// by sample (W lanes contiguous), forward or backward in time, starting each
-// lane in the steady state for a constant input equal to its first sample
-// (unity DC gain). W is a template argument so that the lanes' states live
-// in registers and the lanes run side by side.
+// Runs the two sections in cascade over the n samples of every lane of a
+// buffer laid out by sample (W lanes contiguous), forward or backward in
+// time, starting each section of each lane in the steady state for a
+// constant input equal to the lane's first sample (unity DC gain). One pass
+// over memory for both sections; W is a template argument so that the
+// states live in registers and the lanes and sections run side by side.
 template <std::size_t W>
-void run_section(const Biquad& s, double* x, std::size_t n, bool backward) {
-  double z1[W], z2[W];
+void run_cascade(const std::array<Biquad, 2>& filter, double* x, std::size_t n, bool backward) {
+  const Biquad& s = filter[0];
+  const Biquad& u = filter[1];
+  double z1[W], z2[W], w1[W], w2[W];
   const double* first = backward ? x + (n - 1) * W : x;
   for (std::size_t l = 0; l < W; ++l) {
     z1[l] = first[l] - s.b0 * first[l];
     z2[l] = s.b2 * first[l] - s.a2 * first[l];
+    w1[l] = first[l] - u.b0 * first[l];
+    w2[l] = u.b2 * first[l] - u.a2 * first[l];
   }
   for (std::size_t i = 0; i < n; ++i) {
     double* v = x + (backward ? n - 1 - i : i) * W;
     for (std::size_t l = 0; l < W; ++l) {
       const double in = v[l];
-      const double out = s.b0 * in + z1[l];
-      z1[l] = s.b1 * in - s.a1 * out + z2[l];
-      z2[l] = s.b2 * in - s.a2 * out;
+      const double mid = s.b0 * in + z1[l];
+      z1[l] = s.b1 * in - s.a1 * mid + z2[l];
+      z2[l] = s.b2 * in - s.a2 * mid;
+      const double out = u.b0 * mid + w1[l];
+      w1[l] = u.b1 * mid - u.a1 * out + w2[l];
+      w2[l] = u.b2 * mid - u.a2 * out;
       v[l] = out;
     }
   }
@@ -55,22 +64,21 @@ void run_section(const Biquad& s, double* x, std::size_t n, bool backward) {
 // Forward through both sections, then backward through both.
 template <std::size_t W>
 void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n) {
-  for (const Biquad& s : filter) run_section<W>(s, x, n, false);
-  for (const Biquad& s : filter) run_section<W>(s, x, n, true);
+  run_cascade<W>(filter, x, n, false);
+  run_cascade<W>(filter, x, n, true);
+}
+
+// The lane count as a template argument, up to FiltfiltBlock::kMaxLanes.
+template <std::size_t... W>
+void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n,
+                             std::size_t lanes, std::index_sequence<W...>) {
+  ((lanes == W + 1 ? filter_forward_backward<W + 1>(filter, x, n) : void()), ...);
 }
 
 void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n,
                              std::size_t lanes) {
-  switch (lanes) {
-    case 1:
-      return filter_forward_backward<1>(filter, x, n);
-    case 2:
-      return filter_forward_backward<2>(filter, x, n);
-    case 3:
-      return filter_forward_backward<3>(filter, x, n);
-    default:
-      return filter_forward_backward<4>(filter, x, n);
-  }
+  filter_forward_backward(filter, x, n, lanes,
+                          std::make_index_sequence<FiltfiltBlock::kMaxLanes>());
 }
 
 // The value at sample `at` of the least-squares line through the m samples
