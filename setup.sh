@@ -8,7 +8,7 @@ packages=(
   # build
   build-essential cmake ninja-build pkg-config
   # libraries
-  libeigen3-dev nlohmann-json3-dev libcli11-dev
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libfast-float-dev
   # controller I/O: Modbus and GPIO
   libmodbus-dev libgpiod-dev
   # tests and benchmarks

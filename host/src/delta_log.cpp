@@ -1,8 +1,11 @@
 #include "host_id/delta_log.hpp"
 
+#include <fast_float/fast_float.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -280,8 +283,13 @@ class LogParser {
   // At most one sample per remaining line: sized once, the columns never
   // move while they fill.
   void reserve_rows() {
-    const auto rows_left = static_cast<std::size_t>(
-        std::count(text_.begin() + static_cast<std::ptrdiff_t>(pos_), text_.end(), '\n') + 1);
+    std::size_t rows_left = 1;
+    const char* const end = text_.data() + text_.size();
+    for (const char* p = text_.data() + pos_;
+         (p = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p))));
+         ++p) {
+      ++rows_left;
+    }
     for (Column& c : columns_) {
       if (c.target) c.target->reserve(rows_left);
     }
@@ -316,7 +324,7 @@ class LogParser {
   // problem.
   bool quick_field(std::string_view line, std::size_t i, std::size_t& start) {
     const char* field_end = line.data() + line.size();
-    const auto r = std::from_chars(line.data() + start, field_end, last_value_);
+    const auto r = fast_float::from_chars(line.data() + start, field_end, last_value_);
     const bool last = i + 1 == columns_.size();
     if (r.ec != std::errc() || r.ptr == line.data() + start || !std::isfinite(last_value_) ||
         !(last ? r.ptr == field_end : (r.ptr != field_end && *r.ptr == ','))) {
@@ -433,7 +441,7 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
 }
 
 DeltaLog read_delta_log(const std::string& path) {
-  return parse_delta_log(delta::read_whole_file(path), path);
+  return parse_delta_log(delta::read_file_bytes(path).view(), path);
 }
 
 std::string format_number(double v) {

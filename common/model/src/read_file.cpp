@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <memory>
 
 #include "delta/input_error.hpp"
 
@@ -29,21 +30,26 @@ class Descriptor {
 
 }  // namespace
 
-std::string read_whole_file(const std::string& path) {
+FileBytes read_file_bytes(const std::string& path) {
   const Descriptor fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
   if (fd.get() < 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd.get(), &st) != 0)
     throw InputError(path + ": cannot stat: " + std::strerror(errno));
   if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a folder, not a file");
-  // A regular file's size is known; a pipe or a growing file reads on in
-  // blocks until end of file.
-  std::string content;
-  content.resize(S_ISREG(st.st_mode) ? static_cast<std::size_t>(st.st_size) + 1 : 65536);
+  // A regular file's size is known (one byte more shows its end in the same
+  // read); a pipe or a growing file reads on in blocks until end of file.
+  std::size_t capacity = S_ISREG(st.st_mode) ? static_cast<std::size_t>(st.st_size) + 1 : 65536;
+  auto bytes = std::make_unique_for_overwrite<char[]>(capacity);
   std::size_t used = 0;
   for (;;) {
-    if (used == content.size()) content.resize(content.size() * 2);
-    const ssize_t n = ::read(fd.get(), content.data() + used, content.size() - used);
+    if (used == capacity) {
+      auto larger = std::make_unique_for_overwrite<char[]>(capacity * 2);
+      std::memcpy(larger.get(), bytes.get(), used);
+      bytes = std::move(larger);
+      capacity *= 2;
+    }
+    const ssize_t n = ::read(fd.get(), bytes.get() + used, capacity - used);
     if (n < 0) {
       if (errno == EINTR) continue;
       throw InputError(path + ": read failed: " + std::strerror(errno));
@@ -51,8 +57,11 @@ std::string read_whole_file(const std::string& path) {
     if (n == 0) break;
     used += static_cast<std::size_t>(n);
   }
-  content.resize(used);
-  return content;
+  return FileBytes(std::move(bytes), used);
+}
+
+std::string read_whole_file(const std::string& path) {
+  return std::string(read_file_bytes(path).view());
 }
 
 }  // namespace delta

@@ -14,7 +14,4 @@ void write_file_atomically(const std::string& path, std::string_view content);
 // "run.csv" -> "run.partial.csv"; "run" -> "run.partial".
 std::string partial_log_path(const std::string& path);
 
-// Reads a whole file; delta::InputError names the file when it cannot be read.
-std::string read_whole_file(const std::string& path);
-
 }  // namespace host_id
