@@ -47,9 +47,13 @@ bool is_key_char(char c) {
   return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
 }
 
-// Parses a decimal number; false if the text is not exactly one number.
+// Parses a decimal number with at most one sign ('+' allowed, as
+// docs/log-format.md says); false if the text is not exactly one number.
 bool parse_double(std::string_view s, double& out) {
-  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  if (!s.empty() && s.front() == '+') {
+    s.remove_prefix(1);
+    if (!s.empty() && (s.front() == '-' || s.front() == '+')) return false;
+  }
   if (s.empty()) return false;
   const auto r = std::from_chars(s.data(), s.data() + s.size(), out, std::chars_format::general);
   return r.ec == std::errc() && r.ptr == s.data() + s.size();

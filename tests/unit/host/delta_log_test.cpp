@@ -163,6 +163,13 @@ TEST(DeltaLogTest, NonNumbersNanInfAndFieldCountsNameLineAndColumn) {
   EXPECT_EQ(error_of(h + "0.001,0.1,,0,0,0,0\n"), "log.csv:8:11: column 'q2': empty field");
   EXPECT_EQ(error_of(h + "0.001,0.1,0x10,0,0,0,0\n"),
             "log.csv:8:11: column 'q2': not a number: '0x10'");
+  // One sign at most: '+-1' is not -1 (it was, once).
+  EXPECT_EQ(error_of(h + "0.001,0.1,+-1,0,0,0,0\n"),
+            "log.csv:8:11: column 'q2': not a number: '+-1'");
+  EXPECT_EQ(error_of(h + "0.001,0.1,++1,0,0,0,0\n"),
+            "log.csv:8:11: column 'q2': not a number: '++1'");
+  EXPECT_EQ(error_of(h + "0.001,0.1,-+1,0,0,0,0\n"),
+            "log.csv:8:11: column 'q2': not a number: '-+1'");
 }
 
 TEST(DeltaLogTest, TimeMustIncrease) {
