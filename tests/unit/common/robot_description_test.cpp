@@ -1,0 +1,146 @@
+// The robot description file: the shipped example is the built-in default,
+// every error names the file and the key, and the truths derived from it.
+#include "delta/robot_description.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "delta/input_error.hpp"
+#include "delta/read_file.hpp"
+
+namespace delta {
+namespace {
+
+const char* kExample = "docs/examples/robot.json";  // tests run in the repository
+
+// The example with one change, written to a file; the reader's message.
+std::string error_with(const std::function<void(nlohmann::json&)>& change) {
+  nlohmann::json j = nlohmann::json::parse(read_whole_file(kExample));
+  change(j);
+  const std::string path = "/tmp/robot_description_test_" + std::to_string(::getpid()) + ".json";
+  std::ofstream(path) << j.dump(2);
+  try {
+    read_robot_description(path);
+  } catch (const InputError& e) {
+    std::string m = e.what();
+    if (m.rfind(path, 0) == 0) m = "robot.json" + m.substr(path.size());
+    return m;
+  }
+  return "";
+}
+
+TEST(RobotDescriptionTest, TheExampleIsTheBuiltInDefault) {
+  const RobotDescription file = read_robot_description(kExample);
+  const RobotDescription builtin = default_robot_description();
+  EXPECT_EQ(file.name, builtin.name);
+  EXPECT_EQ(file.geometry.forearm_length_m, builtin.geometry.forearm_length_m);
+  EXPECT_EQ(file.rod_spacing_m, builtin.rod_spacing_m);
+  EXPECT_EQ(file.upper_arm.mass_kg, builtin.upper_arm.mass_kg);
+  EXPECT_EQ(file.upper_arm.com_m.z, builtin.upper_arm.com_m.z);
+  EXPECT_EQ(file.upper_arm.inertia.yy_kg_m2, builtin.upper_arm.inertia.yy_kg_m2);
+  EXPECT_EQ(file.rod.tube_mass_kg, builtin.rod.tube_mass_kg);
+  EXPECT_EQ(file.platform.mass_kg, builtin.platform.mass_kg);
+  for (unsigned i = 0; i < 3; ++i) {
+    EXPECT_EQ(file.joints[i].armature_kg_m2(), builtin.joints[i].armature_kg_m2());
+    EXPECT_EQ(file.joints[i].coulomb_friction_Nm, builtin.joints[i].coulomb_friction_Nm);
+    EXPECT_EQ(file.joints[i].viscous_friction_Nm_s_per_rad,
+              builtin.joints[i].viscous_friction_Nm_s_per_rad);
+    EXPECT_EQ(file.joints[i].stribeck_friction_Nm, builtin.joints[i].stribeck_friction_Nm);
+  }
+}
+
+TEST(RobotDescriptionTest, TheDefaultRobotsLumpedModelIsTheDefaultParameters) {
+  const LumpedParameters truth = lumped_truth(default_robot_description());
+  const LumpedParameters nominal = default_lumped_parameters();
+  for (unsigned i = 0; i < 3; ++i) {
+    EXPECT_NEAR(truth.arm_inertia_kg_m2[i], nominal.arm_inertia_kg_m2[i], 1e-3 * 7.2e-3);
+    EXPECT_NEAR(truth.arm_gravity_moment_Nm[i], nominal.arm_gravity_moment_Nm[i],
+                2e-3 * 0.441);  // 0.44145 against a rounded 0.441
+    EXPECT_EQ(truth.viscous_friction_Nm_s_per_rad[i], nominal.viscous_friction_Nm_s_per_rad[i]);
+    EXPECT_EQ(truth.coulomb_friction_Nm[i], nominal.coulomb_friction_Nm[i]);
+  }
+  EXPECT_NEAR(truth.platform_mass_kg, nominal.platform_mass_kg, 1e-12);
+}
+
+TEST(RobotDescriptionTest, TruthsWorkedByHand) {
+  // Rod: 0.04 kg tube of radius 4 mm over 0.46 m, 5 g cups.
+  const RodMassSplit s = rod_mass_split(default_robot_description().rod, 0.46);
+  const double k = 0.04 * 0.004 * 0.004 / (2.0 * 0.46 * 0.46);
+  EXPECT_NEAR(s.a_kg, 0.04 / 3.0 + k + 0.005, 1e-15);
+  EXPECT_NEAR(s.b_kg, 0.04 / 6.0 - k, 1e-15);
+  EXPECT_NEAR(s.elbow_weight_kg, 0.025, 1e-15);
+  const HighFidelityTruth t = high_fidelity_truth(default_robot_description());
+  // Arm about its axis: 1.1667e-3 + 0.35 (0.1^2 + 0.01^2); armature 5e-6 * 10^2;
+  // two rods' A at the elbow, 0.2 m out.
+  EXPECT_NEAR(t.arm_inertia_kg_m2[0],
+              1.1667e-3 + 0.35 * (0.01 + 0.0001) + 5e-4 + 2.0 * s.a_kg * 0.04, 1e-15);
+  EXPECT_NEAR(t.arm_gravity_cos_Nm[0], 9.81 * (0.35 * 0.1 + 0.05 * 0.2), 1e-14);
+  EXPECT_NEAR(t.arm_gravity_sin_Nm[0], 9.81 * 0.35 * 0.01, 1e-15);
+  EXPECT_NEAR(t.platform_weight_mass_kg, 0.25 + 6.0 * 0.025, 1e-15);
+  EXPECT_NEAR(t.platform_inertial_mass_kg, 0.25 + 6.0 * (0.04 / 3.0 + k + 0.005), 1e-15);
+  EXPECT_NEAR(t.forearm_coupling_kg, 2.0 * s.b_kg, 1e-15);
+}
+
+TEST(RobotDescriptionTest, EveryErrorNamesTheFileAndTheKey) {
+  EXPECT_EQ(error_with([](auto& j) { j["upper_arm"]["mass_kg"] = -0.35; }),
+            "robot.json: upper_arm.mass_kg: must be positive (got -0.35)");
+  EXPECT_EQ(error_with([](auto& j) { j["forearm_rod"]["tube_mass_kg"] = -1; }),
+            "robot.json: forearm_rod.tube_mass_kg: must not be negative (got -1)");
+  EXPECT_EQ(error_with([](auto& j) { j["upper_arm"]["inertia_kg_m2"]["yy"] = -1e-3; }),
+            "robot.json: upper_arm.inertia_kg_m2: not positive definite (smallest principal "
+            "moment -0.001 kg m^2)");
+  EXPECT_EQ(error_with([](auto& j) { j["upper_arm"]["inertia_kg_m2"]["xy"] = 2e-3; }),
+            "robot.json: upper_arm.inertia_kg_m2: not positive definite (smallest principal "
+            "moment -0.00148721 kg m^2)");
+  EXPECT_EQ(error_with([](auto& j) { j["upper_arm"]["inertia_kg_m2"]["xx"] = 3e-3; }),
+            "robot.json: upper_arm.inertia_kg_m2: no body has these principal moments "
+            "(0.0011667 + 0.0011667 < 0.003 kg m^2)");
+  EXPECT_EQ(error_with([](auto& j) { j["geometry"]["forearm_length_m"] = 0.05; }),
+            "robot.json: geometry: the robot cannot be assembled with its arms horizontal");
+  EXPECT_EQ(error_with([](auto& j) { j["geometry"]["forearm_length_m"] = -0.46; }),
+            "robot.json: geometry: forearm_length_m must be a positive length, got -0.46");
+  EXPECT_EQ(error_with([](auto& j) { j["geometry"].erase("rod_spacing_m"); }),
+            "robot.json: geometry.rod_spacing_m: missing");
+  EXPECT_EQ(error_with([](auto& j) { j["platform"]["mass"] = 1; }),
+            "robot.json: platform.mass: unknown key");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["platform"]["com_m"] = {0, 0};
+            }),
+            "robot.json: platform.com_m: must be an array of three numbers");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][1]["gear_ratio"] = "ten"; }),
+            "robot.json: joints[1].gear_ratio: must be a number");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][2]["coulomb_friction_Nm"] = -0.1; }),
+            "robot.json: joints[2].coulomb_friction_Nm: must not be negative (got -0.1)");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["joints"] = nlohmann::json::array({1, 2});
+            }),
+            "robot.json: joints: must be one object (for all joints) or an array of three");
+  EXPECT_EQ(error_with([](auto& j) { j["format"] = "delta-robot/2"; }),
+            "robot.json: format: must be \"delta-robot/1\"");
+}
+
+TEST(RobotDescriptionTest, OneJointObjectServesAllThree) {
+  EXPECT_EQ(error_with([](auto& j) {
+              const auto first = j["joints"][0];
+              j["joints"] = first;
+            }),
+            "");
+}
+
+TEST(RobotDescriptionTest, NotJsonNamesTheFile) {
+  const std::string path = "/tmp/robot_description_bad_" + std::to_string(::getpid()) + ".json";
+  std::ofstream(path) << "{ \"format\": ";
+  try {
+    read_robot_description(path);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(path + ": not valid JSON", 0), 0u) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace delta
