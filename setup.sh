@@ -9,6 +9,8 @@ packages=(
   build-essential cmake ninja-build pkg-config
   # libraries
   libeigen3-dev nlohmann-json3-dev libcli11-dev libfast-float-dev
+  # the multibody robot of the emulator and `host_id simulate`
+  libmujoco-dev
   # controller I/O: Modbus and GPIO
   libmodbus-dev libgpiod-dev
   # tests and benchmarks
