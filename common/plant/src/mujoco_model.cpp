@@ -49,12 +49,14 @@ RodInertial rod_inertial(const ForearmRod& rod, double length_m) {
   return ri;
 }
 
-void write_options(std::ostream& x, const RobotDescription& d) {
+void write_options(std::ostream& x, const RobotDescription& d, const MujocoSettings& settings) {
   x << "  <compiler angle=\"radian\" inertiafromgeom=\"false\"/>\n"
-    << "  <option timestep=\"0.00025\" gravity=\"" << numbers({0.0, 0.0, -d.gravity_m_s2})
-    << "\" integrator=\"RK4\" solver=\"Newton\" iterations=\"100\" tolerance=\"1e-10\""
+    << "  <option timestep=\"" << numbers({settings.max_step_s}) << "\" gravity=\""
+    << numbers({0.0, 0.0, -d.gravity_m_s2}) << "\" integrator=\""
+    << (settings.integrator == MujocoIntegrator::kRk4 ? "RK4" : "Euler")
+    << "\" solver=\"Newton\" iterations=\"100\" tolerance=\"1e-10\""
     << " jacobian=\"dense\">\n"
-    << "    <flag contact=\"disable\" energy=\"enable\"/>\n"
+    << "    <flag contact=\"disable\"/>\n"
     << "  </option>\n";
 }
 
@@ -118,10 +120,10 @@ Vec3<double> rod_home_direction(const RobotDescription& d) {
   return {radial / b, 0.0, p.z / b};
 }
 
-std::string mujoco_model_xml(const RobotDescription& d) {
+std::string mujoco_model_xml(const RobotDescription& d, const MujocoSettings& settings) {
   std::ostringstream x;
   x << "<mujoco model=\"" << d.name << "\">\n";
-  write_options(x, d);
+  write_options(x, d, settings);
   x << "  <worldbody>\n";
   const Vec3<double> rod_dir = rod_home_direction(d);
   for (int chain = 0; chain < 3; ++chain) write_arm(x, d, chain, rod_dir);
@@ -131,8 +133,8 @@ std::string mujoco_model_xml(const RobotDescription& d) {
   for (int chain = 1; chain <= 3; ++chain) {
     for (const char side : {'a', 'b'}) {
       x << "    <connect body1=\"rod" << chain << side << "\" body2=\"platform\" anchor=\""
-        << numbers({b, 0.0, 0.0})
-        << "\" solref=\"0.00025 1\" solimp=\"0.9999 0.9999 0.001 0.5 2\"/>\n";
+        << numbers({b, 0.0, 0.0}) << "\" solref=\"" << numbers({2.0 * settings.max_step_s})
+        << " 1\" solimp=\"0.9999 0.9999 0.001 0.5 2\"/>\n";
     }
   }
   x << "  </equality>\n</mujoco>\n";

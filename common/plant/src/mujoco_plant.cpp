@@ -75,11 +75,11 @@ Vec3<double> to_body(const mjData* d, int body, const Vec3<double>& v) {
 
 }  // namespace
 
-MujocoPlant::MujocoPlant(const RobotDescription& d, const Joint3& q0_rad, double max_step_s)
-    : robot_(d), max_step_s_(max_step_s) {
+MujocoPlant::MujocoPlant(const RobotDescription& d, const Joint3& q0_rad, MujocoSettings settings)
+    : robot_(d), settings_(settings) {
   validate_robot_description(d, "robot description");
-  if (!(max_step_s > 0.0)) throw InputError("the plant's step must be positive");
-  model_ = load_model(mujoco_model_xml(d));
+  if (!(settings.max_step_s > 0.0)) throw InputError("the plant's step must be positive");
+  model_ = load_model(mujoco_model_xml(d, settings));
   data_ = mj_makeData(model_);
   scratch_ = mj_makeData(model_);
   for (int c = 0; c < 3; ++c) {
@@ -241,7 +241,7 @@ void MujocoPlant::set_fault(const std::string& why) {
 
 PlantStatus MujocoPlant::step(const Joint3& tau_Nm, double dt_s) {
   if (!fault_.empty()) return PlantStatus::kDiverged;
-  const int n = std::max(1, static_cast<int>(std::ceil(dt_s / max_step_s_ - 1e-9)));
+  const int n = std::max(1, static_cast<int>(std::ceil(dt_s / settings_.max_step_s - 1e-9)));
   model_->opt.timestep = dt_s / n;
   for (int i = 0; i < n; ++i) {
     for (unsigned j = 0; j < 3; ++j) {
@@ -299,9 +299,11 @@ double MujocoPlant::total_energy_J() {
   mju_copy(scratch_->qpos, data_->qpos, model_->nq);
   mju_copy(scratch_->qvel, data_->qvel, model_->nv);
   mju_zero(scratch_->qfrc_applied, model_->nv);
+  // Energy is off in the model (it costs every step); on for this call.
+  const int flags = model_->opt.enableflags;
+  model_->opt.enableflags = flags | mjENBL_ENERGY;
   mj_forward(model_, scratch_);
-  mj_energyPos(model_, scratch_);
-  mj_energyVel(model_, scratch_);
+  model_->opt.enableflags = flags;
   return scratch_->energy[0] + scratch_->energy[1];
 }
 

@@ -21,15 +21,26 @@ struct mjData_;
 
 namespace delta {
 
+// How MuJoCo integrates the robot: its integrator, the largest step, and
+// the equality constraints' time constant, twice the step (as small as
+// MuJoCo allows: the stiffer the constraint, the closer the chains stay
+// closed).
+enum class MujocoIntegrator { kEuler, kRk4 };
+struct MujocoSettings {
+  MujocoIntegrator integrator{MujocoIntegrator::kEuler};
+  double max_step_s{5e-4};
+};
+
 // The MuJoCo model (MJCF) of a robot, assembled in its home pose (all arms
 // horizontal). Exposed for tests and for users who want to look at it.
-std::string mujoco_model_xml(const RobotDescription& d);
+std::string mujoco_model_xml(const RobotDescription& d, const MujocoSettings& settings = {});
 
 class MujocoPlant final : public Plant {
  public:
   // The robot at rest at q0 (which must be assembled: InputError if not).
-  // Each step() is cut into equal MuJoCo steps of at most max_step_s.
-  MujocoPlant(const RobotDescription& d, const Joint3& q0_rad, double max_step_s = 1.25e-4);
+  // Each step() is cut into equal MuJoCo steps of at most
+  // settings.max_step_s.
+  MujocoPlant(const RobotDescription& d, const Joint3& q0_rad, MujocoSettings settings = {});
   ~MujocoPlant() override;
   MujocoPlant(const MujocoPlant&) = delete;
   MujocoPlant& operator=(const MujocoPlant&) = delete;
@@ -78,7 +89,7 @@ class MujocoPlant final : public Plant {
   int platform_body_{0};
   Vec3<double> rod_home_{};                        // a rod's direction at home in its arm's frame
   std::array<Vec3<double>, 6> platform_anchor_{};  // rod ends, platform frame
-  double max_step_s_;
+  MujocoSettings settings_;
   double max_violation_m_{0.0};
   double time_s_{0.0};
   Joint3 last_qdd_{};
