@@ -2,7 +2,8 @@
 # Starts the emulator and a lock-step delta_fw with Modbus TCP on loopback
 # on a vcan interface, and stops them again.
 #
-#   rig_start BIN IFACE LOGDIR   sets rig_modbus (HOST:PORT); logs in LOGDIR
+#   rig_start BIN IFACE LOGDIR [EMULATOR OPTIONS...]
+#                                sets rig_modbus (HOST:PORT); logs in LOGDIR
 #   rig_stop                     TERM to the firmware, then the emulator
 # The caller sets `trap rig_stop EXIT` and `set -euo pipefail`.
 
@@ -35,12 +36,13 @@ rig_await_line() {
 
 rig_start() {
   local bin=$1 iface=$2 logs=$3 line p
+  shift 3
   for p in delta_drive_emu delta_fw host_id; do
     [ -x "$bin/$p" ] || { echo "rig: $bin/$p is missing; build first (README)" >&2; return 2; }
   done
   mkdir -p "$logs"
   # The programs' lines come through pipes (process substitution).
-  exec 4< <(exec "$bin/delta_drive_emu" --can "$iface" 2> "$logs/emulator.log")
+  exec 4< <(exec "$bin/delta_drive_emu" --can "$iface" "$@" 2> "$logs/emulator.log")
   rig_emu_pid=$!
   rig_await_line 4 "ready on $iface"
 

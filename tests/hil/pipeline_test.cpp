@@ -1,7 +1,9 @@
 // The whole chain on a real vcan interface, with the real programs:
 // delta_drive_emu (drives and robot), delta_fw (the firmware's Linux port, in
-// lock-step) and host_id record / fit. The emulator's truth is the default
-// robot's parameters, so the fit is checked against known values.
+// lock-step) and host_id record / fit. The excitation session runs the
+// emulator's lumped plant, whose truth the lumped model contains exactly, so
+// the fit is checked tightly against known values; host_id excite runs the
+// multibody (MuJoCo) robot, which no model contains exactly.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -18,6 +20,7 @@
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
 #include "delta/dynamics.hpp"
+#include "delta/robot_description.hpp"
 
 namespace {
 
@@ -139,7 +142,7 @@ class ExcitationSession : public ::testing::Test {
     Session& s = *g_session;
     s.dir = scratch_dir();
     BusObserver bus;
-    hil::Child emu = start_emulator();
+    hil::Child emu = start_emulator({"--plant", "lumped"});
     hil::Child rec =
         hil::Child::spawn({kBin + "/host_id", "record", "--can", kIface, "-o", s.dir + "/path1.csv",
                            "--idle", "3", "--raw", s.dir + "/session.log"});
@@ -229,8 +232,16 @@ TEST_F(ExcitationSession, BringUpIsNmtSdoConfigurationThenCia402Enable) {
   }
 }
 
-// Fits a log (PSO, the default) and compares with the emulator's truth.
-void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
+struct ParameterCheck {
+  std::string name;
+  double truth;
+  double tolerance;  // relative
+};
+
+// Fits a log (PSO, the default) and compares the named parameters with
+// their truth.
+void expect_fit_near(const std::string& log, const std::string& dir,
+                     const std::vector<ParameterCheck>& checks) {
   const std::string json_path = dir + "/fit.json";
   hil::Child fit = hil::Child::spawn({kBin + "/host_id", "fit", log, "--out", json_path});
   ASSERT_EQ(fit.wait(120s).value_or(-1), 0) << fit.err();
@@ -239,15 +250,21 @@ void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
   const nlohmann::json result = nlohmann::json::parse(in);
   std::map<std::string, double> value;
   for (const auto& [name, v] : result.at("parameters").items()) value[name] = v.get<double>();
+  for (const ParameterCheck& c : checks) {
+    ASSERT_TRUE(value.count(c.name)) << c.name;
+    const double rel = value[c.name] / c.truth - 1.0;
+    std::cout << "  " << c.name << ": fit " << value[c.name] << ", truth " << c.truth << ", error "
+              << 100.0 * rel << " %\n";
+    EXPECT_LT(std::fabs(rel), c.tolerance) << c.name;
+  }
+}
+
+// The lumped plant's truth: every parameter of the lumped model.
+void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
   const delta::LumpedParameters truth = delta::default_lumped_parameters();
-  struct Check {
-    std::string name;
-    double truth;
-    double tolerance;
-  };
-  std::vector<Check> checks{{"arm_inertia", truth.arm_inertia_kg_m2[0], 0.02},
-                            {"arm_gravity_moment", truth.arm_gravity_moment_Nm[0], 0.02},
-                            {"platform_mass", truth.platform_mass_kg, 0.02}};
+  std::vector<ParameterCheck> checks{{"arm_inertia", truth.arm_inertia_kg_m2[0], 0.02},
+                                     {"arm_gravity_moment", truth.arm_gravity_moment_Nm[0], 0.02},
+                                     {"platform_mass", truth.platform_mass_kg, 0.02}};
   for (unsigned j = 0; j < 3; ++j) {
     const std::string n = std::to_string(j + 1);
     checks.push_back({"coulomb_friction_" + n, truth.coulomb_friction_Nm[j], 0.03});
@@ -262,13 +279,26 @@ void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
     // the wider bound here; chain_identify_tests holds the tight one.
     checks.push_back({"viscous_friction_" + n, truth.viscous_friction_Nm_s_per_rad[j], 0.12});
   }
-  for (const Check& c : checks) {
-    ASSERT_TRUE(value.count(c.name)) << c.name;
-    const double rel = value[c.name] / c.truth - 1.0;
-    std::cout << "  " << c.name << ": fit " << value[c.name] << ", truth " << c.truth << ", error "
-              << 100.0 * rel << " %\n";
-    EXPECT_LT(std::fabs(rel), c.tolerance) << c.name;
+  expect_fit_near(log, dir, checks);
+}
+
+// The multibody robot: the lumped model does not contain it, so only what
+// that model gets right on it is checked, with the bounds its model error
+// leaves (docs/hil.md): the gravity moment and the platform mass within
+// 10 and 15 % (on path1 offline: -6 % and +7 %), the Coulomb levels within
+// 25 % (the Stribeck term adds to them: +10 %). The arm inertia and the
+// viscous friction absorb the forearms' inertia split and the friction's
+// shape; they are in the printed report, not checked: the higher-fidelity
+// model is the one to hold them to the truth.
+void expect_fit_stands_for_the_multibody_robot(const std::string& log, const std::string& dir) {
+  const delta::LumpedParameters truth = delta::lumped_truth(delta::default_robot_description());
+  std::vector<ParameterCheck> checks{{"arm_gravity_moment", truth.arm_gravity_moment_Nm[0], 0.10},
+                                     {"platform_mass", truth.platform_mass_kg, 0.15}};
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::string n = std::to_string(j + 1);
+    checks.push_back({"coulomb_friction_" + n, truth.coulomb_friction_Nm[j], 0.25});
   }
+  expect_fit_near(log, dir, checks);
 }
 
 TEST_F(ExcitationSession, TheRecordedLogIsCompleteAndTheFitMatchesTheEmulatorsTruth) {
@@ -571,7 +601,7 @@ hil::Child start_firmware_with_modbus(int port) {
   return fw;
 }
 
-TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
+TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   const std::string dir = scratch_dir();
   hil::Child emu = start_emulator();
   hil::Child fw = start_firmware_with_modbus(15021);
@@ -634,7 +664,7 @@ TEST(HostExcite, RunsPath1OverModbusRecordsItAndTheFitMatchesTheTruth) {
 
   EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
   EXPECT_EQ(emu.terminate(30s).value_or(-1), 0) << emu.err();
-  expect_fit_matches_truth(dir + "/excite.csv", dir);
+  expect_fit_stands_for_the_multibody_robot(dir + "/excite.csv", dir);
 }
 
 TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "delta/can/protocol.hpp"
+#include "delta/mujoco_plant.hpp"
 
 namespace emu {
 
@@ -103,8 +104,19 @@ FaultInjection parse_fault(const std::string& spec) {
   return f;
 }
 
+namespace {
+
+std::unique_ptr<delta::Plant> make_plant(const EmulatorConfig& c) {
+  if (c.plant == PlantKind::kMujoco) {
+    return std::make_unique<delta::MujocoPlant>(c.robot, c.initial_q_rad);
+  }
+  return std::make_unique<delta::LumpedPlant>(c.geometry, c.truth, c.initial_q_rad);
+}
+
+}  // namespace
+
 Emulator::Emulator(const EmulatorConfig& config, Outbox out)
-    : config_(config), out_(std::move(out)), q_(config.initial_q_rad), rng_(config.seed) {
+    : config_(config), out_(std::move(out)), plant_(make_plant(config)), rng_(config.seed) {
   for (unsigned j = 0; j < 3; ++j) {
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];
@@ -446,9 +458,13 @@ void Emulator::advance(double dt_s) {
   bool all_enabled = true;
   for (const Drive& d : drives_)
     all_enabled = all_enabled && d.state == cia::State::kOperationEnabled;
-  const int n = config_.substeps;
+  const int n =
+      config_.substeps > 0 ? config_.substeps : (config_.plant == PlantKind::kMujoco ? 4 : 8);
   const double h = dt_s / n;
   const double decay = std::exp(-h / config_.current_time_constant_s);
+  // The mean of the first-order response over a sub-step, as a fraction of
+  // its start's distance from the target: (T/h)(1 - exp(-h/T)).
+  const double mean_share = config_.current_time_constant_s / h * (1.0 - decay);
   for (int s = 0; s < n; ++s) {
     delta::Joint3 tau{};
     for (unsigned j = 0; j < 3; ++j) {
@@ -461,25 +477,20 @@ void Emulator::advance(double dt_s) {
                               d.model.torque_constant_Nm_per_A(),
                           -limit_A, limit_A)
              : 0.0;
-      // Exact first-order response over the sub-step; the torque is taken
-      // at its middle.
-      const double mid = target_A + (d.current_A - target_A) * std::sqrt(decay);
+      // Exact first-order response over the sub-step; the plant gets its
+      // mean torque over it.
+      const double mean_A = target_A + (d.current_A - target_A) * mean_share;
       d.current_A = target_A + (d.current_A - target_A) * decay;
       const double sign = d.model.inverted ? -1.0 : 1.0;
       tau[j] = sign * d.model.gear_ratio * d.model.gearbox_efficiency *
-               d.model.torque_constant_Nm_per_A() * mid;
+               d.model.torque_constant_Nm_per_A() * mean_A;
     }
     if (!all_enabled) {
-      qd_ = {};  // the brakes hold the arms while any drive is off
+      plant_->stop();  // the brakes hold the arms while any drive is off
       continue;
     }
-    if (!plant_error_.empty()) continue;
-    const delta::KinematicsStatus st =
-        delta::integrate_rk4(config_.geometry, config_.truth, tau, h, 1, q_, qd_);
-    if (st != delta::KinematicsStatus::kOk) {
-      plant_error_ = "the simulated robot reached a pose without kinematics at " +
-                     std::to_string(simulated_s()) + " s";
-      qd_ = {};
+    if (!plant_->fault().empty()) continue;
+    if (plant_->step(tau, h) != delta::PlantStatus::kOk) {
       for (Drive& d : drives_) enter_fault(d, 0xFF01);
     }
   }
@@ -498,12 +509,13 @@ void Emulator::handle_sync() {
   ++syncs_;
   trigger_faults();
   check_consumers([this](const Drive& d) { return sim_us_ - d.consumed_sim_us; });
+  const delta::JointState joints = plant_->state();
   for (unsigned j = 0; j < 3; ++j) {
     Drive& d = drives_[j];
     if (d.state == cia::State::kFaultReactionActive) d.state = cia::State::kFault;
     if (d.nmt != p::kNmtStateOperational || d.silent) continue;
-    const double q = q_[j];
-    const double qd = qd_[j];
+    const double q = joints.q_rad[j];
+    const double qd = joints.qd_rad_s[j];
     std::array<std::uint8_t, 8> tpdo1{};
     p::pack(tpdo1, p::kTpdo1Statusword, cia::encode_statusword(d.state));
     p::pack(tpdo1, p::kTpdo1PositionActual, position_counts(d, q));

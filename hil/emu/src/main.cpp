@@ -18,6 +18,7 @@
 #include "delta/can/socketcan.hpp"
 #include "delta/input_error.hpp"
 #include "delta/parameter_file.hpp"
+#include "delta/robot_description.hpp"
 #include "emu/emulator.hpp"
 
 namespace {
@@ -46,6 +47,26 @@ double number(const std::string& s) {
   return r.ec == std::errc() && r.ptr == s.data() + s.size() ? v : std::nan("");
 }
 
+// The plant of the command line: the robot description (a file or the
+// built-in one), and for the lumped plant its parameters (a file, the lumped
+// truth of a given robot, or the default lumped parameters).
+void configure_plant(const std::string& plant, const std::string& robot_path,
+                     const std::string& truth_path, emu::EmulatorConfig& config) {
+  if (!robot_path.empty()) config.robot = delta::read_robot_description(robot_path);
+  config.geometry = config.robot.geometry;
+  if (plant == "mujoco") {
+    if (!truth_path.empty()) throw CLI::ValidationError("--truth", "only with --plant lumped");
+    config.plant = emu::PlantKind::kMujoco;
+    return;
+  }
+  config.plant = emu::PlantKind::kLumped;
+  if (!truth_path.empty()) {
+    config.truth = delta::read_lumped_parameters(truth_path);
+  } else if (!robot_path.empty()) {
+    config.truth = delta::lumped_truth(config.robot);
+  }  // else the default lumped parameters (within 0.2 % of the default robot's)
+}
+
 // The command line into config, or the exit code when it asked for help or
 // was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
@@ -53,13 +74,21 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
   CLI::App app(kDescription, "delta_drive_emu");
   app.set_version_flag("--version", std::string("delta_drive_emu ") + DELTA_VERSION);
   app.add_option("--can", iface, "the CAN interface (vcan0)")->required();
-  std::string plant = "lumped";
-  app.add_option("--plant", plant, "the robot's model")
-      ->check(CLI::IsMember({"lumped"}))
+  std::string plant = "mujoco";
+  app.add_option("--plant", plant,
+                 "the robot: mujoco (the multibody robot of --robot) or lumped (the lumped "
+                 "model: exactly what `host_id fit --model lumped` estimates)")
+      ->check(CLI::IsMember({"mujoco", "lumped"}))
       ->capture_default_str();
+  std::string robot_path;
+  app.add_option("--robot", robot_path,
+                 "the robot description (docs/robot-description.md); default: the built-in "
+                 "robot of docs/examples/robot.json");
   std::string truth_path;
-  app.add_option("--truth", truth_path,
-                 "the plant's parameters, JSON as `host_id simulate --params` reads");
+  auto* truth = app.add_option(
+      "--truth", truth_path,
+      "with --plant lumped: the lumped parameters, JSON as `host_id "
+      "simulate --params` reads (default: those of --robot, or the default robot's)");
   std::vector<std::string> faults;
   app.add_option("--inject", faults,
                  "KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC: "
@@ -87,7 +116,7 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
   try {
     app.parse(argc, argv);
     if (initial->count()) config.initial_q_rad = {initial_q, initial_q, initial_q};
-    if (!truth_path.empty()) config.truth = delta::read_lumped_parameters(truth_path);
+    configure_plant(plant, robot_path, truth->count() ? truth_path : std::string(), config);
     for (const std::string& f : faults) config.faults.push_back(emu::parse_fault(f));
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version

@@ -1,6 +1,7 @@
 // The drive-and-robot emulator: three CiA 402 drives on one CAN bus, coupled
-// to a simulated delta (the lumped model of common/dynamics.hpp, integrated
-// with RK4 over sub-steps), with fault injection. Socket-free: frames come in
+// to a simulated delta (delta/plant.hpp: the multibody MuJoCo robot of a
+// robot description, or the lumped model integrated with RK4), stepped in
+// sub-steps of each SYNC cycle, with fault injection. Socket-free: frames come in
 // through on_frame() and leave through the Outbox, so the same code serves
 // delta_drive_emu on SocketCAN and unit tests.
 //
@@ -15,6 +16,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +24,8 @@
 #include "delta/can/socketcan.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/dynamics.hpp"
+#include "delta/plant.hpp"
+#include "delta/robot_description.hpp"
 
 namespace emu {
 
@@ -47,15 +51,25 @@ struct FaultInjection {
 // std::invalid_argument with the reason.
 FaultInjection parse_fault(const std::string& spec);
 
+enum class PlantKind : std::uint8_t {
+  kLumped,  // the lumped model with `truth` on `geometry`: fast, for unit tests
+  kMujoco,  // the multibody robot of `robot` (delta_drive_emu's default)
+};
+
 struct EmulatorConfig {
-  delta::Geometry geometry{delta::kDefaultGeometry};
+  PlantKind plant{PlantKind::kLumped};
+  delta::RobotDescription robot{delta::default_robot_description()};
+  delta::Geometry geometry{delta::kDefaultGeometry};  // = robot.geometry for kMujoco
   delta::LumpedParameters truth{delta::default_lumped_parameters()};
   std::array<delta::DriveModel, 3> drives{delta::kDefaultDrive, delta::kDefaultDrive,
                                           delta::kDefaultDrive};
   delta::Joint3 initial_q_rad{0.45, 0.45, 0.45};
   double current_time_constant_s{0.0003};  // current loop
   double current_noise_A{0.005};           // standard deviation
-  int substeps{8};                         // RK4 steps per cycle
+  // Plant steps per cycle, each with the current loop's mean torque over
+  // it; 0: the plant's own (lumped 8, RK4; mujoco 4, MuJoCo's 0.5 ms steps
+  // at the default 500 Hz).
+  int substeps{0};
   std::uint64_t seed{1};
   std::vector<FaultInjection> faults;
 };
@@ -75,14 +89,15 @@ class Emulator {
 
   double simulated_s() const { return static_cast<double>(sim_us_) * 1e-6; }
   std::uint64_t syncs() const { return syncs_; }
-  const delta::Joint3& q_rad() const { return q_; }
-  const delta::Joint3& qd_rad_s() const { return qd_; }
+  delta::Joint3 q_rad() const { return plant_->state().q_rad; }
+  delta::Joint3 qd_rad_s() const { return plant_->state().qd_rad_s; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
   // A line per drive: node, NMT state, CiA 402 state.
   std::string describe() const;
-  // Set when the plant left the workspace (the run is broken).
-  const std::string& plant_error() const { return plant_error_; }
+  // Set when the plant faulted (diverged, ran away, left the workspace, its
+  // chains came apart): the drives are in fault and the run is broken.
+  const std::string& plant_error() const { return plant_->fault(); }
 
  private:
   struct Drive {
@@ -135,14 +150,12 @@ class Emulator {
   EmulatorConfig config_;
   Outbox out_;
   std::array<Drive, 3> drives_{};
-  delta::Joint3 q_{};
-  delta::Joint3 qd_{};
+  std::unique_ptr<delta::Plant> plant_;
   std::uint64_t sim_us_{0};
   std::uint64_t syncs_{0};
   std::uint64_t rng_{0};
   std::uint64_t wall_us_{0};
   std::uint64_t last_sync_wall_us_{0};
-  std::string plant_error_;
 };
 
 }  // namespace emu
