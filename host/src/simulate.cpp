@@ -5,6 +5,8 @@
 #include <sstream>
 
 #include "delta/input_error.hpp"
+#include "delta/mujoco_plant.hpp"
+#include "delta/path_follower.hpp"
 #include "delta/trajectory.hpp"
 #include "host_id/atomic_file.hpp"
 
@@ -88,41 +90,86 @@ class Path {
   delta::PickAndPlaceTrajectory pnp_;
 };
 
-// The exact log: the path sampled, the torques by inverse dynamics.
-DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
+// A log with the options' metadata and room for its samples.
+DeltaLog empty_log(const SimulateOptions& o, std::size_t n) {
   DeltaLog log;
   log.name = "simulate";
   log.geometry = o.geometry;
   log.gravity_m_s2 = o.parameters.gravity_m_s2;
   log.sample_rate_hz = o.sample_rate_hz;
   log.metadata.emplace_back("source", "sim");
-  log.metadata.emplace_back("robot", "default-delta");
+  const bool mujoco = o.plant == SimulatedPlant::kMujoco;
+  log.metadata.emplace_back("robot", mujoco ? o.robot.name : "default-delta");
+  log.metadata.emplace_back("plant", mujoco ? "mujoco" : "lumped");
   log.metadata.emplace_back("trajectory", o.name.empty() ? o.trajectory : o.name);
-  const auto n = static_cast<std::size_t>(std::floor(o.duration_s * o.sample_rate_hz)) + 1;
   log.has_qd = log.has_qdd = o.with_derivatives;
   for (unsigned j = 0; j < 3; ++j) {
     log.q[j].reserve(n);
     log.tau[j].reserve(n);
   }
+  return log;
+}
+
+void append_sample(DeltaLog& log, std::size_t k, double t, const delta::JointState& s,
+                   const delta::Joint3& tau) {
+  log.t.push_back(t);
+  log.seq.push_back(k);
+  for (unsigned j = 0; j < 3; ++j) {
+    log.q[j].push_back(s.q_rad[j]);
+    log.tau[j].push_back(tau[j]);
+    if (log.has_qd) {
+      log.qd[j].push_back(s.qd_rad_s[j]);
+      log.qdd[j].push_back(s.qdd_rad_s2[j]);
+    }
+  }
+}
+
+std::size_t sample_count(const SimulateOptions& o) {
+  return static_cast<std::size_t>(std::floor(o.duration_s * o.sample_rate_hz)) + 1;
+}
+
+[[noreturn]] void no_kinematics_at(double t) {
+  std::ostringstream m;
+  m << "the trajectory reaches a pose without kinematics at t = " << t << " s";
+  throw delta::InputError(m.str());
+}
+
+// The lumped plant: the path sampled, the torques by inverse dynamics.
+DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
+  const std::size_t n = sample_count(o);
+  DeltaLog log = empty_log(o, n);
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) / o.sample_rate_hz;
     const delta::JointState s = path.at(t);
     delta::Joint3 tau{};
     if (delta::inverse_dynamics(o.geometry, o.parameters, s, tau) != delta::KinematicsStatus::kOk) {
-      std::ostringstream m;
-      m << "the trajectory reaches a pose without kinematics at t = " << t << " s";
-      throw delta::InputError(m.str());
+      no_kinematics_at(t);
     }
-    log.t.push_back(t);
-    log.seq.push_back(k);
-    for (unsigned j = 0; j < 3; ++j) {
-      log.q[j].push_back(s.q_rad[j]);
-      log.tau[j].push_back(tau[j]);
-      if (o.with_derivatives) {
-        log.qd[j].push_back(s.qd_rad_s[j]);
-        log.qdd[j].push_back(s.qdd_rad_s2[j]);
-      }
-    }
+    append_sample(log, k, t, s, tau);
+  }
+  return log;
+}
+
+// The multibody plant follows the path under the PD controller with its
+// lumped model as feed-forward: each sample has the state the plant is in
+// and the torque applied from it to the next sample (and, with
+// derivatives, the plant's own velocity and its acceleration under that
+// torque).
+DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
+  const std::size_t n = sample_count(o);
+  DeltaLog log = empty_log(o, n);
+  const double dt = 1.0 / o.sample_rate_hz;
+  delta::MujocoPlant plant(o.robot, path.at(0.0).q_rad);
+  plant.place(path.at(0.0));
+  const delta::PathFollower follower(o.robot.geometry, delta::lumped_truth(o.robot));
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    delta::JointState s = plant.state();
+    delta::Joint3 tau{};
+    if (follower.torque(path.at(t), s, tau) != delta::KinematicsStatus::kOk) no_kinematics_at(t);
+    if (plant.step(tau, dt) != delta::PlantStatus::kOk) throw delta::InputError(plant.fault());
+    s.qdd_rad_s2 = plant.state().qdd_rad_s2;
+    append_sample(log, k, t, s, tau);
   }
   return log;
 }
@@ -150,9 +197,15 @@ void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
 
 }  // namespace
 
-DeltaLog simulate_log(const SimulateOptions& o) {
+DeltaLog simulate_log(const SimulateOptions& options) {
+  SimulateOptions o = options;
+  if (o.plant == SimulatedPlant::kMujoco) {
+    o.geometry = o.robot.geometry;
+    o.parameters.gravity_m_s2 = o.robot.gravity_m_s2;
+  }
   check_options(o);
-  DeltaLog log = exact_log(o, Path(o));
+  const Path path(o);
+  DeltaLog log = o.plant == SimulatedPlant::kMujoco ? followed_log(o, path) : exact_log(o, path);
   add_measurement_effects(o, log);
   return log;
 }

@@ -1,17 +1,27 @@
-// `host_id simulate`: delta-log/1 files from known parameters by inverse
-// dynamics, the source of the shipped examples and of test data with known
-// truth.
+// `host_id simulate`: delta-log/1 files with known truth, the source of the
+// shipped examples and of test data. Two plants:
+//   - lumped: the torques by inverse dynamics of the lumped model along the
+//     path (exactly the model `fit --model lumped` estimates);
+//   - mujoco: the multibody robot of a robot description follows the path
+//     under a stiff joint PD controller with feed-forward from its lumped
+//     model, and the log has the applied torques (tracking error, friction
+//     shape, forearm inertia: what no identification model contains
+//     exactly).
 #pragma once
 
 #include <cstdint>
 #include <string>
 
 #include "delta/dynamics.hpp"
+#include "delta/robot_description.hpp"
 #include "host_id/delta_log.hpp"
 
 namespace host_id {
 
+enum class SimulatedPlant : std::uint8_t { kLumped, kMujoco };
+
 struct SimulateOptions {
+  SimulatedPlant plant{SimulatedPlant::kLumped};
   std::string trajectory{"fourier"};  // "fourier" or "pick-and-place"
   double duration_s{10.0};
   double sample_rate_hz{1000.0};
@@ -21,10 +31,13 @@ struct SimulateOptions {
   double amplitude_rad{0.35};    // worst-case joint amplitude of the Fourier path
   double torque_noise{0.0};      // Gaussian, as a fraction of each joint's RMS torque
   unsigned encoder_bits{0};      // quantise q to 2 pi / 2^bits; 0: off
-  bool with_derivatives{false};  // write exact qd, qdd columns
+  bool with_derivatives{false};  // write the plant's own qd, qdd columns
   std::string name;              // the log's `trajectory` metadata
+  // The lumped plant's robot:
   delta::Geometry geometry{delta::kDefaultGeometry};
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};
+  // The multibody plant's robot (its geometry and gravity are the log's):
+  delta::RobotDescription robot{delta::default_robot_description()};
 };
 
 // Throws delta::InputError for options out of range or a trajectory that leaves

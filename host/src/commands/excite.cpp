@@ -9,6 +9,7 @@
 #include <future>
 #include <memory>
 #include <ostream>
+#include <sstream>
 #include <thread>
 
 #include "commands/command.hpp"
@@ -42,7 +43,7 @@ struct ExciteArguments {
   std::uint16_t repetitions{0};  // 0: the trajectory's own
   std::string raw_path;
   double rated_current_A{2.0};
-  double timeout_s{0};  // 0: the run's length plus 30 s
+  double timeout_s{0};  // 0: no limit on the whole run (a stall still ends it)
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -142,6 +143,9 @@ std::optional<std::string> poll_ending(const std::vector<std::uint16_t>& in, std
   }
 }
 
+// How long a run's tick may stand still before excite gives it up.
+constexpr std::chrono::seconds kStall{10};
+
 // Starts the run and polls it until it ends, one way or another.
 RunOutcome run_excitation(ControllerLink& link, const ExciteArguments& a, double rate_hz,
                           std::ostream& err) {
@@ -153,9 +157,12 @@ RunOutcome run_excitation(ControllerLink& link, const ExciteArguments& a, double
   err << "host_id excite: running " << a.trajectory << " on " << a.address << " (run #" << o.run_id
       << ", " << static_cast<double>(o.run_length) / rate_hz << " s), recording " << a.iface
       << "\n";
-  const double timeout_s =
-      a.timeout_s > 0 ? a.timeout_s : static_cast<double>(o.run_length) / rate_hz + 30.0;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  // A run may go slower than real time (lock-step behind a slow plant); it
+  // is given up when its tick stops moving for kStall, or when --timeout is
+  // over.
+  const auto start = std::chrono::steady_clock::now();
+  auto last_progress = start;
+  std::int64_t last_tick = 0;
   const bool tty = isatty(STDERR_FILENO) != 0;
   const auto stop = [&](const std::string& why) {
     link.write(mb::kCommand.address, {static_cast<std::uint16_t>(mb::Command::kStop)});
@@ -171,8 +178,22 @@ RunOutcome run_excitation(ControllerLink& link, const ExciteArguments& a, double
       o.ending = *ending;
       break;
     }
-    if (std::chrono::steady_clock::now() > deadline) {
-      stop("the run did not finish within " + std::to_string(timeout_s) + " s; stopped it");
+    const auto now = std::chrono::steady_clock::now();
+    if (const std::int64_t tick = raw("run_tick", in); tick != last_tick) {
+      last_tick = tick;
+      last_progress = now;
+    }
+    if (now - last_progress > kStall) {
+      std::ostringstream m;
+      m << "the run stalled at tick " << last_tick << " of " << o.run_length << " for "
+        << std::chrono::duration<double>(kStall).count() << " s; stopped it";
+      stop(m.str());
+      break;
+    }
+    if (a.timeout_s > 0 && now - start > std::chrono::duration<double>(a.timeout_s)) {
+      std::ostringstream m;
+      m << "the run did not finish within " << a.timeout_s << " s (--timeout); stopped it";
+      stop(m.str());
       break;
     }
     if (tty) {
@@ -286,8 +307,8 @@ void add_excite_command(CLI::App& app, CommandContext& context) {
       ->check(kPositive)
       ->capture_default_str();
   c->add_option("--timeout", a->timeout_s,
-                "give up when the run has not finished after S seconds (default: the run's "
-                "length plus 30 s)")
+                "give up when the run has not finished after S seconds (default: no limit; a run "
+                "whose tick stops moving for 10 s is given up anyway)")
       ->check(kPositive);
   c->callback([a, &context] { context.exit_code = run_excite(*a, context.out, context.err); });
 }

@@ -6,6 +6,7 @@
 
 #include "commands/command.hpp"
 #include "delta/parameter_file.hpp"
+#include "delta/robot_description.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 
@@ -16,6 +17,8 @@ namespace {
 struct SimulateArguments {
   std::string out_path;
   std::string params_path;
+  std::string plant{"lumped"};
+  std::string robot_path;
   SimulateOptions simulate;
 };
 
@@ -58,15 +61,32 @@ void add_measurement_options(CLI::App& c, SimulateOptions& s) {
 void add_simulate_command(CLI::App& app, CommandContext& context) {
   CLI::App* c = app.add_subcommand("simulate", "write a log from known parameters");
   c->description(
-      "Writes a delta-log/1 file by inverse dynamics of the lumped model with known parameters "
-      "(the default robot's unless --params is given).");
+      "Writes a delta-log/1 file with known truth. --plant lumped (the default): the torques by "
+      "inverse dynamics of the lumped model (the default robot's parameters, those of --robot, "
+      "or --params). --plant mujoco: the multibody robot of --robot (default: the built-in "
+      "robot) follows the path under a stiff PD controller with feed-forward, and the log has "
+      "the torques applied.");
   auto a = std::make_shared<SimulateArguments>();
   c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
   add_path_options(*c, a->simulate);
   add_measurement_options(*c, a->simulate);
-  c->add_option("--params", a->params_path, "parameters, JSON (keys as in 'host_id fit' output)");
+  c->add_option("--plant", a->plant, "lumped (inverse dynamics) or mujoco (multibody, followed)")
+      ->check(CLI::IsMember({"lumped", "mujoco"}))
+      ->capture_default_str();
+  c->add_option("--robot", a->robot_path, "the robot description (docs/robot-description.md)");
+  c->add_option("--params", a->params_path,
+                "with --plant lumped: parameters, JSON (keys as in 'host_id fit' output)");
   c->callback([a, &context] {
     SimulateOptions s = a->simulate;
+    if (!a->robot_path.empty()) {
+      s.robot = delta::read_robot_description(a->robot_path);
+      s.geometry = s.robot.geometry;
+      s.parameters = delta::lumped_truth(s.robot);
+    }
+    if (a->plant == "mujoco") {
+      if (!a->params_path.empty()) throw UsageError("--params: only with --plant lumped");
+      s.plant = SimulatedPlant::kMujoco;
+    }
     if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
     const DeltaLog log = simulate_log(s);
     write_file_atomically(a->out_path, format_delta_log(log));
