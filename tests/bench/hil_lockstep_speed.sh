@@ -6,20 +6,24 @@
 # the approach, the blends and the hold) while it records the CAN log.
 #
 #   hil/vcan-run -- tests/bench/hil_lockstep_speed.sh [--bin DIR] [--runs N]
+#                                                     [--plant mujoco|lumped]
 #
 # Prints, per run, the wall time against the bus time and their ratio, and
-# delta_fw's own count; the target is at most 2x real time.
+# delta_fw's own count; the target is at most 2x real time. --plant is the
+# emulator's (default mujoco, as in README command 1).
 set -euo pipefail
 
 bin=build/bin
 runs=3
 iface=vcan0
+plant=mujoco
 while [ $# -gt 0 ]; do
   case "$1" in
     --bin) bin=${2:?}; shift 2 ;;
     --runs) runs=${2:?}; shift 2 ;;
     --can) iface=${2:?}; shift 2 ;;
-    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
+    --plant) plant=${2:?}; shift 2 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) echo "hil_lockstep_speed: unknown option '$1'" >&2; exit 2 ;;
   esac
 done
@@ -28,7 +32,8 @@ here=$(cd "$(dirname "$0")/../.." && pwd)
 . "$here/hil/rig.sh"
 trap rig_stop EXIT
 out=$(mktemp -d)
-rig_start "$bin" "$iface" "$out"
+rig_start "$bin" "$iface" "$out" --plant "$plant"
+echo "hil_lockstep_speed: the emulator's plant: $plant"
 
 rate_hz=500
 for ((k = 1; k <= runs; k++)); do
