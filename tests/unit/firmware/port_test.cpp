@@ -225,6 +225,30 @@ TEST(InProcessPortTest, DrivesTimeTheControllersHeartbeatByWallClockWhenSyncsSto
   }
 }
 
+// A plant that cannot follow what the drives command (an arm with almost no
+// inertia: it runs away) is a plant fault, never a state of NaN or 1e260
+// passed on as encoder counts: the emulator faults every drive with EMCY
+// 0xFF01 and says why, and the controller faults on the drive fault.
+TEST(InProcessPortTest, ARunawayPlantFaultsTheDrivesInsteadOfReportingNonsense) {
+  emu::EmulatorConfig ec;
+  ec.truth.arm_inertia_kg_m2 = {1e-9, 1e-9, 1e-9};
+  ec.truth.platform_mass_kg = 1e-9;
+  Rig rig(ec);
+  ASSERT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  ASSERT_TRUE(rig.controller.start(*named_trajectory("path1", Rig::config())).accepted);
+  for (int i = 0; i < 3000 && rig.controller.state() != fw::State::kFault; ++i) rig.cycle();
+  EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveFault);
+  EXPECT_NE(rig.master.last_problem().find("emergency 0xFF01"), std::string::npos)
+      << rig.master.last_problem();
+  EXPECT_NE(rig.bus.emulator_.plant_error().find("the plant faulted at"), std::string::npos)
+      << rig.bus.emulator_.plant_error();
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(rig.bus.emulator_.drive_state(j), cia::State::kFault);
+    EXPECT_TRUE(std::isfinite(rig.bus.emulator_.q_rad()[j]));
+    EXPECT_LT(std::fabs(rig.bus.emulator_.q_rad()[j]), 10.0);
+  }
+}
+
 TEST(InProcessPortTest, AMissedSampleDoesNotDoubleTheVelocityFromPositions) {
   Rig rig;
   ASSERT_TRUE(bring_up(rig)) << rig.master.last_problem();

@@ -261,5 +261,48 @@ TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {
   EXPECT_EQ(files, 1u);
 }
 
+// The multibody robot follows the path under its PD controller: its angles
+// stay within a few mrad of the path's (the lumped log has the path's
+// exactly), its torques differ from the lumped model's by what the lumped
+// model lacks, and its qdd is its own acceleration: the derivative of its qd.
+TEST_F(CliTest, SimulateOnTheMultibodyRobotFollowsThePath) {
+  simulate("lumped.csv", {"--with-derivatives"});
+  simulate("mujoco.csv", {"--plant", "mujoco", "--with-derivatives"});
+  const DeltaLog lumped = read_delta_log(path("lumped.csv"));
+  const DeltaLog mujoco = read_delta_log(path("mujoco.csv"));
+  EXPECT_EQ(mujoco.metadata_value("plant"), "mujoco");
+  EXPECT_EQ(lumped.metadata_value("plant"), "lumped");
+  ASSERT_EQ(mujoco.size(), lumped.size());
+  double worst_q = 0, tau_diff = 0, tau_ss = 0, qdd_err = 0, qdd_ss = 0;
+  for (unsigned j = 0; j < 3; ++j) {
+    for (std::size_t k = 1; k + 1 < mujoco.size(); ++k) {
+      worst_q = std::max(worst_q, std::abs(mujoco.q[j][k] - lumped.q[j][k]));
+      tau_diff += std::pow(mujoco.tau[j][k] - lumped.tau[j][k], 2);
+      tau_ss += std::pow(lumped.tau[j][k], 2);
+      const double from_qd = (mujoco.qd[j][k + 1] - mujoco.qd[j][k - 1]) / 0.002;
+      qdd_err += std::pow(mujoco.qdd[j][k] - from_qd, 2);
+      qdd_ss += std::pow(from_qd, 2);
+    }
+  }
+  EXPECT_LT(worst_q, 0.001);  // measured 0.19 mrad
+  const double tau_rel = std::sqrt(tau_diff / tau_ss);
+  EXPECT_GT(tau_rel, 0.005);                     // not the lumped model's torques (measured 1.4 %)
+  EXPECT_LT(tau_rel, 0.2);                       // but the same robot's
+  EXPECT_LT(std::sqrt(qdd_err / qdd_ss), 0.03);  // measured 1.2 %
+}
+
+TEST_F(CliTest, SimulateRefusesWhatTheMultibodyRobotCannotTake) {
+  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--plant", "mujoco", "--params",
+                 "docs/examples/robot.json"}),
+            2);
+  EXPECT_NE(err_.str().find("--params: only with --plant lumped"), std::string::npos) << err_.str();
+  EXPECT_EQ(
+      run({"simulate", "-o", path("s.csv"), "--plant", "mujoco", "--robot", path("missing.json")}),
+      1);
+  EXPECT_NE(err_.str().find(path("missing.json") + ": cannot open"), std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("s.csv"));
+}
+
 }  // namespace
 }  // namespace host_id
