@@ -35,6 +35,33 @@ const char* topology_name(PsoTopology t) {
   return t == PsoTopology::kGlobal ? "gbest" : "ring";
 }
 
+// The estimates; with a known truth, each one's truth and error beside it.
+std::string parameter_table(const FitResult& r) {
+  std::ostringstream s;
+  const bool truth = !r.truth.empty();
+  s << "  parameter                      value     std dev   rel std"
+    << (truth ? "          truth     error" : "") << "   unit\n";
+  for (const auto& e : r.parameters) {
+    char buf[240];
+    const std::string rel =
+        std::isfinite(e.rel_std_percent) ? fmt("%8.3f %%", e.rel_std_percent) : "       - ";
+    std::string against;
+    if (truth) {
+      const auto t = r.truth.find(e.info.name);
+      against = t == r.truth.end()
+                    ? std::string(25, ' ')
+                    : fmt("%15.6g", t->second) +
+                          (t->second != 0.0 ? fmt("%+8.2f %%", 100.0 * (e.value / t->second - 1.0))
+                                            : std::string("       - "));
+    }
+    std::snprintf(buf, sizeof buf, "  %-22s %14.6g %11.3g  %s%s  %s\n", e.info.name.c_str(),
+                  e.value, e.std_dev, rel.c_str(), against.c_str(), e.info.unit.c_str());
+    s << buf;
+  }
+  if (truth) s << "  (truth: derived from the robot description, docs/identification.md)\n";
+  return s.str();
+}
+
 }  // namespace
 
 nlohmann::json json_rmse(const LogRmse& r) {
@@ -94,15 +121,7 @@ std::string text_report(const FitResult& r) {
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
 
-  s << "  parameter                      value     std dev   rel std   unit\n";
-  for (const auto& e : r.parameters) {
-    char buf[200];
-    const std::string rel =
-        std::isfinite(e.rel_std_percent) ? fmt("%8.3f %%", e.rel_std_percent) : "       - ";
-    std::snprintf(buf, sizeof buf, "  %-22s %14.6g %11.3g  %s  %s\n", e.info.name.c_str(), e.value,
-                  e.std_dev, rel.c_str(), e.info.unit.c_str());
-    s << buf;
-  }
+  s << parameter_table(r);
   s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
     << r.std_dev_lags << " samples)\n";
   s << "\n  cost (mean squared torque error) " << fmt("%.6e", r.cost_Nm2) << " N^2 m^2";
@@ -141,6 +160,9 @@ nlohmann::json json_report(const FitResult& r) {
                        {"lower_bound", e.lower},
                        {"upper_bound", e.upper},
                        {"meaning", e.info.meaning}});
+    if (const auto t = r.truth.find(e.info.name); t != r.truth.end()) {
+      details.back()["truth"] = t->second;
+    }
   }
   json fit = json_rmse(r.fit);
   fit["cost_Nm2"] = r.cost_Nm2;

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -92,6 +93,8 @@ struct FitResult {
   double seconds_total{0};
   std::vector<LogRmse> validation;
   std::vector<Prediction> predictions;  // with keep_predictions: fitted log, then validation
+  // Parameter name -> its truth, where the caller knows it (fit --truth).
+  std::map<std::string, double> truth;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With

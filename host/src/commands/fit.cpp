@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 
 #include "commands/command.hpp"
@@ -12,6 +13,7 @@
 #include "host_id/identify.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
+#include "host_id/truth.hpp"
 
 namespace host_id {
 
@@ -58,6 +60,7 @@ struct FitArguments {
   std::vector<std::string> validate;
   std::string out_path;
   std::string plot_path;
+  std::string truth_path;
   bool json{false};
   bool quiet{false};
   CLI::Option* trim_given{nullptr};
@@ -156,6 +159,10 @@ void add_output_options(CLI::App& c, FitArguments& a) {
       ->group("output");
   c.add_option("--out", a.out_path, "save the result as JSON (atomically)")->group("output");
   c.add_flag("--json", a.json, "print the whole report as JSON instead of text")->group("output");
+  c.add_option("--truth", a.truth_path,
+               "a robot description (docs/robot-description.md): print each parameter's truth "
+               "and error beside it")
+      ->group("output");
   c.add_option("--plot", a.plot_path, "measured vs predicted torque and the residuals")
       ->check(kSvgPath)
       ->group("output");
@@ -202,7 +209,11 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
   warn_about_gaps(err, log);
   for (const DeltaLog& l : validation_logs) warn_about_gaps(err, l);
-  const FitResult r = fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty());
+  const std::optional<delta::RobotDescription> robot =
+      a.truth_path.empty() ? std::nullopt
+                           : std::optional(delta::read_robot_description(a.truth_path));
+  FitResult r = fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty());
+  if (robot) r.truth = parameter_truth(f.model, *robot);
   bar.finish();
   write_outputs(a, r, out);
   return 0;

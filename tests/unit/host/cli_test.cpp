@@ -304,5 +304,33 @@ TEST_F(CliTest, SimulateRefusesWhatTheMultibodyRobotCannotTake) {
   EXPECT_FALSE(exists("s.csv"));
 }
 
+// --truth ROBOT.json: each estimate beside the truth derived from the
+// robot, in the text and the JSON; paper14's coefficients have none.
+TEST_F(CliTest, FitPrintsTheTruthOfARobotDescriptionBesideEachEstimate) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--truth", "docs/examples/robot.json",
+                 "--out", path("r.json")}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("rel std          truth     error   unit"), std::string::npos)
+      << out_.str();
+  EXPECT_NE(out_.str().find("0.0072017"), std::string::npos) << out_.str();
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  bool found = false;
+  for (const auto& d : j.at("parameter_details")) {
+    if (d.at("name") == "platform_mass") {
+      EXPECT_NEAR(d.at("truth").get<double>(), 0.4, 1e-12);
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found);
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "paper14", "--truth",
+                 "docs/examples/robot.json"}),
+            0);
+  EXPECT_EQ(out_.str().find("truth"), std::string::npos) << out_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--truth", path("none.json")}), 1);
+  EXPECT_NE(err_.str().find(path("none.json") + ": cannot open"), std::string::npos) << err_.str();
+}
+
 }  // namespace
 }  // namespace host_id
