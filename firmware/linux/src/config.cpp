@@ -1,6 +1,7 @@
 #include "fw_linux/config.hpp"
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -14,15 +15,52 @@
 namespace fw_linux {
 namespace {
 
+// approach_s, stop_s and blend_s: far beyond any real one, and well inside
+// the controller's 32-bit tick counter at the fastest rate (10 kHz).
+constexpr double kMaxSeconds = 3600.0;
+constexpr double kPi = 3.14159265358979323846;
+
+// A decimal number (an optional sign, digits, a point, an exponent): no
+// hexadecimal, no inf or nan, nothing after it.
 double parse_number(const std::string& v, const std::string& where, const std::string& key) {
-  const char* begin = v.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double d = std::strtod(begin, &end);
-  if (v.empty() || end != begin + v.size() || errno == ERANGE || !std::isfinite(d)) {
-    throw ConfigError(where + ": " + key + " needs a number, got '" + v + "'");
+  const char* begin = v.data();
+  const char* const end = v.data() + v.size();
+  if (begin != end && *begin == '+') ++begin;  // one '+' at most, and not "+-"
+  double d = 0.0;
+  const auto r = std::from_chars(begin, end, d, std::chars_format::general);
+  if (begin == end || *begin == '+' || (begin != v.data() && *begin == '-') ||
+      r.ec != std::errc() || r.ptr != end || !std::isfinite(d)) {
+    throw ConfigError(where + ": " + key + " needs a decimal number, got '" + v + "'");
   }
   return d;
+}
+
+// Where a value must lie: [lo, hi], or (lo, hi] when the low end is open.
+struct Range {
+  double lo, hi;
+  const char* unit;
+  bool closed_low;
+};
+
+double parse_in_range(const std::string& v, const std::string& where, const std::string& key,
+                      const Range& r) {
+  const double d = parse_number(v, where, key);
+  if (!((r.closed_low ? d >= r.lo : d > r.lo) && d <= r.hi)) {
+    std::ostringstream m;
+    m << where << ": " << key << " = " << v << r.unit << " is out of range "
+      << (r.closed_low ? "[" : "(") << r.lo << ", " << r.hi << "]" << r.unit;
+    throw ConfigError(m.str());
+  }
+  return d;
+}
+
+// A number of seconds that becomes a count of control ticks: within
+// (0, kMaxSeconds], so that the count fits the controller's 32-bit counter.
+std::function<void(PortConfig&, const std::string&, const std::string&)> seconds_setter(
+    const std::string& key, double PortConfig::*field) {
+  return [key, field](PortConfig& c, const std::string& v, const std::string& w) {
+    c.*field = parse_in_range(v, w, key, {0.0, kMaxSeconds, " s", false});
+  };
 }
 
 std::uint32_t parse_unsigned(const std::string& v, const std::string& where, const std::string& key,
@@ -108,9 +146,9 @@ std::map<std::string, Setter> make_setters() {
   number("gains.integral_limit_Nm", &PortConfig::integral_limit_Nm);
   number("nominal.arm_inertia_kg_m2", &PortConfig::nominal_arm_inertia_kg_m2);
   number("nominal.gravity_moment_Nm", &PortConfig::nominal_gravity_moment_Nm);
-  number("approach_s", &PortConfig::approach_s);
-  number("stop_s", &PortConfig::stop_s);
-  number("blend_s", &PortConfig::blend_s);
+  s["approach_s"] = seconds_setter("approach_s", &PortConfig::approach_s);
+  s["stop_s"] = seconds_setter("stop_s", &PortConfig::stop_s);
+  s["blend_s"] = seconds_setter("blend_s", &PortConfig::blend_s);
   s["modbus.tcp"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     if (!v.empty()) (void)split_host_port(v, w + ": modbus.tcp");
     c.modbus.tcp = v;
@@ -156,8 +194,10 @@ std::map<std::string, Setter> make_setters() {
       {"gpio.brake_line", &GpioConfig::brake_line},
       {"gpio.status_line", &GpioConfig::status_line},
       {"gpio.estop_debounce_ms", &GpioConfig::estop_debounce_ms}};
-  for (const auto& [name, field] : lines) {
-    const std::string key = name;
+  for (const auto& line : lines) {
+    // Not a structured binding: clang before 16 cannot capture one.
+    const std::string key = line.first;
+    const auto field = line.second;
     const std::uint32_t hi = key == "gpio.estop_debounce_ms" ? 1000u : 1023u;
     s[key] = [key, field, hi](PortConfig& c, const std::string& v, const std::string& w) {
       c.gpio.*field = parse_unsigned(v, w, key, 0, hi);
@@ -165,17 +205,21 @@ std::map<std::string, Setter> make_setters() {
   }
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
-    auto joint_number = [&s, j, p](const std::string& name, double delta::DriveModel::*field) {
+    auto joint_number = [&s, j, p](const std::string& name, double delta::DriveModel::*field,
+                                   const Range& range) {
       const std::string key = p + name;
       s[key] = [=](PortConfig& c, const std::string& v, const std::string& w) {
-        c.joints[j].model.*field = parse_number(v, w, key);
+        c.joints[j].model.*field = parse_in_range(v, w, key, range);
       };
     };
-    joint_number("gear_ratio", &delta::DriveModel::gear_ratio);
-    joint_number("rated_current_A", &delta::DriveModel::rated_current_A);
-    joint_number("rated_torque_Nm", &delta::DriveModel::rated_torque_Nm);
-    joint_number("gearbox_efficiency", &delta::DriveModel::gearbox_efficiency);
-    joint_number("zero_rad", &delta::DriveModel::joint_zero_rad);
+    joint_number("gear_ratio", &delta::DriveModel::gear_ratio, {0.0, 4000.0, "", false});
+    joint_number("rated_current_A", &delta::DriveModel::rated_current_A,
+                 {0.0, 1000.0, " A", false});
+    joint_number("rated_torque_Nm", &delta::DriveModel::rated_torque_Nm,
+                 {0.0, 10000.0, " N m", false});
+    joint_number("gearbox_efficiency", &delta::DriveModel::gearbox_efficiency,
+                 {0.0, 1.0, "", false});
+    joint_number("zero_rad", &delta::DriveModel::joint_zero_rad, {-kPi, kPi, " rad", true});
     s[p + "node"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].node = static_cast<std::uint8_t>(parse_unsigned(v, w, p + "node", 1, 127));
     };
@@ -209,6 +253,21 @@ std::string trim(const std::string& s, std::size_t& first) {
 
 void require(bool ok, const std::string& message) {
   if (!ok) throw ConfigError(message);
+}
+
+// The torque constant rated_torque / rated_current in its Q format (Q7.24)
+// must keep three significant digits; a tiny one would round to 0 and make
+// every torque 0.
+void require_representable_torque_constant(const std::string& p, const delta::DriveModel& m) {
+  const double kt = m.torque_constant_Nm_per_A();
+  const double q = std::ldexp(std::round(std::ldexp(kt, 24)), -24);
+  if (!(std::fabs(q - kt) <= 1e-3 * kt)) {
+    std::ostringstream msg;
+    msg << p << "rated_torque_Nm / " << p << "rated_current_A = " << kt
+        << " N m/A is below what its Q7.24 format keeps to 0.1 % ("
+        << std::ldexp(1.0, -24) / 1e-3 * 0.5 << " N m/A)";
+    throw ConfigError(msg.str());
+  }
 }
 
 }  // namespace
@@ -298,6 +357,7 @@ void validate(const PortConfig& c) {
             p + "rated_current_A and rated_torque_Nm must be positive");
     require(m.gearbox_efficiency > 0 && m.gearbox_efficiency <= 1,
             p + "gearbox_efficiency must be in (0, 1]");
+    require_representable_torque_constant(p, m);
     for (unsigned k = 0; k < j; ++k) {
       require(c.joints[k].node != c.joints[j].node,
               p + "node = " + std::to_string(c.joints[j].node) + " is also joint" +

@@ -55,7 +55,7 @@ TEST(PortConfigTest, ReadsKeysOverTheDefaults) {
 
 TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
   EXPECT_NE(config_error("period_us = 2ms\n")
-                .find("port_test.conf:1:13: period_us needs a number, got '2ms'"),
+                .find("port_test.conf:1:13: period_us needs a decimal number, got '2ms'"),
             std::string::npos)
       << config_error("period_us = 2ms\n");
   EXPECT_NE(config_error("\n  bogus = 1\n").find(":2:3: unknown key 'bogus'"), std::string::npos);
@@ -81,6 +81,37 @@ TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.conf: cannot open"),
               std::string::npos);
   }
+}
+
+// Values that parse but cannot be represented are refused at load time,
+// with the key, the value and the range (fuzzing findings of #19): each of
+// these was accepted, and each broke the controller in its own way.
+TEST(PortConfigTest, ValuesThatCannotBeRepresentedAreRefusedWithTheirRange) {
+  const auto refuses = [](const std::string& text, const std::string& message) {
+    const std::string e = config_error(text);
+    EXPECT_NE(e.find(message), std::string::npos) << text << " gave: " << e;
+  };
+  // strtod took hexadecimal and a doubled sign.
+  refuses("approach_s = 0x.2\n", ":1:14: approach_s needs a decimal number, got '0x.2'");
+  refuses("blend_s = +-1\n", ":1:11: blend_s needs a decimal number, got '+-1'");
+  refuses("limits.max_rad = inf\n", "limits.max_rad needs a decimal number, got 'inf'");
+  // The tick count wrapped (2 521 180 408 ticks) or became 0.
+  refuses("stop_s = 11111115\n", ":1:10: stop_s = 11111115 s is out of range (0, 3600] s");
+  refuses("stop_s = 1e31\n", ":1:10: stop_s = 1e31 s is out of range (0, 3600] s");
+  refuses("approach_s = 1e31\n", "approach_s = 1e31 s is out of range (0, 3600] s");
+  // The torque constant rounded to 0 in Q7.24: every torque of the joint 0.
+  refuses("joint1.rated_current_A = 24294967296\n",
+          ":1:26: joint1.rated_current_A = 24294967296 A is out of range (0, 1000] A");
+  refuses("joint1.rated_current_A = 900\njoint1.rated_torque_Nm = 0.001\n",
+          "joint1.rated_torque_Nm / joint1.rated_current_A = 1.11111e-06 N m/A is below what its "
+          "Q7.24 format keeps to 0.1 %");
+  // The zero overflowed int64 in the angle conversion (or, beyond 8 rad,
+  // saturated every angle).
+  refuses("joint1.zero_rad = 34359738367\n",
+          ":1:19: joint1.zero_rad = 34359738367 rad is out of range [-3.14159, 3.14159] rad");
+  refuses("joint3.zero_rad = -8\n", "joint3.zero_rad = -8 rad is out of range");
+  // What is representable still reads.
+  EXPECT_EQ(config_error("stop_s = 3600\njoint1.zero_rad = -3.14\napproach_s = +2.5\n"), "");
 }
 
 TEST(DriveUnitsTest, ConversionsAgreeWithTheDriveModel) {
