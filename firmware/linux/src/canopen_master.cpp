@@ -411,7 +411,10 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
       record({.kind = CyclicProblem::Kind::kNoTpdo1, .node = d.node, .cycle = cycle_});
     }
     const bool sample = d.got_tpdo1 && !d.malformed;
-    if (sample) {
+    // Read twice in one cycle, the same sample is not a new one: the
+    // velocity stands (its time span would be 0).
+    const bool new_sample = sample && !(d.previous_cycle != 0 && d.previous_cycle == cycle_);
+    if (new_sample) {
       if (!config_.velocity_pdo) {
         // Over the cycles since the last good sample (more than one when
         // samples were missed); 0 before the first.
