@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <ostream>
@@ -59,6 +60,41 @@ bool parse_double(std::string_view s, double& out) {
   return r.ec == std::errc() && r.ptr == s.data() + s.size();
 }
 
+// The 1-based column of the first byte that is not well-formed UTF-8
+// (RFC 3629: no overlong forms, no surrogates, nothing above U+10FFFF);
+// 0 when every byte is.
+std::size_t first_non_utf8_column(std::string_view s) {
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(s[i]); };
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const unsigned char c = byte(i);
+    std::size_t len = 0;
+    unsigned char lo = 0x80, hi = 0xBF;  // the second byte's range
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if (c >= 0xC2 && c <= 0xDF) {
+      len = 2;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      len = 3;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      len = 4;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else {
+      return i + 1;
+    }
+    if (i + len > s.size() || byte(i + 1) < lo || byte(i + 1) > hi) return i + 1;
+    for (std::size_t k = 2; k < len; ++k) {
+      if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return i + 1;
+    }
+    i += len;
+  }
+  return 0;
+}
+
 std::string quoted(std::string_view s) {
   std::string r = "'";
   r.append(s.substr(0, 40));
@@ -111,6 +147,9 @@ class LogParser {
         cur_.line = blank_line_;
         cur_.fail(1, "empty line inside the file (only allowed at the end)");
       }
+      // Text (metadata, comments, the header) must be UTF-8, as the format
+      // says; a data row that is not is refused by its numbers.
+      if (!header_seen_ || line.front() == '#') require_utf8(line);
       if (line.front() == '#') {
         if (!header_seen_) metadata_line(line);  // after the header: a comment
       } else if (!header_seen_) {
@@ -123,6 +162,14 @@ class LogParser {
   }
 
  private:
+  void require_utf8(std::string_view line) {
+    if (const std::size_t col = first_non_utf8_column(line)) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", static_cast<unsigned char>(line[col - 1]));
+      cur_.fail(col, std::string("not UTF-8 text (byte ") + hex + ")");
+    }
+  }
+
   // "# key = value" is metadata; anything else is a comment.
   void metadata_line(std::string_view line) {
     const std::string_view body = line.substr(1);

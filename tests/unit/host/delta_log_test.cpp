@@ -172,6 +172,20 @@ TEST(DeltaLogTest, NonNumbersNanInfAndFieldCountsNameLineAndColumn) {
             "log.csv:8:11: column 'q2': not a number: '-+1'");
 }
 
+// The format is UTF-8 text: a metadata value, a comment or a column name
+// that is not is refused at its byte (a fuzzing finding of #19); UTF-8 such
+// as a robot named "Roboter-Ä" is fine.
+TEST(DeltaLogTest, TextThatIsNotUtf8IsRefusedAtItsByte) {
+  const std::string rows = "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n";
+  EXPECT_EQ(error_of(kMeta + "# robot = caf\xE9\n" + rows),
+            "log.csv:6:14: not UTF-8 text (byte 0xE9)");
+  EXPECT_EQ(error_of(kMeta + "# a comment \xC0\xAF\n" + rows),
+            "log.csv:6:13: not UTF-8 text (byte 0xC0)");  // an overlong '/'
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3,x\xED\xA0\x80\n0,0,0,0,0,0,0,0\n"),
+            "log.csv:6:28: not UTF-8 text (byte 0xED)");  // a surrogate
+  EXPECT_EQ(error_of(kMeta + "# robot = Roboter-\xC3\x84 \xF0\x9F\xA4\x96\n" + rows), "");
+}
+
 TEST(DeltaLogTest, TimeMustIncrease) {
   const std::string h = kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0.5,0,0,0,0,0,0\n";
   EXPECT_EQ(error_of(h + "0.5,0,0,0,0,0,0\n"),
