@@ -180,6 +180,9 @@ std::map<std::string, Setter> make_setters() {
   s["modbus.byte_timeout_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     c.modbus.byte_timeout_ms = parse_unsigned(v, w, "modbus.byte_timeout_ms", 1, 10000);
   };
+  s["modbus.idle_timeout_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.modbus.idle_timeout_ms = parse_unsigned(v, w, "modbus.idle_timeout_ms", 100, 3600000);
+  };
   s["modbus.command_timeout_ms"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     c.modbus.command_timeout_ms = parse_unsigned(v, w, "modbus.command_timeout_ms", 1, 60000);
   };

@@ -7,11 +7,14 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <iostream>
 #include <vector>
 
+#include "fw_linux/mbap_framer.hpp"
 #include "fw_linux/trajectories.hpp"
 
 namespace fw_linux {
@@ -26,6 +29,53 @@ constexpr std::uint8_t kWriteSingle = 0x06;
 constexpr std::uint8_t kWriteMultiple = 0x10;
 constexpr unsigned kMaxReadCount = 125;   // Modbus: registers per read
 constexpr unsigned kMaxWriteCount = 123;  // Modbus: registers per write
+
+// Modbus RTU's CRC-16 (polynomial 0xA001 reflected, initial 0xFFFF).
+std::uint16_t crc16(const std::uint8_t* p, std::size_t n) {
+  std::uint16_t crc = 0xFFFF;
+  for (std::size_t i = 0; i < n; ++i) {
+    crc ^= p[i];
+    for (int b = 0; b < 8; ++b) {
+      crc = (crc & 1u) != 0 ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001u)
+                            : static_cast<std::uint16_t>(crc >> 1);
+    }
+  }
+  return crc;
+}
+
+// An exception reply. libmodbus adds 0x80 to the request's function code in
+// an int and stores a byte, so a request with a code of 0x80 or more (no
+// such function exists) got a reply with the code's low 7 bits: 0x83 was
+// answered as 03. Those replies are built here, with the code as sent (its
+// exception bit already set).
+void reply_exception(modbus_t* ctx, const std::uint8_t* request, std::uint8_t code) {
+  const int h = modbus_get_header_length(ctx);
+  const std::uint8_t function = request[h];
+  if (function < 0x80) {
+    modbus_reply_exception(ctx, request, code);
+    return;
+  }
+  std::uint8_t reply[9];
+  std::size_t n = 0;
+  if (h == 7) {  // TCP: the request's transaction and unit, a length of 3
+    const std::uint8_t header[] = {request[0], request[1], 0, 0, 0, 3, request[6]};
+    std::memcpy(reply, header, sizeof header);
+    n = sizeof header;
+  } else {  // RTU: the unit, and the CRC after the PDU
+    reply[n++] = request[0];
+  }
+  reply[n++] = function;
+  reply[n++] = code;
+  if (h != 7) {
+    const std::uint16_t crc = crc16(reply, n);
+    reply[n++] = static_cast<std::uint8_t>(crc & 0xFF);
+    reply[n++] = static_cast<std::uint8_t>(crc >> 8);
+  }
+  const int fd = modbus_get_socket(ctx);
+  // A TCP client may be gone: no SIGPIPE for that; its next read tells.
+  const ssize_t sent = h == 7 ? send(fd, reply, n, MSG_NOSIGNAL) : ::write(fd, reply, n);
+  (void)sent;
+}
 
 std::uint16_t be16(const std::uint8_t* p) {
   return static_cast<std::uint16_t>((p[0] << 8) | p[1]);
@@ -107,7 +157,7 @@ bool RegisterBank::refuse(modbus_t* ctx, const std::uint8_t* request, mb::Reject
   last_rejection_ = why;
   last_rejection_register_ = address;
   last_check_ = check;
-  modbus_reply_exception(ctx, request, mb::exception_code(why));
+  reply_exception(ctx, request, mb::exception_code(why));
   return false;
 }
 
@@ -267,7 +317,9 @@ ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel)
     if (tcp_ == nullptr) {
       fail("modbus.tcp = " + config_.tcp + ": " + modbus_strerror(errno));
     }
-    listen_fd_ = modbus_tcp_pi_listen(tcp_, static_cast<int>(config_.max_clients));
+    // The backlog is not the client limit: a burst of short connections
+    // waits in it instead of being refused by the kernel.
+    listen_fd_ = modbus_tcp_pi_listen(tcp_, kListenBacklog);
     if (listen_fd_ < 0) {
       fail("modbus.tcp = " + config_.tcp + ": cannot listen: " + modbus_strerror(errno));
     }
@@ -332,58 +384,145 @@ void ModbusServer::count(std::uint64_t ModbusStats::*field) {
   ++(stats_.*field);
 }
 
+namespace {
+
+std::uint64_t steady_ms() {
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                        std::chrono::steady_clock::now().time_since_epoch())
+                                        .count());
+}
+
+}  // namespace
+
+// One TCP client: its socket, the bytes of its request so far, and when it
+// last sent a byte and finished a request.
+struct ModbusServer::TcpClient {
+  int fd{-1};
+  MbapFramer framer;
+  std::uint64_t last_byte_ms{0};
+  std::uint64_t last_request_ms{0};
+};
+
 void ModbusServer::serve_tcp() {
-  std::vector<int> clients;
-  std::uint8_t request[MODBUS_TCP_MAX_ADU_LENGTH];
+  std::vector<TcpClient> clients;
+  std::vector<pollfd> fds;
   for (;;) {
-    std::vector<pollfd> fds{{wake_fd_, POLLIN, 0}, {listen_fd_, POLLIN, 0}};
-    for (int c : clients) fds.push_back({c, POLLIN, 0});
-    if (poll(fds.data(), fds.size(), -1) < 0) {
+    fds.assign({{wake_fd_, POLLIN, 0}, {listen_fd_, POLLIN, 0}});
+    for (const TcpClient& c : clients) fds.push_back({c.fd, POLLIN, 0});
+    if (poll(fds.data(), fds.size(), next_tcp_deadline_ms(clients)) < 0) {
       if (errno == EINTR) continue;
       std::cerr << "delta_fw: Modbus TCP: poll: " << std::strerror(errno) << "\n";
       break;
     }
     if (fds[0].revents != 0) break;
-    std::vector<int> keep;
-    for (std::size_t i = 2; i < fds.size(); ++i) {
-      const int c = fds[i].fd;
-      if (fds[i].revents == 0) {
-        keep.push_back(c);
-        continue;
-      }
-      modbus_set_socket(tcp_, c);
-      const int rc = modbus_receive(tcp_, request);
-      const auto outcome = rc > 0 ? bank_.answer(tcp_, request, rc) : RegisterBank::Outcome::kDrop;
-      if (rc > 0 && outcome != RegisterBank::Outcome::kDrop) {
-        count(&ModbusStats::requests);
-        if (outcome == RegisterBank::Outcome::kException) count(&ModbusStats::exceptions);
-        keep.push_back(c);
-      } else if (rc == 0) {
-        keep.push_back(c);  // not for us
+    std::vector<TcpClient> keep;
+    for (std::size_t i = 0; i < clients.size(); ++i) {
+      TcpClient& c = clients[i];
+      if (fds[i + 2].revents == 0 || read_tcp_client(c)) {
+        keep.push_back(std::move(c));
       } else {
-        // A hang-up, a request cut short (byte timeout) or a bad header:
-        // the connection goes; the client may reconnect.
-        if (rc > 0 || errno != ECONNRESET) count(&ModbusStats::receive_errors);
-        count(&ModbusStats::clients_dropped);
-        close(c);
+        close(c.fd);
       }
     }
+    close_timed_out_clients(keep);
     // After the clients: a hang-up in this round frees its place first.
-    if ((fds[1].revents & POLLIN) != 0) {
-      const int c = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-      if (c >= 0) {
-        if (keep.size() >= config_.max_clients) {
-          count(&ModbusStats::clients_refused);
-          close(c);
-        } else {
-          keep.push_back(c);
-          count(&ModbusStats::clients_accepted);
-        }
-      }
-    }
+    if ((fds[1].revents & POLLIN) != 0) accept_tcp_client(keep);
     clients = std::move(keep);
   }
-  for (int c : clients) close(c);
+  for (const TcpClient& c : clients) close(c.fd);
+}
+
+// The milliseconds until the first client's byte or idle timeout (-1: none).
+int ModbusServer::next_tcp_deadline_ms(const std::vector<TcpClient>& clients) const {
+  const std::uint64_t now = steady_ms();
+  std::uint64_t first = UINT64_MAX;
+  for (const TcpClient& c : clients) {
+    first = std::min(first, c.framer.empty() ? c.last_request_ms + config_.idle_timeout_ms
+                                             : c.last_byte_ms + config_.byte_timeout_ms);
+  }
+  if (first == UINT64_MAX) return -1;
+  return first <= now ? 0 : static_cast<int>(std::min<std::uint64_t>(first - now, 60000));
+}
+
+// Reads what the client sent and answers every whole request in it; false
+// when the connection is to go (the client hung up, or its header is no
+// Modbus TCP header).
+bool ModbusServer::read_tcp_client(TcpClient& c) {
+  const ssize_t n = recv(c.fd, c.framer.space(), c.framer.space_left(), MSG_DONTWAIT);
+  if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+    if (!c.framer.empty()) count(&ModbusStats::receive_errors);  // cut short
+    count(&ModbusStats::clients_dropped);
+    return false;
+  }
+  if (n < 0) return true;
+  const std::uint64_t now = steady_ms();
+  c.last_byte_ms = now;
+  c.framer.added(static_cast<std::size_t>(n));
+  std::size_t length = 0;
+  for (;;) {
+    const MbapFramer::Next next = c.framer.next(length);
+    if (next == MbapFramer::Next::kNeedMore) return true;
+    if (next == MbapFramer::Next::kBadHeader) {
+      // The stream's framing can no longer be trusted: the connection goes.
+      count(&ModbusStats::receive_errors);
+      count(&ModbusStats::clients_dropped);
+      return false;
+    }
+    modbus_set_socket(tcp_, c.fd);
+    const auto outcome = bank_.answer(tcp_, c.framer.data(), static_cast<int>(length));
+    c.framer.consume(length);
+    c.last_request_ms = now;
+    count(&ModbusStats::requests);
+    if (outcome == RegisterBank::Outcome::kException) count(&ModbusStats::exceptions);
+  }
+}
+
+// A request whose bytes stopped for byte_timeout_ms is dropped with its
+// connection; a connection without a request for idle_timeout_ms is closed.
+void ModbusServer::close_timed_out_clients(std::vector<TcpClient>& clients) {
+  const std::uint64_t now = steady_ms();
+  std::erase_if(clients, [&](const TcpClient& c) {
+    const bool cut_short = !c.framer.empty() && now >= c.last_byte_ms + config_.byte_timeout_ms;
+    const bool idle = c.framer.empty() && now >= c.last_request_ms + config_.idle_timeout_ms;
+    if (!cut_short && !idle) return false;
+    count(cut_short ? &ModbusStats::receive_errors : &ModbusStats::clients_idle_closed);
+    count(&ModbusStats::clients_dropped);
+    close(c.fd);
+    return true;
+  });
+}
+
+// Takes a new connection. At the limit, it displaces the client that has
+// been idle longest, if that one has been idle for kDisplaceIdleMs (so idle
+// connections cannot lock everybody out, and a client that is talking is
+// never cut off); otherwise the new connection is closed.
+void ModbusServer::accept_tcp_client(std::vector<TcpClient>& clients) {
+  const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+  if (fd < 0) return;
+  const std::uint64_t now = steady_ms();
+  if (clients.size() >= config_.max_clients) {
+    auto idlest = clients.end();
+    for (auto it = clients.begin(); it != clients.end(); ++it) {
+      if (it->framer.empty() && now >= it->last_request_ms + kDisplaceIdleMs &&
+          (idlest == clients.end() || it->last_request_ms < idlest->last_request_ms)) {
+        idlest = it;
+      }
+    }
+    if (idlest == clients.end()) {
+      count(&ModbusStats::clients_refused);
+      close(fd);
+      return;
+    }
+    count(&ModbusStats::clients_idle_closed);
+    count(&ModbusStats::clients_dropped);
+    close(idlest->fd);
+    clients.erase(idlest);
+  }
+  TcpClient c;
+  c.fd = fd;
+  c.last_byte_ms = c.last_request_ms = now;
+  clients.push_back(std::move(c));
+  count(&ModbusStats::clients_accepted);
 }
 
 void ModbusServer::serve_rtu() {

@@ -530,6 +530,118 @@ TEST_F(Fixture, MalformedRequestsAreAnsweredOrDroppedAndTheLoopNeverStalls) {
   EXPECT_GE(st.exceptions, 1u);
 }
 
+// Sends a raw Modbus TCP request and reads one reply (empty on timeout).
+std::vector<std::uint8_t> raw_exchange(int s, const std::vector<std::uint8_t>& req) {
+  EXPECT_EQ(send(s, req.data(), req.size(), MSG_NOSIGNAL), static_cast<ssize_t>(req.size()));
+  std::vector<std::uint8_t> got;
+  const auto deadline = steady_clock::now() + std::chrono::seconds(5);
+  while (steady_clock::now() < deadline) {
+    pollfd p{s, POLLIN, 0};
+    if (poll(&p, 1, 100) <= 0) continue;
+    std::uint8_t buf[300];
+    const ssize_t n = recv(s, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.insert(got.end(), buf, buf + n);
+    if (got.size() >= 6 && got.size() >= 6u + ((got[4] << 8) | got[5])) break;
+  }
+  return got;
+}
+
+// Functions the server does not serve get exception 01 with their own
+// function code and the exception bit, whatever their payload, and the
+// connection stays in step (fuzzing findings of #19: 0x83 was answered as
+// 03 01; diagnostics 0x08 reset or timed out the connection).
+TEST_F(Fixture, UnservedFunctionsGetExceptionOneAndTheConnectionStaysInStep) {
+  const int s = raw_connect(server.tcp_port());
+  ASSERT_GE(s, 0);
+  const std::vector<std::uint8_t> high = {0, 7, 0, 0, 0, 6, 1, 0x83, 0, 0, 0, 1};
+  EXPECT_EQ(raw_exchange(s, high), (std::vector<std::uint8_t>{0, 7, 0, 0, 0, 3, 1, 0x83, 0x01}));
+  const std::vector<std::uint8_t> diagnostics = {0, 8, 0, 0, 0, 6, 1, 0x08, 0, 0, 0xA5, 0x37};
+  EXPECT_EQ(raw_exchange(s, diagnostics),
+            (std::vector<std::uint8_t>{0, 8, 0, 0, 0, 3, 1, 0x88, 0x01}));
+  const std::vector<std::uint8_t> odd = {0, 9, 0, 0, 0, 5, 1, 0x2B, 0x0E, 0x01, 0x00};
+  EXPECT_EQ(raw_exchange(s, odd), (std::vector<std::uint8_t>{0, 9, 0, 0, 0, 3, 1, 0xAB, 0x01}));
+  // The same connection, in step: read input register 73 (the map version).
+  const std::vector<std::uint8_t> read = {0, 10, 0, 0, 0, 6, 1, 0x04, 0, 0, 0, 1};
+  const std::vector<std::uint8_t> reply = raw_exchange(s, read);
+  ASSERT_EQ(reply.size(), 11u);
+  EXPECT_EQ(reply[7], 0x04);
+  close(s);
+}
+
+// A client that trickles its request (a byte every 70 ms, under the
+// fixture's 100 ms byte timeout; the finding's was 150 ms under 200 ms) no
+// longer holds the server: another client is answered at once (it waited
+// 2.1 s before).
+TEST_F(Fixture, ASlowClientDoesNotHoldTheOthers) {
+  const int slow = raw_connect(server.tcp_port());
+  ASSERT_GE(slow, 0);
+  std::atomic<bool> done{false};
+  std::thread trickle([&] {
+    const std::uint8_t req[] = {0, 1, 0, 0, 0, 6, 1, 0x04, 0, 0, 0, 1};
+    for (std::uint8_t b : req) {
+      if (done.load()) break;
+      if (send(slow, &b, 1, MSG_NOSIGNAL) != 1) break;
+      std::this_thread::sleep_for(milliseconds(70));  // the attack's pace, not a wait
+    }
+  });
+  std::this_thread::sleep_for(milliseconds(300));  // a few bytes into its request
+  double worst_ms = 0;
+  for (int i = 0; i < 5; ++i) {
+    const auto t0 = steady_clock::now();
+    EXPECT_EQ(client.input("protocol_version"), mb::kMapVersion);
+    worst_ms = std::max(
+        worst_ms, std::chrono::duration<double, std::milli>(steady_clock::now() - t0).count());
+  }
+  done.store(true);
+  trickle.join();
+  close(slow);
+  EXPECT_LT(worst_ms, 100.0) << "a read waited behind the slow client";
+}
+
+// Idle connections cannot lock the others out: when the server is full, a
+// new client displaces the one idle longest (idle at least 1 s); a client
+// that is talking is never cut off (the limit test below).
+TEST_F(Fixture, IdleConnectionsMakeWayForANewClient) {
+  std::vector<int> idle;
+  for (int i = 0; i < 7; ++i) {  // with the fixture's client: all 8 places
+    idle.push_back(raw_connect(server.tcp_port()));
+    ASSERT_GE(idle.back(), 0);
+  }
+  // The displacement is for clients idle 1 s: let that time pass.
+  std::this_thread::sleep_for(milliseconds(1100));
+  Client late(server.tcp_port());
+  EXPECT_EQ(late.input("protocol_version"), mb::kMapVersion);
+  EXPECT_GE(server.stats().clients_idle_closed, 1u);
+  for (int s : idle) close(s);
+}
+
+// Many short connections from three clients at once are all served. (The
+// listen backlog is no longer the client limit, 8 but 128; this test passes
+// with either here, so it does not show that change: the fuzzing run's 15
+// failures of 300 were not reproduced in-process.)
+TEST_F(Fixture, ABurstOfShortConnectionsIsServed) {
+  std::atomic<int> failed{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 3; ++t) {
+    threads.emplace_back([&] {
+      for (int i = 0; i < 100; ++i) {
+        const int s = raw_connect(server.tcp_port());
+        if (s < 0) {
+          ++failed;
+          continue;
+        }
+        const std::vector<std::uint8_t> reply =
+            raw_exchange(s, {0, 1, 0, 0, 0, 6, 1, 0x04, 0, 0, 0, 1});
+        if (reply.size() != 11u) ++failed;
+        close(s);
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(failed.load(), 0);
+}
+
 TEST_F(Fixture, ServesManyClientsAtOnceAndRefusesBeyondTheLimit) {
   // The fixture's client holds one of the 8 places; 7 more read at once.
   constexpr int kClients = 7;

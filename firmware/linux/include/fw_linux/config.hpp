@@ -42,6 +42,7 @@ struct ModbusConfig {
   std::uint32_t rtu_unit_id{1};
   std::uint32_t max_clients{8};            // TCP connections served at once; more are closed
   std::uint32_t byte_timeout_ms{200};      // a request that stops mid-way is dropped after this
+  std::uint32_t idle_timeout_ms{30000};    // TCP: a connection without a request is closed
   std::uint32_t command_timeout_ms{1000};  // wait for the control loop to take a command
 };
 

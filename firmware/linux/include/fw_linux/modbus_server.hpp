@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
@@ -32,8 +33,9 @@ struct ModbusStats {
   std::uint64_t exceptions{0};      // requests answered with a Modbus exception
   std::uint64_t receive_errors{0};  // bad CRC, a request cut short, a bad header
   std::uint64_t clients_accepted{0};
-  std::uint64_t clients_refused{0};  // over modbus.max_clients
-  std::uint64_t clients_dropped{0};  // closed on a receive error or a hang-up
+  std::uint64_t clients_refused{0};      // over modbus.max_clients
+  std::uint64_t clients_dropped{0};      // closed on a receive error, a hang-up or idleness
+  std::uint64_t clients_idle_closed{0};  // idle too long, or displaced when full
 };
 
 // The registers: settings, the status snapshot and the validation of
@@ -94,7 +96,16 @@ class ModbusServer {
   ModbusStats stats() const;
 
  private:
+  struct TcpClient;
+  // A client idle this long makes way for a new one when the server is full.
+  static constexpr std::uint64_t kDisplaceIdleMs = 1000;
+  static constexpr int kListenBacklog = 128;
+
   void serve_tcp();
+  int next_tcp_deadline_ms(const std::vector<TcpClient>& clients) const;
+  bool read_tcp_client(TcpClient& c);
+  void close_timed_out_clients(std::vector<TcpClient>& clients);
+  void accept_tcp_client(std::vector<TcpClient>& clients);
   void serve_rtu();
   void count(std::uint64_t ModbusStats::*field);
   void close_all();  // what the constructor opened
