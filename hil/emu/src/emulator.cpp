@@ -271,19 +271,20 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
   const std::uint8_t command = f.data[0];
   const auto index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
   const std::uint8_t sub = f.data[3];
-  const std::uint32_t value = sdo::get_u32(f.data);
+  const std::uint32_t raw_value = sdo::get_u32(f.data);
   const std::uint32_t reply_id = p::cob_id(p::kSdoTx, d.node);
   auto reply = [&](const sdo::Payload& payload) { send(reply_id, 8, payload); };
   auto abort = [&](std::uint32_t code) { reply(sdo::abort_transfer(index, sub, code)); };
 
   const bool upload = command == sdo::kUploadRequest;
-  const bool download = (command & 0xE3) == 0x23;  // expedited, size indicated
+  const bool download = (command & 0xE2) == 0x22;  // expedited, size indicated or not
   if (!upload && !download) return abort(sdo::kAbortCommand);
 
   // The object dictionary: read-only values, and the writable ones.
   const double rated_current_mA = d.model.rated_current_A * 1000.0;
   const double rated_torque_mNm = d.model.rated_torque_Nm * 1000.0;
   std::uint32_t read_value = 0;
+  std::uint8_t size = 4;  // the object's data type, in bytes
   bool writable = false;
   bool exists = true;
   switch (index) {
@@ -292,6 +293,7 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       break;
     case 0x1001:
       read_value = d.state == cia::State::kFault ? 1u : 0u;
+      size = 1;
       break;
     case 0x1006:
       read_value = d.cycle_us;
@@ -300,10 +302,12 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
     case 0x1016:
       if (sub > 1) return abort(sdo::kAbortSubindexDoesNotExist);
       read_value = sub == 0 ? 1u : d.consumer;
+      size = sub == 0 ? 1 : 4;
       writable = sub == 1;
       break;
     case 0x1017:
       read_value = d.heartbeat_ms;
+      size = 2;
       writable = true;
       break;
     case 0x1801:
@@ -313,16 +317,20 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
       break;
     case 0x6041:
       read_value = cia::encode_statusword(d.state);
+      size = 2;
       break;
     case 0x6060:
       read_value = static_cast<std::uint8_t>(d.mode);
+      size = 1;
       writable = true;
       break;
     case 0x6061:
       read_value = static_cast<std::uint8_t>(d.mode);
+      size = 1;
       break;
     case 0x6073:
       read_value = d.max_current_pm;
+      size = 2;
       writable = true;
       break;
     case 0x6075:
@@ -342,8 +350,14 @@ void Emulator::handle_sdo(Drive& d, const Frame& f) {
   if (index != 0x1016 && index != 0x1801 && index != 0x608F && sub != 0) {
     return abort(sdo::kAbortSubindexDoesNotExist);
   }
-  if (upload) return reply(sdo::upload_response(index, sub, read_value));
+  if (upload) return reply(sdo::upload_response(index, sub, read_value, size));
   if (!writable) return abort(sdo::kAbortReadOnly);
+  // CiA 301: a download of the wrong length is aborted, not taken.
+  if (const unsigned bytes = sdo::expedited_download_bytes(command); bytes != 0 && bytes != size) {
+    return abort(bytes > size ? sdo::kAbortLengthTooHigh : sdo::kAbortLengthTooLow);
+  }
+  const std::uint32_t value =
+      size == 4 ? raw_value : raw_value & ((std::uint32_t{1} << (8 * size)) - 1);
   switch (index) {
     case 0x1006:
       if (value < 100 || value > 1000000) return abort(sdo::kAbortValueRange);

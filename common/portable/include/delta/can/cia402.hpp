@@ -196,6 +196,8 @@ inline constexpr std::uint32_t kAbortObjectDoesNotExist = 0x06020000;
 inline constexpr std::uint32_t kAbortSubindexDoesNotExist = 0x06090011;
 inline constexpr std::uint32_t kAbortReadOnly = 0x06010002;
 inline constexpr std::uint32_t kAbortValueRange = 0x06090030;
+inline constexpr std::uint32_t kAbortLengthTooHigh = 0x06070012;  // data type length too high
+inline constexpr std::uint32_t kAbortLengthTooLow = 0x06070013;   // data type length too low
 inline constexpr std::uint32_t kAbortTimeout = 0x05040000;
 inline constexpr std::uint32_t kAbortCommand = 0x05040001;
 
@@ -248,12 +250,21 @@ constexpr Payload download_response(std::uint16_t index, std::uint8_t subindex) 
   return p;
 }
 
-// An expedited upload response with 4 bytes: 0x43.
-constexpr Payload upload_response(std::uint16_t index, std::uint8_t subindex, std::uint32_t value) {
+// An expedited upload response of the object's 1, 2 or 4 bytes, size
+// indicated: 0x4F, 0x4B, 0x43 (the unused bytes zero).
+constexpr Payload upload_response(std::uint16_t index, std::uint8_t subindex, std::uint32_t value,
+                                  std::uint8_t size_bytes = 4) {
   Payload p{};
-  put_header(p, 0x43, index, subindex);
-  put_u32(p, value);
+  const auto unused = static_cast<std::uint8_t>(4 - size_bytes);
+  put_header(p, static_cast<std::uint8_t>(0x43 | (unused << 2)), index, subindex);
+  put_u32(p, size_bytes == 4 ? value : value & ((std::uint32_t{1} << (8 * size_bytes)) - 1));
   return p;
+}
+
+// The data bytes of an expedited download request: 1 to 4 with the size
+// indicated, 0 without (CiA 301 allows it; the object's size applies).
+constexpr unsigned expedited_download_bytes(std::uint8_t command) {
+  return (command & 0x01) != 0 ? 4u - ((command >> 2) & 3u) : 0u;
 }
 
 enum class ResponseKind : std::uint8_t { kDownloadDone, kUploadValue, kAborted, kUnexpected };
