@@ -1,7 +1,7 @@
-// The safety lines' libgpiod backend: the e-stop debouncing, the start-up
-// errors on this machine (no GPIO chips), and the lines themselves on a
-// gpio-sim chip where the kernel has one (configfs, root); elsewhere that
-// test is skipped, and says why.
+// The safety lines' libgpiod backend: the e-stop debouncing and the start-up
+// errors (unit tests), and the lines themselves on a real kernel GPIO chip
+// made with gpio-sim (GpioSimTest: a HIL test, run in hil/vcan-run's VM,
+// whose kernel has gpio-sim built for it).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -11,6 +11,7 @@
 #include <string>
 
 #include "fw_linux/gpio_safety_io.hpp"
+#include "gpio_sim.hpp"
 
 namespace fw_linux {
 namespace {
@@ -50,55 +51,12 @@ TEST(GpioSafetyIoTest, AMissingChipFailsTheStartWithItsName) {
   }
 }
 
-// gpio-sim (Linux >= 5.17, CONFIG_GPIO_SIM): a simulated chip made through
-// configfs; the test drives the e-stop input by its pull and reads the
-// outputs' values from sysfs.
-class GpioSim {
- public:
-  static constexpr const char* kRoot = "/sys/kernel/config/gpio-sim";
-  static std::string unavailable() {
-    if (geteuid() != 0) return "needs root to create a gpio-sim chip";
-    if (!std::filesystem::exists(kRoot)) {
-      return "no gpio-sim here (/sys/kernel/config/gpio-sim missing: the kernel lacks "
-             "CONFIG_GPIO_SIM or configfs is not mounted)";
-    }
-    return "";
-  }
-  GpioSim() {
-    dir_ = std::string(kRoot) + "/delta-test-" + std::to_string(getpid());
-    std::filesystem::create_directory(dir_);
-    std::filesystem::create_directory(dir_ + "/bank0");
-    put(dir_ + "/bank0/num_lines", "8");
-    put(dir_ + "/live", "1");
-    chip_ = get(dir_ + "/bank0/chip_name");
-    device_ = get(dir_ + "/dev_name");
-  }
-  ~GpioSim() {
-    put(dir_ + "/live", "0");
-    std::filesystem::remove(dir_ + "/bank0");
-    std::filesystem::remove(dir_);
-  }
-  const std::string& chip() const { return chip_; }
-  void pull(unsigned line, bool up) { put(line_dir(line) + "/pull", up ? "pull-up" : "pull-down"); }
-  int value(unsigned line) const { return std::stoi(get(line_dir(line) + "/value")); }
-
- private:
-  std::string line_dir(unsigned line) const {
-    return "/sys/devices/platform/" + device_ + "/" + chip_ + "/sim_gpio" + std::to_string(line);
-  }
-  static void put(const std::string& path, const std::string& v) { std::ofstream(path) << v; }
-  static std::string get(const std::string& path) {
-    std::string s;
-    std::ifstream(path) >> s;
-    return s;
-  }
-  std::string dir_, chip_, device_;
-};
-
 TEST(GpioSimTest, DrivesTheLinesOfASimulatedChip) {
-  const std::string why = GpioSim::unavailable();
-  if (!why.empty()) GTEST_SKIP() << why;
-  GpioSim sim;
+  // Registered only as a HIL test (tests/hil/CMakeLists.txt), in the VM
+  // where hil/vcan-run loads gpio-sim: never reported as skipped there.
+  const std::string why = delta::test::GpioSim::unavailable();
+  ASSERT_TRUE(why.empty()) << why;
+  delta::test::GpioSim sim;
   sim.pull(0, true);  // e-stop circuit closed: the active-low line high
   GpioConfig c;
   c.chip = sim.chip();
