@@ -21,6 +21,7 @@
 #include "delta/can/socketcan.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/robot_description.hpp"
+#include "gpio_sim.hpp"
 
 namespace {
 
@@ -586,6 +587,73 @@ TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
     EXPECT_EQ((*last)[0] | ((*last)[1] << 8), 0) << "controlword";
     EXPECT_EQ((*last)[2] | ((*last)[3] << 8), 0) << "target torque";
   }
+}
+
+// The e-stop on a real kernel GPIO chip (gpio-sim, in hil/vcan-run's VM):
+// opened during motion, it faults the controller within a cycle, the drives
+// are disabled, the enable and brake lines go low (braked), and the log up
+// to the fault is kept.
+TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheLog) {
+  ASSERT_TRUE(delta::test::GpioSim::unavailable().empty()) << delta::test::GpioSim::unavailable();
+  delta::test::GpioSim sim;
+  sim.pull(0, true);  // the e-stop circuit closed: the active-low line high
+  const std::string dir = scratch_dir();
+  BusObserver bus;
+  hil::Child emu = start_emulator({"--plant", "lumped"});
+  hil::Child rec = hil::Child::spawn(
+      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/estop.csv", "--idle", "3"});
+  ASSERT_TRUE(rec.wait_for_output("listening on", 30s)) << rec.err();
+  hil::Child fw = hil::Child::spawn(
+      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done",
+       "--set", "gpio.chip=" + sim.chip(), "--set", "gpio.estop_debounce_ms=0"});
+  const auto count = [](const std::vector<Frame>& frames, std::uint32_t id) {
+    return static_cast<std::uint64_t>(
+        std::count_if(frames.begin(), frames.end(), [&](const Frame& f) { return f.id == id; }));
+  };
+  // During motion: 1000 log records (2 s into the run) on the bus.
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  while (count(bus.snapshot(), p::kLogA.base_id) < 1000) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << fw.err();
+    ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << fw.err();
+  }
+  const std::uint64_t syncs_before = count(bus.snapshot(), p::kSync.base_id);
+  sim.pull(0, false);  // open
+  const std::uint64_t syncs_after = count(bus.snapshot(), p::kSync.base_id);
+  EXPECT_EQ(fw.wait(120s).value_or(-1), 3) << fw.err();
+  EXPECT_EQ(rec.wait(60s).value_or(-1), 0) << rec.err();
+  emu.terminate(30s);
+  const std::vector<Frame> frames = bus.stop();
+  EXPECT_NE(fw.err().find("fault 1 (e-stop)"), std::string::npos) << fw.err();
+  // The controller's EMCY, counted in SYNCs from the pull.
+  std::uint64_t syncs = 0, emcy_sync = 0;
+  std::size_t emcy_index = frames.size();
+  for (std::size_t i = 0; i < frames.size() && emcy_index == frames.size(); ++i) {
+    if (frames[i].id == p::kSync.base_id) ++syncs;
+    if (frames[i].id == p::kControllerEmcy.base_id) {
+      emcy_index = i;
+      emcy_sync = syncs;
+    }
+  }
+  ASSERT_LT(emcy_index, frames.size()) << "no controller EMCY";
+  EXPECT_EQ(frames[emcy_index].data[3], 1) << "fault 1, e-stop";
+  std::cout << "e-stop: EMCY " << emcy_sync - syncs_before << " SYNC(s) after the pull ("
+            << syncs_after - syncs_before << " came while it was written)\n";
+  EXPECT_LE(emcy_sync, syncs_after + 1) << "within one cycle of the line opening";
+  for (std::uint8_t node = 1; node <= 3; ++node) {
+    std::optional<std::array<std::uint8_t, 8>> last;
+    for (std::size_t i = emcy_index; i < frames.size(); ++i) {
+      if (frames[i].id == p::cob_id(p::kRpdo1, node)) last = frames[i].data;
+    }
+    ASSERT_TRUE(last.has_value()) << "node " << int{node};
+    EXPECT_EQ((*last)[0] | ((*last)[1] << 8), 0) << "node " << int{node} << ": controlword";
+  }
+  EXPECT_EQ(sim.value(1), 0) << "enable line";
+  EXPECT_EQ(sim.value(2), 0) << "brake line (low: braked)";
+  // The log up to the fault is whole: at least the 1000 records before it.
+  std::ifstream log(dir + "/estop.csv");
+  std::size_t rows = 0;
+  for (std::string line; std::getline(log, line);) rows += !line.empty() && line[0] != '#';
+  EXPECT_GE(rows, 1001u) << rec.out() << rec.err();
 }
 
 }  // namespace
