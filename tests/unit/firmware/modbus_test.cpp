@@ -596,7 +596,8 @@ TEST_F(Fixture, ASlowClientDoesNotHoldTheOthers) {
   done.store(true);
   trickle.join();
   close(slow);
-  EXPECT_LT(worst_ms, 100.0) << "a read waited behind the slow client";
+  // Before, the first read waited for the rest of the trickle (over 500 ms).
+  EXPECT_LT(worst_ms, 250.0) << "a read waited behind the slow client";
 }
 
 // Idle connections cannot lock the others out: when the server is full, a
