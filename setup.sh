@@ -21,6 +21,10 @@ packages=(
   qemu-system-x86 busybox-static iproute2 can-utils
   # code hygiene
   clang-format clang-tidy
+  # fuzzing (tests/fuzz): clang's libFuzzer and sanitizer runtimes
+  clang libclang-rt-14-dev libfuzzer-14-dev
+  # the HIL VM's gpio-sim module is built with the kernel's headers (hil/vcan-run)
+  make xz-utils
 )
 
 missing=()

@@ -336,7 +336,9 @@ class LogParser {
   void reserve_rows() {
     std::size_t rows_left = 1;
     const char* const end = text_.data() + text_.size();
-    for (const char* p = text_.data() + pos_;
+    // After a header on the last line without its '\n', pos_ is one past
+    // the end: no rows are left (found by fuzz_delta_log).
+    for (const char* p = text_.data() + std::min(pos_, text_.size());
          (p = static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p))));
          ++p) {
       ++rows_left;

@@ -542,7 +542,7 @@ std::vector<std::uint8_t> raw_exchange(int s, const std::vector<std::uint8_t>& r
     const ssize_t n = recv(s, buf, sizeof buf, 0);
     if (n <= 0) break;
     got.insert(got.end(), buf, buf + n);
-    if (got.size() >= 6 && got.size() >= 6u + ((got[4] << 8) | got[5])) break;
+    if (got.size() >= 6 && got.size() >= 6u + ((unsigned{got[4]} << 8) | got[5])) break;
   }
   return got;
 }

@@ -216,6 +216,9 @@ TEST(DeltaLogTest, EmptyAndTruncatedFiles) {
             "log.csv:6:1: no data rows after the header");
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n\n1,0,0,0,0,0,0\n"),
             "log.csv:8:1: empty line inside the file (only allowed at the end)");
+  // A header as the last line, without its '\n' (read past the text once).
+  EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3"),
+            "log.csv:6:1: no data rows after the header");
   // Blank lines at the end are fine.
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,0,0,0\n\n\n"), "");
 }
