@@ -10,38 +10,108 @@ namespace {
 
 const char* kJointSuffix[3] = {"_1", "_2", "_3"};
 
-class DeltaModel final : public Model {
+// How a physical parameter is shared between the joints.
+enum class Sharing {
+  kArm,    // one per arm with --per-joint, else one for all three
+  kJoint,  // one per joint always (friction, offsets)
+  kRobot,  // one for the robot (the platform's)
+};
+
+// One physical parameter: its description, its basis term and where its
+// value sits among the physical parameters.
+struct Term {
+  const char* name;
+  const char* unit;
+  bool nonnegative;
+  const char* meaning;
+  Sharing sharing;
+  delta::Joint3 delta::DynamicsBasis::*basis;  // nullptr: the constant 1
+  delta::Joint3 delta::HighFidelityParameters::*joint_value;
+  double delta::HighFidelityParameters::*robot_value;
+};
+
+using B = delta::DynamicsBasis;
+using H = delta::HighFidelityParameters;
+
+const Term kArmInertia{"arm_inertia",
+                       "kg m^2",
+                       true,
+                       "arm about the motor axis, with the reflected rotor and the forearms' "
+                       "elbow share",
+                       Sharing::kArm,
+                       &B::inertia,
+                       &H::arm_inertia_kg_m2,
+                       nullptr};
+const Term kViscous{"viscous_friction",
+                    "N m s/rad",
+                    true,
+                    "viscous friction at the joint",
+                    Sharing::kJoint,
+                    &B::viscous,
+                    &H::viscous_friction_Nm_s_per_rad,
+                    nullptr};
+const Term kCoulomb{"coulomb_friction",
+                    "N m",
+                    true,
+                    "Coulomb friction at the joint (smoothed as tanh(qd / w))",
+                    Sharing::kJoint,
+                    &B::coulomb,
+                    &H::coulomb_friction_Nm,
+                    nullptr};
+const Term kOffset{"torque_offset",
+                   "N m",
+                   false,
+                   "constant torque offset of the joint's measurement",
+                   Sharing::kJoint,
+                   nullptr,
+                   &H::torque_offset_Nm,
+                   nullptr};
+
+std::vector<Term> lumped_terms() {
+  return {kArmInertia,
+          {"arm_gravity_moment", "N m", true, "gravity moment of an arm at theta = 0",
+           Sharing::kArm, &B::gravity, &H::arm_gravity_cos_Nm, nullptr},
+          {"platform_mass", "kg", true,
+           "equivalent platform mass: platform, payload, forearms' platform share", Sharing::kRobot,
+           &B::platform, nullptr, &H::platform_weight_mass_kg},
+          kViscous,
+          kCoulomb};
+}
+
+std::vector<Term> delta_terms() {
+  return {kArmInertia,
+          {"arm_gravity_cos", "N m", true,
+           "gravity moment of an arm at theta = 0 (its centre of mass along the arm line, the "
+           "forearms' elbow weight)",
+           Sharing::kArm, &B::gravity, &H::arm_gravity_cos_Nm, nullptr},
+          {"arm_gravity_sin", "N m", false,
+           "gravity moment of an arm at theta = 90 deg from its centre of mass below the arm line",
+           Sharing::kArm, &B::gravity_sin, &H::arm_gravity_sin_Nm, nullptr},
+          {"platform_inertial_mass", "kg", true,
+           "the mass the platform's acceleration moves: platform, payload, forearms' share",
+           Sharing::kRobot, &B::platform_inertial, nullptr, &H::platform_inertial_mass_kg},
+          {"platform_weight_mass", "kg", true,
+           "the weight carried at the platform: platform, payload, forearms' share",
+           Sharing::kRobot, &B::platform_weight, nullptr, &H::platform_weight_mass_kg},
+          {"forearm_coupling", "kg", true,
+           "coupling of the forearm rods' elbow and platform ends (2 B per forearm)",
+           Sharing::kRobot, &B::coupling, nullptr, &H::forearm_coupling_kg},
+          kViscous,
+          kCoulomb};
+}
+
+// A model linear in physical parameters, one column (or three) per term.
+class PhysicalModel final : public Model {
  public:
-  explicit DeltaModel(ModelOptions o) : Model(std::move(o)) {
-    if (options_.per_joint) {
-      for (const char* s : kJointSuffix) {
-        parameters_.push_back({std::string("arm_inertia") + s, "kg m^2", true,
-                               "arm inertia about the motor axis, at the joint"});
-      }
-      for (const char* s : kJointSuffix) {
-        parameters_.push_back({std::string("arm_gravity_moment") + s, "N m", true,
-                               "gravity moment of the arm at theta = 0"});
-      }
-    } else {
-      parameters_.push_back({"arm_inertia", "kg m^2", true,
-                             "arm inertia about the motor axis, at the joint (all arms)"});
-      parameters_.push_back(
-          {"arm_gravity_moment", "N m", true, "gravity moment of an arm at theta = 0 (all arms)"});
-    }
-    parameters_.push_back({"platform_mass", "kg", true,
-                           "equivalent platform mass: platform, payload, forearm share"});
-    for (const char* s : kJointSuffix) {
-      parameters_.push_back({std::string("viscous_friction") + s, "N m s/rad", true,
-                             "viscous friction at the joint"});
-    }
-    for (const char* s : kJointSuffix) {
-      parameters_.push_back(
-          {std::string("coulomb_friction") + s, "N m", true, "Coulomb friction at the joint"});
-    }
-    if (options_.offsets) {
-      for (const char* s : kJointSuffix) {
-        parameters_.push_back({std::string("torque_offset") + s, "N m", false,
-                               "constant torque offset of the joint's measurement"});
+  PhysicalModel(ModelOptions o, std::vector<Term> terms) : Model(std::move(o)) {
+    if (options_.offsets) terms.push_back(kOffset);
+    for (const Term& t : terms) {
+      const bool per_joint = is_per_joint(t);
+      columns_.push_back({t, parameters_.size(), per_joint});
+      for (unsigned j = 0; j < (per_joint ? 3u : 1u); ++j) {
+        const std::string suffix = per_joint ? kJointSuffix[j] : "";
+        const std::string all = t.sharing == Sharing::kArm ? " (all arms)" : "";
+        parameters_.push_back({t.name + suffix, t.unit, t.nonnegative, t.meaning + all});
       }
     }
   }
@@ -56,23 +126,41 @@ class DeltaModel final : public Model {
     for (unsigned j = 0; j < 3; ++j) {
       double* row = out + j * p;
       for (std::size_t c = 0; c < p; ++c) row[c] = 0.0;
-      std::size_t c = 0;
-      if (options_.per_joint) {
-        row[j] = b.inertia[j];
-        row[3 + j] = b.gravity[j];
-        c = 6;
-      } else {
-        row[0] = b.inertia[j];
-        row[1] = b.gravity[j];
-        c = 2;
+      for (const Column& c : columns_) {
+        const double term = c.term.basis != nullptr ? (b.*(c.term.basis))[j] : 1.0;
+        row[c.first + (c.per_joint ? j : 0)] = term;
       }
-      row[c] = b.platform[j];
-      row[c + 1 + j] = b.viscous[j];
-      row[c + 4 + j] = b.coulomb[j];
-      if (options_.offsets) row[c + 7 + j] = 1.0;
     }
     return delta::KinematicsStatus::kOk;
   }
+
+  std::vector<double> parameter_vector(const delta::HighFidelityParameters& h) const override {
+    std::vector<double> v;
+    for (const Column& c : columns_) {
+      if (c.term.robot_value != nullptr) {
+        v.push_back(h.*(c.term.robot_value));
+        continue;
+      }
+      const delta::Joint3& joint = h.*(c.term.joint_value);
+      if (c.per_joint) {
+        v.insert(v.end(), joint.begin(), joint.end());
+      } else {
+        v.push_back((joint[0] + joint[1] + joint[2]) / 3.0);
+      }
+    }
+    return v;
+  }
+
+ private:
+  struct Column {
+    Term term;
+    std::size_t first;  // its first column in the regressor
+    bool per_joint;
+  };
+  bool is_per_joint(const Term& t) const {
+    return t.sharing == Sharing::kJoint || (t.sharing == Sharing::kArm && options_.per_joint);
+  }
+  std::vector<Column> columns_;
 };
 
 // The paper's regressor (its eq. 1.2), in this project's conventions:
@@ -112,6 +200,11 @@ class Paper14Model final : public Model {
     }
     return delta::KinematicsStatus::kOk;
   }
+
+  std::vector<double> parameter_vector(const delta::HighFidelityParameters&) const override {
+    throw delta::InputError(
+        "the paper14 model's coefficients lump constant lambdas: they have no physical truth");
+  }
 };
 
 }  // namespace
@@ -120,30 +213,24 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
   if (!(options.coulomb_smoothing_rad_s > 0.0)) {
     throw delta::InputError("--coulomb-smoothing must be a positive speed in rad/s");
   }
-  if (options.name == "delta") return std::make_unique<DeltaModel>(options);
+  if (options.name == "delta") return std::make_unique<PhysicalModel>(options, delta_terms());
+  if (options.name == "lumped") return std::make_unique<PhysicalModel>(options, lumped_terms());
   if (options.name == "paper14") {
-    if (options.per_joint) throw delta::InputError("--per-joint applies to --model delta only");
-    if (options.offsets) throw delta::InputError("--offsets applies to --model delta only");
+    if (options.per_joint) {
+      throw delta::InputError("--per-joint applies to --model delta and lumped only");
+    }
+    if (options.offsets) {
+      throw delta::InputError("--offsets applies to --model delta and lumped only");
+    }
     return std::make_unique<Paper14Model>(options);
   }
-  throw delta::InputError("--model must be 'delta' or 'paper14', got '" + options.name + "'");
+  throw delta::InputError("--model must be 'delta', 'lumped' or 'paper14', got '" + options.name +
+                          "'");
 }
 
-std::vector<double> delta_parameter_vector(const ModelOptions& options,
-                                           const delta::LumpedParameters& p) {
-  std::vector<double> v;
-  if (options.per_joint) {
-    v.insert(v.end(), p.arm_inertia_kg_m2.begin(), p.arm_inertia_kg_m2.end());
-    v.insert(v.end(), p.arm_gravity_moment_Nm.begin(), p.arm_gravity_moment_Nm.end());
-  } else {
-    v.push_back(p.arm_inertia_kg_m2[0]);
-    v.push_back(p.arm_gravity_moment_Nm[0]);
-  }
-  v.push_back(p.platform_mass_kg);
-  v.insert(v.end(), p.viscous_friction_Nm_s_per_rad.begin(), p.viscous_friction_Nm_s_per_rad.end());
-  v.insert(v.end(), p.coulomb_friction_Nm.begin(), p.coulomb_friction_Nm.end());
-  if (options.offsets) v.insert(v.end(), p.torque_offset_Nm.begin(), p.torque_offset_Nm.end());
-  return v;
+std::vector<double> parameter_vector(const ModelOptions& options,
+                                     const delta::LumpedParameters& p) {
+  return make_model(options)->parameter_vector(delta::to_high_fidelity(p));
 }
 
 }  // namespace host_id

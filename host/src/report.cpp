@@ -21,8 +21,9 @@ std::string fmt(const char* f, double v) {
 std::string model_summary(const ModelOptions& m, std::size_t p) {
   std::ostringstream s;
   s << m.name;
-  if (m.name == "delta") {
-    s << " (" << (m.per_joint ? "per-joint" : "shared") << " arm inertia and gravity moment, "
+  if (m.name == "delta" || m.name == "lumped") {
+    s << " (" << (m.name == "delta" ? "higher-fidelity" : "point masses") << ", "
+      << (m.per_joint ? "per-joint" : "shared") << " arm inertia and gravity, "
       << (m.offsets ? "with" : "no") << " torque offsets)";
   } else {
     s << " (the paper's regressor, constant lambda)";
@@ -253,8 +254,19 @@ SavedResult read_saved_result(const std::string& path) {
     throw delta::InputError(path +
                             ": a model or preprocessing value has the wrong type: " + e.what());
   }
-  const auto model = make_model(s.model);
+  std::unique_ptr<Model> model;
+  try {
+    model = make_model(s.model);
+  } catch (const delta::InputError& e) {
+    throw delta::InputError(path + ": model: " + e.what());
+  }
   const json& params = need(j, "parameters", "");
+  if (s.model.name == "delta" && params.is_object() && params.contains("platform_mass")) {
+    throw delta::InputError(path +
+                            ": model.name is 'delta' but the parameters are the lumped model's "
+                            "(platform_mass): a result saved before 'delta' became the "
+                            "higher-fidelity model; set model.name to 'lumped'");
+  }
   s.beta.resize(static_cast<Eigen::Index>(model->size()));
   for (std::size_t i = 0; i < model->size(); ++i) {
     const std::string& name = model->parameters()[i].name;

@@ -1,14 +1,14 @@
 #!/usr/bin/python3
-"""The least-squares fit of `host_id fit --method ls` in numpy and scipy, for
-the speed comparison of docs/identification.md.
+"""The least-squares fit of `host_id fit --model lumped --method ls` in numpy
+and scipy, for the speed comparison of docs/identification.md.
 
   tests/bench/fit_numpy.py LOG.csv [--host-id build/bin/host_id] [--runs 3]
 
-Does what `host_id fit LOG.csv --method ls` does, vectorised over samples:
-read the delta-log/1 file, low-pass filter q forward and backward (4th-order
-Butterworth at 20 Hz), five-point differences for qd and qdd, the delta
-model's regressor (forward kinematics, Jacobian and Jdot qdot per sample,
-docs/identification.md), the regressor's columns and tau filtered alike,
+Does what `host_id fit LOG.csv --model lumped --method ls` does, vectorised
+over samples: read the delta-log/1 file, low-pass filter q forward and
+backward (4th-order Butterworth at 20 Hz), five-point differences for qd and
+qdd, the lumped model's regressor (forward kinematics, Jacobian and Jdot
+qdot per sample, docs/identification.md), the regressor's columns and tau filtered alike,
 150 samples trimmed at each end, the equations of joints slower than
 0.05 rad/s left out, and numpy's lstsq. Prints its parameters next to
 host_id's and the wall time of each, each in a fresh process (median of
@@ -123,7 +123,8 @@ def main():
     a = ap.parse_args()
     numpy_cmd = ["/usr/bin/python3", "-c", FIT_PROGRAM, a.log, str(CUTOFF_HZ), str(MIN_SPEED),
                  str(SMOOTHING)]
-    host_cmd = [a.host_id, "fit", a.log, "--method", "ls", "--json", "--quiet"]
+    host_cmd = [a.host_id, "fit", a.log, "--model", "lumped", "--method", "ls", "--json",
+                "--quiet"]
     times = {"numpy/scipy": [], "host_id": []}
     for _ in range(a.runs):  # interleaved, so that both see the same load
         seconds, out = run(numpy_cmd)

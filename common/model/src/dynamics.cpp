@@ -25,6 +25,29 @@ Joint3 transpose_times(const Mat3<double>& J, const Vec3<double>& v) {
   return {r.x, r.y, r.z};
 }
 
+// The rods' coupling term psi_i = J_i . sum_k Bdd_k + e_i . pdd of the
+// higher-fidelity model (docs/identification.md). The elbow
+// B_k = (R + a cos q) u_k - a sin q z moves with e_k = dB_k/dq_k =
+// -a (sin q u_k + cos q z), and accelerates at Bdd_k = e_k qdd_k + f_k qd_k^2
+// with f_k = de_k/dq_k = a (-cos q u_k + sin q z).
+Joint3 coupling_term(const Geometry& g, const JointState& s, const Mat3<double>& J,
+                     const Vec3<double>& pdd) {
+  const double a = g.upper_arm_length_m;
+  Vec3<double> e[3];
+  Vec3<double> elbow_acceleration_sum{};
+  for (unsigned k = 0; k < 3; ++k) {
+    const double c = std::cos(s.q_rad[k]);
+    const double sn = std::sin(s.q_rad[k]);
+    const Vec3<double> u{kChainCos[k], kChainSin[k], 0.0};
+    e[k] = Vec3<double>{-a * sn * u.x, -a * sn * u.y, -a * c};
+    const Vec3<double> f{-a * c * u.x, -a * c * u.y, a * sn};
+    const double qd = s.qd_rad_s[k];
+    elbow_acceleration_sum = elbow_acceleration_sum + e[k] * s.qdd_rad_s2[k] + f * (qd * qd);
+  }
+  const Joint3 jt = transpose_times(J, elbow_acceleration_sum);
+  return {jt[0] + e[0].dot(pdd), jt[1] + e[1].dot(pdd), jt[2] + e[2].dot(pdd)};
+}
+
 }  // namespace
 
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
@@ -33,13 +56,17 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
   const auto status = pose_kinematics(g, s.q_rad, s.qd_rad_s, pk);
   if (status != KinematicsStatus::kOk) return status;
   const Vec3<double> qdd{s.qdd_rad_s2[0], s.qdd_rad_s2[1], s.qdd_rad_s2[2]};
-  // pdd - g with g = (0, 0, -gravity).
-  const Vec3<double> pdd_minus_g =
-      pk.vk.jacobian * qdd + pk.vk.jacobian_dot_qdot + Vec3<double>{0.0, 0.0, gravity_m_s2};
-  out.platform = transpose_times(pk.vk.jacobian, pdd_minus_g);
+  const Mat3<double>& J = pk.vk.jacobian;
+  const Vec3<double> pdd = J * qdd + pk.vk.jacobian_dot_qdot;
+  // -g with g = (0, 0, -gravity).
+  out.platform_inertial = transpose_times(J, pdd);
+  out.platform_weight = transpose_times(J, Vec3<double>{0.0, 0.0, gravity_m_s2});
+  out.coupling = coupling_term(g, s, J, pdd);
   for (unsigned i = 0; i < 3; ++i) {
+    out.platform[i] = out.platform_inertial[i] + out.platform_weight[i];
     out.inertia[i] = s.qdd_rad_s2[i];
     out.gravity[i] = -std::cos(s.q_rad[i]);
+    out.gravity_sin[i] = std::sin(s.q_rad[i]);
     out.viscous[i] = s.qd_rad_s[i];
     out.coulomb[i] = std::tanh(s.qd_rad_s[i] / coulomb_smoothing_rad_s);
   }
@@ -57,8 +84,47 @@ Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p) {
   return tau;
 }
 
+Joint3 torque_from_basis(const DynamicsBasis& b, const HighFidelityParameters& p) {
+  Joint3 tau{};
+  for (unsigned i = 0; i < 3; ++i) {
+    tau[i] = p.arm_inertia_kg_m2[i] * b.inertia[i] + p.arm_gravity_cos_Nm[i] * b.gravity[i] +
+             p.arm_gravity_sin_Nm[i] * b.gravity_sin[i] +
+             p.platform_inertial_mass_kg * b.platform_inertial[i] +
+             p.platform_weight_mass_kg * b.platform_weight[i] +
+             p.forearm_coupling_kg * b.coupling[i] +
+             p.viscous_friction_Nm_s_per_rad[i] * b.viscous[i] +
+             p.coulomb_friction_Nm[i] * b.coulomb[i] + p.torque_offset_Nm[i];
+  }
+  return tau;
+}
+
 KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p, const JointState& s,
                                   Joint3& tau_Nm) {
+  DynamicsBasis b;
+  const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
+  if (status != KinematicsStatus::kOk) return status;
+  tau_Nm = torque_from_basis(b, p);
+  return KinematicsStatus::kOk;
+}
+
+HighFidelityParameters to_high_fidelity(const LumpedParameters& p) {
+  HighFidelityParameters h;
+  h.arm_inertia_kg_m2 = p.arm_inertia_kg_m2;
+  h.arm_gravity_cos_Nm = p.arm_gravity_moment_Nm;
+  h.arm_gravity_sin_Nm = {0.0, 0.0, 0.0};
+  h.platform_inertial_mass_kg = p.platform_mass_kg;
+  h.platform_weight_mass_kg = p.platform_mass_kg;
+  h.forearm_coupling_kg = 0.0;
+  h.viscous_friction_Nm_s_per_rad = p.viscous_friction_Nm_s_per_rad;
+  h.coulomb_friction_Nm = p.coulomb_friction_Nm;
+  h.torque_offset_Nm = p.torque_offset_Nm;
+  h.coulomb_smoothing_rad_s = p.coulomb_smoothing_rad_s;
+  h.gravity_m_s2 = p.gravity_m_s2;
+  return h;
+}
+
+KinematicsStatus inverse_dynamics(const Geometry& g, const HighFidelityParameters& p,
+                                  const JointState& s, Joint3& tau_Nm) {
   DynamicsBasis b;
   const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
   if (status != KinematicsStatus::kOk) return status;

@@ -44,6 +44,12 @@ LumpedParameters read_lumped_parameters(const std::string& path) {
                              "coulomb_friction", "torque_offset"}) {
       for (const char* s : suffix) ok = ok || key == std::string(base) + s;
     }
+    if (!ok && (key.rfind("arm_gravity_cos", 0) == 0 || key.rfind("platform_inertial", 0) == 0 ||
+                key == "forearm_coupling")) {
+      throw InputError(path + ": parameter '" + key +
+                       "' is the higher-fidelity model's; the lumped plant takes the lumped "
+                       "model's parameters (host_id fit --model lumped)");
+    }
     if (!ok) throw InputError(path + ": unknown parameter '" + key + "'");
   }
   return p;

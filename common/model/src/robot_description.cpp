@@ -344,8 +344,8 @@ LumpedParameters lumped_truth(const RobotDescription& d) {
   return p;
 }
 
-HighFidelityTruth high_fidelity_truth(const RobotDescription& d) {
-  HighFidelityTruth t;
+HighFidelityParameters high_fidelity_truth(const RobotDescription& d) {
+  HighFidelityParameters t;
   const RodMassSplit s = rod_mass_split(d.rod, d.geometry.forearm_length_m);
   const double a = d.geometry.upper_arm_length_m;
   const double g = d.gravity_m_s2;
@@ -362,6 +362,7 @@ HighFidelityTruth high_fidelity_truth(const RobotDescription& d) {
   t.platform_inertial_mass_kg = platform_kg + 6.0 * s.c_kg;
   t.platform_weight_mass_kg = platform_kg + 6.0 * s.platform_weight_kg;
   t.forearm_coupling_kg = 2.0 * s.b_kg;
+  t.gravity_m_s2 = g;
   return t;
 }
 

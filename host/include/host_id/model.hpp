@@ -1,6 +1,9 @@
 // Identification models: tau = Psi(q, qd, qdd) beta, linear in beta.
-//   delta   - the lumped-mass model with lambda resolved at every sample
-//             (common/model/include/delta/dynamics.hpp), physical parameters.
+//   delta   - the higher-fidelity model (the default): the arm's centre of
+//             mass off its line, inertial and weight platform masses, the
+//             forearm rods' coupling; lambda resolved at every sample
+//             (common/model/include/delta/dynamics.hpp).
+//   lumped  - point masses at elbow and platform, lambda resolved.
 //   paper14 - the paper's 14-coefficient regressor with constant lambda.
 #pragma once
 
@@ -20,11 +23,17 @@ struct ParameterInfo {
 };
 
 struct ModelOptions {
-  std::string name{"delta"};  // "delta" or "paper14"
-  bool per_joint{false};      // delta: arm inertia and gravity moment per joint
-  bool offsets{false};        // delta: a torque offset per joint
+  std::string name{"delta"};  // "delta", "lumped" or "paper14"
+  bool per_joint{false};      // delta, lumped: arm inertia and gravity per joint
+  bool offsets{false};        // delta, lumped: a torque offset per joint
   double coulomb_smoothing_rad_s{0.01};
 };
+
+// The names --model takes, in the order the help lists them.
+inline const std::vector<std::string>& model_names() {
+  static const std::vector<std::string> names{"delta", "lumped", "paper14"};
+  return names;
+}
 
 class Model {
  public:
@@ -36,6 +45,11 @@ class Model {
   // Returns kOk, or why the pose has no kinematics.
   virtual delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
                                        const delta::JointState& s, double* out) const = 0;
+  // The parameter vector, in the order of parameters(), of a robot with
+  // known physical parameters (a lumped robot is the special case with no
+  // sin term, no coupling and equal platform masses). Throws
+  // delta::InputError for a model without physical parameters (paper14).
+  virtual std::vector<double> parameter_vector(const delta::HighFidelityParameters& p) const = 0;
 
  protected:
   explicit Model(ModelOptions o) : options_(std::move(o)) {}
@@ -46,9 +60,8 @@ class Model {
 // Throws delta::InputError for an unknown model name or options that do not apply.
 std::unique_ptr<Model> make_model(const ModelOptions& options);
 
-// The delta model's parameter vector for known physical parameters, in the
-// order of its parameters() (used to check a fit against the truth).
-std::vector<double> delta_parameter_vector(const ModelOptions& options,
-                                           const delta::LumpedParameters& p);
+// The model's parameter vector for known lumped parameters (tests and
+// `fit --truth`): make_model(options)->parameter_vector(to_high_fidelity(p)).
+std::vector<double> parameter_vector(const ModelOptions& options, const delta::LumpedParameters& p);
 
 }  // namespace host_id

@@ -13,7 +13,7 @@
 namespace host_id {
 
 // Parameter name -> its truth, for the parameters that have one: every
-// parameter of `delta` (shared parameters: the mean of the three joints'),
+// parameter of `delta` and `lumped` (shared parameters: the mean of the three joints'),
 // none of `paper14` (its coefficients lump constant lambdas).
 std::map<std::string, double> parameter_truth(const ModelOptions& model,
                                               const delta::RobotDescription& robot);

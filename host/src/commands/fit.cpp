@@ -69,15 +69,18 @@ struct FitArguments {
 
 void add_model_options(CLI::App& c, FitArguments& a) {
   c.add_option("--model", a.fit.model.name,
-               "delta: lumped model with lambda solved per sample; paper14: the paper's 14 "
+               "delta: the higher-fidelity model (arm centre of mass off its line, inertial "
+               "and weight platform masses, forearm coupling); lumped: point masses at elbow "
+               "and platform; both with lambda solved per sample; paper14: the paper's 14 "
                "coefficients")
-      ->check(CLI::IsMember({"delta", "paper14"}))
+      ->check(CLI::IsMember(model_names()))
       ->capture_default_str()
       ->group("model");
   c.add_flag("--per-joint", a.fit.model.per_joint,
-             "delta: arm inertia and gravity moment per joint")
+             "delta, lumped: arm inertia and gravity moments per joint")
       ->group("model");
-  c.add_flag("--offsets", a.fit.model.offsets, "delta: a torque offset per joint")->group("model");
+  c.add_flag("--offsets", a.fit.model.offsets, "delta, lumped: a torque offset per joint")
+      ->group("model");
   c.add_option("--coulomb-smoothing", a.fit.model.coulomb_smoothing_rad_s,
                "Coulomb sign smoothed as tanh(qd/W), rad/s")
       ->check(kPositive)

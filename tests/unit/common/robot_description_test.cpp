@@ -73,7 +73,7 @@ TEST(RobotDescriptionTest, TruthsWorkedByHand) {
   EXPECT_NEAR(s.a_kg, 0.04 / 3.0 + k + 0.005, 1e-15);
   EXPECT_NEAR(s.b_kg, 0.04 / 6.0 - k, 1e-15);
   EXPECT_NEAR(s.elbow_weight_kg, 0.025, 1e-15);
-  const HighFidelityTruth t = high_fidelity_truth(default_robot_description());
+  const HighFidelityParameters t = high_fidelity_truth(default_robot_description());
   // Arm about its axis: 1.1667e-3 + 0.35 (0.1^2 + 0.01^2); armature 5e-6 * 10^2;
   // two rods' A at the elbow, 0.2 m out.
   EXPECT_NEAR(t.arm_inertia_kg_m2[0],

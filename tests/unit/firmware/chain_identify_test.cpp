@@ -75,6 +75,7 @@ Path1Run record_path1(const emu::EmulatorConfig& ec, const std::vector<int>& lat
 host_id::FitOptions least_squares_per_joint() {
   host_id::FitOptions o;
   o.method = host_id::Method::kLeastSquares;
+  o.model.name = "lumped";  // the plant's own model
   o.model.per_joint = true;
   return o;
 }

@@ -87,7 +87,7 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_NE(err_.str().find("--iterations: Value 0 not in range 1 to 100000000"), std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper"}), 2);
-  EXPECT_NE(err_.str().find("--model: paper not in {delta,paper14}"), std::string::npos)
+  EXPECT_NE(err_.str().find("--model: paper not in {delta,lumped,paper14}"), std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--seed"}), 2);
   EXPECT_NE(err_.str().find("--seed"), std::string::npos);
@@ -100,7 +100,8 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_EQ(run({"fit", path("a.csv"), "--plot", path("p.png")}), 2);
   EXPECT_NE(err_.str().find("--plot: writes SVG"), std::string::npos) << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--offsets"}), 1);
-  EXPECT_NE(err_.str().find("--offsets applies to --model delta only"), std::string::npos);
+  EXPECT_NE(err_.str().find("--offsets applies to --model delta and lumped only"),
+            std::string::npos);
 }
 
 // Found when the product was tried as a new user would: values out of range
@@ -153,8 +154,9 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
   EXPECT_NE(out_.str().find("torque RMSE [N m]"), std::string::npos);
   const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
   EXPECT_EQ(j["format"], "host_id-result/1");
-  EXPECT_EQ(j["parameters"].size(), 9u);
-  EXPECT_NEAR(j["parameters"]["platform_mass"].get<double>(), 0.40, 0.02);
+  EXPECT_EQ(j["parameters"].size(), 12u);
+  EXPECT_NEAR(j["parameters"]["platform_weight_mass"].get<double>(), 0.40, 0.02);
+  EXPECT_NEAR(j["parameters"]["platform_inertial_mass"].get<double>(), 0.40, 0.02);
   ASSERT_EQ(j["fit"]["rmse_Nm"].size(), 3u);
   ASSERT_EQ(j["validation"].size(), 1u);
   EXPECT_EQ(j["validation"][0]["log"], path("p2.csv"));
@@ -169,6 +171,17 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
     EXPECT_DOUBLE_EQ(v["validation"][0]["rmse_Nm"][k].get<double>(),
                      j["validation"][0]["rmse_Nm"][k].get<double>());
   }
+
+  // A result saved when 'delta' named the lumped model is refused with the fix.
+  auto old = j;
+  old["parameters"] = {{"arm_inertia", 7e-3}, {"arm_gravity_moment", 0.44}, {"platform_mass", 0.4}};
+  std::ofstream(path("old.json")) << old.dump();
+  EXPECT_EQ(run({"validate", path("old.json"), path("p2.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("old.json") +
+                            ": model.name is 'delta' but the parameters are the lumped model's"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("set model.name to 'lumped'"), std::string::npos);
 }
 
 TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
@@ -314,22 +327,49 @@ TEST_F(CliTest, FitPrintsTheTruthOfARobotDescriptionBesideEachEstimate) {
       << err_.str();
   EXPECT_NE(out_.str().find("rel std          truth     error   unit"), std::string::npos)
       << out_.str();
-  EXPECT_NE(out_.str().find("0.0072017"), std::string::npos) << out_.str();
+  // The higher-fidelity model's arm inertia, and the lumped model's.
+  EXPECT_NE(out_.str().find("0.00666849"), std::string::npos) << out_.str();
   const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
   bool found = false;
   for (const auto& d : j.at("parameter_details")) {
-    if (d.at("name") == "platform_mass") {
-      EXPECT_NEAR(d.at("truth").get<double>(), 0.4, 1e-12);
+    if (d.at("name") == "platform_inertial_mass") {
+      EXPECT_NEAR(d.at("truth").get<double>(), 0.36, 1e-4);
       found = true;
     }
   }
   EXPECT_TRUE(found);
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "lumped", "--truth",
+                 "docs/examples/robot.json"}),
+            0);
+  EXPECT_NE(out_.str().find("0.0072017"), std::string::npos) << out_.str();
   ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "paper14", "--truth",
                  "docs/examples/robot.json"}),
             0);
   EXPECT_EQ(out_.str().find("truth"), std::string::npos) << out_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--truth", path("none.json")}), 1);
   EXPECT_NE(err_.str().find(path("none.json") + ": cannot open"), std::string::npos) << err_.str();
+}
+
+// simulate --params takes a lumped fit (its plant's model); a fit of the
+// higher-fidelity model is refused by name, and nothing is written.
+TEST_F(CliTest, SimulateParamsTakeALumpedFitAndNameAHigherFidelityOne) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "lumped", "--out",
+                 path("lumped.json"), "--quiet"}),
+            0)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("delta.json"), "--quiet"}),
+            0)
+      << err_.str();
+  EXPECT_EQ(run({"simulate", "-o", path("b.csv"), "--params", path("lumped.json")}), 0)
+      << err_.str();
+  EXPECT_TRUE(exists("b.csv"));
+  EXPECT_EQ(run({"simulate", "-o", path("c.csv"), "--params", path("delta.json")}), 1);
+  EXPECT_NE(err_.str().find(path("delta.json") + ": parameter 'arm_gravity_cos' is the "
+                                                 "higher-fidelity model's"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("c.csv"));
 }
 
 }  // namespace

@@ -40,13 +40,49 @@ struct LumpedParameters {
   double gravity_m_s2{9.81};
 };
 
+// The higher-fidelity model's parameters (docs/identification.md): the
+// lumped model's, with the arm's centre of mass off the arm line (a sin term),
+// the platform's mass split into the mass that is accelerated and the mass
+// whose weight is carried, and the coupling of the forearm rods' elbow and
+// platform ends. Still linear in every parameter:
+//
+//   tau_i = I qdd_i - Gc cos(q_i) + Gs sin(q_i) + m_in [J^T pdd]_i
+//           + m_w [J^T (0, 0, gravity)]_i + B' psi_i
+//           + Fv_i qd_i + Fc_i tanh(qd_i / w) + o_i
+//
+// with psi_i = J_i . sum_k Bdd_k + e_i . pdd, e_k = dB_k/dq_k the elbow's
+// velocity per joint speed and Bdd_k the elbow's acceleration.
+struct HighFidelityParameters {
+  Joint3 arm_inertia_kg_m2{};          // arm about its axis + armature + rods' elbow share
+  Joint3 arm_gravity_cos_Nm{};         // holding torque -Gc cos(q): centre along the arm line
+  Joint3 arm_gravity_sin_Nm{};         // holding torque +Gs sin(q): centre below the arm line
+  double platform_inertial_mass_kg{};  // the mass the platform's acceleration moves
+  double platform_weight_mass_kg{};    // the weight carried at the platform joints
+  double forearm_coupling_kg{};        // B' = 2 B per chain: elbow-platform coupling of the rods
+  Joint3 viscous_friction_Nm_s_per_rad{};
+  Joint3 coulomb_friction_Nm{};
+  Joint3 torque_offset_Nm{};
+  double coulomb_smoothing_rad_s{0.01};
+  double gravity_m_s2{9.81};
+};
+
+// The lumped robot as a higher-fidelity one: no sin term, no coupling, one
+// platform mass for inertia and weight.
+HighFidelityParameters to_high_fidelity(const LumpedParameters& p);
+
 // The basis terms of joint i: tau_i = sum of parameter * term.
 struct DynamicsBasis {
   Joint3 inertia{};   // qdd_i                    [rad/s^2], times arm_inertia
-  Joint3 gravity{};   // -cos(q_i)                [-],       times arm_gravity_moment
+  Joint3 gravity{};   // -cos(q_i)                [-],       times arm_gravity_moment (cos)
   Joint3 platform{};  // [J^T (pdd - g)]_i        [m^2/s^2/rad], times platform_mass
   Joint3 viscous{};   // qd_i                     [rad/s],   times viscous friction
   Joint3 coulomb{};   // tanh(qd_i / width)       [-],       times Coulomb friction
+  // The higher-fidelity model's further terms (platform = the sum of the
+  // two platform terms):
+  Joint3 gravity_sin{};        // sin(q_i)                  [-],  times arm_gravity_sin
+  Joint3 platform_inertial{};  // [J^T pdd]_i               [m^2/s^2/rad], times m_in
+  Joint3 platform_weight{};    // [J^T (0, 0, gravity)]_i   [m^2/s^2/rad], times m_w
+  Joint3 coupling{};           // psi_i                     [m^2/s^2/rad], times B'
 };
 
 struct JointState {
@@ -62,10 +98,13 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
 
 // tau = basis . parameters.
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p);
+Joint3 torque_from_basis(const DynamicsBasis& b, const HighFidelityParameters& p);
 
 // Inverse dynamics: the joint torques that produce s.
 KinematicsStatus inverse_dynamics(const Geometry& g, const LumpedParameters& p, const JointState& s,
                                   Joint3& tau_Nm);
+KinematicsStatus inverse_dynamics(const Geometry& g, const HighFidelityParameters& p,
+                                  const JointState& s, Joint3& tau_Nm);
 
 // Forward dynamics: the joint accelerations under tau at (q, qd):
 //   (diag(I) + m_p J^T J) qdd = tau - [-G cos q + m_p J^T (Jdot qd - g) + friction + o].

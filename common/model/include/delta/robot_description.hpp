@@ -108,18 +108,9 @@ RodMassSplit rod_mass_split(const ForearmRod& rod, double length_m);
 // the arm inertia, the friction's Coulomb level with the default smoothing.
 LumpedParameters lumped_truth(const RobotDescription& d);
 
-// The higher-fidelity model's parameters (linear in them, exact for this
-// multibody robot apart from the friction's shape).
-struct HighFidelityTruth {
-  Joint3 arm_inertia_kg_m2{};          // arm about its axis + armature + A a^2
-  Joint3 arm_gravity_cos_Nm{};         // g (m_arm com_x + elbow weight a)
-  Joint3 arm_gravity_sin_Nm{};         // -g m_arm com_z (centre below the arm line)
-  double platform_inertial_mass_kg{};  // platform + payload + 6 C
-  double platform_weight_mass_kg{};    // platform + payload + 6 platform_weight
-  double forearm_coupling_kg{};        // 2 B per chain
-  Joint3 viscous_friction_Nm_s_per_rad{};
-  Joint3 coulomb_friction_Nm{};
-};
-HighFidelityTruth high_fidelity_truth(const RobotDescription& d);
+// The higher-fidelity model's parameters for this robot (docs/
+// identification.md): exact for the multibody robot apart from the
+// friction's shape (its Stribeck excess is left out).
+HighFidelityParameters high_fidelity_truth(const RobotDescription& d);
 
 }  // namespace delta
