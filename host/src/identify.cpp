@@ -117,7 +117,8 @@ Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
     out.measured_Nm[reg.joint[row]][reg.sample[row]] = reg.tau(i);
     out.predicted_Nm[reg.joint[row]][reg.sample[row]] = yhat(i);
   }
-  out.rmse_Nm = rmse_per_joint(reg, beta);
+  out.rmse_filtered_Nm = rmse_per_joint(reg, beta);
+  out.rmse_measured_Nm = reg.measured.rmse(beta);
   return out;
 }
 
@@ -156,11 +157,12 @@ FitResult fit_log(DeltaLog log, const FitOptions& options,
   r.parameters = parameter_estimates(*model, ls, r.beta, box);
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();
-  r.fit.rmse_Nm = rmse_per_joint(all_rows, r.beta);
+  r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, r.beta);
+  r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
   if (keep_predictions) r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
   for (const DeltaLog* v : validation) {
     Prediction p = predict(*model, r.beta, *v, options.prepare, options.threads);
-    r.validation.push_back({v->name, p.t_s.size(), p.rmse_Nm});
+    r.validation.push_back(p.rmse());
     if (keep_predictions) r.predictions.push_back(std::move(p));
   }
   r.seconds_total = seconds_since(t0);

@@ -111,4 +111,47 @@ std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& 
   return ms;
 }
 
+void MeasuredMoments::reset(std::size_t parameters) {
+  const auto p = static_cast<Eigen::Index>(parameters);
+  for (unsigned j = 0; j < 3; ++j) {
+    psi_t_psi[j] = Eigen::MatrixXd::Zero(p, p);
+    psi_t_tau[j] = Eigen::VectorXd::Zero(p);
+    tau_sq[j] = 0.0;
+    rows[j] = 0;
+  }
+}
+
+void MeasuredMoments::add(unsigned joint, const double* row, double tau) {
+  Eigen::MatrixXd& g = psi_t_psi[joint];
+  Eigen::VectorXd& h = psi_t_tau[joint];
+  const Eigen::Index p = h.size();
+  for (Eigen::Index a = 0; a < p; ++a) {
+    if (row[a] == 0.0) continue;  // a joint's row is zero in the other joints' columns
+    h(a) += row[a] * tau;
+    for (Eigen::Index b = a; b < p; ++b) g(a, b) += row[a] * row[b];
+  }
+  tau_sq[joint] += tau * tau;
+  ++rows[joint];
+}
+
+void MeasuredMoments::merge(const MeasuredMoments& other) {
+  for (unsigned j = 0; j < 3; ++j) {
+    psi_t_psi[j] += other.psi_t_psi[j];
+    psi_t_tau[j] += other.psi_t_tau[j];
+    tau_sq[j] += other.tau_sq[j];
+    rows[j] += other.rows[j];
+  }
+}
+
+std::array<double, 3> MeasuredMoments::rmse(const Eigen::VectorXd& beta) const {
+  std::array<double, 3> out{};
+  for (unsigned j = 0; j < 3; ++j) {
+    if (rows[j] == 0) continue;
+    const double sum = tau_sq[j] - 2.0 * beta.dot(psi_t_tau[j]) +
+                       beta.dot(psi_t_psi[j].selfadjointView<Eigen::Upper>() * beta);
+    out[j] = std::sqrt(std::max(0.0, sum) / static_cast<double>(rows[j]));
+  }
+  return out;
+}
+
 }  // namespace host_id

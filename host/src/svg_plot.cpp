@@ -113,7 +113,7 @@ std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::stri
       }
       if (!(rmax > 0)) rmax = 1e-9;
       char label[64];
-      std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_Nm[j]);
+      std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_filtered_Nm[j]);
       axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
       s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
         << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";

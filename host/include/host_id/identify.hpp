@@ -56,18 +56,28 @@ struct ParameterEstimate {
   double lower{0}, upper{0};  // the PSO bounds
 };
 
+// A model's torque error on one log, per joint, two ways:
+//   measured: against the logged torque, noise included (what the paper's
+//             Table 2 reports and what a user compares);
+//   filtered: against the torque filtered like the regressor's columns,
+//             the noise above the cut-off removed (the model's own error).
+// Where the log carries qd and qdd nothing is filtered and the two agree.
 struct LogRmse {
   std::string log;
   std::size_t samples{0};
-  std::array<double, 3> rmse_Nm{};
+  std::array<double, 3> rmse_measured_Nm{};
+  std::array<double, 3> rmse_filtered_Nm{};
 };
 
-// Measured and predicted torques of one log under fitted parameters.
+// Filtered measured and predicted torques of one log under fitted
+// parameters (for the plot), and its RMSE both ways.
 struct Prediction {
   std::string log;
   std::vector<double> t_s;
   std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
-  std::array<double, 3> rmse_Nm{};
+  std::array<double, 3> rmse_measured_Nm{};
+  std::array<double, 3> rmse_filtered_Nm{};
+  LogRmse rmse() const { return {log, t_s.size(), rmse_measured_Nm, rmse_filtered_Nm}; }
 };
 
 struct FitResult {

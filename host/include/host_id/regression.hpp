@@ -14,6 +14,25 @@
 
 namespace host_id {
 
+// The moments of each joint's unfiltered equations over the kept samples:
+// the regressor rows before parallel filtering and the measured torque, so
+// that the RMSE against the measured torque (what a user compares, noise
+// included) follows for any beta without a second pass over the log:
+//   sum (tau - row beta)^2 = tau_sq - 2 beta^T psi_t_tau + beta^T psi_t_psi beta.
+// Near a fit the large terms cancel to about 1e-8 of the result: enough
+// for an RMSE, not for an optimiser (QuadraticCost).
+struct MeasuredMoments {
+  std::array<Eigen::MatrixXd, 3> psi_t_psi;  // upper triangle
+  std::array<Eigen::VectorXd, 3> psi_t_tau;
+  std::array<double, 3> tau_sq{};
+  std::array<std::size_t, 3> rows{};
+  void reset(std::size_t parameters);
+  void add(unsigned joint, const double* row, double tau);
+  void merge(const MeasuredMoments& other);
+  // The RMSE per joint against the measured torque (0 for a joint without rows).
+  std::array<double, 3> rmse(const Eigen::VectorXd& beta) const;
+};
+
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
 // sample k, joints 1..3; fast_rows_first() reorders them, so code that
 // needs a row's joint or sample reads joint[row] and sample[row].
@@ -24,6 +43,7 @@ struct Regression {
   std::vector<unsigned char> joint;  // the joint of each row, 0..2
   std::vector<double> speed_rad_s;   // |qd| of that joint at that row's sample
   std::vector<std::size_t> sample;   // the index into t_s of each row's sample
+  MeasuredMoments measured;          // the kept samples' rows before filtering
   std::size_t samples() const { return t_s.size(); }
   std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
   std::array<std::size_t, 3> rows_per_joint() const;

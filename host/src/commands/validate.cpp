@@ -31,7 +31,7 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
   for (const auto& l : logs) {
     warn_about_gaps(err, l);
     predictions.push_back(predict(*model, saved.beta, l, saved.prepare, 0));
-    rows.push_back({l.name, predictions.back().t_s.size(), predictions.back().rmse_Nm});
+    rows.push_back(predictions.back().rmse());
   }
   if (!a.plot_path.empty()) {
     write_file_atomically(a.plot_path,
