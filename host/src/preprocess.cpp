@@ -14,9 +14,11 @@ namespace host_id {
 
 namespace {
 
-// A contiguous run of samples [begin, end) between gaps.
+// A contiguous run of samples [begin, end) between gaps, and where it
+// starts in the log.
 struct Segment {
   std::size_t begin{0}, end{0};
+  std::size_t log_begin{0};
 };
 
 // The filter and how much it needs at the ends, designed for one log.
@@ -80,7 +82,7 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
 void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
                     States& out) {
   const std::size_t n = e - b;
-  out.segments.push_back({out.states.size(), out.states.size() + n});
+  out.segments.push_back({out.states.size(), out.states.size() + n, b});
   const std::vector<double> t = slice(log.t, b, e);
   std::array<std::vector<double>, 3> q, qd, qdd;
   bool uniform = true;
@@ -225,12 +227,15 @@ struct RowStore {
 
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
 // their places, on `threads` threads; and tau alike.
+// The kept samples' unfiltered rows also go into `measured`.
 void fill_rows(const Model& model, const DeltaLog& log, const States& s, const RowLayout& layout,
-               RowStore& store, unsigned threads) {
+               RowStore& store, MeasuredMoments& measured, unsigned threads) {
   const std::size_t n = s.size();
   const std::size_t p = model.size();
   const std::size_t workers = workers_for(n, threads);
   std::atomic<std::size_t> first_bad{n};
+  std::vector<MeasuredMoments> moments(workers);
+  for (MeasuredMoments& m : moments) m.reset(p);
   const auto work = [&](std::size_t w) {
     std::vector<double> rows(3 * p);
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
@@ -251,6 +256,7 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         for (unsigned j = 0; j < 3; ++j) {
           for (std::size_t c = 0; c < p; ++c) store.at(side, 3 * i + j, c) = rows[j * p + c];
           store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
+          if (!side) moments[w].add(j, &rows[j * p], s.tau_Nm[k][j]);
         }
       }
     }
@@ -259,6 +265,8 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
   work(0);
   for (auto& t : pool) t.join();
+  measured = std::move(moments[0]);
+  for (std::size_t w = 1; w < workers; ++w) measured.merge(moments[w]);
   if (const std::size_t k = first_bad.load(); k < n) {
     const auto& q = s.states[k].q_rad;
     std::ostringstream m;
@@ -344,7 +352,7 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
   RowStore store{r.psi, r.tau, std::vector<double>(3 * layout.trimmed() * p),
                  std::vector<double>(3 * layout.trimmed()), p};
-  fill_rows(model, log, s, layout, store, threads);
+  fill_rows(model, log, s, layout, store, r.measured, threads);
   label_rows(s, layout, d.trim, r);
   const std::vector<Segment> segments = s.segments;
   const std::size_t samples = s.size();
@@ -354,6 +362,24 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
 }
 
 }  // namespace
+
+PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options) {
+  const FilterDesign design = design_filter(log, options);
+  const States s = joint_states(log, design);
+  PreparedStates out;
+  out.report.segments_used = s.segments.size();
+  out.report.segments_dropped = s.segments_dropped;
+  out.report.derivatives = describe(design, options, s);
+  out.report.samples_in_log = log.size();
+  out.report.sample_rate_hz = design.sample_rate_hz;
+  for (const Segment& seg : s.segments) {
+    for (std::size_t k = seg.begin + design.trim; k + design.trim < seg.end; ++k) {
+      out.log_index.push_back(seg.log_begin + (k - seg.begin));
+      out.states.push_back(s.states[k]);
+    }
+  }
+  return out;
+}
 
 Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
                         unsigned threads) {

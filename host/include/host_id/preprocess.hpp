@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "host_id/delta_log.hpp"
 #include "host_id/model.hpp"
@@ -44,6 +45,16 @@ struct Preprocessed {
   Regression regression;  // every kept sample, three rows each
   PreprocessReport report;
 };
+
+// The joint states of the samples a fit keeps (every segment long enough,
+// its ends trimmed), before the regressor: q filtered and differentiated,
+// or the log's qd and qdd as they are. Throws as preprocess() does.
+struct PreparedStates {
+  std::vector<std::size_t> log_index;  // of each kept sample in the log
+  std::vector<delta::JointState> states;
+  PreprocessReport report;
+};
+PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options);
 
 // Throws delta::InputError naming the log: options that do not suit it,
 // nothing left to fit, or a pose without forward kinematics (with its time).

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -14,6 +15,7 @@
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
+#include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 
 namespace host_id {
@@ -65,7 +67,8 @@ TEST_F(CliTest, VersionIsPrintedByTheProgramAndEveryCommand) {
   const std::string expected = std::string("host_id ") + DELTA_PROJECT_VERSION + "\n";
   EXPECT_EQ(run({"--version"}), 0);
   EXPECT_EQ(out_.str(), expected);
-  for (const char* command : {"fit", "validate", "simulate", "record", "excite", "status", "dbc"}) {
+  for (const char* command :
+       {"fit", "validate", "predict", "simulate", "record", "excite", "status", "dbc"}) {
     EXPECT_EQ(run({command, "--version"}), 0) << command;
     EXPECT_EQ(out_.str(), expected) << command;
   }
@@ -157,7 +160,8 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
   EXPECT_EQ(j["parameters"].size(), 12u);
   EXPECT_NEAR(j["parameters"]["platform_weight_mass"].get<double>(), 0.40, 0.02);
   EXPECT_NEAR(j["parameters"]["platform_inertial_mass"].get<double>(), 0.40, 0.02);
-  ASSERT_EQ(j["fit"]["rmse_Nm"].size(), 3u);
+  ASSERT_EQ(j["fit"]["rmse_measured_Nm"].size(), 3u);
+  ASSERT_EQ(j["fit"]["rmse_filtered_Nm"].size(), 3u);
   ASSERT_EQ(j["validation"].size(), 1u);
   EXPECT_EQ(j["validation"][0]["log"], path("p2.csv"));
   const std::string svg = delta::read_whole_file(path("p.svg"));
@@ -168,8 +172,10 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
   ASSERT_EQ(run({"validate", path("r.json"), path("p2.csv"), "--json"}), 0) << err_.str();
   const auto v = nlohmann::json::parse(out_.str());
   for (std::size_t k = 0; k < 3; ++k) {
-    EXPECT_DOUBLE_EQ(v["validation"][0]["rmse_Nm"][k].get<double>(),
-                     j["validation"][0]["rmse_Nm"][k].get<double>());
+    for (const char* key : {"rmse_measured_Nm", "rmse_filtered_Nm"}) {
+      EXPECT_DOUBLE_EQ(v["validation"][0][key][k].get<double>(),
+                       j["validation"][0][key][k].get<double>());
+    }
   }
 
   // A result saved when 'delta' named the lumped model is refused with the fix.
@@ -370,6 +376,83 @@ TEST_F(CliTest, SimulateParamsTakeALumpedFitAndNameAHigherFidelityOne) {
             std::string::npos)
       << err_.str();
   EXPECT_FALSE(exists("c.csv"));
+}
+
+// predict: the model's torque at every sample a fit uses, the states it
+// used, the measured torque, the log's metadata; its RMSE, computed here
+// from the columns, equals what predict and validate report (validate's
+// from moments accumulated while preprocessing, a different computation).
+TEST_F(CliTest, PredictWritesTheModelTorqueOfEverySampleTheFitUses) {
+  simulate("a.csv", {"--torque-noise", "0.01", "--seed", "1"});
+  simulate("b.csv", {"--torque-noise", "0.01", "--seed", "2", "--trajectory", "pick-and-place"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"predict", path("r.json"), path("b.csv"), "-o", path("pred.csv"), "--json"}), 0)
+      << err_.str();
+  const auto summary = nlohmann::json::parse(out_.str());
+  const DeltaLog in = read_delta_log(path("b.csv"));
+  const DeltaLog pred = read_delta_log(path("pred.csv"));
+  // 4 s at 1 kHz, 150 samples trimmed at each end (20 Hz cut-off).
+  ASSERT_EQ(pred.size(), in.size() - 300);
+  EXPECT_EQ(summary["samples"].get<std::size_t>(), pred.size());
+  EXPECT_EQ(summary["samples_left_out"].get<std::size_t>(), 300u);
+  EXPECT_TRUE(pred.has_qd && pred.has_qdd);
+  EXPECT_EQ(pred.metadata_value("plant"), std::optional<std::string>("lumped"));
+  EXPECT_EQ(pred.metadata_value("predicted_by"), std::optional<std::string>("host_id predict"));
+  EXPECT_EQ(pred.metadata_value("model"), std::optional<std::string>("delta"));
+  ASSERT_EQ(pred.extra_columns.size(), 3u);
+  std::array<double, 3> sum_sq{};
+  for (std::size_t k = 0; k < pred.size(); ++k) {
+    EXPECT_EQ(pred.t[k], in.t[k + 150]);
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_EQ(pred.tau[j][k], in.tau[j][k + 150]);  // measured, not filtered
+      sum_sq[j] += std::pow(pred.tau[j][k] - pred.extra_columns[j].second[k], 2);
+    }
+  }
+  EXPECT_EQ(pred.extra_columns[0].first, "tau_model1");
+  ASSERT_EQ(run({"validate", path("r.json"), path("b.csv"), "--json"}), 0) << err_.str();
+  const auto v = nlohmann::json::parse(out_.str());
+  for (unsigned j = 0; j < 3; ++j) {
+    const double rmse = std::sqrt(sum_sq[j] / static_cast<double>(pred.size()));
+    EXPECT_NEAR(summary["rmse_measured_Nm"][j].get<double>(), rmse, 1e-12 * rmse);
+    EXPECT_NEAR(v["validation"][0]["rmse_measured_Nm"][j].get<double>(), rmse, 1e-8 * rmse);
+    // The noise is in the measured RMSE, mostly filtered out of the other.
+    EXPECT_LT(v["validation"][0]["rmse_filtered_Nm"][j].get<double>(), 0.5 * rmse);
+  }
+}
+
+// With the log's own qd and qdd nothing is filtered or trimmed: the states
+// are the log's, and an exact fit predicts the torque to rounding.
+TEST_F(CliTest, PredictUsesTheLogsDerivativesAsTheyAre) {
+  simulate("a.csv", {"--with-derivatives"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"predict", path("r.json"), path("a.csv"), "-o", path("pred.csv")}), 0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("qd and qdd from the log's columns"), std::string::npos) << out_.str();
+  const DeltaLog in = read_delta_log(path("a.csv"));
+  const DeltaLog pred = read_delta_log(path("pred.csv"));
+  ASSERT_EQ(pred.size(), in.size());
+  for (std::size_t k = 0; k < pred.size(); k += 97) {
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_EQ(pred.q[j][k], in.q[j][k]);
+      EXPECT_EQ(pred.qd[j][k], in.qd[j][k]);
+      EXPECT_EQ(pred.qdd[j][k], in.qdd[j][k]);
+      EXPECT_NEAR(pred.extra_columns[j].second[k], in.tau[j][k], 1e-9);
+    }
+  }
+}
+
+TEST_F(CliTest, PredictNamesWhatIsWrongAndWritesNothing) {
+  simulate("a.csv");
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0);
+  EXPECT_EQ(run({"predict", path("none.json"), path("a.csv"), "-o", path("p.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("none.json") + ": cannot open"), std::string::npos) << err_.str();
+  std::ofstream(path("bad.csv")) << "# format = delta-log/1\n# upper_arm_length_m = 0.2\n";
+  EXPECT_EQ(run({"predict", path("r.json"), path("bad.csv"), "-o", path("p.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("bad.csv") + ":"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"predict", path("r.json"), path("a.csv")}), 2);  // -o is required
+  EXPECT_FALSE(exists("p.csv"));
 }
 
 }  // namespace
