@@ -33,10 +33,10 @@ struct Box {
   Eigen::VectorXd lower, upper;
 };
 
-// PSO's box from physical priors and the data's scale; the parameters whose
-// least-squares value lies outside it are named in r.
+// PSO's box from physical priors and the data's scale, wide enough to hold
+// the bounded least-squares optimum: both solve the same bounded problem.
 Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
-            const Eigen::VectorXd& ls_beta, FitResult& r) {
+            const Eigen::VectorXd& ls_beta) {
   const Eigen::Index p = reg.psi.cols();
   const double tau_rms = std::sqrt(reg.tau.squaredNorm() / static_cast<double>(reg.tau.size()));
   Box box{Eigen::VectorXd(p), Eigen::VectorXd(p)};
@@ -45,11 +45,8 @@ Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
         std::sqrt(reg.psi.col(c).squaredNorm() / static_cast<double>(reg.psi.rows()));
     const double bound = options.bound_factor * tau_rms / col_rms;
     const ParameterInfo& info = model.parameters()[static_cast<unsigned>(c)];
-    box.upper(c) = bound;
-    box.lower(c) = info.nonnegative ? 0.0 : -bound;
-    if (ls_beta(c) < box.lower(c) || ls_beta(c) > box.upper(c)) {
-      r.ls_outside_bounds.push_back(info.name);
-    }
+    box.upper(c) = std::max(bound, 2.0 * ls_beta(c));
+    box.lower(c) = info.nonnegative ? 0.0 : std::min(-bound, 2.0 * ls_beta(c));
   }
   return box;
 }
@@ -65,10 +62,12 @@ LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitO
   r.std_dev_lags = ls.correlation_lags;
   r.condition_number_scaled = ls.condition_number_scaled;
   r.ls_cost_Nm2 = ls.cost;
+  for (const std::size_t c : ls.active_bounds)
+    r.active_bounds.push_back(model.parameters()[c].name);
   const Regression weighted_reg =
       options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
   const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
-  box = pso_box(cost_reg, model, options, ls.beta, r);
+  box = pso_box(cost_reg, model, options, ls.beta);
   if (options.method == Method::kPso) {
     const QuadraticCost cost(cost_reg, ls.beta);
     r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
@@ -90,11 +89,14 @@ std::vector<ParameterEstimate> parameter_estimates(const Model& model, const Lea
     e.info = model.parameters()[static_cast<unsigned>(c)];
     e.value = beta(c);
     e.ls_value = ls.beta(c);
+    e.unconstrained_value = ls.unconstrained_beta(c);
     e.std_dev = ls.std_dev(c);
     e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * ls.std_dev(c) / std::abs(ls.beta(c))
                                           : std::numeric_limits<double>::infinity();
     e.lower = box.lower(c);
     e.upper = box.upper(c);
+    for (const std::size_t a : ls.active_bounds)
+      e.at_bound = e.at_bound || a == static_cast<std::size_t>(c);
     out.push_back(e);
   }
   return out;

@@ -167,9 +167,26 @@ LeastSquaresResult solve_ordinary(const Equations& r, const Model& model, LsSolv
       solver == LsSolver::kSvd ? Eigen::VectorXd(svd.solve(qt_tau))
                                : Eigen::VectorXd(rr.triangularView<Eigen::Upper>().solve(qt_tau));
   LeastSquaresResult out;
-  out.beta = beta_scaled.cwiseQuotient(col_norm);
-  const Eigen::VectorXd e = r.tau - r.psi * out.beta;
-  out.cost = e.squaredNorm() / static_cast<double>(rows);
+  out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
+  const Eigen::VectorXd e = r.tau - r.psi * out.unconstrained_beta;
+  out.unconstrained_cost = e.squaredNorm() / static_cast<double>(rows);
+  // Scaling by the positive column norms keeps every bound at 0.
+  std::vector<bool> nonnegative(static_cast<std::size_t>(p));
+  bool inside = true;
+  for (Eigen::Index c = 0; c < p; ++c) {
+    nonnegative[static_cast<std::size_t>(c)] =
+        model.parameters()[static_cast<std::size_t>(c)].nonnegative;
+    inside = inside && !(nonnegative[static_cast<std::size_t>(c)] && beta_scaled(c) < 0.0);
+  }
+  const Eigen::VectorXd x = inside ? beta_scaled : bounded_least_squares(rr, qt_tau, nonnegative);
+  out.beta = x.cwiseQuotient(col_norm);
+  for (Eigen::Index c = 0; c < p; ++c) {
+    if (nonnegative[static_cast<std::size_t>(c)] && x(c) == 0.0) {
+      out.active_bounds.push_back(static_cast<std::size_t>(c));
+    }
+  }
+  out.cost = inside ? out.unconstrained_cost
+                    : (r.tau - r.psi * out.beta).squaredNorm() / static_cast<double>(rows);
   // (A^T A)^-1 = V Sigma^-2 V^T for the scaled regressor A = U Sigma V^T.
   const Eigen::MatrixXd vs = svd.matrixV() * sv.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd inv_ata = vs * vs.transpose();
@@ -185,7 +202,83 @@ LeastSquaresResult solve_ordinary(const Equations& r, const Model& model, LsSolv
   return out;
 }
 
+// The least-squares solution over the passive columns, the others at 0.
+Eigen::VectorXd solve_over(const Eigen::MatrixXd& r, const Eigen::VectorXd& b,
+                           const std::vector<bool>& passive) {
+  std::vector<Eigen::Index> columns;
+  for (Eigen::Index c = 0; c < r.cols(); ++c) {
+    if (passive[static_cast<std::size_t>(c)]) columns.push_back(c);
+  }
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(r.cols());
+  if (columns.empty()) return z;
+  Eigen::MatrixXd a(r.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    a.col(static_cast<Eigen::Index>(k)) = r.col(columns[k]);
+  }
+  const Eigen::VectorXd zp = a.householderQr().solve(b);
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    z(columns[k]) = zp(static_cast<Eigen::Index>(k));
+  }
+  return z;
+}
+
 }  // namespace
+
+Eigen::VectorXd bounded_least_squares(const Eigen::MatrixXd& r, const Eigen::VectorXd& b,
+                                      const std::vector<bool>& nonnegative) {
+  const auto p = static_cast<std::size_t>(r.cols());
+  std::vector<bool> passive(p);
+  for (std::size_t c = 0; c < p; ++c) passive[c] = !nonnegative[c];
+  // Feasible start: the free parameters' optimum with the bounded ones at 0.
+  Eigen::VectorXd x = solve_over(r, b, passive);
+  const double tolerance = 1e-12 * r.norm() * b.norm();
+  for (std::size_t outer = 0; outer < 3 * p + 3; ++outer) {
+    // The descent direction of each bounded parameter held at 0.
+    const Eigen::VectorXd w = r.transpose() * (b - r * x);
+    std::size_t enter = p;
+    double largest = tolerance;
+    for (std::size_t c = 0; c < p; ++c) {
+      const auto i = static_cast<Eigen::Index>(c);
+      if (!passive[c] && w(i) > largest) {
+        enter = c;
+        largest = w(i);
+      }
+    }
+    if (enter == p) break;  // the KKT conditions hold
+    passive[enter] = true;
+    for (std::size_t inner = 0; inner <= p; ++inner) {
+      const Eigen::VectorXd z = solve_over(r, b, passive);
+      double step = 1.0;
+      std::size_t limiting = p;
+      for (std::size_t c = 0; c < p; ++c) {
+        const auto i = static_cast<Eigen::Index>(c);
+        if (passive[c] && nonnegative[c] && z(i) <= 0.0) {
+          const double gap = x(i) - z(i);
+          const double s = gap > 0.0 ? x(i) / gap : 0.0;
+          if (s < step || limiting == p) {
+            step = std::min(step, s);
+            limiting = c;
+          }
+        }
+      }
+      if (limiting == p) {
+        x = z;
+        break;
+      }
+      // Step to the first bound met and hold the parameters there.
+      x += step * (z - x);
+      x(static_cast<Eigen::Index>(limiting)) = 0.0;
+      for (std::size_t c = 0; c < p; ++c) {
+        const auto i = static_cast<Eigen::Index>(c);
+        if (passive[c] && nonnegative[c] && x(i) <= 0.0) {
+          passive[c] = false;
+          x(i) = 0.0;
+        }
+      }
+    }
+  }
+  return x;
+}
 
 std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
   if (!(sample_rate_hz > 0.0) || !(cutoff_hz > 0.0)) return 0;

@@ -140,10 +140,14 @@ std::string text_report(const FitResult& r) {
   }
   s << "\n  condition number of regressor    " << fmt("%.3g", r.condition_number)
     << " (columns scaled to unit norm: " << fmt("%.3g", r.condition_number_scaled) << ")\n";
-  if (!r.ls_outside_bounds.empty()) {
-    s << "  note      the least-squares values of";
-    for (const auto& n : r.ls_outside_bounds) s << " " << n;
-    s << " lie outside the physical bounds; the PSO estimate is the bounded optimum\n";
+  if (!r.active_bounds.empty()) {
+    s << "  bounds    held at 0 by its physical bound:";
+    for (const auto& e : r.parameters) {
+      if (e.at_bound)
+        s << " " << e.info.name << " (unbounded " << fmt("%.3g", e.unconstrained_value) << ")";
+    }
+    s << "\n            the estimate is the optimum within the bounds; least squares and PSO solve "
+         "the same bounded problem\n";
   }
   s << "\n";
   std::vector<LogRmse> rows{r.fit};
@@ -163,6 +167,8 @@ nlohmann::json json_report(const FitResult& r) {
                        {"unit", e.info.unit},
                        {"value", e.value},
                        {"least_squares_value", e.ls_value},
+                       {"unconstrained_value", e.unconstrained_value},
+                       {"at_bound", e.at_bound},
                        {"std_dev", e.std_dev},
                        {"rel_std_percent", e.rel_std_percent},
                        {"lower_bound", e.lower},
@@ -207,7 +213,7 @@ nlohmann::json json_report(const FitResult& r) {
         {"condition_number", r.condition_number},
         {"std_dev_correlation_lags", r.std_dev_lags},
         {"condition_number_scaled", r.condition_number_scaled},
-        {"outside_pso_bounds", r.ls_outside_bounds}}},
+        {"active_bounds", r.active_bounds}}},
       {"validation", validation},
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
   };

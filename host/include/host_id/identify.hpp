@@ -49,11 +49,13 @@ double min_speed_for(const FitOptions& options);
 
 struct ParameterEstimate {
   ParameterInfo info;
-  double value{0};     // the chosen method's estimate
-  double ls_value{0};  // the least-squares optimum
-  double std_dev{0};   // from the least-squares covariance
+  double value{0};                // the chosen method's estimate
+  double ls_value{0};             // the bounded least-squares optimum
+  double unconstrained_value{0};  // the least-squares optimum without bounds
+  double std_dev{0};              // from the least-squares covariance
   double rel_std_percent{0};
   double lower{0}, upper{0};  // the PSO bounds
+  bool at_bound{false};       // held at its physical bound by the bounded optimum
 };
 
 // A model's torque error on one log, per joint, two ways:
@@ -98,7 +100,8 @@ struct FitResult {
   std::size_t std_dev_lags{0};  // residual correlation allowed for (least_squares.hpp)
   std::array<double, 3> joint_weights{1, 1, 1};
   std::optional<PsoResult> pso;
-  std::vector<std::string> ls_outside_bounds;  // parameters whose LS value is outside
+  // Parameters held at their physical bound (0) by the bounded optimum.
+  std::vector<std::string> active_bounds;
   double seconds_estimator{0};
   double seconds_total{0};
   std::vector<LogRmse> validation;

@@ -17,19 +17,26 @@ enum class LsSolver { kQr, kSvd };
 enum class LsWeights { kNone, kJoint };
 
 struct LeastSquaresResult {
+  // The optimum within the physical bounds (the model's nonnegative
+  // parameters >= 0): the unconstrained optimum where that lies inside them.
   Eigen::VectorXd beta;
-  Eigen::VectorXd std_dev;            // sqrt of the covariance's diagonal
-  std::size_t correlation_lags{0};    // of the covariance estimate (0: white residuals)
-  double cost{0};                     // mean squared error of the (weighted) rows
-  double condition_number{0};         // of Psi, raw units
-  double condition_number_scaled{0};  // of Psi with unit-norm columns
+  Eigen::VectorXd unconstrained_beta;
+  std::vector<std::size_t> active_bounds;  // parameters held at 0 by their bound
+  Eigen::VectorXd std_dev;                 // sqrt of the covariance's diagonal
+  std::size_t correlation_lags{0};         // of the covariance estimate (0: white residuals)
+  double cost{0};                          // mean squared error of the (weighted) rows at beta
+  double unconstrained_cost{0};            // ... at unconstrained_beta
+  double condition_number{0};              // of Psi, raw units
+  double condition_number_scaled{0};       // of Psi with unit-norm columns
   std::array<double, 3> joint_weights{1, 1, 1};
 };
 
 // Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
 Regression weighted(const Equations& r, const std::array<double, 3>& w);
 
-// Solves min |tau - Psi beta|^2. With kJoint, two steps: ordinary least
+// Solves min |tau - Psi beta|^2 subject to beta_c >= 0 for each parameter
+// the model marks nonnegative (exactly: an active-set method on the
+// regressor's triangular factor). With kJoint, two steps: ordinary least
 // squares, then weights 1 / sigma_j^2 from each joint's residual variance.
 // Throws delta::InputError when Psi is rank-deficient, naming the parameters that
 // the data cannot tell apart.
@@ -44,6 +51,13 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w);
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags = 0);
+
+// min |R x - b|^2 subject to x_c >= 0 where nonnegative[c], for a square
+// upper-triangular R of full rank: the Lawson-Hanson active-set method, with
+// the parameters without a bound always free. Exact in at most a few
+// passes over p; returns x.
+Eigen::VectorXd bounded_least_squares(const Eigen::MatrixXd& r, const Eigen::VectorXd& b,
+                                      const std::vector<bool>& nonnegative);
 
 // The lags for a log sampled at sample_rate_hz whose residuals were low-pass
 // filtered at cutoff_hz: two correlation lengths, 2 fs / f_cutoff.
