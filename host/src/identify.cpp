@@ -7,6 +7,7 @@
 #include <string>
 
 #include "delta/input_error.hpp"
+#include "host_id/friction_shape.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -131,10 +132,18 @@ double min_speed_for(const FitOptions& options) {
   return options.model.name == "paper14" ? 0.0 : kDefaultMinSpeedRadS;
 }
 
-FitResult fit_log(DeltaLog log, const FitOptions& options,
+FitResult fit_log(DeltaLog log, const FitOptions& given_options,
                   const std::vector<const DeltaLog*>& validation, bool keep_predictions) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
+  FitOptions options = given_options;
+  if (options.fit_friction_shape) {
+    r.friction_shape = fit_friction_shape(log, options);
+    options.model.coulomb_smoothing_rad_s = r.friction_shape->coulomb_smoothing_rad_s;
+    if (options.model.stribeck_velocity_rad_s > 0.0) {
+      options.model.stribeck_velocity_rad_s = r.friction_shape->stribeck_velocity_rad_s;
+    }
+  }
   r.options = options;
   const auto model = make_model(options.model);
   Preprocessed pre = preprocess(*model, log, options.prepare, options.threads);

@@ -93,12 +93,13 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
   return 0.5 * (s + s.transpose());
 }
 
-Eigen::VectorXd column_norms(const Equations& r, const Model& model, const std::string& log_name) {
+Eigen::VectorXd column_norms(const Equations& r, const std::vector<ParameterInfo>& parameters,
+                             const std::string& log_name) {
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
   for (Eigen::Index c = 0; c < col_norm.size(); ++c) {
     if (!(col_norm(c) > 0.0)) {
       throw delta::InputError(log_name + ": parameter '" +
-                              model.parameters()[static_cast<unsigned>(c)].name +
+                              parameters[static_cast<unsigned>(c)].name +
                               "' is not excited at all by this log (its regressor column is zero)");
     }
   }
@@ -106,14 +107,15 @@ Eigen::VectorXd column_norms(const Equations& r, const Model& model, const std::
 }
 
 [[noreturn]] void throw_rank_deficient(const Eigen::VectorXd& sv, const Eigen::VectorXd& v,
-                                       const Model& model, const std::string& log_name) {
+                                       const std::vector<ParameterInfo>& parameters,
+                                       const std::string& log_name) {
   // The right singular vector of the smallest value names the mix of
   // parameters the data cannot separate.
   std::ostringstream s;
   s << log_name << ": the regressor is rank-deficient (smallest scaled singular value "
     << sv(sv.size() - 1) / sv(0) << " of the largest): this trajectory cannot tell apart";
   for (Eigen::Index c = 0; c < v.size(); ++c) {
-    if (std::abs(v(c)) > 0.2) s << " '" << model.parameters()[static_cast<unsigned>(c)].name << "'";
+    if (std::abs(v(c)) > 0.2) s << " '" << parameters[static_cast<unsigned>(c)].name << "'";
   }
   s << "; use a richer excitation or a model with fewer parameters";
   throw delta::InputError(s.str());
@@ -153,16 +155,16 @@ TriangularFactor scaled_qr(const Equations& reg, const Eigen::VectorXd& col_norm
 // The least-squares solution from R: everything after the QR is p x p. The
 // singular values and right singular vectors of R are those of the scaled
 // regressor (Q has orthonormal columns).
-LeastSquaresResult solve_ordinary(const Equations& r, const Model& model, LsSolver solver,
-                                  const std::string& log_name, std::size_t lags) {
+LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<ParameterInfo>& parameters,
+                                  LsSolver solver, const std::string& log_name, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
-  const Eigen::VectorXd col_norm = column_norms(r, model, log_name);
+  const Eigen::VectorXd col_norm = column_norms(r, parameters, log_name);
   const auto [rr, qt_tau] = scaled_qr(r, col_norm);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
   if (sv(p - 1) <= 1e-10 * sv(0))
-    throw_rank_deficient(sv, svd.matrixV().col(p - 1), model, log_name);
+    throw_rank_deficient(sv, svd.matrixV().col(p - 1), parameters, log_name);
   const Eigen::VectorXd beta_scaled =
       solver == LsSolver::kSvd ? Eigen::VectorXd(svd.solve(qt_tau))
                                : Eigen::VectorXd(rr.triangularView<Eigen::Upper>().solve(qt_tau));
@@ -174,8 +176,7 @@ LeastSquaresResult solve_ordinary(const Equations& r, const Model& model, LsSolv
   std::vector<bool> nonnegative(static_cast<std::size_t>(p));
   bool inside = true;
   for (Eigen::Index c = 0; c < p; ++c) {
-    nonnegative[static_cast<std::size_t>(c)] =
-        model.parameters()[static_cast<std::size_t>(c)].nonnegative;
+    nonnegative[static_cast<std::size_t>(c)] = parameters[static_cast<std::size_t>(c)].nonnegative;
     inside = inside && !(nonnegative[static_cast<std::size_t>(c)] && beta_scaled(c) < 0.0);
   }
   const Eigen::VectorXd x = inside ? beta_scaled : bounded_least_squares(rr, qt_tau, nonnegative);
@@ -288,7 +289,27 @@ std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags) {
-  LeastSquaresResult ols = solve_ordinary(r, model, solver, log_name, correlation_lags);
+  return solve_least_squares(r, model.parameters(), solver, weights, log_name, correlation_lags);
+}
+
+double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
+                                  const std::string& log_name) {
+  const Eigen::Index p = r.psi.cols();
+  const Eigen::VectorXd col_norm = column_norms(r, parameters, log_name);
+  const auto [rr, qt_tau] = scaled_qr(r, col_norm);
+  std::vector<bool> nonnegative(static_cast<std::size_t>(p));
+  for (std::size_t c = 0; c < nonnegative.size(); ++c) nonnegative[c] = parameters[c].nonnegative;
+  const Eigen::VectorXd x = bounded_least_squares(rr, qt_tau, nonnegative);
+  // |tau - Psi beta|^2 = |tau|^2 - |Q^T tau|^2 + |R x - Q^T tau|^2.
+  const double sum = r.tau.squaredNorm() - qt_tau.squaredNorm() + (rr * x - qt_tau).squaredNorm();
+  return std::max(0.0, sum) / static_cast<double>(r.rows());
+}
+
+LeastSquaresResult solve_least_squares(const Equations& r,
+                                       const std::vector<ParameterInfo>& parameters,
+                                       LsSolver solver, LsWeights weights,
+                                       const std::string& log_name, std::size_t correlation_lags) {
+  LeastSquaresResult ols = solve_ordinary(r, parameters, solver, log_name, correlation_lags);
   if (weights == LsWeights::kNone) return ols;
   const std::array<double, 3> var = mean_square_per_joint(r, r.tau - r.psi * ols.beta);
   std::array<double, 3> w{};
@@ -297,7 +318,7 @@ LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, L
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
   LeastSquaresResult wls =
-      solve_ordinary(weighted(r, w), model, solver, log_name, correlation_lags);
+      solve_ordinary(weighted(r, w), parameters, solver, log_name, correlation_lags);
   wls.joint_weights = w;
   return wls;
 }

@@ -58,6 +58,14 @@ const Term kCoulomb{"coulomb_friction",
                     &B::coulomb,
                     &H::coulomb_friction_Nm,
                     nullptr};
+const Term kStribeck{"stribeck_friction",
+                     "N m",
+                     true,
+                     "Stribeck excess of the friction at rest, exp(-(qd / vs)^2) tanh(qd / w)",
+                     Sharing::kJoint,
+                     &B::stribeck,
+                     &H::stribeck_friction_Nm,
+                     nullptr};
 const Term kOffset{"torque_offset",
                    "N m",
                    false,
@@ -104,6 +112,7 @@ std::vector<Term> delta_terms() {
 class PhysicalModel final : public Model {
  public:
   PhysicalModel(ModelOptions o, std::vector<Term> terms) : Model(std::move(o)) {
+    if (options_.stribeck_velocity_rad_s > 0.0) terms.push_back(kStribeck);
     if (options_.offsets) terms.push_back(kOffset);
     for (const Term& t : terms) {
       const bool per_joint = is_per_joint(t);
@@ -119,8 +128,8 @@ class PhysicalModel final : public Model {
   delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
                                const delta::JointState& s, double* out) const override {
     delta::DynamicsBasis b;
-    const auto status =
-        delta::dynamics_basis(g, s, gravity_m_s2, options_.coulomb_smoothing_rad_s, b);
+    const auto status = delta::dynamics_basis(g, s, gravity_m_s2, options_.coulomb_smoothing_rad_s,
+                                              b, options_.stribeck_velocity_rad_s);
     if (status != delta::KinematicsStatus::kOk) return status;
     const std::size_t p = size();
     for (unsigned j = 0; j < 3; ++j) {
@@ -210,8 +219,12 @@ class Paper14Model final : public Model {
 }  // namespace
 
 std::unique_ptr<Model> make_model(const ModelOptions& options) {
-  if (!(options.coulomb_smoothing_rad_s > 0.0)) {
+  if (!(options.coulomb_smoothing_rad_s > 0.0) || !std::isfinite(options.coulomb_smoothing_rad_s)) {
     throw delta::InputError("--coulomb-smoothing must be a positive speed in rad/s");
+  }
+  if (!(options.stribeck_velocity_rad_s >= 0.0) ||
+      !std::isfinite(options.stribeck_velocity_rad_s)) {
+    throw delta::InputError("--stribeck-velocity must be a speed in rad/s, 0 for no Stribeck term");
   }
   if (options.name == "delta") return std::make_unique<PhysicalModel>(options, delta_terms());
   if (options.name == "lumped") return std::make_unique<PhysicalModel>(options, lumped_terms());
@@ -221,6 +234,9 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
     }
     if (options.offsets) {
       throw delta::InputError("--offsets applies to --model delta and lumped only");
+    }
+    if (options.stribeck_velocity_rad_s > 0.0) {
+      throw delta::InputError("--stribeck-velocity applies to --model delta and lumped only");
     }
     return std::make_unique<Paper14Model>(options);
   }

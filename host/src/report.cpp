@@ -24,7 +24,12 @@ std::string model_summary(const ModelOptions& m, std::size_t p) {
   if (m.name == "delta" || m.name == "lumped") {
     s << " (" << (m.name == "delta" ? "higher-fidelity" : "point masses") << ", "
       << (m.per_joint ? "per-joint" : "shared") << " arm inertia and gravity, "
-      << (m.offsets ? "with" : "no") << " torque offsets)";
+      << (m.offsets ? "with" : "no") << " torque offsets, Coulomb smoothing "
+      << m.coulomb_smoothing_rad_s << " rad/s";
+    if (m.stribeck_velocity_rad_s > 0.0) {
+      s << ", Stribeck velocity " << m.stribeck_velocity_rad_s << " rad/s";
+    }
+    s << ")";
   } else {
     s << " (the paper's regressor, constant lambda)";
   }
@@ -126,6 +131,19 @@ std::string text_report(const FitResult& r) {
     s << "  weights   " << fmt("%.3f", r.joint_weights[0]) << " " << fmt("%.3f", r.joint_weights[1])
       << " " << fmt("%.3f", r.joint_weights[2]) << " (1 / residual variance, mean 1)\n";
   }
+  if (r.friction_shape) {
+    const FrictionShapeResult& f = *r.friction_shape;
+    s << "  friction  shape by PSO (variable projection, " << f.evaluations << " evaluations, "
+      << fmt("%.1f", f.seconds) << " s): Coulomb smoothing "
+      << fmt("%.4g", f.coulomb_smoothing_rad_s) << " +- " << fmt("%.2g", f.coulomb_smoothing_std)
+      << " rad/s";
+    if (f.stribeck_velocity_rad_s > 0.0) {
+      s << ", Stribeck velocity " << fmt("%.4g", f.stribeck_velocity_rad_s) << " +- "
+        << fmt("%.2g", f.stribeck_velocity_std) << " rad/s";
+    }
+    s << "\n            cost " << fmt("%.6e", f.cost_given_Nm2) << " with the given shape, "
+      << fmt("%.6e", f.cost_fitted_Nm2) << " fitted (least squares within the bounds)\n";
+  }
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
 
@@ -190,7 +208,8 @@ nlohmann::json json_report(const FitResult& r) {
        {{"name", o.model.name},
         {"per_joint", o.model.per_joint},
         {"offsets", o.model.offsets},
-        {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s}}},
+        {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s},
+        {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
       {"method", o.method == Method::kPso ? "pso" : "ls"},
       {"preprocessing",
        {{"cutoff_hz", o.prepare.cutoff_hz},
@@ -217,6 +236,18 @@ nlohmann::json json_report(const FitResult& r) {
       {"validation", validation},
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
   };
+  j["friction_shape"] = nullptr;
+  if (r.friction_shape) {
+    const FrictionShapeResult& f = *r.friction_shape;
+    j["friction_shape"] = {{"coulomb_smoothing_rad_s", f.coulomb_smoothing_rad_s},
+                           {"coulomb_smoothing_std_rad_s", f.coulomb_smoothing_std},
+                           {"stribeck_velocity_rad_s", f.stribeck_velocity_rad_s},
+                           {"stribeck_velocity_std_rad_s", f.stribeck_velocity_std},
+                           {"cost_given_Nm2", f.cost_given_Nm2},
+                           {"cost_fitted_Nm2", f.cost_fitted_Nm2},
+                           {"evaluations", f.evaluations},
+                           {"seconds", f.seconds}};
+  }
   if (r.pso) {
     const auto& p = *r.pso;
     j["pso"] = {{"particles", o.pso.particles},
@@ -260,6 +291,8 @@ SavedResult read_saved_result(const std::string& path) {
     s.model.per_joint = need(m, "per_joint", "model.").get<bool>();
     s.model.offsets = need(m, "offsets", "model.").get<bool>();
     s.model.coulomb_smoothing_rad_s = need(m, "coulomb_smoothing_rad_s", "model.").get<double>();
+    // Results saved before the Stribeck term have no key: no term.
+    s.model.stribeck_velocity_rad_s = m.value("stribeck_velocity_rad_s", 0.0);
     const json& pre = need(j, "preprocessing", "");
     s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
     s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();

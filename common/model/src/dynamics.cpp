@@ -51,7 +51,8 @@ Joint3 coupling_term(const Geometry& g, const JointState& s, const Mat3<double>&
 }  // namespace
 
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
-                                double coulomb_smoothing_rad_s, DynamicsBasis& out) {
+                                double coulomb_smoothing_rad_s, DynamicsBasis& out,
+                                double stribeck_velocity_rad_s) {
   PoseKinematics pk;
   const auto status = pose_kinematics(g, s.q_rad, s.qd_rad_s, pk);
   if (status != KinematicsStatus::kOk) return status;
@@ -69,6 +70,10 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
     out.gravity_sin[i] = std::sin(s.q_rad[i]);
     out.viscous[i] = s.qd_rad_s[i];
     out.coulomb[i] = std::tanh(s.qd_rad_s[i] / coulomb_smoothing_rad_s);
+    if (stribeck_velocity_rad_s > 0.0) {
+      const double v = s.qd_rad_s[i] / stribeck_velocity_rad_s;
+      out.stribeck[i] = std::exp(-v * v) * out.coulomb[i];
+    }
   }
   return KinematicsStatus::kOk;
 }
@@ -93,7 +98,8 @@ Joint3 torque_from_basis(const DynamicsBasis& b, const HighFidelityParameters& p
              p.platform_weight_mass_kg * b.platform_weight[i] +
              p.forearm_coupling_kg * b.coupling[i] +
              p.viscous_friction_Nm_s_per_rad[i] * b.viscous[i] +
-             p.coulomb_friction_Nm[i] * b.coulomb[i] + p.torque_offset_Nm[i];
+             p.coulomb_friction_Nm[i] * b.coulomb[i] + p.stribeck_friction_Nm[i] * b.stribeck[i] +
+             p.torque_offset_Nm[i];
   }
   return tau;
 }
@@ -126,7 +132,8 @@ HighFidelityParameters to_high_fidelity(const LumpedParameters& p) {
 KinematicsStatus inverse_dynamics(const Geometry& g, const HighFidelityParameters& p,
                                   const JointState& s, Joint3& tau_Nm) {
   DynamicsBasis b;
-  const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
+  const auto status =
+      dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b, p.stribeck_velocity_rad_s);
   if (status != KinematicsStatus::kOk) return status;
   tau_Nm = torque_from_basis(b, p);
   return KinematicsStatus::kOk;

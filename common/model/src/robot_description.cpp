@@ -357,7 +357,12 @@ HighFidelityParameters high_fidelity_truth(const RobotDescription& d) {
     t.arm_gravity_sin_Nm[i] = -g * d.upper_arm.mass_kg * d.upper_arm.com_m.z;
     t.viscous_friction_Nm_s_per_rad[i] = d.joints[i].viscous_friction_Nm_s_per_rad;
     t.coulomb_friction_Nm[i] = d.joints[i].coulomb_friction_Nm;
+    t.stribeck_friction_Nm[i] = d.joints[i].stribeck_friction_Nm;
   }
+  // The shape as the model has it: one smoothing and one Stribeck velocity
+  // for the three joints (joint 1's).
+  t.coulomb_smoothing_rad_s = d.joints[0].friction_smoothing_rad_s;
+  t.stribeck_velocity_rad_s = d.joints[0].stribeck_velocity_rad_s;
   const double platform_kg = d.platform.mass_kg + d.payload.mass_kg;
   t.platform_inertial_mass_kg = platform_kg + 6.0 * s.c_kg;
   t.platform_weight_mass_kg = platform_kg + 6.0 * s.platform_weight_kg;

@@ -42,6 +42,22 @@ struct FitOptions {
   // for the delta model, 0 (every sample, as in the paper) for paper14.
   std::optional<double> min_speed_rad_s;
   unsigned threads{0};
+  // Search the friction's shape (the Coulomb smoothing, and the Stribeck
+  // velocity where the model has a Stribeck term) by PSO, the linear
+  // parameters solved exactly for each candidate (friction_shape.hpp).
+  bool fit_friction_shape{false};
+};
+
+// The friction shape found by fit_friction_shape, each value with its
+// standard deviation (Gauss-Newton, from the same covariance as the linear
+// parameters'), and the cost before and after.
+struct FrictionShapeResult {
+  double coulomb_smoothing_rad_s{0}, coulomb_smoothing_std{0};
+  double stribeck_velocity_rad_s{0}, stribeck_velocity_std{0};  // 0: no Stribeck term
+  double cost_given_Nm2{0};   // with the shape given in the options
+  double cost_fitted_Nm2{0};  // with the shape found
+  std::size_t evaluations{0};
+  double seconds{0};
 };
 
 // The minimum speed a fit with these options uses.
@@ -108,6 +124,7 @@ struct FitResult {
   std::vector<Prediction> predictions;  // with keep_predictions: fitted log, then validation
   // Parameter name -> its truth, where the caller knows it (fit --truth).
   std::map<std::string, double> truth;
+  std::optional<FrictionShapeResult> friction_shape;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With

@@ -51,6 +51,17 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w);
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags = 0);
+// The same for columns described by `parameters` (names and bounds).
+LeastSquaresResult solve_least_squares(const Equations& r,
+                                       const std::vector<ParameterInfo>& parameters,
+                                       LsSolver solver, LsWeights weights,
+                                       const std::string& log_name,
+                                       std::size_t correlation_lags = 0);
+
+// The cost (mean squared error) of the bounded optimum alone: no
+// covariance, for a search that solves many problems (variable projection).
+double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
+                                  const std::string& log_name);
 
 // min |R x - b|^2 subject to x_c >= 0 where nonnegative[c], for a square
 // upper-triangular R of full rank: the Lawson-Hanson active-set method, with

@@ -27,6 +27,9 @@ struct ModelOptions {
   bool per_joint{false};      // delta, lumped: arm inertia and gravity per joint
   bool offsets{false};        // delta, lumped: a torque offset per joint
   double coulomb_smoothing_rad_s{0.01};
+  // delta, lumped: > 0 adds a Stribeck term per joint,
+  // exp(-(qd / stribeck_velocity)^2) tanh(qd / w); 0: none.
+  double stribeck_velocity_rad_s{0.0};
 };
 
 // The names --model takes, in the order the help lists them.

@@ -86,6 +86,17 @@ void add_model_options(CLI::App& c, FitArguments& a) {
       ->check(kPositive)
       ->capture_default_str()
       ->group("model");
+  c.add_flag("--fit-friction-shape", a.fit.fit_friction_shape,
+             "search the Coulomb smoothing (and, with --stribeck-velocity, the Stribeck "
+             "velocity) by PSO, the other parameters solved exactly for each candidate; the "
+             "report gives the cost with the given shape beside the fitted one")
+      ->group("model");
+  c.add_option("--stribeck-velocity", a.fit.model.stribeck_velocity_rad_s,
+               "delta, lumped: add a Stribeck term per joint, exp(-(qd/V)^2) tanh(qd/W), with "
+               "this velocity in rad/s (0: none)")
+      ->check(kNonNegative)
+      ->capture_default_str()
+      ->group("model");
 }
 
 void add_estimator_options(CLI::App& c, FitArguments& a) {

@@ -67,14 +67,10 @@ TEST(MujocoPlantTest, PointMassRodsAgreeWithTheLumpedModel) {
 
 // The higher-fidelity model against the multibody robot it was derived for:
 // rods with mass along their length, the arm's centre of mass below its line,
-// the rotor's armature. Only the friction's shape differs, so the robot's
-// Stribeck excess is taken out and its smoothing made the model's.
+// the rotor's armature, and (with the Stribeck term and the robot's
+// friction shape) its friction.
 TEST(MujocoPlantTest, HigherFidelityModelIsExactForTheMultibodyRobot) {
-  RobotDescription d = default_robot_description();
-  for (JointDrive& j : d.joints) {
-    j.stribeck_friction_Nm = 0.0;
-    j.friction_smoothing_rad_s = 0.01;
-  }
+  const RobotDescription d = default_robot_description();
   const HighFidelityParameters model = high_fidelity_truth(d);
   const LumpedParameters lumped = lumped_truth(d);
   MujocoPlant plant(d, {0.3, 0.3, 0.3});

@@ -105,6 +105,15 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--offsets"}), 1);
   EXPECT_NE(err_.str().find("--offsets applies to --model delta and lumped only"),
             std::string::npos);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--fit-friction-shape"}), 1);
+  EXPECT_NE(err_.str().find("--fit-friction-shape applies to --model delta and lumped only"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper14", "--stribeck-velocity", "0.1"}), 1);
+  EXPECT_NE(err_.str().find("--stribeck-velocity applies to --model delta and lumped only"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--stribeck-velocity", "-1"}), 2);
 }
 
 // Found when the product was tried as a new user would: values out of range

@@ -61,6 +61,10 @@ struct HighFidelityParameters {
   double forearm_coupling_kg{};        // B' = 2 B per chain: elbow-platform coupling of the rods
   Joint3 viscous_friction_Nm_s_per_rad{};
   Joint3 coulomb_friction_Nm{};
+  // Friction's shape: the Stribeck excess at rest, decaying with speed as
+  // exp(-(qd / stribeck_velocity)^2), and the smoothing of the sign.
+  Joint3 stribeck_friction_Nm{};
+  double stribeck_velocity_rad_s{0.1};
   Joint3 torque_offset_Nm{};
   double coulomb_smoothing_rad_s{0.01};
   double gravity_m_s2{9.81};
@@ -83,6 +87,9 @@ struct DynamicsBasis {
   Joint3 platform_inertial{};  // [J^T pdd]_i               [m^2/s^2/rad], times m_in
   Joint3 platform_weight{};    // [J^T (0, 0, gravity)]_i   [m^2/s^2/rad], times m_w
   Joint3 coupling{};           // psi_i                     [m^2/s^2/rad], times B'
+  // exp(-(qd_i / vs)^2) tanh(qd_i / w) [-], times the Stribeck friction;
+  // computed where a Stribeck velocity vs > 0 is given, else 0.
+  Joint3 stribeck{};
 };
 
 struct JointState {
@@ -94,7 +101,8 @@ struct JointState {
 // Computes the basis terms at one sample. Returns kUnreachable or kSingular
 // where the pose has no forward kinematics or a singular Jacobian.
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
-                                double coulomb_smoothing_rad_s, DynamicsBasis& out);
+                                double coulomb_smoothing_rad_s, DynamicsBasis& out,
+                                double stribeck_velocity_rad_s = 0.0);
 
 // tau = basis . parameters.
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p);

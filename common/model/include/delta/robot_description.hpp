@@ -109,8 +109,9 @@ RodMassSplit rod_mass_split(const ForearmRod& rod, double length_m);
 LumpedParameters lumped_truth(const RobotDescription& d);
 
 // The higher-fidelity model's parameters for this robot (docs/
-// identification.md): exact for the multibody robot apart from the
-// friction's shape (its Stribeck excess is left out).
+// identification.md), with the friction's shape (Stribeck excess and
+// velocity, smoothing; those of joint 1 where the joints differ): exact for
+// the multibody robot.
 HighFidelityParameters high_fidelity_truth(const RobotDescription& d);
 
 }  // namespace delta
