@@ -114,11 +114,13 @@ Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
   for (unsigned j = 0; j < 3; ++j) {
     out.measured_Nm[j].resize(n);
     out.predicted_Nm[j].resize(n);
+    out.velocity_rad_s[j].resize(n);
   }
   for (std::size_t row = 0; row < reg.rows(); ++row) {
     const auto i = static_cast<Eigen::Index>(row);
     out.measured_Nm[reg.joint[row]][reg.sample[row]] = reg.tau(i);
     out.predicted_Nm[reg.joint[row]][reg.sample[row]] = yhat(i);
+    out.velocity_rad_s[reg.joint[row]][reg.sample[row]] = reg.velocity_rad_s[row];
   }
   out.rmse_filtered_Nm = rmse_per_joint(reg, beta);
   out.rmse_measured_Nm = reg.measured.rmse(beta);

@@ -325,7 +325,7 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
 void label_rows(const States& s, const RowLayout& layout, std::size_t trim, Regression& r) {
   r.t_s.reserve(layout.kept());
   r.joint.reserve(3 * layout.kept());
-  r.speed_rad_s.reserve(3 * layout.kept());
+  r.velocity_rad_s.reserve(3 * layout.kept());
   r.sample.reserve(3 * layout.kept());
   for (const Segment& seg : s.segments) {
     for (std::size_t k = seg.begin + trim; k + trim < seg.end; ++k) {
@@ -333,7 +333,7 @@ void label_rows(const States& s, const RowLayout& layout, std::size_t trim, Regr
       r.t_s.push_back(s.t_s[k]);
       for (unsigned j = 0; j < 3; ++j) {
         r.joint.push_back(static_cast<unsigned char>(j));
-        r.speed_rad_s.push_back(std::abs(s.states[k].qd_rad_s[j]));
+        r.velocity_rad_s.push_back(s.states[k].qd_rad_s[j]);
         r.sample.push_back(i);
       }
     }

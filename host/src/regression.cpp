@@ -49,12 +49,12 @@ std::size_t fast_rows_first(Regression& r, double min_speed_rad_s) {
   std::vector<std::size_t> from;
   from.reserve(r.rows());
   for (std::size_t row = 0; row < r.rows(); ++row) {
-    if (r.speed_rad_s[row] >= min_speed_rad_s) from.push_back(row);
+    if (std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s) from.push_back(row);
   }
   const std::size_t fast = from.size();
   if (fast == r.rows()) return fast;
   for (std::size_t row = 0; row < r.rows(); ++row) {
-    if (r.speed_rad_s[row] < min_speed_rad_s) from.push_back(row);
+    if (std::abs(r.velocity_rad_s[row]) < min_speed_rad_s) from.push_back(row);
   }
   std::vector<double> column;
   for (Eigen::Index c = 0; c < r.psi.cols(); ++c) {
@@ -67,7 +67,7 @@ std::size_t fast_rows_first(Regression& r, double min_speed_rad_s) {
   for (std::size_t i = 0; i < from.size(); ++i)
     r.tau(static_cast<Eigen::Index>(i)) = column[from[i]];
   std::vector<double> speed_buffer;
-  permute(r.speed_rad_s, from, speed_buffer);
+  permute(r.velocity_rad_s, from, speed_buffer);
   std::vector<unsigned char> joint_buffer;
   permute(r.joint, from, joint_buffer);
   std::vector<std::size_t> sample_buffer;

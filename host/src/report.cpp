@@ -99,6 +99,31 @@ std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string&
   return s.str();
 }
 
+std::string text_table2(const std::vector<FitResult>& results) {
+  std::ostringstream s;
+  s << "Table 2: torque RMSE per joint [N m]     joint 1    joint 2    joint 3\n";
+  for (const bool measured : {true, false}) {
+    s << (measured ? "  against the measured torque (noise included):\n"
+                   : "  against the filtered torque (the model's own error):\n");
+    for (const FitResult& r : results) {
+      std::vector<LogRmse> rows{r.fit};
+      rows.insert(rows.end(), r.validation.begin(), r.validation.end());
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        std::string name = rows[i].log;
+        name = name.substr(name.find_last_of('/') + 1);
+        if (name.size() > 18) name = name.substr(0, 15) + "...";
+        const auto& e = measured ? rows[i].rmse_measured_Nm : rows[i].rmse_filtered_Nm;
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "  %-8s %-8s %-18s %10.5f %10.5f %10.5f\n",
+                      r.options.model.name.c_str(), i == 0 ? "fit" : "validate", name.c_str(), e[0],
+                      e[1], e[2]);
+        s << buf;
+      }
+    }
+  }
+  return s.str();
+}
+
 std::string text_report(const FitResult& r) {
   std::ostringstream s;
   const auto& o = r.options;

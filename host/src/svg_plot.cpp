@@ -11,6 +11,7 @@ namespace host_id {
 namespace {
 
 constexpr double kWidth = 960, kLeft = 70, kRight = 20, kPanelH = 150, kResidH = 60, kGap = 34;
+constexpr double kScatterH = 150, kScatterGap = 60;  // residual against velocity
 
 std::string num(double v) {
   char buf[32];
@@ -79,10 +80,60 @@ void axis(std::ostringstream& s, double x0, double w, double y0, double h, doubl
     << num(y0 + h / 2) << ")\" text-anchor=\"middle\">" << esc(label) << "</text>\n";
 }
 
+// The residual of one joint against its velocity: every sample as a dot
+// (at most ~3000, evenly picked) and the mean residual in 40 velocity bins
+// as a line. A friction model that misses the friction's shape leaves a
+// pattern in the line (a step at zero speed, a slope, a dip near it).
+void residual_against_velocity(std::ostringstream& s, const std::vector<double>& v,
+                               const std::vector<double>& resid, double x0, double w, double y0,
+                               double h, unsigned joint) {
+  double vmax = 1e-9, rmax = 1e-12;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    vmax = std::max(vmax, std::abs(v[k]));
+    rmax = std::max(rmax, std::abs(resid[k]));
+  }
+  s << "<rect x=\"" << num(x0) << "\" y=\"" << num(y0) << "\" width=\"" << num(w) << "\" height=\""
+    << num(h) << "\" fill=\"none\" stroke=\"#999\"/>\n";
+  s << "<line x1=\"" << num(x0 + w / 2) << "\" x2=\"" << num(x0 + w / 2) << "\" y1=\"" << num(y0)
+    << "\" y2=\"" << num(y0 + h) << "\" stroke=\"#eee\"/>\n";
+  s << "<line x1=\"" << num(x0) << "\" x2=\"" << num(x0 + w) << "\" y1=\"" << num(y0 + h / 2)
+    << "\" y2=\"" << num(y0 + h / 2) << "\" stroke=\"#eee\"/>\n";
+  const auto X = [&](double x) { return x0 + (x + vmax) / (2 * vmax) * w; };
+  const auto Y = [&](double r) { return y0 + h / 2 - r / rmax * (h / 2); };
+  s << "<path fill=\"none\" stroke=\"#d62728\" stroke-opacity=\"0.35\" stroke-width=\"1.5\" "
+       "d=\"";
+  const std::size_t stride = std::max<std::size_t>(1, v.size() / 3000);
+  for (std::size_t k = 0; k < v.size(); k += stride) {
+    s << 'M' << num(X(v[k])) << ',' << num(Y(resid[k])) << "h0.8";
+  }
+  s << "\"/>\n";
+  constexpr std::size_t kBins = 40;
+  std::vector<double> sum(kBins, 0.0);
+  std::vector<std::size_t> count(kBins, 0);
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    const auto b = std::min(kBins - 1, static_cast<std::size_t>((v[k] + vmax) / (2 * vmax) *
+                                                                static_cast<double>(kBins)));
+    sum[b] += resid[k];
+    ++count[b];
+  }
+  s << "<polyline fill=\"none\" stroke=\"#000\" stroke-width=\"1.5\" points=\"";
+  for (std::size_t b = 0; b < kBins; ++b) {
+    if (count[b] < 10) continue;  // too few samples for a mean
+    const double vc = -vmax + (static_cast<double>(b) + 0.5) * 2 * vmax / kBins;
+    s << num(X(vc)) << ',' << num(Y(sum[b] / static_cast<double>(count[b]))) << ' ';
+  }
+  s << "\"/>\n";
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "joint %u: residual (+-%.3g N m) vs qd (+-%.3g rad/s)", joint,
+                rmax, vmax);
+  s << "<text x=\"" << num(x0 + 2) << "\" y=\"" << num(y0 + h + 14) << "\" font-size=\"11\">" << buf
+    << "</text>\n";
+}
+
 }  // namespace
 
 std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::string& title) {
-  const double block = 3 * (kPanelH + 16 + kResidH + kGap) + 30;
+  const double block = 3 * (kPanelH + 16 + kResidH + kGap) + 30 + kScatterH + kScatterGap;
   const double height = 40 + block * static_cast<double>(logs.size());
   const double w = kWidth - kLeft - kRight;
   std::ostringstream s;
@@ -90,7 +141,8 @@ std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::stri
     << num(height) << "\" font-family=\"sans-serif\">\n";
   s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   s << "<text x=\"" << kLeft << "\" y=\"24\" font-size=\"16\">" << esc(title)
-    << " - measured (blue) and predicted (orange) joint torque, residual (red)</text>\n";
+    << " - measured (blue) and predicted (orange) joint torque, residual (red), both filtered"
+    << "</text>\n";
   double y = 40;
   for (const Prediction& p : logs) {
     s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 16) << "\" font-size=\"14\">" << esc(p.log)
@@ -132,6 +184,19 @@ std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::stri
         << "\" font-size=\"11\" text-anchor=\"end\">" << tl << "</text>\n";
       y += kGap;
     }
+    s << "<text x=\"" << kLeft << "\" y=\"" << num(y - 6) << "\" font-size=\"12\">"
+      << "residual against joint velocity (dots: samples; line: mean in 40 velocity bins)"
+      << "</text>\n";
+    const double pw = (w - 2 * 20) / 3;
+    for (unsigned j = 0; j < 3; ++j) {
+      std::vector<double> resid(p.measured_Nm[j].size());
+      for (std::size_t k = 0; k < resid.size(); ++k) {
+        resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
+      }
+      residual_against_velocity(s, p.velocity_rad_s[j], resid, kLeft + j * (pw + 20), pw, y,
+                                kScatterH, j + 1);
+    }
+    y += kScatterH + kScatterGap;
   }
   s << "</svg>\n";
   return s.str();

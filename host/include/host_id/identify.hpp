@@ -93,6 +93,7 @@ struct Prediction {
   std::string log;
   std::vector<double> t_s;
   std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
+  std::array<std::vector<double>, 3> velocity_rad_s;  // qd of each joint at each sample
   std::array<double, 3> rmse_measured_Nm{};
   std::array<double, 3> rmse_filtered_Nm{};
   LogRmse rmse() const { return {log, t_s.size(), rmse_measured_Nm, rmse_filtered_Nm}; }

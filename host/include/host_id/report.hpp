@@ -25,6 +25,10 @@ SavedResult read_saved_result(const std::string& path);
 
 // The RMSE table of validation runs, as text and JSON.
 std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string& first_label);
+// The paper's Table 2 over several fits of the same logs: the torque RMSE
+// per joint of each model on each log, against the measured torque and
+// against the filtered torque.
+std::string text_table2(const std::vector<FitResult>& results);
 nlohmann::json json_rmse(const LogRmse& r);
 
 }  // namespace host_id

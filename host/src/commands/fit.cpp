@@ -57,6 +57,7 @@ struct FitArguments {
   std::string weights{"none"};
   std::size_t trim{0};
   double min_speed_rad_s{0};
+  std::vector<std::string> models{"delta"};  // the first is the primary model
   std::vector<std::string> validate;
   std::string out_path;
   std::string plot_path;
@@ -68,11 +69,12 @@ struct FitArguments {
 };
 
 void add_model_options(CLI::App& c, FitArguments& a) {
-  c.add_option("--model", a.fit.model.name,
+  c.add_option("--model", a.models,
                "delta: the higher-fidelity model (arm centre of mass off its line, inertial "
                "and weight platform masses, forearm coupling); lumped: point masses at elbow "
                "and platform; both with lambda solved per sample; paper14: the paper's 14 "
-               "coefficients")
+               "coefficients. Given more than once, each model is fitted and Table 2 covers "
+               "them all; the first is the one --out and --plot save")
       ->check(CLI::IsMember(model_names()))
       ->capture_default_str()
       ->group("model");
@@ -186,6 +188,7 @@ void add_output_options(CLI::App& c, FitArguments& a) {
 // The options the strings and the optional values stand for.
 FitOptions fit_options(const FitArguments& a) {
   FitOptions f = a.fit;
+  f.model.name = a.models.front();
   f.method = a.method == "pso" ? Method::kPso : Method::kLeastSquares;
   f.pso.topology = a.topology == "gbest" ? PsoTopology::kGlobal : PsoTopology::kRing;
   f.solver = a.solver == "qr" ? LsSolver::kQr : LsSolver::kSvd;
@@ -195,18 +198,46 @@ FitOptions fit_options(const FitArguments& a) {
   return f;
 }
 
-void write_outputs(const FitArguments& a, const FitResult& r, std::ostream& out) {
-  const nlohmann::json j = json_report(r);
+// The options of a further model of a multi-model run: the primary's, with
+// those that apply to delta and lumped only left out of paper14 (its
+// report's model line says what it was fitted with).
+FitOptions options_for_model(FitOptions f, const std::string& name) {
+  f.model.name = name;
+  if (name == "paper14") {
+    f.model.per_joint = false;
+    f.model.offsets = false;
+    f.model.stribeck_velocity_rad_s = 0.0;
+    f.fit_friction_shape = false;
+  }
+  return f;
+}
+
+// The first result is the primary model's: --out and --plot save it, and
+// the JSON is its report, with the others under "other_models".
+void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
+                   std::ostream& out) {
+  const FitResult& r = results.front();
+  nlohmann::json j = json_report(r);
+  if (results.size() > 1) {
+    j["other_models"] = nlohmann::json::array();
+    for (std::size_t i = 1; i < results.size(); ++i) {
+      j["other_models"].push_back(json_report(results[i]));
+    }
+  }
   if (!a.out_path.empty()) write_file_atomically(a.out_path, j.dump(2) + "\n");
   if (!a.plot_path.empty()) {
-    write_file_atomically(a.plot_path,
-                          svg_torque_plot(r.predictions, "host_id fit, model " + a.fit.model.name));
+    write_file_atomically(
+        a.plot_path, svg_torque_plot(r.predictions, "host_id fit, model " + r.options.model.name));
   }
   if (a.json) {
     out << j.dump(2) << "\n";
     return;
   }
-  out << text_report(r);
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    if (i > 0) out << "\n";
+    out << text_report(results[i]);
+  }
+  if (results.size() > 1) out << "\n" << text_table2(results);
   if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
   if (!a.plot_path.empty()) out << "  plot      " << a.plot_path << "\n";
 }
@@ -226,10 +257,17 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   const std::optional<delta::RobotDescription> robot =
       a.truth_path.empty() ? std::nullopt
                            : std::optional(delta::read_robot_description(a.truth_path));
-  FitResult r = fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty());
-  if (robot) r.truth = parameter_truth(f.model, *robot);
+  std::vector<FitResult> results;
+  for (std::size_t i = 0; i < a.models.size(); ++i) {
+    const FitOptions fi = i == 0 ? f : options_for_model(f, a.models[i]);
+    const bool last = i + 1 == a.models.size();
+    // The last fit takes the log itself (a long log's memory); the others a copy.
+    results.push_back(fit_log(last ? std::move(log) : log, fi, pointers(validation_logs),
+                              i == 0 && !a.plot_path.empty()));
+    if (robot) results.back().truth = parameter_truth(fi.model, *robot);
+  }
   bar.finish();
-  write_outputs(a, r, out);
+  write_outputs(a, results, out);
   return 0;
 }
 

@@ -464,5 +464,47 @@ TEST_F(CliTest, PredictNamesWhatIsWrongAndWritesNothing) {
   EXPECT_FALSE(exists("p.csv"));
 }
 
+// --model given more than once: each model fitted on the same logs, the
+// report's Table 2 over all of them, the first model saved (with the others
+// under other_models) and plotted, with the residual against velocity.
+TEST_F(CliTest, SeveralModelsShareOneTable2) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  simulate("b.csv", {"--torque-noise", "0.01", "--seed", "2", "--trajectory", "pick-and-place"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--validate", path("b.csv"), "--method", "ls", "--model",
+                 "delta", "--model", "lumped", "--model", "paper14", "--offsets", "--out",
+                 path("r.json"), "--plot", path("p.svg")}),
+            0)
+      << err_.str();
+  const std::string text = out_.str();
+  const auto table = text.find("Table 2: torque RMSE per joint [N m]");
+  ASSERT_NE(table, std::string::npos) << text;
+  for (const char* model : {"delta", "lumped", "paper14"}) {
+    for (const char* row : {" fit      a.csv", " validate b.csv"}) {
+      // Once against the measured torque, once against the filtered.
+      const std::string line = std::string("  ") + model;
+      std::size_t at =
+          text.find(line + std::string(8 - std::string(model).size(), ' ') + row, table);
+      ASSERT_NE(at, std::string::npos) << model << row << "\n" << text;
+      at = text.find(line + std::string(8 - std::string(model).size(), ' ') + row, at + 1);
+      EXPECT_NE(at, std::string::npos) << model << row;
+    }
+  }
+  // --offsets applies to the physical models; paper14 is fitted without.
+  EXPECT_NE(text.find("model     paper14 (the paper's regressor"), std::string::npos);
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_TRUE(j["model"]["offsets"].get<bool>());
+  ASSERT_EQ(j["other_models"].size(), 2u);
+  EXPECT_EQ(j["other_models"][0]["model"]["name"], "lumped");
+  EXPECT_EQ(j["other_models"][1]["model"]["name"], "paper14");
+  EXPECT_FALSE(j["other_models"][1]["model"]["offsets"].get<bool>());
+  const std::string svg = delta::read_whole_file(path("p.svg"));
+  EXPECT_NE(svg.find("residual against joint velocity"), std::string::npos);
+  EXPECT_NE(svg.find("joint 3: residual"), std::string::npos);
+  // validate reads the primary model's result.
+  ASSERT_EQ(run({"validate", path("r.json"), path("b.csv")}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("(model delta)"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace host_id

@@ -484,7 +484,7 @@ TEST(IdentifyTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
   ASSERT_EQ(one.rows(), three.rows());
   EXPECT_TRUE(one.psi == three.psi);
   EXPECT_TRUE(one.tau == three.tau);
-  EXPECT_EQ(one.speed_rad_s, three.speed_rad_s);
+  EXPECT_EQ(one.velocity_rad_s, three.velocity_rad_s);
 }
 
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
@@ -496,7 +496,7 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const Equations fast(reordered, fast_rows_first(reordered, 0.2));
   std::array<std::size_t, 3> expected{};
   for (std::size_t row = 0; row < all.rows(); ++row) {
-    if (all.speed_rad_s[row] >= 0.2) ++expected[all.joint[row]];
+    if (std::abs(all.velocity_rad_s[row]) >= 0.2) ++expected[all.joint[row]];
   }
   EXPECT_EQ(fast.rows_per_joint(), expected);
   EXPECT_LT(fast.rows(), all.rows());
@@ -506,7 +506,7 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   ASSERT_EQ(reordered.rows(), all.rows());
   for (std::size_t row = 0; row < reordered.rows(); ++row) {
     const bool is_fast = row < fast.rows();
-    EXPECT_EQ(reordered.speed_rad_s[row] >= 0.2, is_fast) << row;
+    EXPECT_EQ(std::abs(reordered.velocity_rad_s[row]) >= 0.2, is_fast) << row;
     const auto full = static_cast<Eigen::Index>(3 * reordered.sample[row] + reordered.joint[row]);
     const auto i = static_cast<Eigen::Index>(row);
     ASSERT_EQ(reordered.tau(i), all.tau(full));
