@@ -1,7 +1,9 @@
 #include "host_id/identify.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -36,8 +38,8 @@ struct Box {
 
 // PSO's box from physical priors and the data's scale, wide enough to hold
 // the bounded least-squares optimum: both solve the same bounded problem.
-Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
-            const Eigen::VectorXd& ls_beta) {
+Box pso_box(const Equations& reg, const std::vector<ParameterInfo>& parameters,
+            const FitOptions& options, const Eigen::VectorXd& ls_beta) {
   const Eigen::Index p = reg.psi.cols();
   const double tau_rms = std::sqrt(reg.tau.squaredNorm() / static_cast<double>(reg.tau.size()));
   Box box{Eigen::VectorXd(p), Eigen::VectorXd(p)};
@@ -45,7 +47,7 @@ Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
     const double col_rms =
         std::sqrt(reg.psi.col(c).squaredNorm() / static_cast<double>(reg.psi.rows()));
     const double bound = options.bound_factor * tau_rms / col_rms;
-    const ParameterInfo& info = model.parameters()[static_cast<unsigned>(c)];
+    const ParameterInfo& info = parameters[static_cast<unsigned>(c)];
     box.upper(c) = std::max(bound, 2.0 * ls_beta(c));
     box.lower(c) = info.nonnegative ? 0.0 : std::min(-bound, 2.0 * ls_beta(c));
   }
@@ -54,21 +56,21 @@ Box pso_box(const Equations& reg, const Model& model, const FitOptions& options,
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
 // the conditioning and the box.
-LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitOptions& options,
-                            std::size_t lags, const std::string& log_name, FitResult& r, Box& box) {
+LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
+                               const FitOptions& options, std::size_t lags,
+                               const std::string& log_name, FitResult& r, Box& box) {
   const LeastSquaresResult ls =
-      solve_least_squares(reg, model, options.solver, options.weights, log_name, lags);
+      solve_least_squares(reg, parameters, options.solver, options.weights, log_name, lags);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
   r.std_dev_lags = ls.correlation_lags;
   r.condition_number_scaled = ls.condition_number_scaled;
   r.ls_cost_Nm2 = ls.cost;
-  for (const std::size_t c : ls.active_bounds)
-    r.active_bounds.push_back(model.parameters()[c].name);
+  for (const std::size_t c : ls.active_bounds) r.active_bounds.push_back(parameters[c].name);
   const Regression weighted_reg =
       options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
   const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
-  box = pso_box(cost_reg, model, options, ls.beta);
+  box = pso_box(cost_reg, parameters, options, ls.beta);
   if (options.method == Method::kPso) {
     const QuadraticCost cost(cost_reg, ls.beta);
     r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
@@ -82,8 +84,89 @@ LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitO
   return ls;
 }
 
+// The equations with only the given columns.
+Regression columns_of(const Equations& r, const std::vector<std::size_t>& columns) {
+  Regression out;
+  out.psi.resize(r.psi.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    out.psi.col(static_cast<Eigen::Index>(k)) = r.psi.col(static_cast<Eigen::Index>(columns[k]));
+  }
+  out.tau = r.tau;
+  out.t_s.assign(r.t_s.begin(), r.t_s.end());
+  out.joint.assign(r.joint.begin(), r.joint.end());
+  out.sample.assign(r.sample.begin(), r.sample.end());
+  return out;
+}
+
+// A vector over the independent columns, spread over all p with `fill` at
+// the dependent ones.
+Eigen::VectorXd spread(const Eigen::VectorXd& v, const Identifiability& id, Eigen::Index p,
+                       double fill) {
+  Eigen::VectorXd out = Eigen::VectorXd::Constant(p, fill);
+  for (std::size_t k = 0; k < id.independent.size(); ++k) {
+    out(static_cast<Eigen::Index>(id.independent[k])) = v(static_cast<Eigen::Index>(k));
+  }
+  return out;
+}
+
+// As estimate_on; where the log cannot separate every parameter, the
+// estimate is of the base parameters (least_squares.hpp): the independent
+// columns alone, each value standing for its combination, the dependent
+// parameters at 0 with no standard deviation.
+LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitOptions& options,
+                            std::size_t lags, const std::string& log_name, FitResult& r, Box& box) {
+  try {
+    return estimate_on(reg, model.parameters(), options, lags, log_name, r, box);
+  } catch (const RankDeficientError& e) {
+    const Identifiability& id = e.identifiability();
+    if (id.independent.empty()) throw;
+    const auto p = static_cast<Eigen::Index>(model.size());
+    std::vector<ParameterInfo> kept;
+    for (const std::size_t c : id.independent) kept.push_back(model.parameters()[c]);
+    const Regression reduced = columns_of(reg, id.independent);
+    Box reduced_box;
+    r.active_bounds.clear();
+    LeastSquaresResult ls =
+        estimate_on(Equations(reduced), kept, options, lags, log_name, r, reduced_box);
+    r.identifiability = id;
+    r.beta = spread(r.beta, id, p, 0.0);
+    box.lower = spread(reduced_box.lower, id, p, 0.0);
+    box.upper = spread(reduced_box.upper, id, p, 0.0);
+    ls.beta = spread(ls.beta, id, p, 0.0);
+    ls.unconstrained_beta = spread(ls.unconstrained_beta, id, p, 0.0);
+    ls.std_dev = spread(ls.std_dev, id, p, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t& c : ls.active_bounds) c = id.independent[c];
+    return ls;
+  }
+}
+
+// What the estimate of parameter c stands for where the log cannot separate
+// every parameter: "" for a parameter estimated alone, "not identifiable"
+// for a dependent one, else "name + k other + ..." (its base combination).
+std::string base_combination(const Model& model, const Identifiability& id, std::size_t c,
+                             std::vector<std::pair<std::string, double>>& combined_with) {
+  const auto& params = model.parameters();
+  const auto at = std::find(id.independent.begin(), id.independent.end(), c);
+  if (at == id.independent.end()) return "not identifiable";
+  const auto row = static_cast<Eigen::Index>(at - id.independent.begin());
+  std::ostringstream s;
+  s << params[c].name;
+  bool any = false;
+  for (std::size_t k = 0; k < id.dependent.size(); ++k) {
+    const double coefficient = id.coefficient(row, static_cast<Eigen::Index>(k));
+    if (std::abs(coefficient) < 1e-9) continue;
+    char buf[48];
+    std::snprintf(buf, sizeof buf, " %c %.4g ", coefficient < 0 ? '-' : '+', std::abs(coefficient));
+    s << buf << params[id.dependent[k]].name;
+    combined_with.emplace_back(params[id.dependent[k]].name, coefficient);
+    any = true;
+  }
+  return any ? s.str() : "";
+}
+
 std::vector<ParameterEstimate> parameter_estimates(const Model& model, const LeastSquaresResult& ls,
-                                                   const Eigen::VectorXd& beta, const Box& box) {
+                                                   const Eigen::VectorXd& beta, const Box& box,
+                                                   const std::optional<Identifiability>& id) {
   std::vector<ParameterEstimate> out;
   for (Eigen::Index c = 0; c < beta.size(); ++c) {
     ParameterEstimate e;
@@ -98,6 +181,9 @@ std::vector<ParameterEstimate> parameter_estimates(const Model& model, const Lea
     e.upper = box.upper(c);
     for (const std::size_t a : ls.active_bounds)
       e.at_bound = e.at_bound || a == static_cast<std::size_t>(c);
+    if (id) {
+      e.combination = base_combination(model, *id, static_cast<std::size_t>(c), e.combined_with);
+    }
     out.push_back(e);
   }
   return out;
@@ -167,7 +253,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
       reg, *model, options,
       correlation_lags_for(pre.report.sample_rate_hz, options.prepare.cutoff_hz), log.name, r, box);
   r.seconds_estimator = seconds_since(te);
-  r.parameters = parameter_estimates(*model, ls, r.beta, box);
+  r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();
   r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, r.beta);

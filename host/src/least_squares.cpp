@@ -93,32 +93,78 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
   return 0.5 * (s + s.transpose());
 }
 
-Eigen::VectorXd column_norms(const Equations& r, const std::vector<ParameterInfo>& parameters,
-                             const std::string& log_name) {
+// The columns' norms, with 1 for a zero column (its scaled column stays
+// zero), and the zero columns.
+Eigen::VectorXd column_norms(const Equations& r, std::vector<std::size_t>& zero_columns) {
   Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
   for (Eigen::Index c = 0; c < col_norm.size(); ++c) {
     if (!(col_norm(c) > 0.0)) {
-      throw delta::InputError(log_name + ": parameter '" +
-                              parameters[static_cast<unsigned>(c)].name +
-                              "' is not excited at all by this log (its regressor column is zero)");
+      zero_columns.push_back(static_cast<std::size_t>(c));
+      col_norm(c) = 1.0;
     }
   }
   return col_norm;
 }
 
-[[noreturn]] void throw_rank_deficient(const Eigen::VectorXd& sv, const Eigen::VectorXd& v,
-                                       const std::vector<ParameterInfo>& parameters,
-                                       const std::string& log_name) {
-  // The right singular vector of the smallest value names the mix of
-  // parameters the data cannot separate.
-  std::ostringstream s;
-  s << log_name << ": the regressor is rank-deficient (smallest scaled singular value "
-    << sv(sv.size() - 1) / sv(0) << " of the largest): this trajectory cannot tell apart";
-  for (Eigen::Index c = 0; c < v.size(); ++c) {
-    if (std::abs(v(c)) > 0.2) s << " '" << parameters[static_cast<unsigned>(c)].name << "'";
+std::string names(const std::vector<std::size_t>& columns,
+                  const std::vector<ParameterInfo>& parameters) {
+  std::string s;
+  for (const std::size_t c : columns) s += " '" + parameters[c].name + "'";
+  return s;
+}
+
+// The independent columns of the scaled triangular factor rr (pivoted QR,
+// a pivot below 1e-9 of the largest counts as zero) and the coefficients
+// that give the dependent ones, in the parameters' own units.
+Identifiability identifiability_of(const Eigen::MatrixXd& rr, const Eigen::VectorXd& col_norm,
+                                   const std::vector<std::size_t>& zero_columns,
+                                   const std::vector<ParameterInfo>& parameters,
+                                   const std::string& log_name) {
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(rr);
+  qr.setThreshold(1e-9);
+  const Eigen::Index rank = qr.rank();
+  const Eigen::Index p = rr.cols();
+  const auto& perm = qr.colsPermutation().indices();
+  // A_pivoted = Q [R11 R12; 0 ~0]: the dependent columns are A_I R11^-1 R12.
+  const Eigen::MatrixXd r = qr.matrixR().topRows(rank).template triangularView<Eigen::Upper>();
+  const Eigen::MatrixXd k =
+      r.leftCols(rank).template triangularView<Eigen::Upper>().solve(r.rightCols(p - rank));
+  Identifiability id;
+  std::vector<std::pair<std::size_t, Eigen::Index>> independent, dependent;  // column, position
+  for (Eigen::Index i = 0; i < p; ++i) {
+    (i < rank ? independent : dependent).emplace_back(static_cast<std::size_t>(perm(i)), i);
   }
-  s << "; use a richer excitation or a model with fewer parameters";
-  throw delta::InputError(s.str());
+  std::sort(independent.begin(), independent.end());
+  std::sort(dependent.begin(), dependent.end());
+  id.coefficient.resize(rank, p - rank);
+  for (std::size_t a = 0; a < independent.size(); ++a) {
+    id.independent.push_back(independent[a].first);
+    for (std::size_t b = 0; b < dependent.size(); ++b) {
+      const auto row = static_cast<Eigen::Index>(a), col = static_cast<Eigen::Index>(b);
+      // Scaled x = D beta: base_i = beta_i + K norm_d / norm_i beta_d.
+      id.coefficient(row, col) = k(independent[a].second, dependent[b].second - rank) *
+                                 col_norm(static_cast<Eigen::Index>(dependent[b].first)) /
+                                 col_norm(static_cast<Eigen::Index>(independent[a].first));
+    }
+  }
+  for (const auto& d : dependent) id.dependent.push_back(d.first);
+  std::ostringstream s;
+  s << log_name << ": the regressor is rank-deficient: this log";
+  if (!zero_columns.empty()) {
+    s << " does not excite" << names(zero_columns, parameters) << " at all";
+  }
+  std::vector<std::size_t> mixed;
+  for (const std::size_t d : id.dependent) {
+    if (std::find(zero_columns.begin(), zero_columns.end(), d) == zero_columns.end()) {
+      mixed.push_back(d);
+    }
+  }
+  if (!mixed.empty()) {
+    s << (zero_columns.empty() ? "" : " and") << " cannot tell" << names(mixed, parameters)
+      << " apart from the others";
+  }
+  id.message = s.str();
+  return id;
 }
 
 // R of the column-scaled regressor A = Psi D^-1 = Q R, and the first p
@@ -159,12 +205,16 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
                                   LsSolver solver, const std::string& log_name, std::size_t lags) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
-  const Eigen::VectorXd col_norm = column_norms(r, parameters, log_name);
+  std::vector<std::size_t> zero_columns;
+  const Eigen::VectorXd col_norm = column_norms(r, zero_columns);
   const auto [rr, qt_tau] = scaled_qr(r, col_norm);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
-  if (sv(p - 1) <= 1e-10 * sv(0))
-    throw_rank_deficient(sv, svd.matrixV().col(p - 1), parameters, log_name);
+  if (!zero_columns.empty() || sv(p - 1) <= 1e-10 * sv(0)) {
+    Identifiability id = identifiability_of(rr, col_norm, zero_columns, parameters, log_name);
+    const std::string message = id.message;
+    throw RankDeficientError(message, std::move(id));
+  }
   const Eigen::VectorXd beta_scaled =
       solver == LsSolver::kSvd ? Eigen::VectorXd(svd.solve(qt_tau))
                                : Eigen::VectorXd(rr.triangularView<Eigen::Upper>().solve(qt_tau));
@@ -295,7 +345,12 @@ LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, L
 double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
                                   const std::string& log_name) {
   const Eigen::Index p = r.psi.cols();
-  const Eigen::VectorXd col_norm = column_norms(r, parameters, log_name);
+  std::vector<std::size_t> zero_columns;
+  const Eigen::VectorXd col_norm = column_norms(r, zero_columns);
+  if (!zero_columns.empty()) {
+    throw delta::InputError(log_name + ": this log does not excite" +
+                            names(zero_columns, parameters) + " at all");
+  }
   const auto [rr, qt_tau] = scaled_qr(r, col_norm);
   std::vector<bool> nonnegative(static_cast<std::size_t>(p));
   for (std::size_t c = 0; c < nonnegative.size(); ++c) nonnegative[c] = parameters[c].nonnegative;

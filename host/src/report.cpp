@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 
 #include "delta/input_error.hpp"
@@ -41,6 +42,20 @@ const char* topology_name(PsoTopology t) {
   return t == PsoTopology::kGlobal ? "gbest" : "ring";
 }
 
+// The truth of what an estimate stands for: its parameter's, or that of its
+// base combination; none where a truth is missing.
+std::optional<double> parameter_truth_of(const FitResult& r, const ParameterEstimate& e) {
+  const auto t = r.truth.find(e.info.name);
+  if (t == r.truth.end()) return std::nullopt;
+  double value = t->second;
+  for (const auto& [name, coefficient] : e.combined_with) {
+    const auto d = r.truth.find(name);
+    if (d == r.truth.end()) return std::nullopt;
+    value += coefficient * d->second;
+  }
+  return value;
+}
+
 // The estimates; with a known truth, each one's truth and error beside it.
 std::string parameter_table(const FitResult& r) {
   std::ostringstream s;
@@ -49,22 +64,31 @@ std::string parameter_table(const FitResult& r) {
     << (truth ? "          truth     error" : "") << "   unit\n";
   for (const auto& e : r.parameters) {
     char buf[240];
+    if (!e.identifiable()) {
+      std::snprintf(buf, sizeof buf, "  %-22s   not identifiable on this log (absorbed above)\n",
+                    e.info.name.c_str());
+      s << buf;
+      continue;
+    }
     const std::string rel =
         std::isfinite(e.rel_std_percent) ? fmt("%8.3f %%", e.rel_std_percent) : "       - ";
     std::string against;
     if (truth) {
-      const auto t = r.truth.find(e.info.name);
-      against = t == r.truth.end()
-                    ? std::string(25, ' ')
-                    : fmt("%15.6g", t->second) +
-                          (t->second != 0.0 ? fmt("%+8.2f %%", 100.0 * (e.value / t->second - 1.0))
-                                            : std::string("       - "));
+      const std::optional<double> t = parameter_truth_of(r, e);
+      against = !t ? std::string(25, ' ')
+                   : fmt("%15.6g", *t) + (*t != 0.0 ? fmt("%+8.2f %%", 100.0 * (e.value / *t - 1.0))
+                                                    : std::string("       - "));
     }
     std::snprintf(buf, sizeof buf, "  %-22s %14.6g %11.3g  %s%s  %s\n", e.info.name.c_str(),
                   e.value, e.std_dev, rel.c_str(), against.c_str(), e.info.unit.c_str());
     s << buf;
+    if (!e.combination.empty()) s << "      (estimates " << e.combination << ")\n";
   }
   if (truth) s << "  (truth: derived from the robot description, docs/identification.md)\n";
+  if (r.identifiability) {
+    s << "  note      " << r.identifiability->message
+      << ": the estimate is of the base parameters, the combinations named above\n";
+  }
   return s.str();
 }
 
@@ -205,18 +229,22 @@ nlohmann::json json_report(const FitResult& r) {
   json params = json::object();
   json details = json::array();
   for (const auto& e : r.parameters) {
-    params[e.info.name] = e.value;
-    details.push_back({{"name", e.info.name},
-                       {"unit", e.info.unit},
-                       {"value", e.value},
-                       {"least_squares_value", e.ls_value},
-                       {"unconstrained_value", e.unconstrained_value},
-                       {"at_bound", e.at_bound},
-                       {"std_dev", e.std_dev},
-                       {"rel_std_percent", e.rel_std_percent},
-                       {"lower_bound", e.lower},
-                       {"upper_bound", e.upper},
-                       {"meaning", e.info.meaning}});
+    params[e.info.name] = e.identifiable() ? json(e.value) : json(nullptr);
+    details.push_back(
+        {{"name", e.info.name},
+         {"unit", e.info.unit},
+         {"value", e.value},
+         {"least_squares_value", e.ls_value},
+         {"unconstrained_value", e.unconstrained_value},
+         {"at_bound", e.at_bound},
+         {"identifiable", e.identifiable()},
+         {"base_combination",
+          e.combination.empty() || !e.identifiable() ? json(nullptr) : json(e.combination)},
+         {"std_dev", e.std_dev},
+         {"rel_std_percent", e.rel_std_percent},
+         {"lower_bound", e.lower},
+         {"upper_bound", e.upper},
+         {"meaning", e.info.meaning}});
     if (const auto t = r.truth.find(e.info.name); t != r.truth.end()) {
       details.back()["truth"] = t->second;
     }
@@ -342,9 +370,12 @@ SavedResult read_saved_result(const std::string& path) {
   for (std::size_t i = 0; i < model->size(); ++i) {
     const std::string& name = model->parameters()[i].name;
     const json& v = need(params, name.c_str(), "parameters.");
-    if (!v.is_number())
-      throw delta::InputError(path + ": parameters." + name + " must be a number");
-    s.beta(static_cast<Eigen::Index>(i)) = v.get<double>();
+    // null: not identifiable on the fitted log, absorbed by the base
+    // parameters, so 0 predicts what the fit did.
+    if (!v.is_number() && !v.is_null()) {
+      throw delta::InputError(path + ": parameters." + name + " must be a number or null");
+    }
+    s.beta(static_cast<Eigen::Index>(i)) = v.is_null() ? 0.0 : v.get<double>();
   }
   return s;
 }

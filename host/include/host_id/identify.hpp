@@ -72,6 +72,12 @@ struct ParameterEstimate {
   double rel_std_percent{0};
   double lower{0}, upper{0};  // the PSO bounds
   bool at_bound{false};       // held at its physical bound by the bounded optimum
+  // Where the log cannot separate every parameter (FitResult::identifiability):
+  // "not identifiable" (value 0, absorbed by others), or the combination
+  // this value estimates ("a + 0.5 b"); empty for a parameter estimated alone.
+  std::string combination;
+  std::vector<std::pair<std::string, double>> combined_with;  // (parameter, coefficient)
+  bool identifiable() const { return combination != "not identifiable"; }
 };
 
 // A model's torque error on one log, per joint, two ways:
@@ -126,6 +132,9 @@ struct FitResult {
   // Parameter name -> its truth, where the caller knows it (fit --truth).
   std::map<std::string, double> truth;
   std::optional<FrictionShapeResult> friction_shape;
+  // Set where the log cannot separate every parameter: the estimate is of
+  // the base parameters (least_squares.hpp).
+  std::optional<Identifiability> identifiability;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With

@@ -8,12 +8,39 @@
 #include <string>
 #include <vector>
 
+#include "delta/input_error.hpp"
 #include "host_id/model.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
 
 enum class LsSolver { kQr, kSvd };
+
+// Which parameters a log can tell apart. Where columns of the regressor
+// are (numerically) combinations of others, only combinations of the
+// parameters are identifiable: the base parameters
+//   base_i = beta_i + sum_k coefficient(i, k) beta_dependent[k]
+// for i over the independent columns (a column-pivoting QR of the scaled
+// regressor's triangular factor picks them). A column that is zero has no
+// coefficient: its parameter is not excited at all.
+struct Identifiability {
+  std::vector<std::size_t> independent;  // ascending
+  std::vector<std::size_t> dependent;    // ascending
+  Eigen::MatrixXd coefficient;           // independent.size() x dependent.size()
+  std::string message;                   // what the log cannot separate, by name
+};
+
+// Thrown by solve_least_squares where the regressor is rank-deficient; its
+// message names the parameters, and identifiability() says how to go on.
+class RankDeficientError : public delta::InputError {
+ public:
+  RankDeficientError(const std::string& message, Identifiability i)
+      : delta::InputError(message), identifiability_(std::move(i)) {}
+  const Identifiability& identifiability() const { return identifiability_; }
+
+ private:
+  Identifiability identifiability_;
+};
 enum class LsWeights { kNone, kJoint };
 
 struct LeastSquaresResult {
@@ -38,8 +65,8 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w);
 // the model marks nonnegative (exactly: an active-set method on the
 // regressor's triangular factor). With kJoint, two steps: ordinary least
 // squares, then weights 1 / sigma_j^2 from each joint's residual variance.
-// Throws delta::InputError when Psi is rank-deficient, naming the parameters that
-// the data cannot tell apart.
+// Throws RankDeficientError when Psi is rank-deficient, naming the
+// parameters that the data cannot tell apart.
 //
 // The covariance allows for residuals correlated over up to
 // correlation_lags samples of the same joint (Newey-West, Bartlett weights):

@@ -17,6 +17,7 @@
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
+#include "host_id/simulate.hpp"
 
 namespace host_id {
 namespace {
@@ -504,6 +505,58 @@ TEST_F(CliTest, SeveralModelsShareOneTable2) {
   // validate reads the primary model's result.
   ASSERT_EQ(run({"validate", path("r.json"), path("b.csv")}), 0) << err_.str();
   EXPECT_NE(out_.str().find("(model delta)"), std::string::npos);
+}
+
+// A log that cannot separate every parameter: the report names what is not
+// identifiable and which combinations the values stand for; the saved
+// result has null for the former, and validate and predict use it.
+TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
+  SimulateOptions o;
+  o.duration_s = 4.0;
+  o.with_derivatives = true;
+  DeltaLog log = simulate_log(o);
+  const delta::LumpedParameters truth = delta::default_lumped_parameters();
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    log.q[2][k] = 0.35;
+    log.qd[2][k] = 0.0;
+    log.qdd[2][k] = 0.0;
+    delta::JointState st;
+    for (unsigned j = 0; j < 3; ++j) {
+      st.q_rad[j] = log.q[j][k];
+      st.qd_rad_s[j] = log.qd[j][k];
+      st.qdd_rad_s2[j] = log.qdd[j][k];
+    }
+    delta::Joint3 tau{};
+    ASSERT_EQ(delta::inverse_dynamics(log.geometry, truth, st, tau), delta::KinematicsStatus::kOk);
+    for (unsigned j = 0; j < 3; ++j) log.tau[j][k] = tau[j];
+  }
+  write_file_atomically(path("held.csv"), format_delta_log(log));
+  ASSERT_EQ(run({"fit", path("held.csv"), "--model", "lumped", "--per-joint", "--offsets",
+                 "--min-speed", "0", "--method", "ls", "--out", path("r.json")}),
+            0)
+      << err_.str();
+  const std::string text = out_.str();
+  const auto line = text.find("  arm_inertia_3 ");
+  ASSERT_NE(line, std::string::npos) << text;
+  EXPECT_EQ(text.substr(line, text.find('\n', line) - line).find("not identifiable on this log") !=
+                std::string::npos,
+            true)
+      << text;
+  EXPECT_NE(text.find("(estimates "), std::string::npos) << text;
+  EXPECT_NE(text.find("does not excite 'arm_inertia_3' 'viscous_friction_3' "
+                      "'coulomb_friction_3' at all"),
+            std::string::npos)
+      << text;
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_TRUE(j["parameters"]["arm_inertia_3"].is_null());
+  EXPECT_TRUE(j["parameters"]["arm_inertia_1"].is_number());
+  ASSERT_EQ(run({"validate", path("r.json"), path("held.csv"), "--json"}), 0) << err_.str();
+  const auto v = nlohmann::json::parse(out_.str());
+  for (unsigned k = 0; k < 3; ++k) {
+    EXPECT_LT(v["validation"][0]["rmse_filtered_Nm"][k].get<double>(), 1e-9);
+    // From moments: a floor near 1e-7 of the RMS torque.
+    EXPECT_LT(v["validation"][0]["rmse_measured_Nm"][k].get<double>(), 1e-6);
+  }
 }
 
 }  // namespace
