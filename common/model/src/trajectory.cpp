@@ -1,6 +1,8 @@
 #include "delta/trajectory.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <string_view>
 
 namespace delta {
 
@@ -132,6 +134,41 @@ PickAndPlaceTrajectory default_pick_and_place(const Geometry& g) {
                 {0.05, -0.10, zl},  {0.05, -0.10, zh},  {-0.10, -0.05, zh}};
   p.segment_duration_s = 0.4;
   return p;
+}
+
+JointState BlendedFourierTrajectory::at(double t_s) const {
+  JointState s = fourier.at(t_s);
+  const double end = duration_s();
+  const bool rising = t_s < blend_s;
+  const bool falling = t_s > end - blend_s;
+  if (!(rising || falling) || !(blend_s > 0.0)) return s;
+  // w(x) = 10 x^3 - 15 x^4 + 6 x^5 over x = time into (or left of) the blend.
+  const double x = std::clamp((rising ? t_s : end - t_s) / blend_s, 0.0, 1.0);
+  const double w = x * x * x * (10.0 + x * (-15.0 + 6.0 * x));
+  const double dw_dx = 30.0 * x * x * (1.0 - x) * (1.0 - x);
+  const double ddw_dx2 = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x);
+  const double dw = (rising ? dw_dx : -dw_dx) / blend_s;
+  const double ddw = ddw_dx2 / (blend_s * blend_s);
+  for (unsigned j = 0; j < 3; ++j) {
+    const double d = s.q_rad[j] - fourier.q0_rad[j];
+    const double dd = s.qd_rad_s[j];
+    const double ddd = s.qdd_rad_s2[j];
+    s.q_rad[j] = fourier.q0_rad[j] + w * d;
+    s.qd_rad_s[j] = w * dd + dw * d;
+    s.qdd_rad_s2[j] = w * ddd + 2.0 * dw * dd + ddw * d;
+  }
+  return s;
+}
+
+const FourierPreset* fourier_preset(const char* name) {
+  static const FourierPreset kPresets[] = {
+      {"path1", 1, 0.2, 5, 0.35, {0.0, 0.0, -0.42}, 2},
+      {"path2", 2, 0.25, 5, 0.35, {0.0, 0.0, -0.42}, 2},
+  };
+  for (const FourierPreset& p : kPresets) {
+    if (std::string_view(p.name) == name) return &p;
+  }
+  return nullptr;
 }
 
 }  // namespace delta

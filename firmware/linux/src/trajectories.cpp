@@ -15,54 +15,36 @@ using delta::fx::Q7_24;
 using delta::controller::TrajectoryId;
 
 // The catalogue: what each trajectory of the controller's vocabulary is
-// (its id and name are the vocabulary's; docs/firmware.md describes them).
+// (its id and name are the vocabulary's; the Fourier ones' generator
+// arguments are common's fourier_preset(); docs/firmware.md describes them).
 struct Preset {
   TrajectoryId id;
-  bool fourier;                 // else the default pick-and-place cycle
-  unsigned long long seed;      // Fourier: of its coefficients
-  unsigned base_frequency_mHz;  // Fourier
-  std::uint32_t repetitions;    // Fourier periods or pick-and-place cycles
+  bool fourier;               // else the default pick-and-place cycle
+  std::uint32_t repetitions;  // pick-and-place cycles (Fourier: the preset's periods)
 };
 
 constexpr Preset kCatalogue[] = {
-    {TrajectoryId::kPath1, true, 1, 200, 2},
-    {TrajectoryId::kPath2, true, 2, 250, 2},
-    {TrajectoryId::kPickAndPlace, false, 0, 0, 3},
+    {TrajectoryId::kPath1, true, 0},
+    {TrajectoryId::kPath2, true, 0},
+    {TrajectoryId::kPickAndPlace, false, 3},
 };
 static_assert(std::size(kCatalogue) == delta::controller::kTrajectoryNames.size(),
               "one catalogue entry per trajectory id");
-constexpr unsigned kHarmonics = 5;
-constexpr double kAmplitudeRad = 0.35;
-const delta::Vec3<double> kCentre{0.0, 0.0, -0.42};
 
 fw::TrajectoryConfig fourier(const Preset& preset, const PortConfig& c,
                              const TrajectoryParams& params) {
-  delta::FourierTrajectory f;
-  const double hz = preset.base_frequency_mHz / 1000.0;
-  if (!delta::make_fourier_excitation(c.geometry, kCentre, kHarmonics, hz, kAmplitudeRad,
-                                      preset.seed, f)) {
-    throw ConfigError(std::string(delta::controller::trajectory_name(preset.id)) +
-                      ": no Fourier excitation fits this geometry's workspace");
+  const std::string name(delta::controller::trajectory_name(preset.id));
+  const delta::FourierPreset* fp = delta::fourier_preset(name.c_str());
+  if (fp == nullptr) throw ConfigError(name + ": not a Fourier preset");
+  delta::BlendedFourierTrajectory t;
+  if (!delta::make_fourier_excitation(c.geometry, fp->centre_m, fp->harmonics,
+                                      fp->base_frequency_hz, fp->amplitude_rad, fp->seed,
+                                      t.fourier)) {
+    throw ConfigError(name + ": no Fourier excitation fits this geometry's workspace");
   }
-  fw::TrajectoryConfig t;
-  t.kind = fw::TrajectoryKind::kFourier;
-  t.tick_period_us = c.period_us;
-  t.blend_ticks = static_cast<std::uint32_t>(std::lround(c.blend_s * 1e6 / c.period_us));
-  t.fourier.base_frequency_mHz = preset.base_frequency_mHz;
-  t.fourier.harmonics = kHarmonics;
-  t.fourier.periods = params.repetitions != 0 ? params.repetitions : preset.repetitions;
-  const double scale = params.scale_permille / 1000.0;
-  const double w = 2.0 * 3.141592653589793 * hz;
-  for (unsigned j = 0; j < 3; ++j) {
-    t.fourier.q0_rad[j] = to_q<Q3_28>(f.q0_rad[j], "q0");
-    for (unsigned k = 0; k < kHarmonics; ++k) {
-      // q = a/(k w) sin(k w t) - b/(k w) cos(k w t)  (common/trajectory.hpp)
-      const double kw = (k + 1) * w;
-      t.fourier.sin_amplitude_rad[j][k] = to_q<Q3_28>(scale * f.a_rad_s[j][k] / kw, "amplitude");
-      t.fourier.cos_amplitude_rad[j][k] = to_q<Q3_28>(-scale * f.b_rad_s[j][k] / kw, "amplitude");
-    }
-  }
-  return t;
+  t.blend_s = c.blend_s;
+  t.periods = params.repetitions != 0 ? params.repetitions : fp->periods;
+  return fourier_config(t, c.period_us, params.scale_permille);
 }
 
 fw::TrajectoryConfig pick_and_place(const Preset& preset, const PortConfig& c,
@@ -94,6 +76,39 @@ fw::TrajectoryConfig pick_and_place(const Preset& preset, const PortConfig& c,
 }
 
 }  // namespace
+
+fw::TrajectoryConfig fourier_config(const delta::BlendedFourierTrajectory& t,
+                                    std::uint32_t period_us, std::uint16_t scale_permille) {
+  const auto& f = t.fourier;
+  const std::size_t harmonics = f.a_rad_s[0].size();
+  if (harmonics < 1 || harmonics > static_cast<std::size_t>(fw::kMaxHarmonics)) {
+    throw ConfigError("a Fourier trajectory needs 1 to " + std::to_string(fw::kMaxHarmonics) +
+                      " harmonics, got " + std::to_string(harmonics));
+  }
+  const double mHz = f.base_frequency_hz * 1000.0;
+  if (!(std::abs(mHz - std::round(mHz)) < 1e-9 * mHz) || !(mHz >= 1.0)) {
+    throw ConfigError("a Fourier trajectory's base frequency must be a whole number of mHz");
+  }
+  fw::TrajectoryConfig c;
+  c.kind = fw::TrajectoryKind::kFourier;
+  c.tick_period_us = period_us;
+  c.blend_ticks = static_cast<std::uint32_t>(std::lround(t.blend_s * 1e6 / period_us));
+  c.fourier.base_frequency_mHz = static_cast<std::uint32_t>(std::lround(mHz));
+  c.fourier.harmonics = static_cast<std::uint8_t>(harmonics);
+  c.fourier.periods = t.periods;
+  const double scale = scale_permille / 1000.0;
+  const double w = 2.0 * 3.141592653589793 * f.base_frequency_hz;
+  for (unsigned j = 0; j < 3; ++j) {
+    c.fourier.q0_rad[j] = to_q<Q3_28>(f.q0_rad[j], "q0");
+    for (std::size_t k = 0; k < harmonics; ++k) {
+      // q = a/(k w) sin(k w t) - b/(k w) cos(k w t)  (common/trajectory.hpp)
+      const double kw = static_cast<double>(k + 1) * w;
+      c.fourier.sin_amplitude_rad[j][k] = to_q<Q3_28>(scale * f.a_rad_s[j][k] / kw, "amplitude");
+      c.fourier.cos_amplitude_rad[j][k] = to_q<Q3_28>(-scale * f.b_rad_s[j][k] / kw, "amplitude");
+    }
+  }
+  return c;
+}
 
 std::vector<std::string> trajectory_names() {
   const auto& names = delta::controller::kTrajectoryNames;

@@ -21,6 +21,33 @@ struct FourierTrajectory {
   JointState at(double t_s) const;
 };
 
+// A Fourier excitation as the controller runs it (firmware/core's
+// Trajectory, in double): q = q0 + w(t) (f(t) - q0) with f the Fourier
+// series, faded in from rest at q0 over blend_s by the minimum-jerk window
+// w, `periods` whole periods, and faded out to rest. t runs from 0 to
+// duration_s(); the series' phase starts at t = 0.
+struct BlendedFourierTrajectory {
+  FourierTrajectory fourier;
+  double blend_s{1.0};
+  unsigned periods{2};
+  double duration_s() const { return 2.0 * blend_s + periods / fourier.base_frequency_hz; }
+  JointState at(double t_s) const;
+};
+
+// The controller's named Fourier excitations (docs/firmware.md): the
+// generator's arguments, so that the firmware and the host build the same.
+struct FourierPreset {
+  const char* name;
+  unsigned long long seed;
+  double base_frequency_hz;
+  unsigned harmonics;
+  double amplitude_rad;
+  Vec3<double> centre_m;
+  unsigned periods;
+};
+// nullptr for a name that is not a Fourier preset.
+const FourierPreset* fourier_preset(const char* name);
+
 // Moves between Cartesian points with minimum-jerk (quintic) segments of
 // equal duration, cycling through the points; q, qd, qdd follow from the
 // inverse and velocity kinematics.

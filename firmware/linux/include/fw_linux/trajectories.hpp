@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "delta/trajectory.hpp"
 #include "fw/trajectory.hpp"
 #include "fw_linux/config.hpp"
 
@@ -24,6 +25,13 @@ struct TrajectoryParams {
   std::uint16_t scale_permille{1000};  // amplitude: Fourier terms, waypoints about their centre
   std::uint16_t repetitions{0};        // Fourier periods or pick-and-place cycles; 0: the preset's
 };
+
+// A Fourier excitation in the core's Q formats, ticking every period_us,
+// its amplitudes scaled by scale_permille / 1000. Throws ConfigError for
+// more harmonics than the core has, a base frequency that is not a whole
+// number of mHz, or a value outside its Q format.
+fw::TrajectoryConfig fourier_config(const delta::BlendedFourierTrajectory& t,
+                                    std::uint32_t period_us, std::uint16_t scale_permille = 1000);
 
 // The named trajectory for this configuration (tick period, geometry);
 // nullopt for an unknown name. Throws ConfigError when the trajectory does
