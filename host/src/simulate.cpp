@@ -56,7 +56,10 @@ void check_options(const SimulateOptions& o) {
 class Path {
  public:
   explicit Path(const SimulateOptions& o) : fourier_(o.trajectory == "fourier") {
-    if (fourier_) {
+    if (o.trajectory == "file") {
+      if (!o.trajectory_file) throw delta::InputError("trajectory 'file' without its trajectory");
+      file_ = o.trajectory_file;
+    } else if (fourier_) {
       if (o.harmonics == 0 || o.harmonics > 20)
         throw delta::InputError("--harmonics must be between 1 and 20");
       if (!(o.base_frequency_hz > 0.0) || !(o.base_frequency_hz <= 5.0)) {
@@ -76,6 +79,7 @@ class Path {
     }
   }
   delta::JointState at(double t) const {
+    if (file_) return file_->at(t);
     if (fourier_) return fourier_path_.at(t);
     delta::JointState s;
     if (pnp_.at(t, s) != delta::KinematicsStatus::kOk) {
@@ -86,6 +90,7 @@ class Path {
 
  private:
   bool fourier_;
+  std::optional<delta::BlendedFourierTrajectory> file_;
   delta::FourierTrajectory fourier_path_;
   delta::PickAndPlaceTrajectory pnp_;
 };

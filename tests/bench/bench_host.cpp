@@ -11,6 +11,7 @@
 
 #include "delta/read_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/design.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/preprocess.hpp"
@@ -151,6 +152,15 @@ void BM_CostQuadratic(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(cost(beta));
 }
 BENCHMARK(BM_CostQuadratic)->Unit(benchmark::kNanosecond);
+
+// host_id design's search on the default robot: 5 harmonics, default
+// options, one core (the bar: at most 30 s).
+void BM_Design5Harmonics(benchmark::State& state) {
+  const delta::RobotDescription robot = delta::default_robot_description();
+  const DesignOptions o = default_design_options();
+  for (auto _ : state) benchmark::DoNotOptimize(design_excitation(o, robot).quality);
+}
+BENCHMARK(BM_Design5Harmonics)->Unit(benchmark::kSecond)->Iterations(3);
 
 void BM_FitPso10000Iterations60s(benchmark::State& state) {
   FitOptions f;

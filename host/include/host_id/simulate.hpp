@@ -10,10 +10,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "delta/dynamics.hpp"
 #include "delta/robot_description.hpp"
+#include "delta/trajectory.hpp"
 #include "host_id/delta_log.hpp"
 
 namespace host_id {
@@ -22,7 +24,10 @@ enum class SimulatedPlant : std::uint8_t { kLumped, kMujoco };
 
 struct SimulateOptions {
   SimulatedPlant plant{SimulatedPlant::kLumped};
-  std::string trajectory{"fourier"};  // "fourier" or "pick-and-place"
+  std::string trajectory{"fourier"};  // "fourier", "pick-and-place" or "file"
+  // trajectory "file": a trajectory file's excitation (delta-trajectory/1),
+  // from rest to rest as the controller runs it, at rest after its end.
+  std::optional<delta::BlendedFourierTrajectory> trajectory_file;
   double duration_s{10.0};
   double sample_rate_hz{1000.0};
   std::uint64_t seed{1};

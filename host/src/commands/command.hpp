@@ -39,6 +39,7 @@ extern const CLI::Validator kSvgPath;
 void add_fit_command(CLI::App& app, CommandContext& context);
 void add_validate_command(CLI::App& app, CommandContext& context);
 void add_predict_command(CLI::App& app, CommandContext& context);
+void add_design_command(CLI::App& app, CommandContext& context);
 void add_simulate_command(CLI::App& app, CommandContext& context);
 void add_record_command(CLI::App& app, CommandContext& context);
 void add_excite_command(CLI::App& app, CommandContext& context);

@@ -7,6 +7,7 @@
 #include "commands/command.hpp"
 #include "delta/parameter_file.hpp"
 #include "delta/robot_description.hpp"
+#include "delta/trajectory_file.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 
@@ -16,6 +17,9 @@ namespace {
 
 struct SimulateArguments {
   std::string out_path;
+  std::string trajectory_file;
+  CLI::Option* duration_given{nullptr};
+  CLI::Option* trajectory_given{nullptr};
   std::string params_path;
   std::string plant{"lumped"};
   std::string robot_path;
@@ -76,8 +80,23 @@ void add_simulate_command(CLI::App& app, CommandContext& context) {
   c->add_option("--robot", a->robot_path, "the robot description (docs/robot-description.md)");
   c->add_option("--params", a->params_path,
                 "with --plant lumped: parameters, JSON (keys as in 'host_id fit' output)");
+  c->add_option("--trajectory-file", a->trajectory_file,
+                "a trajectory file (docs/trajectory-file.md, from host_id design) instead of "
+                "--trajectory: run from rest to rest as the controller runs it; --duration "
+                "defaults to its length");
+  a->duration_given = c->get_option("--duration");
+  a->trajectory_given = c->get_option("--trajectory");
   c->callback([a, &context] {
     SimulateOptions s = a->simulate;
+    if (!a->trajectory_file.empty()) {
+      if (a->trajectory_given->count() > 0) {
+        throw UsageError("--trajectory-file: not with --trajectory");
+      }
+      s.trajectory_file = delta::read_trajectory_file(a->trajectory_file);
+      s.trajectory = "file";
+      if (s.name.empty()) s.name = a->trajectory_file;
+      if (a->duration_given->count() == 0) s.duration_s = s.trajectory_file->duration_s();
+    }
     if (!a->robot_path.empty()) {
       s.robot = delta::read_robot_description(a->robot_path);
       s.geometry = s.robot.geometry;

@@ -9,11 +9,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
+#include "delta/trajectory_file.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
@@ -69,7 +71,7 @@ TEST_F(CliTest, VersionIsPrintedByTheProgramAndEveryCommand) {
   EXPECT_EQ(run({"--version"}), 0);
   EXPECT_EQ(out_.str(), expected);
   for (const char* command :
-       {"fit", "validate", "predict", "simulate", "record", "excite", "status", "dbc"}) {
+       {"fit", "validate", "predict", "design", "simulate", "record", "excite", "status", "dbc"}) {
     EXPECT_EQ(run({command, "--version"}), 0) << command;
     EXPECT_EQ(out_.str(), expected) << command;
   }
@@ -557,6 +559,82 @@ TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
     // From moments: a floor near 1e-7 of the RMS torque.
     EXPECT_LT(v["validation"][0]["rmse_measured_Nm"][k].get<double>(), 1e-6);
   }
+}
+
+// design writes a trajectory file that simulate runs from rest to rest;
+// the file reads back to the same trajectory.
+TEST_F(CliTest, DesignWritesATrajectoryFileThatSimulateRuns) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "40", "--json"}), 0) << err_.str();
+  const auto summary = nlohmann::json::parse(out_.str());
+  EXPECT_GT(summary["preset"]["condition_number_scaled"].get<double>(),
+            summary["designed"]["condition_number_scaled"].get<double>());
+  const delta::BlendedFourierTrajectory t = delta::read_trajectory_file(path("t.json"));
+  EXPECT_EQ(t.fourier.a_rad_s[0].size(), 5u);
+  EXPECT_DOUBLE_EQ(t.duration_s(), 12.0);
+  ASSERT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "-o", path("d.csv")}), 0)
+      << err_.str();
+  const DeltaLog log = read_delta_log(path("d.csv"));
+  ASSERT_EQ(log.size(), 12001u);  // 12 s at 1 kHz, both ends
+  for (unsigned j = 0; j < 3; ++j) {
+    // At rest at q0 at both ends.
+    EXPECT_NEAR(log.q[j].front(), t.fourier.q0_rad[j], 1e-12);
+    EXPECT_NEAR(log.q[j].back(), t.fourier.q0_rad[j], 1e-12);
+  }
+  EXPECT_EQ(log.metadata_value("trajectory"), std::optional<std::string>(path("t.json")));
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "--trajectory", "fourier", "-o",
+                 path("e.csv")}),
+            2);
+}
+
+TEST_F(CliTest, TrajectoryFileErrorsNameTheFileAndTheKey) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));
+  const auto error_with = [&](const std::function<void(nlohmann::json&)>& change) {
+    auto k = j;
+    change(k);
+    std::ofstream(path("bad.json")) << k.dump();
+    try {
+      delta::read_trajectory_file(path("bad.json"));
+    } catch (const delta::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string f = path("bad.json") + ": ";
+  EXPECT_EQ(error_with([](auto& k) { k["format"] = "x"; }),
+            f + "format: must be \"delta-trajectory/1\" (got \"x\")");
+  EXPECT_EQ(error_with([](auto& k) { k["speed"] = 1; }), f + "speed: unknown key");
+  EXPECT_EQ(error_with([](auto& k) { k.erase("blend_s"); }), f + "blend_s: missing");
+  EXPECT_EQ(error_with([](auto& k) { k["periods"] = 1.5; }), f + "periods: must be a whole number");
+  EXPECT_EQ(error_with([](auto& k) { k["sin_amplitude_rad"][1][2] = "a"; }),
+            f + "sin_amplitude_rad[1][2]: must be a finite number");
+  EXPECT_EQ(error_with([](auto& k) { k["cos_amplitude_rad"][2].push_back(0.1); }),
+            f + "cos_amplitude_rad: every joint needs the same number of harmonics in both arrays");
+  EXPECT_EQ(error_with([](auto& k) {
+              for (std::size_t r = 0; r < 3; ++r) {
+                for (int n = 0; n < 2; ++n) {
+                  k["sin_amplitude_rad"][r].push_back(0.0);
+                  k["cos_amplitude_rad"][r].push_back(0.0);
+                }
+              }
+            }),
+            f + "sin_amplitude_rad: must have 1 to 6 harmonics per joint (got 7)");
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("bad.json"), "-o", path("x.csv")}), 1);
+  EXPECT_FALSE(exists("x.csv"));
+}
+
+TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--base-hz", "0.2005"}), 2);
+  EXPECT_NE(err_.str().find("--base-hz: must be a whole number of mHz"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--harmonics", "7"}), 2);
+  // No excitation keeps the torque below 0.01 N m against gravity.
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--max-torque", "0.01", "--iterations", "5"}), 1);
+  EXPECT_NE(err_.str().find("no excitation within the limits was found: the best breaks the "
+                            "torque limit at t = "),
+            std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("t.json"));
 }
 
 }  // namespace

@@ -1,0 +1,220 @@
+// host_id design -o TRAJ.json: an excitation designed for the robot.
+#include "host_id/design.hpp"
+
+#include <cmath>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "commands/command.hpp"
+#include "delta/robot_description.hpp"
+#include "delta/trajectory_file.hpp"
+#include "host_id/atomic_file.hpp"
+
+namespace host_id {
+
+namespace {
+
+struct DesignArguments {
+  std::string out_path;
+  std::string robot_path;
+  std::string criterion{"cond"};
+  std::string compare{"path1"};
+  std::vector<double> centre{0.0, 0.0, -0.42};
+  bool json{false};
+  DesignOptions design{default_design_options()};
+};
+
+void add_trajectory_options(CLI::App& c, DesignArguments& a) {
+  DesignOptions& d = a.design;
+  const char* g = "trajectory";
+  c.add_option("--harmonics", d.harmonics, "Fourier harmonics (the controller takes up to 6)")
+      ->check(CLI::Range(1, 6))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--base-hz", d.base_frequency_hz, "base frequency, Hz (a whole number of mHz)")
+      ->check(finite_range(0.01, 2.0))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--blend", d.blend_s, "fade in from rest and out to rest over this, s")
+      ->check(finite_range(0.0, 60.0) & kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--periods", d.periods, "whole periods between the blends")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--centre", a.centre, "X,Y,Z of the platform about which the joints move, m")
+      ->expected(3)
+      ->delimiter(',')
+      ->check(kFinite)
+      ->group(g);
+  c.add_option("--max-amplitude", d.max_amplitude_rad,
+               "search box: harmonic k's position amplitude at most this / k, rad")
+      ->check(finite_range(0.0, 1.5) & kPositive)
+      ->capture_default_str()
+      ->group(g);
+}
+
+void add_limit_options(CLI::App& c, DesignLimits& l) {
+  const char* g = "limits (the controller's defaults)";
+  c.add_option("--min-rad", l.min_rad, "joint range, lower end")
+      ->check(kFinite)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--max-rad", l.max_rad, "joint range, upper end")
+      ->check(kFinite)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--max-velocity", l.max_velocity_rad_s, "rad/s")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--max-acceleration", l.max_acceleration_rad_s2, "rad/s^2")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--max-torque", l.max_torque_Nm,
+               "joint torque with the robot's nominal parameters, N m")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+}
+
+void add_search_options(CLI::App& c, DesignArguments& a) {
+  DesignOptions& d = a.design;
+  const char* g = "search";
+  c.add_option("--model", d.model.name, "the model whose regressor is conditioned")
+      ->check(CLI::IsMember({"delta", "lumped"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--criterion", a.criterion,
+               "cond: minimise the condition number of the column-scaled regressor; logdet: "
+               "maximise the log determinant of its information matrix")
+      ->check(CLI::IsMember({"cond", "logdet"}))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--particles", d.pso.particles, "PSO particles")
+      ->check(CLI::Range(2, 10000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--iterations", d.pso.iterations, "PSO iterations at most")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--seed", d.pso.seed, "PSO seed")->capture_default_str()->group(g);
+  c.add_option("--torque-noise", d.torque_noise_Nm,
+               "for the expected standard deviations: white torque noise, N m")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--rate", d.log_rate_hz, "... on a log sampled at this rate, Hz")
+      ->check(kPositive)
+      ->capture_default_str()
+      ->group(g);
+  c.add_option("--compare", a.compare, "the preset to compare with")
+      ->check(CLI::IsMember({"path1", "path2"}))
+      ->capture_default_str()
+      ->group(g);
+}
+
+nlohmann::json quality_json(const ExcitationQuality& q, const Model& model) {
+  nlohmann::json params = nlohmann::json::array();
+  for (std::size_t i = 0; i < q.std_dev.size(); ++i) {
+    params.push_back({{"name", model.parameters()[i].name},
+                      {"nominal", q.nominal[i]},
+                      {"expected_std_dev", q.std_dev[i]},
+                      {"expected_rel_std_percent", std::isfinite(q.rel_std_percent[i])
+                                                       ? nlohmann::json(q.rel_std_percent[i])
+                                                       : nlohmann::json(nullptr)}});
+  }
+  return {{"condition_number_scaled", q.condition_number_scaled},
+          {"log_det_scaled", q.log_det_scaled},
+          {"largest_torque_Nm", q.largest_torque_Nm},
+          {"parameters", params}};
+}
+
+void print_text(std::ostream& out, const DesignArguments& a, const DesignResult& d,
+                const ExcitationQuality& preset, const Model& model) {
+  char buf[200];
+  out << "host_id design: wrote " << a.out_path << "\n";
+  std::snprintf(buf, sizeof buf,
+                "  trajectory %u harmonics at %.3f Hz, %u period(s), blends of %.2f s: %.2f s\n",
+                a.design.harmonics, a.design.base_frequency_hz, a.design.periods, a.design.blend_s,
+                d.trajectory.duration_s());
+  out << buf;
+  std::snprintf(buf, sizeof buf,
+                "  search     PSO, %zu evaluations, %.1f s; largest torque %.3f N m\n",
+                d.pso.evaluations, d.seconds, d.quality.largest_torque_Nm);
+  out << buf;
+  std::snprintf(buf, sizeof buf, "  condition number (columns scaled): %.3g designed, %.3g %s\n",
+                d.quality.condition_number_scaled, preset.condition_number_scaled,
+                a.compare.c_str());
+  out << buf;
+  std::snprintf(buf, sizeof buf,
+                "  expected relative std dev [%%] at %.3g N m torque noise, %.0f Hz "
+                "(white noise):\n  %-24s %10s %10s\n",
+                a.design.torque_noise_Nm, a.design.log_rate_hz, "parameter", "designed",
+                a.compare.c_str());
+  out << buf;
+  for (std::size_t i = 0; i < d.quality.std_dev.size(); ++i) {
+    std::snprintf(buf, sizeof buf, "  %-24s %10.3g %10.3g\n", model.parameters()[i].name.c_str(),
+                  d.quality.rel_std_percent[i], preset.rel_std_percent[i]);
+    out << buf;
+  }
+}
+
+int run_design(DesignArguments a, std::ostream& out) {
+  a.design.centre_m = {a.centre[0], a.centre[1], a.centre[2]};
+  a.design.criterion =
+      a.criterion == "cond" ? DesignCriterion::kConditionNumber : DesignCriterion::kLogDet;
+  const double mHz = a.design.base_frequency_hz * 1000.0;
+  if (std::abs(mHz - std::round(mHz)) > 1e-9 * mHz) {
+    throw UsageError("--base-hz: must be a whole number of mHz (the controller's unit)");
+  }
+  const delta::RobotDescription robot = a.robot_path.empty()
+                                            ? delta::default_robot_description()
+                                            : delta::read_robot_description(a.robot_path);
+  const DesignResult d = design_excitation(a.design, robot);
+  const ExcitationQuality preset =
+      excitation_quality(preset_trajectory(a.compare, robot, a.design.blend_s), a.design, robot);
+  const auto model = make_model(a.design.model);
+  nlohmann::json design = {{"by", "host_id design"},
+                           {"robot", a.robot_path.empty() ? "built-in default" : a.robot_path},
+                           {"model", a.design.model.name},
+                           {"criterion", a.criterion},
+                           {"designed", quality_json(d.quality, *model)},
+                           {"compared_with", a.compare},
+                           {"preset", quality_json(preset, *model)}};
+  write_file_atomically(a.out_path, delta::format_trajectory(d.trajectory, design.dump()));
+  if (a.json) {
+    out << design.dump(2) << "\n";
+  } else {
+    print_text(out, a, d, preset, *model);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_design_command(CLI::App& app, CommandContext& context) {
+  CLI::App* c = app.add_subcommand("design", "design an excitation for the robot");
+  c->description(
+      "Designs a Fourier excitation by PSO: the coefficients that minimise the condition number "
+      "of the model's column-scaled regressor along the whole trajectory (faded in from rest, "
+      "whole periods, faded out), with the joint range, velocity, acceleration, workspace and "
+      "torque limits respected on every sample. Writes a trajectory file "
+      "(docs/trajectory-file.md) and prints the condition number and the parameters' expected "
+      "standard deviations beside a preset's.");
+  auto a = std::make_shared<DesignArguments>();
+  c->add_option("-o,--out", a->out_path, "the trajectory file to write (atomically)")->required();
+  c->add_option("--robot", a->robot_path,
+                "the robot description (docs/robot-description.md; default: the built-in robot)");
+  c->add_flag("--json", a->json, "print the design's summary as JSON");
+  add_trajectory_options(*c, *a);
+  add_limit_options(*c, a->design.limits);
+  add_search_options(*c, *a);
+  c->callback([a, &context] { context.exit_code = run_design(*a, context.out); });
+}
+
+}  // namespace host_id
