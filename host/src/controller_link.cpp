@@ -3,6 +3,7 @@
 #include <modbus/modbus.h>
 
 #include <cerrno>
+#include <sstream>
 
 #include "delta/controller/vocabulary.hpp"
 #include "delta/input_error.hpp"
@@ -80,12 +81,18 @@ void ControllerLink::write(std::uint16_t first, const std::vector<std::uint16_t>
                         : modbus_write_registers(ctx_, first, n, values.data());
   if (rc == n) return;
   const int err = errno;
-  std::string what = "writing";
-  for (int i = 0; i < n; ++i) {
-    const mb::Register* r = mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(first + i));
-    what += std::string(i ? "," : "") + " " + (r ? r->name : "?") + " = " +
-            std::to_string(values[static_cast<std::size_t>(i)]);
+  std::ostringstream w;
+  w << "writing";
+  const mb::Register* at = mb::find(mb::Table::kHolding, first);
+  if (n > 5) {  // a block (the custom trajectory): where it starts and how long
+    w << " " << n << " registers from " << (at ? std::string(at->name) : std::to_string(first));
   }
+  for (int i = 0; i < n && n <= 5; ++i) {
+    const mb::Register* r = mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(first + i));
+    w << (i ? "," : "") << " " << (r ? r->name : "?") << " = "
+      << values[static_cast<std::size_t>(i)];
+  }
+  const std::string what = w.str();
   if (err < MODBUS_ENOBASE) {
     errno = err;
     fail(what);

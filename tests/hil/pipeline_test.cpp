@@ -747,6 +747,37 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   expect_fit_stands_for_the_multibody_robot(dir + "/excite.csv", dir);
 }
 
+// The designed excitation end to end: host_id design writes a trajectory
+// file, excite uploads it into the controller's custom trajectory
+// registers over Modbus, the controller checks and runs it on the
+// multibody robot, the recorder logs it, and the default model fits it.
+TEST(HostExcite, ADesignedTrajectoryFileIsUploadedRunAndFitted) {
+  const std::string dir = scratch_dir();
+  hil::Child design =
+      hil::Child::spawn({kBin + "/host_id", "design", "-o", dir + "/designed.json"});
+  ASSERT_EQ(design.wait(120s).value_or(-1), 0) << design.out() << design.err();
+  std::cout << design.out();
+  hil::Child emu = start_emulator();
+  hil::Child fw = start_firmware_with_modbus(15023);
+  hil::Child excite = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", "127.0.0.1:15023",
+                                         "--trajectory-file", dir + "/designed.json", "--can",
+                                         kIface, "-o", dir + "/designed.csv"});
+  ASSERT_EQ(excite.wait(300s).value_or(-1), 0) << excite.out() << excite.err();
+  std::cout << excite.out();
+  const std::string said = excite.out() + excite.err();
+  // At 500 Hz: 2 s approach, 1 s blend, two 5 s periods, 1 s blend, 0.4 s
+  // hold, both ends (as path1, whose timing the design kept).
+  EXPECT_EQ(sum_of_numbers(said, "recorded of ", true), 7201u) << said;
+  EXPECT_NE(said.find("sent, 0 lost, "), std::string::npos) << said;
+  std::ifstream log(dir + "/designed.csv");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("# trajectory = custom"), std::string::npos);
+  EXPECT_NE(text.find("# trajectory_file = " + dir + "/designed.json"), std::string::npos);
+  EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
+  EXPECT_EQ(emu.terminate(30s).value_or(-1), 0) << emu.err();
+  expect_fit_stands_for_the_multibody_robot(dir + "/designed.csv", dir);
+}
+
 TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {
   const std::string dir = scratch_dir();
   // Node 2 reports an overcurrent 12 s of bus time after the emulator starts:

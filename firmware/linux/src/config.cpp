@@ -10,7 +10,10 @@
 #include <set>
 #include <sstream>
 
+#include "delta/custom_trajectory_block.hpp"
 #include "delta/dynamics.hpp"
+#include "delta/input_error.hpp"
+#include "delta/trajectory_file.hpp"
 
 namespace fw_linux {
 namespace {
@@ -149,6 +152,15 @@ std::map<std::string, Setter> make_setters() {
   s["approach_s"] = seconds_setter("approach_s", &PortConfig::approach_s);
   s["stop_s"] = seconds_setter("stop_s", &PortConfig::stop_s);
   s["blend_s"] = seconds_setter("blend_s", &PortConfig::blend_s);
+  s["trajectory_file"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    // The custom trajectory's registers, filled from a delta-trajectory/1 file.
+    try {
+      c.custom_trajectory_file = v;
+      c.custom_block = delta::custom_trajectory_block(delta::read_trajectory_file(v));
+    } catch (const delta::InputError& e) {
+      throw ConfigError(w + ": trajectory_file: " + e.what());
+    }
+  };
   s["modbus.tcp"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     if (!v.empty()) (void)split_host_port(v, w + ": modbus.tcp");
     c.modbus.tcp = v;

@@ -14,6 +14,7 @@
 #include <iostream>
 #include <vector>
 
+#include "delta/controller/vocabulary.hpp"
 #include "fw_linux/mbap_framer.hpp"
 #include "fw_linux/trajectories.hpp"
 
@@ -96,6 +97,9 @@ RegisterBank::RegisterBank(const PortConfig& config, ControlPanel& panel)
           modbus_mapping_new_start_address(0, 0, 0, 0, 0, mb::kHoldingCount, 0, mb::kInputCount)) {
   if (mapping_ == nullptr) throw ModbusError("Modbus: cannot allocate the register map");
   settings_.log_enable = panel.log_enabled().load();
+  if (config.custom_block.size() == settings_.custom.size()) {
+    std::copy(config.custom_block.begin(), config.custom_block.end(), settings_.custom.begin());
+  }
   refresh();
 }
 
@@ -150,6 +154,7 @@ void RegisterBank::refresh() {
   mb::encode(mb::kRepetitions, settings_.repetitions, hold);
   mb::encode(mb::kLogEnable, settings_.log_enable ? 1 : 0, hold);
   mb::encode(mb::kCommand, 0, hold);
+  std::copy(settings_.custom.begin(), settings_.custom.end(), hold + mb::kCustomFirst);
 }
 
 bool RegisterBank::refuse(modbus_t* ctx, const std::uint8_t* request, mb::Rejection why,
@@ -217,8 +222,11 @@ std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
                                                          fw::TrajectoryCheck& check) const {
   const std::vector<std::string> names = trajectory_names();
   try {
-    const auto t = named_trajectory(names.at(s.trajectory), config_,
-                                    TrajectoryParams{s.scale_permille, s.repetitions});
+    const TrajectoryParams params{s.scale_permille, s.repetitions};
+    const auto t =
+        s.trajectory == static_cast<std::uint16_t>(delta::controller::TrajectoryId::kCustom)
+            ? std::optional(custom_trajectory(s.custom.data(), config_, params))
+            : named_trajectory(names.at(s.trajectory), config_, params);
     if (!t) throw ConfigError("unknown trajectory");
     fw::CheckedTrajectory c = fw::CheckedTrajectory::check(core_.geometry, *t, core_.limits);
     check = c.result();
@@ -230,46 +238,68 @@ std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
   }
 }
 
+mb::Rejection RegisterBank::take(Settings& next, mb::Command& command, const mb::Register& r,
+                                 const std::uint16_t* words, unsigned available) const {
+  const unsigned width = mb::width(r.type);
+  if (available < width) return mb::Rejection::kIllegalAddress;  // half a 32-bit register
+  const std::uint16_t v = words[0];
+  bool ok = true;
+  if (&r == &mb::kTrajectory) {
+    ok = v < trajectory_names().size();
+    next.trajectory = v;
+  } else if (&r == &mb::kAmplitudeScale) {
+    ok = v >= mb::kMinAmplitudeScale && v <= mb::kMaxAmplitudeScale;
+    next.scale_permille = v;
+  } else if (&r == &mb::kRepetitions) {
+    ok = v <= mb::kMaxRepetitions;
+    next.repetitions = v;
+  } else if (&r == &mb::kLogEnable) {
+    ok = v <= 1;
+    next.log_enable = v == 1;
+  } else if (&r == &mb::kCommand) {
+    ok = v <= static_cast<std::uint16_t>(mb::Command::kFaultReset);
+    command = static_cast<mb::Command>(v);
+  } else {
+    // The custom block: ranges of its 16-bit registers; any 32-bit angle.
+    if (&r == &mb::kCustomBaseFrequency) ok = v >= 1 && v <= mb::kCustomMaxFrequency_mHz;
+    if (&r == &mb::kCustomHarmonics) ok = v <= mb::kCustomMaxHarmonics;
+    if (&r == &mb::kCustomPeriods) ok = v >= 1 && v <= mb::kMaxRepetitions;
+    if (&r == &mb::kCustomBlend) ok = v >= 1 && v <= mb::kCustomMaxBlend_ms;
+    for (unsigned k = 0; k < width; ++k) next.custom[r.address - mb::kCustomFirst + k] = words[k];
+  }
+  return ok ? mb::Rejection::kNone : mb::Rejection::kOutOfRange;
+}
+
 bool RegisterBank::write(modbus_t* ctx, const std::uint8_t* request, std::uint16_t first,
                          const std::uint16_t* values, unsigned count) {
   // Every register must be a holding register, and every value in range,
   // before anything changes.
   Settings next = settings_;
   mb::Command command = mb::Command::kNone;
-  const std::size_t trajectories = trajectory_names().size();
-  for (unsigned i = 0; i < count; ++i) {
+  for (unsigned i = 0; i < count;) {
     const unsigned a = first + i;
-    const std::uint16_t v = values[i];
     const mb::Register* r =
         a <= 0xFFFF ? mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(a)) : nullptr;
     const auto address = static_cast<std::uint16_t>(a);
+    // Not a register, or the second word of a 32-bit one alone.
     if (r == nullptr) return refuse(ctx, request, mb::Rejection::kIllegalAddress, address);
-    bool ok = true;
-    if (r == &mb::kTrajectory) {
-      ok = v < trajectories;
-      next.trajectory = v;
-    } else if (r == &mb::kAmplitudeScale) {
-      ok = v >= mb::kMinAmplitudeScale && v <= mb::kMaxAmplitudeScale;
-      next.scale_permille = v;
-    } else if (r == &mb::kRepetitions) {
-      ok = v <= mb::kMaxRepetitions;
-      next.repetitions = v;
-    } else if (r == &mb::kLogEnable) {
-      ok = v <= 1;
-      next.log_enable = v == 1;
-    } else if (r == &mb::kCommand) {
-      ok = v <= static_cast<std::uint16_t>(mb::Command::kFaultReset);
-      command = static_cast<mb::Command>(v);
-    }
-    if (!ok) return refuse(ctx, request, mb::Rejection::kOutOfRange, address);
+    const mb::Rejection why = take(next, command, *r, values + i, count - i);
+    if (why != mb::Rejection::kNone) return refuse(ctx, request, why, address);
+    i += mb::width(r->type);
   }
 
   // The trajectory's settings do not change while it runs, and a new
   // combination must pass the limits check.
   const PanelStatus status = panel_.status();
+  const bool custom =
+      next.trajectory == static_cast<std::uint16_t>(delta::controller::TrajectoryId::kCustom);
+  const bool custom_changed = next.custom != settings_.custom;
   const bool changed = next.trajectory != settings_.trajectory ||
                        next.scale_permille != settings_.scale_permille ||
-                       next.repetitions != settings_.repetitions;
+                       next.repetitions != settings_.repetitions || (custom && custom_changed);
+  if (custom_changed && moving(status)) {
+    return refuse(ctx, request, mb::Rejection::kWrongState, first);
+  }
   if (changed && moving(status)) {
     return refuse(ctx, request, mb::Rejection::kWrongState, first);
   }

@@ -4,6 +4,7 @@
 #include <iterator>
 
 #include "delta/controller/vocabulary.hpp"
+#include "delta/custom_trajectory_block.hpp"
 #include "delta/trajectory.hpp"
 
 namespace fw_linux {
@@ -17,16 +18,18 @@ using delta::controller::TrajectoryId;
 // The catalogue: what each trajectory of the controller's vocabulary is
 // (its id and name are the vocabulary's; the Fourier ones' generator
 // arguments are common's fourier_preset(); docs/firmware.md describes them).
+enum class Source { kFourierPreset, kPickAndPlace, kCustom };
 struct Preset {
   TrajectoryId id;
-  bool fourier;               // else the default pick-and-place cycle
+  Source source;
   std::uint32_t repetitions;  // pick-and-place cycles (Fourier: the preset's periods)
 };
 
 constexpr Preset kCatalogue[] = {
-    {TrajectoryId::kPath1, true, 0},
-    {TrajectoryId::kPath2, true, 0},
-    {TrajectoryId::kPickAndPlace, false, 3},
+    {TrajectoryId::kPath1, Source::kFourierPreset, 0},
+    {TrajectoryId::kPath2, Source::kFourierPreset, 0},
+    {TrajectoryId::kPickAndPlace, Source::kPickAndPlace, 3},
+    {TrajectoryId::kCustom, Source::kCustom, 0},
 };
 static_assert(std::size(kCatalogue) == delta::controller::kTrajectoryNames.size(),
               "one catalogue entry per trajectory id");
@@ -110,6 +113,16 @@ fw::TrajectoryConfig fourier_config(const delta::BlendedFourierTrajectory& t,
   return c;
 }
 
+fw::TrajectoryConfig custom_trajectory(const std::uint16_t* block, const PortConfig& config,
+                                       const TrajectoryParams& params) {
+  delta::BlendedFourierTrajectory t = delta::custom_trajectory_of(block);
+  if (t.fourier.a_rad_s[0].empty()) {
+    throw ConfigError("custom: no custom trajectory (custom_harmonics is 0)");
+  }
+  if (params.repetitions != 0) t.periods = params.repetitions;
+  return fourier_config(t, config.period_us, params.scale_permille);
+}
+
 std::vector<std::string> trajectory_names() {
   const auto& names = delta::controller::kTrajectoryNames;
   return {names.begin(), names.end()};
@@ -121,7 +134,19 @@ std::optional<fw::TrajectoryConfig> named_trajectory(const std::string& name,
   TrajectoryId id{};
   if (!delta::controller::trajectory_id(name, id)) return std::nullopt;
   const Preset& preset = kCatalogue[static_cast<std::size_t>(id)];
-  return preset.fourier ? fourier(preset, config, params) : pick_and_place(preset, config, params);
+  switch (preset.source) {
+    case Source::kFourierPreset:
+      return fourier(preset, config, params);
+    case Source::kPickAndPlace:
+      return pick_and_place(preset, config, params);
+    case Source::kCustom:
+      break;
+  }
+  if (config.custom_block.empty()) {
+    throw ConfigError(
+        "custom: no custom trajectory (set trajectory_file, or upload one over Modbus)");
+  }
+  return custom_trajectory(config.custom_block.data(), config, params);
 }
 
 }  // namespace fw_linux

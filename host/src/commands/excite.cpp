@@ -15,6 +15,9 @@
 #include "commands/command.hpp"
 #include "commands/controller_text.hpp"
 #include "delta/controller/vocabulary.hpp"
+#include "delta/custom_trajectory_block.hpp"
+#include "delta/input_error.hpp"
+#include "delta/trajectory_file.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/controller_link.hpp"
 #include "host_id/delta_log.hpp"
@@ -37,6 +40,7 @@ constexpr const char* kExciteDescription =
 struct ExciteArguments {
   std::string address;
   std::string trajectory;
+  std::string trajectory_file;  // uploaded as the custom trajectory
   std::string iface;
   std::string out_path;
   double amplitude_scale{1.0};
@@ -70,6 +74,17 @@ std::vector<std::uint16_t> prepare_controller(ControllerLink& link, const Excite
   if (state != static_cast<int>(delta::controller::State::kReady)) {
     throw delta::InputError("excite: the controller at " + a.address + " is " + state_text(state) +
                             ", not ready");
+  }
+  if (!a.trajectory_file.empty()) {
+    // The file's coefficients into the custom block in one write; the
+    // controller checks them when the settings below select it.
+    std::vector<std::uint16_t> block;
+    try {
+      block = delta::custom_trajectory_block(delta::read_trajectory_file(a.trajectory_file));
+    } catch (const delta::InputError& e) {
+      throw delta::InputError(a.trajectory_file + ": " + e.what());
+    }
+    link.write(mb::kCustomFirst, block);
   }
   const auto permille = static_cast<std::uint16_t>(std::lround(a.amplitude_scale * 1000));
   link.write(mb::kTrajectory.address,
@@ -274,6 +289,8 @@ int run_excite(const ExciteArguments& a, std::ostream& out, std::ostream& err) {
     throw;
   }
   rec.log.metadata.emplace_back("trajectory", a.trajectory);
+  if (!a.trajectory_file.empty())
+    rec.log.metadata.emplace_back("trajectory_file", a.trajectory_file);
   const std::string path = run.ending.empty() ? a.out_path : partial_log_path(a.out_path);
   write_file_atomically(path, format_delta_log(rec.log));
   if (!a.raw_path.empty()) write_file_atomically(a.raw_path, rec.raw);
@@ -289,10 +306,15 @@ void add_excite_command(CLI::App& app, CommandContext& context) {
   c->add_option("--modbus", a->address, "the controller's Modbus TCP address")
       ->required()
       ->check(kHostPort);
-  c->add_option("--trajectory", a->trajectory, "the excitation")
-      ->required()
-      ->check(CLI::IsMember(std::vector<std::string>(delta::controller::kTrajectoryNames.begin(),
-                                                     delta::controller::kTrajectoryNames.end())));
+  CLI::Option* named = c->add_option("--trajectory", a->trajectory, "the excitation")
+                           ->check(CLI::IsMember(std::vector<std::string>(
+                               delta::controller::kTrajectoryNames.begin(),
+                               delta::controller::kTrajectoryNames.end())));
+  CLI::Option* file = c->add_option(
+      "--trajectory-file", a->trajectory_file,
+      "a trajectory file (docs/trajectory-file.md, from host_id design): uploaded into the "
+      "controller's custom trajectory registers and run as trajectory 'custom'");
+  named->excludes(file);
   c->add_option("--can", a->iface, "the CAN interface to record")->required();
   c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
   c->add_option("--amplitude-scale", a->amplitude_scale, "the trajectory's amplitude")
@@ -310,7 +332,14 @@ void add_excite_command(CLI::App& app, CommandContext& context) {
                 "give up when the run has not finished after S seconds (default: no limit; a run "
                 "whose tick stops moving for 10 s is given up anyway)")
       ->check(kPositive);
-  c->callback([a, &context] { context.exit_code = run_excite(*a, context.out, context.err); });
+  c->callback([a, &context] {
+    ExciteArguments args = *a;
+    if (args.trajectory.empty() && args.trajectory_file.empty()) {
+      throw UsageError("excite: one of --trajectory and --trajectory-file is required");
+    }
+    if (!args.trajectory_file.empty()) args.trajectory = "custom";
+    context.exit_code = run_excite(args, context.out, context.err);
+  });
 }
 
 }  // namespace host_id

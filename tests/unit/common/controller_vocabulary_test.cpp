@@ -26,7 +26,7 @@ TEST(ControllerVocabularyTest, TheModbusMapDescribesItsRegistersWithTheNames) {
   EXPECT_EQ(std::string(modbus::named("state").description),
             "0 boot, 1 configuring, 2 ready, 3 running, 4 stopping, 5 fault");
   EXPECT_EQ(std::string(modbus::named("trajectory").description),
-            "0 path1, 1 path2, 2 pick-and-place; not while running");
+            "0 path1, 1 path2, 2 pick-and-place, 3 custom; not while running");
 }
 
 TEST(ControllerVocabularyTest, TrajectoriesByNameAndId) {
@@ -36,7 +36,9 @@ TEST(ControllerVocabularyTest, TrajectoriesByNameAndId) {
   EXPECT_STREQ(trajectory_name(TrajectoryId::kPath2), "path2");
   EXPECT_FALSE(trajectory_id("figure8", id));
   EXPECT_FALSE(trajectory_id("path", id));
-  EXPECT_STREQ(trajectory_name(static_cast<TrajectoryId>(3)), "unknown");
+  ASSERT_TRUE(trajectory_id("custom", id));
+  EXPECT_EQ(id, TrajectoryId::kCustom);
+  EXPECT_STREQ(trajectory_name(static_cast<TrajectoryId>(4)), "unknown");
 }
 
 }  // namespace

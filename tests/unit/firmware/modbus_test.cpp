@@ -22,7 +22,9 @@
 #include <sstream>
 #include <thread>
 
+#include "delta/custom_trajectory_block.hpp"
 #include "delta/modbus/register_map.hpp"
+#include "delta/trajectory_file.hpp"
 #include "fw_linux/control_panel.hpp"
 #include "fw_linux/modbus_server.hpp"
 #include "fw_linux/run_coordinator.hpp"
@@ -140,6 +142,8 @@ std::int64_t value(const std::uint16_t* regs, const char* name) {
   return mb::decode(mb::named(name), regs);
 }
 
+delta::BlendedFourierTrajectory path1_as_custom(double scale);
+
 struct Fixture : ::testing::Test {
   Fixture() : server(modbus_config(), panel), loop(panel), client(server.tcp_port()) {}
   void SetUp() override {
@@ -199,7 +203,7 @@ TEST_F(Fixture, ReadsIdentityGeometryAndLiveValues) {
                 value(r.data(), "firmware_version_patch"),
             DELTA_PROJECT_VERSION_NUMBER);
   EXPECT_EQ(value(r.data(), "period_us"), 2000);
-  EXPECT_EQ(value(r.data(), "trajectory_count"), 3);
+  EXPECT_EQ(value(r.data(), "trajectory_count"), 4);
   const PortConfig c = Rig::config();
   EXPECT_EQ(value(r.data(), "upper_arm_length"), std::llround(c.geometry.upper_arm_length_m * 1e6));
   EXPECT_EQ(value(r.data(), "forearm_length"), std::llround(c.geometry.forearm_length_m * 1e6));
@@ -295,16 +299,21 @@ TEST_F(Fixture, RefusesIllegalAddressesValuesAndFunctions) {
   EXPECT_EQ(modbus_read_registers(client.ctx(), mb::kHoldingCount, 1, regs), -1);
   EXPECT_EQ(errno, EMBXILADD);
   // Writes to what is not a holding register (an input's address included).
-  EXPECT_EQ(modbus_write_register(client.ctx(), 10, 1), -1);
+  EXPECT_EQ(modbus_write_register(client.ctx(), 7, 1), -1);
   EXPECT_EQ(errno, EMBXILADD);
   EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kIllegalAddress));
-  EXPECT_EQ(client.input("last_rejection_register"), 10);
+  EXPECT_EQ(client.input("last_rejection_register"), 7);
+  // Half of a 32-bit register (its second word, or its first alone).
+  EXPECT_EQ(modbus_write_register(client.ctx(), mb::custom_q0(0).address + 1, 1), -1);
+  EXPECT_EQ(errno, EMBXILADD);
+  EXPECT_EQ(modbus_write_register(client.ctx(), mb::custom_q0(0).address, 1), -1);
+  EXPECT_EQ(errno, EMBXILADD);
   // A multiple write running past the end changes nothing.
   EXPECT_EQ(client.write_many(3, {0, 0, 0}), EMBXILADD);
   EXPECT_EQ(modbus_read_registers(client.ctx(), 3, 1, regs), 1);
   EXPECT_EQ(regs[0], 1) << "log_enable must be unchanged";
   // Values out of range.
-  EXPECT_EQ(client.write(mb::kTrajectory, 3), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kTrajectory, 4), EMBXILVAL);
   EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kOutOfRange));
   EXPECT_EQ(client.write(mb::kAmplitudeScale, 0), EMBXILVAL);
   EXPECT_EQ(client.write(mb::kAmplitudeScale, 2001), EMBXILVAL);
@@ -417,7 +426,7 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
                               "vcan0", "-o", "x.csv"},
                              o, e1),
             2);
-  EXPECT_NE(e1.str().find("--trajectory: figure8 not in {path1,path2,pick-and-place}"),
+  EXPECT_NE(e1.str().find("--trajectory: figure8 not in {path1,path2,pick-and-place,custom}"),
             std::string::npos)
       << e1.str();
   EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can",
@@ -436,6 +445,40 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
             1);
   EXPECT_NE(e3.str().find("is in fault 1 (e-stop)"), std::string::npos) << e3.str();
   EXPECT_FALSE(std::ifstream(::testing::TempDir() + "/x.csv").good());
+}
+
+// excite --trajectory-file uploads the file as the custom trajectory; the
+// controller's refusal comes back with the limit and the tick, and nothing
+// is recorded or written.
+TEST_F(Fixture, HostIdExciteUploadsATrajectoryFileAndReportsItsRefusal) {
+  const std::string address = "127.0.0.1:" + std::to_string(server.tcp_port());
+  const std::string dir = ::testing::TempDir();
+  host_id::write_file_atomically(dir + "/fast.json",
+                                 delta::format_trajectory(path1_as_custom(5.0), ""));
+  std::ostringstream o, e1, e2, e3;
+  EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory-file",
+                              dir + "/fast.json", "--can", "vcan0", "-o", dir + "/f.csv"},
+                             o, e1),
+            1);
+  EXPECT_NE(e1.str().find("the trajectory with these settings breaks a limit (register "
+                          "trajectory, Modbus exception 3): "),
+            std::string::npos)
+      << e1.str();
+  EXPECT_NE(e1.str().find(" at tick "), std::string::npos) << e1.str();
+  EXPECT_FALSE(std::ifstream(dir + "/f.csv").good());
+  // The block was taken (the check runs when it is selected).
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
+  EXPECT_EQ(
+      host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--trajectory-file",
+                        dir + "/fast.json", "--can", "vcan0", "-o", dir + "/f.csv"},
+                       o, e2),
+      2);
+  EXPECT_EQ(host_id::run_cli(
+                {"excite", "--modbus", address, "--can", "vcan0", "-o", dir + "/f.csv"}, o, e3),
+            2);
+  EXPECT_NE(e3.str().find("one of --trajectory and --trajectory-file is required"),
+            std::string::npos)
+      << e3.str();
 }
 
 TEST(HostIdExcite, PartialLogNames) {
@@ -792,6 +835,85 @@ TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
   } catch (const ModbusError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot listen"), std::string::npos) << e.what();
   }
+}
+
+// The custom trajectory (3): its block uploaded in one write multiple,
+// read back as written, checked by the controller when it is selected (or
+// rewritten while selected), refused with the reason, tick and joint.
+delta::BlendedFourierTrajectory path1_as_custom(double scale) {
+  delta::BlendedFourierTrajectory t;
+  EXPECT_TRUE(delta::make_fourier_excitation(delta::kDefaultGeometry, {0.0, 0.0, -0.42}, 5, 0.2,
+                                             0.35, 1, t.fourier));
+  for (unsigned j = 0; j < 3; ++j) {
+    for (auto& a : t.fourier.a_rad_s[j]) a *= scale;
+    for (auto& b : t.fourier.b_rad_s[j]) b *= scale;
+  }
+  t.blend_s = 1.0;
+  t.periods = 2;
+  return t;
+}
+
+TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
+  // Nothing uploaded yet: selecting it is refused as an invalid trajectory.
+  EXPECT_EQ(client.write(mb::kTrajectory, 3), EMBXILVAL);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
+  EXPECT_EQ(client.input("trajectory_check"),
+            static_cast<int>(fw::TrajectoryFault::kInvalidConfig));
+
+  const std::vector<std::uint16_t> good = delta::custom_trajectory_block(path1_as_custom(1.0));
+  ASSERT_EQ(good.size(), mb::kCustomCount);
+  ASSERT_EQ(client.write_many(mb::kCustomFirst, good), 0);
+  std::vector<std::uint16_t> back(mb::kCustomCount);
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
+            mb::kCustomCount);
+  EXPECT_EQ(back, good);
+  ASSERT_EQ(client.write(mb::kTrajectory, 3), 0);  // checked and accepted
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kTrajectory.address, 1, back.data()), 1);
+  EXPECT_EQ(back[0], 3);
+  // The controller's trajectory is the one uploaded: the same check as
+  // the core's on the same coefficients converted directly.
+  const PortConfig config = modbus_config();
+  const fw::FourierConfig uploaded = fw_linux::custom_trajectory(good.data(), config).fourier;
+  const fw::FourierConfig direct =
+      fw_linux::fourier_config(path1_as_custom(1.0), config.period_us).fourier;
+  EXPECT_EQ(uploaded.base_frequency_mHz, direct.base_frequency_mHz);
+  EXPECT_EQ(uploaded.harmonics, direct.harmonics);
+  EXPECT_EQ(uploaded.periods, direct.periods);
+  for (unsigned j = 0; j < 3; ++j) {
+    // 1 nrad in the registers is a quarter of Q3.28's step: at most one step apart.
+    EXPECT_LE(std::abs(uploaded.q0_rad[j].raw() - direct.q0_rad[j].raw()), 1);
+    for (unsigned k = 0; k < 5; ++k) {
+      EXPECT_LE(
+          std::abs(uploaded.sin_amplitude_rad[j][k].raw() - direct.sin_amplitude_rad[j][k].raw()),
+          1);
+      EXPECT_LE(
+          std::abs(uploaded.cos_amplitude_rad[j][k].raw() - direct.cos_amplitude_rad[j][k].raw()),
+          1);
+    }
+  }
+
+  // Five times the amplitude leaves the joint range (the check's first
+  // finding, before the velocity limit): the write is refused and the
+  // block keeps the good trajectory.
+  const std::vector<std::uint16_t> fast = delta::custom_trajectory_block(path1_as_custom(5.0));
+  EXPECT_EQ(client.write_many(mb::kCustomFirst, fast), EMBXILVAL);
+  const auto r = client.inputs();
+  ASSERT_FALSE(r.empty());
+  EXPECT_EQ(value(r.data(), "last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
+  EXPECT_EQ(value(r.data(), "trajectory_check"),
+            static_cast<int>(fw::TrajectoryFault::kJointLimit));
+  EXPECT_GT(value(r.data(), "trajectory_check_tick"), 0);
+  EXPECT_GE(value(r.data(), "trajectory_check_joint"), 1);
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
+            mb::kCustomCount);
+  EXPECT_EQ(back, good);
+
+  // Registers out of range name themselves.
+  EXPECT_EQ(client.write(mb::kCustomHarmonics, 7), EMBXILVAL);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kOutOfRange));
+  EXPECT_EQ(client.input("last_rejection_register"), mb::kCustomHarmonics.address);
+  EXPECT_EQ(client.write(mb::kCustomBaseFrequency, 0), EMBXILVAL);
+  EXPECT_EQ(client.write(mb::kCustomBlend, 60001), EMBXILVAL);
 }
 
 TEST(RegisterMapTest, DocsModbusMdListsEveryRegisterAsTheMapDefinesIt) {

@@ -11,6 +11,8 @@
 #include <fstream>
 
 #include "delta/can/protocol.hpp"
+#include "delta/modbus/register_map.hpp"
+#include "delta/trajectory_file.hpp"
 #include "emu/emulator.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/canopen_master.hpp"
@@ -51,6 +53,44 @@ TEST(PortConfigTest, ReadsKeysOverTheDefaults) {
   EXPECT_TRUE(c.joints[2].model.inverted);
   EXPECT_DOUBLE_EQ(c.kp_Nm_per_rad, 45.5);
   EXPECT_EQ(c.joints[0].node, 1);  // default kept
+}
+
+// trajectory_file fills the custom trajectory's registers: `--run custom`
+// (and trajectory 3 over Modbus) runs the file's excitation.
+TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {
+  delta::BlendedFourierTrajectory t;
+  ASSERT_TRUE(delta::make_fourier_excitation(delta::kDefaultGeometry, {0.0, 0.0, -0.42}, 4, 0.3,
+                                             0.3, 9, t.fourier));
+  t.blend_s = 0.5;
+  t.periods = 3;
+  const std::string file = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_t.json";
+  std::ofstream(file) << delta::format_trajectory(t, "");
+  const PortConfig c = read_port_config(write_temp("trajectory_file = " + file + "\n"));
+  ASSERT_EQ(c.custom_block.size(), delta::modbus::kCustomCount);
+  const auto custom = named_trajectory("custom", c);
+  ASSERT_TRUE(custom.has_value());
+  const fw::TrajectoryConfig direct = fourier_config(t, c.period_us);
+  EXPECT_EQ(custom->blend_ticks, direct.blend_ticks);
+  EXPECT_EQ(custom->fourier.periods, 3u);
+  EXPECT_EQ(custom->fourier.harmonics, 4);
+  EXPECT_EQ(custom->fourier.base_frequency_mHz, 300u);
+  EXPECT_LE(std::abs(custom->fourier.sin_amplitude_rad[2][3].raw() -
+                     direct.fourier.sin_amplitude_rad[2][3].raw()),
+            1);
+  // No file: no custom trajectory, said so.
+  try {
+    named_trajectory("custom", PortConfig{});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("custom: no custom trajectory (set trajectory_file"),
+              std::string::npos);
+  }
+  // A bad file: the configuration's line and the file's key.
+  std::ofstream(file) << "{\"format\": \"delta-trajectory/1\"}";
+  EXPECT_NE(config_error("trajectory_file = " + file + "\n")
+                .find(":1:19: trajectory_file: " + file + ": kind: missing"),
+            std::string::npos)
+      << config_error("trajectory_file = " + file + "\n");
 }
 
 TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "delta/drive_model.hpp"
 #include "delta/geometry.hpp"
@@ -89,6 +90,10 @@ struct PortConfig {
   double approach_s{2.0};
   double stop_s{0.4};
   double blend_s{1.0};  // Fourier excitations fade in and out over this
+  // The custom trajectory's holding registers at start (trajectory_file,
+  // docs/firmware.md); empty: none.
+  std::string custom_trajectory_file;
+  std::vector<std::uint16_t> custom_block;
   std::uint32_t lost_feedback_cycles{3};
   std::uint32_t configure_timeout_ms{5000};
   ModbusConfig modbus{};

@@ -60,7 +60,14 @@ class RegisterBank {
     std::uint16_t scale_permille{1000};
     std::uint16_t repetitions{0};  // 0 until written: the preset's
     bool log_enable{true};
+    // The custom trajectory's block, as written (docs/modbus.md).
+    std::array<std::uint16_t, delta::modbus::kCustomCount> custom{};
   };
+  // Takes the holding register at `first + i` (one word, or both words of a
+  // 32-bit register) into next; the rejection, or kNone.
+  delta::modbus::Rejection take(Settings& next, delta::modbus::Command& command,
+                                const delta::modbus::Register& r, const std::uint16_t* words,
+                                unsigned available) const;
   bool serve(_modbus* ctx, const std::uint8_t* request, int length, int header);
   bool write(_modbus* ctx, const std::uint8_t* request, std::uint16_t first,
              const std::uint16_t* values, unsigned count);

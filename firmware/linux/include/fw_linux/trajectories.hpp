@@ -2,6 +2,9 @@
 //   path1          5-harmonic Fourier excitation at 0.2 Hz, 2 periods (fit)
 //   path2          5-harmonic Fourier excitation at 0.25 Hz, 2 periods (validation)
 //   pick-and-place the default pick-and-place cycle, 3 times (validation)
+//   custom         the Fourier trajectory of the custom holding registers
+//                  (uploaded over Modbus, or from the configuration's
+//                  trajectory_file)
 // The Fourier paths come from common's make_fourier_excitation (the same
 // generator as `host_id simulate`), converted once to the core's Q formats.
 #pragma once
@@ -32,6 +35,12 @@ struct TrajectoryParams {
 // number of mHz, or a value outside its Q format.
 fw::TrajectoryConfig fourier_config(const delta::BlendedFourierTrajectory& t,
                                     std::uint32_t period_us, std::uint16_t scale_permille = 1000);
+
+// The custom trajectory (trajectory 3) of the holding registers' custom
+// block (delta::custom_trajectory_block's words). Throws ConfigError where
+// the block holds none (custom_harmonics 0) or a value the core cannot take.
+fw::TrajectoryConfig custom_trajectory(const std::uint16_t* block, const PortConfig& config,
+                                       const TrajectoryParams& params = {});
 
 // The named trajectory for this configuration (tick period, geometry);
 // nullopt for an unknown name. Throws ConfigError when the trajectory does

@@ -55,6 +55,7 @@ enum class TrajectoryId : std::uint16_t {
   kPath1 = 0,         // 5-harmonic Fourier at 0.2 Hz, for fitting
   kPath2 = 1,         // 5-harmonic Fourier at 0.25 Hz, for validation
   kPickAndPlace = 2,  // the default pick-and-place cycle
+  kCustom = 3,        // the Fourier trajectory of the custom_* holding registers
 };
 
 // The names, indexed by the enumerators' values.
@@ -81,8 +82,8 @@ inline constexpr std::array<std::string_view, 6> kTrajectoryFaultNames{"ok",
                                                                        "acceleration limit",
                                                                        "outside the workspace"};
 
-inline constexpr std::array<std::string_view, 3> kTrajectoryNames{"path1", "path2",
-                                                                  "pick-and-place"};
+inline constexpr std::array<std::string_view, 4> kTrajectoryNames{"path1", "path2",
+                                                                  "pick-and-place", "custom"};
 
 namespace detail {
 template <std::size_t N>
@@ -118,7 +119,7 @@ constexpr bool trajectory_id(std::string_view name, TrajectoryId& id) {
 }
 
 static_assert(kStateNames.size() == static_cast<unsigned>(State::kFault) + 1);
-static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kPickAndPlace) + 1);
+static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kCustom) + 1);
 static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kFeedbackLate) + 1);
 static_assert(kTrajectoryFaultNames.size() ==
               static_cast<unsigned>(TrajectoryFault::kOutsideWorkspace) + 1);

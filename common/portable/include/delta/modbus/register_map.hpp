@@ -16,7 +16,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 2;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 3;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 enum class Table : std::uint8_t { kInput, kHolding };
@@ -158,12 +158,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 53> kRegisters{{
+inline constexpr std::array<Register, 96> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (2)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (3)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -219,6 +219,50 @@ inline constexpr std::array<Register, 53> kRegisters{{
     {"repetitions", Table::kHolding, 2, Type::kU16, 1, 1, "", "0-100 Fourier periods or pick-and-place cycles, 0 the preset's (2 or 3); not while running"},
     {"log_enable", Table::kHolding, 3, Type::kU16, 1, 1, "", "1: send the log frames while running, 0: not"},
     {"command", Table::kHolding, 4, Type::kU16, 1, 1, "", "write 1 start (ready only), 2 stop, 3 fault reset; reads 0"},
+    // The custom Fourier trajectory (trajectory 3), docs/modbus.md
+    {"custom_base_frequency", Table::kHolding, 10, Type::kU16, 1, 1000, "Hz", "custom trajectory: base frequency (mHz), 1-5000; not while running"},
+    {"custom_harmonics", Table::kHolding, 11, Type::kU16, 1, 1, "", "custom trajectory: harmonics, 1-6 (0: none uploaded); not while running"},
+    {"custom_periods", Table::kHolding, 12, Type::kU16, 1, 1, "", "custom trajectory: whole periods, 1-100; not while running"},
+    {"custom_blend", Table::kHolding, 13, Type::kU16, 1, 1000, "s", "custom trajectory: fade in and out (ms), 1-60000; not while running"},
+    {"custom_q0_1", Table::kHolding, 14, Type::kI32, 1, 1000000000, "rad", "custom trajectory: q0 of joint 1 (nrad); not while running"},
+    {"custom_q0_2", Table::kHolding, 16, Type::kI32, 1, 1000000000, "rad", "custom trajectory: q0 of joint 2 (nrad); not while running"},
+    {"custom_q0_3", Table::kHolding, 18, Type::kI32, 1, 1000000000, "rad", "custom trajectory: q0 of joint 3 (nrad); not while running"},
+    {"custom_sin_1_1", Table::kHolding, 20, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 1 (nrad); not while running"},
+    {"custom_sin_1_2", Table::kHolding, 22, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 2 (nrad); not while running"},
+    {"custom_sin_1_3", Table::kHolding, 24, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 3 (nrad); not while running"},
+    {"custom_sin_1_4", Table::kHolding, 26, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 4 (nrad); not while running"},
+    {"custom_sin_1_5", Table::kHolding, 28, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 5 (nrad); not while running"},
+    {"custom_sin_1_6", Table::kHolding, 30, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 1, k = 6 (nrad); not while running"},
+    {"custom_sin_2_1", Table::kHolding, 32, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 1 (nrad); not while running"},
+    {"custom_sin_2_2", Table::kHolding, 34, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 2 (nrad); not while running"},
+    {"custom_sin_2_3", Table::kHolding, 36, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 3 (nrad); not while running"},
+    {"custom_sin_2_4", Table::kHolding, 38, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 4 (nrad); not while running"},
+    {"custom_sin_2_5", Table::kHolding, 40, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 5 (nrad); not while running"},
+    {"custom_sin_2_6", Table::kHolding, 42, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 2, k = 6 (nrad); not while running"},
+    {"custom_sin_3_1", Table::kHolding, 44, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 1 (nrad); not while running"},
+    {"custom_sin_3_2", Table::kHolding, 46, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 2 (nrad); not while running"},
+    {"custom_sin_3_3", Table::kHolding, 48, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 3 (nrad); not while running"},
+    {"custom_sin_3_4", Table::kHolding, 50, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 4 (nrad); not while running"},
+    {"custom_sin_3_5", Table::kHolding, 52, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 5 (nrad); not while running"},
+    {"custom_sin_3_6", Table::kHolding, 54, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude A, of sin(k w t), joint 3, k = 6 (nrad); not while running"},
+    {"custom_cos_1_1", Table::kHolding, 56, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 1 (nrad); not while running"},
+    {"custom_cos_1_2", Table::kHolding, 58, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 2 (nrad); not while running"},
+    {"custom_cos_1_3", Table::kHolding, 60, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 3 (nrad); not while running"},
+    {"custom_cos_1_4", Table::kHolding, 62, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 4 (nrad); not while running"},
+    {"custom_cos_1_5", Table::kHolding, 64, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 5 (nrad); not while running"},
+    {"custom_cos_1_6", Table::kHolding, 66, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 1, k = 6 (nrad); not while running"},
+    {"custom_cos_2_1", Table::kHolding, 68, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 1 (nrad); not while running"},
+    {"custom_cos_2_2", Table::kHolding, 70, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 2 (nrad); not while running"},
+    {"custom_cos_2_3", Table::kHolding, 72, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 3 (nrad); not while running"},
+    {"custom_cos_2_4", Table::kHolding, 74, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 4 (nrad); not while running"},
+    {"custom_cos_2_5", Table::kHolding, 76, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 5 (nrad); not while running"},
+    {"custom_cos_2_6", Table::kHolding, 78, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 2, k = 6 (nrad); not while running"},
+    {"custom_cos_3_1", Table::kHolding, 80, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 1 (nrad); not while running"},
+    {"custom_cos_3_2", Table::kHolding, 82, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 2 (nrad); not while running"},
+    {"custom_cos_3_3", Table::kHolding, 84, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 3 (nrad); not while running"},
+    {"custom_cos_3_4", Table::kHolding, 86, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 4 (nrad); not while running"},
+    {"custom_cos_3_5", Table::kHolding, 88, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 5 (nrad); not while running"},
+    {"custom_cos_3_6", Table::kHolding, 90, Type::kI32, 1, 1000000000, "rad", "custom trajectory: amplitude B, of cos(k w t), joint 3, k = 6 (nrad); not while running"},
 }};
 // clang-format on
 
@@ -303,5 +347,37 @@ inline constexpr const Register& kCommand = named("command");
 inline constexpr std::uint16_t kMinAmplitudeScale = 1;
 inline constexpr std::uint16_t kMaxAmplitudeScale = 2000;
 inline constexpr std::uint16_t kMaxRepetitions = 100;
+
+// The custom Fourier trajectory's block (trajectory 3): its frequency,
+// harmonics, periods and blend, then q0 and the amplitudes A (sin) and B
+// (cos) of each joint and harmonic, 32-bit in nrad.
+inline constexpr const Register& kCustomBaseFrequency = named("custom_base_frequency");
+inline constexpr const Register& kCustomHarmonics = named("custom_harmonics");
+inline constexpr const Register& kCustomPeriods = named("custom_periods");
+inline constexpr const Register& kCustomBlend = named("custom_blend");
+inline constexpr unsigned kCustomMaxHarmonics = 6;
+constexpr const Register& custom_q0(unsigned joint) {
+  return *find(Table::kHolding,
+               static_cast<std::uint16_t>(named("custom_q0_1").address + 2 * joint));
+}
+constexpr const Register& custom_sin(unsigned joint, unsigned harmonic) {
+  return *find(Table::kHolding,
+               static_cast<std::uint16_t>(named("custom_sin_1_1").address +
+                                          2 * (kCustomMaxHarmonics * joint + harmonic)));
+}
+constexpr const Register& custom_cos(unsigned joint, unsigned harmonic) {
+  return *find(Table::kHolding,
+               static_cast<std::uint16_t>(named("custom_cos_1_1").address +
+                                          2 * (kCustomMaxHarmonics * joint + harmonic)));
+}
+static_assert(&custom_sin(2, 5) == &named("custom_sin_3_6"));
+static_assert(&custom_cos(2, 5) == &named("custom_cos_3_6"));
+static_assert(&custom_q0(2) == &named("custom_q0_3"));
+// The block's extent: one write multiple (16) carries all of it.
+inline constexpr std::uint16_t kCustomFirst = named("custom_base_frequency").address;
+inline constexpr std::uint16_t kCustomCount =
+    static_cast<std::uint16_t>(named("custom_cos_3_6").address + 2 - kCustomFirst);
+inline constexpr std::uint16_t kCustomMaxFrequency_mHz = 5000;
+inline constexpr std::uint16_t kCustomMaxBlend_ms = 60000;
 
 }  // namespace delta::modbus
