@@ -13,7 +13,6 @@ namespace mb = delta::modbus;
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
-constexpr double kNanoPerRad = 1e9;
 
 // Stores `value` (in the register's unit) into the block, rounded to its
 // resolution; InputError where it does not fit.
