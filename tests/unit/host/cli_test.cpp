@@ -16,6 +16,7 @@
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
 #include "delta/trajectory_file.hpp"
+#include "held_joint_log.hpp"
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
@@ -513,25 +514,8 @@ TEST_F(CliTest, SeveralModelsShareOneTable2) {
 // identifiable and which combinations the values stand for; the saved
 // result has null for the former, and validate and predict use it.
 TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
-  SimulateOptions o;
-  o.duration_s = 4.0;
-  o.with_derivatives = true;
-  DeltaLog log = simulate_log(o);
-  const delta::LumpedParameters truth = delta::default_lumped_parameters();
-  for (std::size_t k = 0; k < log.size(); ++k) {
-    log.q[2][k] = 0.35;
-    log.qd[2][k] = 0.0;
-    log.qdd[2][k] = 0.0;
-    delta::JointState st;
-    for (unsigned j = 0; j < 3; ++j) {
-      st.q_rad[j] = log.q[j][k];
-      st.qd_rad_s[j] = log.qd[j][k];
-      st.qdd_rad_s2[j] = log.qdd[j][k];
-    }
-    delta::Joint3 tau{};
-    ASSERT_EQ(delta::inverse_dynamics(log.geometry, truth, st, tau), delta::KinematicsStatus::kOk);
-    for (unsigned j = 0; j < 3; ++j) log.tau[j][k] = tau[j];
-  }
+  const DeltaLog log =
+      testlogs::log_with_joint3_held(4.0, 0.35, delta::default_lumped_parameters());
   write_file_atomically(path("held.csv"), format_delta_log(log));
   ASSERT_EQ(run({"fit", path("held.csv"), "--model", "lumped", "--per-joint", "--offsets",
                  "--min-speed", "0", "--method", "ls", "--out", path("r.json")}),

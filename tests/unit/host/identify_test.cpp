@@ -11,6 +11,7 @@
 #include <map>
 
 #include "delta/input_error.hpp"
+#include "held_joint_log.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/regression.hpp"
@@ -493,23 +494,9 @@ TEST(IdentifyTest, AStaticLogIdentifiesOnlyWhatItExcitesAndSaysSo) {
 // constant). The fit estimates the base parameters: each value equals its
 // named combination of the truth, and the torque is predicted exactly.
 TEST(IdentifyTest, BaseParametersWhereAJointNeverMoves) {
-  DeltaLog log = simulated(1, 0.0, 0, true, "fourier", 6.0);
   delta::LumpedParameters truth = delta::default_lumped_parameters();
   truth.torque_offset_Nm = {0.01, -0.02, 0.03};
-  for (std::size_t k = 0; k < log.size(); ++k) {
-    log.q[2][k] = 0.35;
-    log.qd[2][k] = 0.0;
-    log.qdd[2][k] = 0.0;
-    delta::JointState s;
-    for (unsigned j = 0; j < 3; ++j) {
-      s.q_rad[j] = log.q[j][k];
-      s.qd_rad_s[j] = log.qd[j][k];
-      s.qdd_rad_s2[j] = log.qdd[j][k];
-    }
-    delta::Joint3 tau{};
-    ASSERT_EQ(delta::inverse_dynamics(log.geometry, truth, s, tau), delta::KinematicsStatus::kOk);
-    for (unsigned j = 0; j < 3; ++j) log.tau[j][k] = tau[j];
-  }
+  const DeltaLog log = testlogs::log_with_joint3_held(6.0, 0.35, truth);
   ModelOptions m = model_named("lumped");
   m.per_joint = true;
   m.offsets = true;
