@@ -66,12 +66,14 @@ class Evaluator {
 
   void sample(const delta::JointState& s, double time, double margin, Evaluation& e) const {
     const DesignLimits& l = options_.limits;
+    // The joint range shrunk about its middle by the margin (scaling the
+    // ends would widen a range whose lower end is positive).
+    const double middle = 0.5 * (l.min_rad + l.max_rad);
+    const double half = 0.5 * (l.max_rad - l.min_rad) * margin;
     for (unsigned j = 0; j < 3; ++j) {
       const int jj = static_cast<int>(j);
-      const double q = s.q_rad[j];
-      if (q < l.min_rad * margin || q > l.max_rad * margin) {
-        breach(e, std::abs(q) / std::max(std::abs(l.min_rad), l.max_rad), "joint range", time, jj);
-      }
+      const double outside = std::abs(s.q_rad[j] - middle) - half;
+      if (outside > 0.0) breach(e, outside / half, "joint range", time, jj);
       const double v = std::abs(s.qd_rad_s[j]) / (l.max_velocity_rad_s * margin);
       if (v > 1.0) breach(e, v - 1.0, "velocity limit", time, jj);
       const double a = std::abs(s.qdd_rad_s2[j]) / (l.max_acceleration_rad_s2 * margin);

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -605,6 +606,22 @@ TEST_F(CliTest, TrajectoryFileErrorsNameTheFileAndTheKey) {
             f + "sin_amplitude_rad: must have 1 to 6 harmonics per joint (got 7)");
   EXPECT_EQ(run({"simulate", "--trajectory-file", path("bad.json"), "-o", path("x.csv")}), 1);
   EXPECT_FALSE(exists("x.csv"));
+}
+
+// A joint range whose lower end is positive: the search's margin shrinks
+// the range about its middle (scaling the ends widened it, and the best
+// candidate then broke the real limit), and the design keeps it.
+TEST_F(CliTest, DesignKeepsAJointRangeAboveZero) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--min-rad", "0.1", "--iterations", "100"}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "--with-derivatives", "-o",
+                 path("d.csv")}),
+            0)
+      << err_.str();
+  const DeltaLog log = read_delta_log(path("d.csv"));
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_GE(*std::min_element(log.q[j].begin(), log.q[j].end()), 0.1) << "joint " << j + 1;
+  }
 }
 
 TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {
