@@ -1,10 +1,12 @@
-// CiA 402 (drive profile) power state machine and CiA 301 expedited SDO,
+// CiA 402 (drive profile) power state machine and the CiA 301 objects,
 // written once for both sides: the controller (firmware) and the drives
 // (the emulator). Integer only, constexpr, no heap.
 #pragma once
 
 #include <array>
 #include <cstdint>
+
+#include "delta/can/sdo.hpp"
 
 namespace delta::can::cia402 {
 
@@ -183,116 +185,3 @@ inline constexpr std::uint16_t kEmcyHeartbeat = 0x8130;    // life guard / heart
 inline constexpr std::uint16_t kEmcyControllerFaultBase = 0xFF00;
 
 }  // namespace delta::can::od
-
-namespace delta::can::sdo {
-
-// Command specifiers of expedited transfers (CiA 301).
-inline constexpr std::uint8_t kUploadRequest = 0x40;
-inline constexpr std::uint8_t kDownloadAck = 0x60;
-inline constexpr std::uint8_t kAbort = 0x80;
-
-// Abort codes used here.
-inline constexpr std::uint32_t kAbortObjectDoesNotExist = 0x06020000;
-inline constexpr std::uint32_t kAbortSubindexDoesNotExist = 0x06090011;
-inline constexpr std::uint32_t kAbortReadOnly = 0x06010002;
-inline constexpr std::uint32_t kAbortValueRange = 0x06090030;
-inline constexpr std::uint32_t kAbortLengthTooHigh = 0x06070012;  // data type length too high
-inline constexpr std::uint32_t kAbortLengthTooLow = 0x06070013;   // data type length too low
-inline constexpr std::uint32_t kAbortTimeout = 0x05040000;
-inline constexpr std::uint32_t kAbortCommand = 0x05040001;
-
-using Payload = std::array<std::uint8_t, 8>;
-
-constexpr void put_header(Payload& p, std::uint8_t command, std::uint16_t index,
-                          std::uint8_t subindex) {
-  p[0] = command;
-  p[1] = static_cast<std::uint8_t>(index & 0xFF);
-  p[2] = static_cast<std::uint8_t>(index >> 8);
-  p[3] = subindex;
-}
-
-constexpr void put_u32(Payload& p, std::uint32_t v) {
-  for (unsigned i = 0; i < 4; ++i) p[4 + i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-
-constexpr std::uint32_t get_u32(const Payload& p) {
-  std::uint32_t v = 0;
-  for (unsigned i = 0; i < 4; ++i) v |= std::uint32_t{p[4 + i]} << (8 * i);
-  return v;
-}
-
-// Expedited download (write) of 1, 2 or 4 bytes: 0x2F, 0x2B, 0x23.
-constexpr Payload download_request(std::uint16_t index, std::uint8_t subindex, std::uint32_t value,
-                                   std::uint8_t size_bytes) {
-  Payload p{};
-  const auto n = static_cast<std::uint8_t>(size_bytes == 1 ? 3 : (size_bytes == 2 ? 2 : 0));
-  put_header(p, static_cast<std::uint8_t>(0x23 | (n << 2)), index, subindex);
-  put_u32(p, value);
-  return p;
-}
-
-constexpr Payload upload_request(std::uint16_t index, std::uint8_t subindex) {
-  Payload p{};
-  put_header(p, kUploadRequest, index, subindex);
-  return p;
-}
-
-constexpr Payload abort_transfer(std::uint16_t index, std::uint8_t subindex, std::uint32_t code) {
-  Payload p{};
-  put_header(p, kAbort, index, subindex);
-  put_u32(p, code);
-  return p;
-}
-
-constexpr Payload download_response(std::uint16_t index, std::uint8_t subindex) {
-  Payload p{};
-  put_header(p, kDownloadAck, index, subindex);
-  return p;
-}
-
-// An expedited upload response of the object's 1, 2 or 4 bytes, size
-// indicated: 0x4F, 0x4B, 0x43 (the unused bytes zero).
-constexpr Payload upload_response(std::uint16_t index, std::uint8_t subindex, std::uint32_t value,
-                                  std::uint8_t size_bytes = 4) {
-  Payload p{};
-  const auto unused = static_cast<std::uint8_t>(4 - size_bytes);
-  put_header(p, static_cast<std::uint8_t>(0x43 | (unused << 2)), index, subindex);
-  put_u32(p, size_bytes == 4 ? value : value & ((std::uint32_t{1} << (8 * size_bytes)) - 1));
-  return p;
-}
-
-// The data bytes of an expedited download request: 1 to 4 with the size
-// indicated, 0 without (CiA 301 allows it; the object's size applies).
-constexpr unsigned expedited_download_bytes(std::uint8_t command) {
-  return (command & 0x01) != 0 ? 4u - ((command >> 2) & 3u) : 0u;
-}
-
-enum class ResponseKind : std::uint8_t { kDownloadDone, kUploadValue, kAborted, kUnexpected };
-
-struct Response {
-  ResponseKind kind{ResponseKind::kUnexpected};
-  std::uint16_t index{0};
-  std::uint8_t subindex{0};
-  std::uint32_t value{0};  // the uploaded value, or the abort code
-};
-
-// Reads a server's (drive's) response.
-constexpr Response parse_response(const Payload& p) {
-  Response r;
-  r.index = static_cast<std::uint16_t>(p[1] | (p[2] << 8));
-  r.subindex = p[3];
-  if (p[0] == kAbort) {
-    r.kind = ResponseKind::kAborted;
-    r.value = get_u32(p);
-  } else if (p[0] == kDownloadAck) {
-    r.kind = ResponseKind::kDownloadDone;
-  } else if ((p[0] & 0xE3) == 0x43) {  // expedited upload, size indicated
-    const unsigned unused = (p[0] >> 2) & 3;
-    const std::uint32_t v = get_u32(p);
-    r.kind = ResponseKind::kUploadValue;
-    r.value = unused == 0 ? v : (v & ((std::uint32_t{1} << (8 * (4 - unused))) - 1));
-  }
-  return r;
-}
-
-}  // namespace delta::can::sdo
