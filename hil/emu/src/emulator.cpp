@@ -7,6 +7,7 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/mujoco_plant.hpp"
+#include "drive_objects.hpp"
 
 namespace emu {
 
@@ -121,8 +122,12 @@ Emulator::Emulator(const EmulatorConfig& config, Outbox out)
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];
     drives_[j].tpdo2_cob = p::cob_id(p::kTpdo2, drives_[j].node) | od::kPdoInvalid;
+    objects_[j] = std::make_unique<DriveObjects>(*this, drives_[j]);
+    sdo_servers_[j] = std::make_unique<sdo::Server>(*objects_[j]);
   }
 }
+
+Emulator::~Emulator() = default;
 
 double Emulator::noise() {
   // SplitMix64 and Box-Muller: reproducible for a seed.
@@ -171,6 +176,10 @@ constexpr std::uint64_t kConsumerWallGraceUs = 1'000'000;
 
 void Emulator::on_wall_time(std::uint64_t now_us) {
   wall_us_ = now_us;
+  for (unsigned j = 0; j < 3; ++j) {
+    sdo_servers_[j]->tick(now_us);
+    flush_sdo(j);
+  }
   const bool syncs_flowing = last_sync_wall_us_ != 0 && now_us - last_sync_wall_us_ < 100000;
   if (syncs_flowing) return;
   // By the wall clock, with a grace of kConsumerWallGraceUs: a lock-step
@@ -221,11 +230,12 @@ void Emulator::on_frame(const Frame& f) {
   }
   const std::uint8_t node = p::node_id(f.id);
   if (node < p::kFirstDriveNode || node >= p::kFirstDriveNode + p::kDriveCount) return;
-  Drive& d = drives_[node - p::kFirstDriveNode];
+  const unsigned j = node - p::kFirstDriveNode;
+  Drive& d = drives_[j];
   if (d.silent) return;
   const std::uint32_t function = p::function_code(f.id);
   if (function == p::kSdoRx.base_id) {
-    handle_sdo(d, f);
+    handle_sdo(j, f);
   } else if (function == p::kRpdo1.base_id) {
     handle_rpdo(d, f);
   }
@@ -266,154 +276,41 @@ void Emulator::handle_nmt(const Frame& f) {
   }
 }
 
-void Emulator::handle_sdo(Drive& d, const Frame& f) {
-  if (f.dlc != 8) return;
-  const std::uint8_t command = f.data[0];
-  const auto index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
-  const std::uint8_t sub = f.data[3];
-  const std::uint32_t raw_value = sdo::get_u32(f.data);
-  const std::uint32_t reply_id = p::cob_id(p::kSdoTx, d.node);
-  auto reply = [&](const sdo::Payload& payload) { send(reply_id, 8, payload); };
-  auto abort = [&](std::uint32_t code) { reply(sdo::abort_transfer(index, sub, code)); };
-
-  const bool upload = command == sdo::kUploadRequest;
-  const bool download = (command & 0xE2) == 0x22;  // expedited, size indicated or not
-  if (!upload && !download) return abort(sdo::kAbortCommand);
-
-  // The object dictionary: read-only values, and the writable ones.
-  const double rated_current_mA = d.model.rated_current_A * 1000.0;
-  const double rated_torque_mNm = d.model.rated_torque_Nm * 1000.0;
-  std::uint32_t read_value = 0;
-  std::uint8_t size = 4;  // the object's data type, in bytes
-  bool writable = false;
-  bool exists = true;
-  switch (index) {
-    case 0x1000:
-      read_value = od::kDeviceTypeServo;
-      break;
-    case 0x1001:
-      read_value = d.state == cia::State::kFault ? 1u : 0u;
-      size = 1;
-      break;
-    case 0x1006:
-      read_value = d.cycle_us;
-      writable = true;
-      break;
-    case 0x1016:
-      if (sub > 1) return abort(sdo::kAbortSubindexDoesNotExist);
-      read_value = sub == 0 ? 1u : d.consumer;
-      size = sub == 0 ? 1 : 4;
-      writable = sub == 1;
-      break;
-    case 0x1017:
-      read_value = d.heartbeat_ms;
-      size = 2;
-      writable = true;
-      break;
-    case 0x1801:
-      if (sub != 1) return abort(sdo::kAbortSubindexDoesNotExist);
-      read_value = d.tpdo2_cob;
-      writable = true;
-      break;
-    case 0x6041:
-      read_value = cia::encode_statusword(d.state);
-      size = 2;
-      break;
-    case 0x6060:
-      read_value = static_cast<std::uint8_t>(d.mode);
-      size = 1;
-      writable = true;
-      break;
-    case 0x6061:
-      read_value = static_cast<std::uint8_t>(d.mode);
-      size = 1;
-      break;
-    case 0x6073:
-      read_value = d.max_current_pm;
-      size = 2;
-      writable = true;
-      break;
-    case 0x6075:
-      read_value = static_cast<std::uint32_t>(std::lround(rated_current_mA));
-      break;
-    case 0x6076:
-      read_value = static_cast<std::uint32_t>(std::lround(rated_torque_mNm));
-      break;
-    case 0x608F:
-      if (sub != 1 && sub != 2) return abort(sdo::kAbortSubindexDoesNotExist);
-      read_value = sub == 1 ? d.model.counts_per_rev : 1u;
-      break;
-    default:
-      exists = false;
-  }
-  if (!exists) return abort(sdo::kAbortObjectDoesNotExist);
-  if (index != 0x1016 && index != 0x1801 && index != 0x608F && sub != 0) {
-    return abort(sdo::kAbortSubindexDoesNotExist);
-  }
-  if (upload) return reply(sdo::upload_response(index, sub, read_value, size));
-  if (!writable) return abort(sdo::kAbortReadOnly);
-  // CiA 301: a download of the wrong length is aborted, not taken.
-  if (const unsigned bytes = sdo::expedited_download_bytes(command); bytes != 0 && bytes != size) {
-    return abort(bytes > size ? sdo::kAbortLengthTooHigh : sdo::kAbortLengthTooLow);
-  }
-  const std::uint32_t value =
-      size == 4 ? raw_value : raw_value & ((std::uint32_t{1} << (8 * size)) - 1);
-  switch (index) {
-    case 0x1006:
-      if (value < 100 || value > 1000000) return abort(sdo::kAbortValueRange);
-      d.cycle_us = value;
-      break;
-    case 0x1016: {
-      const std::uint8_t node = od::consumer_heartbeat_node(value);
-      if ((value >> 24) != 0 ||
-          (od::consumer_heartbeat_timeout_ms(value) != 0 && (node == 0 || node > 127))) {
-        return abort(sdo::kAbortValueRange);
-      }
-      d.consumer = value;
-      d.consumer_armed = false;
-      break;
-    }
-    case 0x1017:
-      if (value > 0xFFFF) return abort(sdo::kAbortValueRange);
-      d.heartbeat_ms = static_cast<std::uint16_t>(value);
-      d.next_heartbeat_sim_us = sim_us_;
-      break;
-    case 0x1801:
-      if ((value & 0x7FF) != p::cob_id(p::kTpdo2, d.node)) return abort(sdo::kAbortValueRange);
-      d.tpdo2_cob = value;
-      break;
-    case 0x6060: {
-      const auto mode = static_cast<std::int8_t>(value & 0xFF);
-      if (mode != cia::kModeCyclicSynchronousTorque) return abort(sdo::kAbortValueRange);
-      d.mode = mode;
-      break;
-    }
-    case 0x6073:
-      if (value == 0 || value > 0x7FFF) return abort(sdo::kAbortValueRange);
-      d.max_current_pm = static_cast<std::uint16_t>(value);
-      break;
-    default:
-      break;
-  }
-  reply(sdo::download_response(index, sub));
+// CiA 301: in NMT stopped a node answers NMT and error control only. A
+// request that is not 8 bytes long is not an SDO request.
+void Emulator::handle_sdo(unsigned j, const Frame& f) {
+  if (f.dlc != 8 || drives_[j].nmt == p::kNmtStateStopped) return;
+  sdo_servers_[j]->on_frame(f.data, wall_us_);
+  flush_sdo(j);
 }
 
-void Emulator::handle_rpdo(Drive& d, const Frame& f) {
-  if (d.nmt != p::kNmtStateOperational || f.dlc != p::kRpdo1.dlc) return;
-  const auto cw = static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1Controlword));
+void Emulator::flush_sdo(unsigned j) {
+  sdo::Payload reply;
+  while (sdo_servers_[j]->pending(reply)) {
+    send(p::cob_id(p::kSdoTx, drives_[j].node), 8, reply);
+    sdo_servers_[j]->sent(wall_us_);
+  }
+}
+
+void Emulator::apply_controlword(Drive& d, std::uint16_t controlword) {
   const cia::State before = d.state;
-  d.state = cia::drive_transition(d.state, cw, d.controlword);
-  d.controlword = cw;
-  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1TargetTorque));
+  d.state = cia::drive_transition(d.state, controlword, d.controlword);
+  d.controlword = controlword;
   if (before == cia::State::kFault && d.state != cia::State::kFault) {
     send(p::cob_id(p::kEmcy, d.node), 8, {});  // error reset
   }
 }
 
+void Emulator::handle_rpdo(Drive& d, const Frame& f) {
+  if (d.nmt != p::kNmtStateOperational || f.dlc != p::kRpdo1.dlc) return;
+  apply_controlword(d, static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1Controlword)));
+  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1TargetTorque));
+}
+
 void Emulator::enter_fault(Drive& d, std::uint16_t emcy_code) {
   d.state = cia::State::kFault;
   d.target_torque_pm = 0;
-  if (d.silent) return;
+  if (d.silent || d.nmt == p::kNmtStateStopped) return;  // CiA 301: no EMCY when stopped
   std::array<std::uint8_t, 8> data{};
   p::pack(data, p::kEmcyErrorCode, emcy_code);
   p::pack(data, p::kEmcyErrorRegister, 1);
@@ -527,6 +424,12 @@ void Emulator::handle_sync() {
   for (unsigned j = 0; j < 3; ++j) {
     Drive& d = drives_[j];
     if (d.state == cia::State::kFaultReactionActive) d.state = cia::State::kFault;
+    // The heartbeat in every NMT state (by simulated time while SYNCs come).
+    if (d.heartbeat_ms != 0 && sim_us_ >= d.next_heartbeat_sim_us) {
+      d.next_heartbeat_sim_us = sim_us_ + std::uint64_t{d.heartbeat_ms} * 1000;
+      d.last_heartbeat_wall_us = wall_us_;
+      send_heartbeat(d);
+    }
     if (d.nmt != p::kNmtStateOperational || d.silent) continue;
     const double q = joints.q_rad[j];
     const double qd = joints.qd_rad_s[j];
@@ -545,11 +448,6 @@ void Emulator::handle_sync() {
       p::pack(tpdo2, p::kTpdo2VelocityActual,
               (d.model.inverted ? -1 : 1) * static_cast<std::int64_t>(std::llround(counts_s)));
       send(p::cob_id(p::kTpdo2, d.node), 4, tpdo2, d.delay_us);
-    }
-    if (d.heartbeat_ms != 0 && sim_us_ >= d.next_heartbeat_sim_us) {
-      d.next_heartbeat_sim_us = sim_us_ + std::uint64_t{d.heartbeat_ms} * 1000;
-      d.last_heartbeat_wall_us = wall_us_;
-      send_heartbeat(d);
     }
   }
 }

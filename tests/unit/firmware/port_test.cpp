@@ -401,51 +401,6 @@ TEST(InProcessPortTest, AWrongValueInTheBringUpFaultsWithItsCauseAndIsNotRetried
       << rig.master.last_problem();
 }
 
-// The emulated drive's SDO server takes the length of an expedited download
-// from its size bits, as CiA 301 says: a write of the wrong length is
-// aborted with 0x06070012/13 and stores nothing (1 byte written to 0x1006
-// set all 4, and 0x6060 took 2 or 4 bytes: findings of #19 and #17); a
-// download without the size indicated takes the object's size; an upload
-// answers with the object's own size (not always 4 bytes).
-TEST(EmulatorSdoTest, LengthsAreTheObjectsOwn) {
-  namespace sdo = delta::can::sdo;
-  std::vector<delta::can::Frame> out;
-  emu::Emulator e(emu::EmulatorConfig{},
-                  [&](const delta::can::Frame& f, std::uint32_t) { out.push_back(f); });
-  e.boot();
-  const auto ask = [&](const sdo::Payload& request) {
-    out.clear();
-    delta::can::Frame f{};
-    f.id = delta::can::protocol::cob_id(delta::can::protocol::kSdoRx, 1);
-    f.dlc = 8;
-    f.data = request;
-    e.on_frame(f);
-    EXPECT_EQ(out.size(), 1u);
-    return out.empty() ? sdo::Payload{} : out.back().data;
-  };
-  const auto abort_code = [&](const sdo::Payload& request) {
-    const sdo::Payload r = ask(request);
-    return r[0] == sdo::kAbort ? sdo::get_u32(r) : 0u;
-  };
-  const std::uint32_t cycle = sdo::parse_response(ask(sdo::upload_request(0x1006, 0))).value;
-  EXPECT_EQ(abort_code(sdo::download_request(0x1006, 0, 0x000007D0, 1)), sdo::kAbortLengthTooLow);
-  EXPECT_EQ(sdo::parse_response(ask(sdo::upload_request(0x1006, 0))).value, cycle);
-  EXPECT_EQ(abort_code(sdo::download_request(0x6060, 0, 10, 2)), sdo::kAbortLengthTooHigh);
-  EXPECT_EQ(abort_code(sdo::download_request(0x6060, 0, 10, 4)), sdo::kAbortLengthTooHigh);
-  EXPECT_EQ(abort_code(sdo::download_request(0x1017, 0, 100, 1)), sdo::kAbortLengthTooLow);
-  EXPECT_EQ(abort_code(sdo::download_request(0x1017, 0, 100, 4)), sdo::kAbortLengthTooHigh);
-  EXPECT_EQ(abort_code(sdo::download_request(0x1017, 0, 100, 2)), 0u);
-  sdo::Payload unsized = sdo::download_request(0x1017, 0, 120, 4);
-  unsized[0] = 0x22;  // expedited, size not indicated
-  EXPECT_EQ(abort_code(unsized), 0u);
-  EXPECT_EQ(sdo::parse_response(ask(sdo::upload_request(0x1017, 0))).value, 120u);
-  EXPECT_EQ(ask(sdo::upload_request(0x1017, 0))[0], 0x4B);  // 2 bytes
-  EXPECT_EQ(ask(sdo::upload_request(0x6061, 0))[0], 0x4F);  // 1 byte
-  EXPECT_EQ(ask(sdo::upload_request(0x6041, 0))[0], 0x4B);
-  EXPECT_EQ(ask(sdo::upload_request(0x1001, 0))[0], 0x4F);
-  EXPECT_EQ(ask(sdo::upload_request(0x1000, 0))[0], 0x43);  // 4 bytes
-}
-
 TEST(EmulatorFaultSpecTest, ParsesAndRejectsWithReasons) {
   const emu::FaultInjection f = emu::parse_fault("delay-pdo:3:15@2.5");
   EXPECT_EQ(f.kind, emu::FaultKind::kDelayPdo);

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "delta/can/cia402.hpp"
+#include "delta/can/sdo.hpp"
 #include "delta/can/socketcan.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/dynamics.hpp"
@@ -77,9 +78,19 @@ struct EmulatorConfig {
 // Frames leave with a delay (wall clock, microseconds; 0 = now).
 using Outbox = std::function<void(const delta::can::Frame&, std::uint32_t delay_us)>;
 
+// The emulated drives' identity (0x1018). The vendor ID is not one CiA
+// assigned: no real drive has it.
+inline constexpr std::uint32_t kEmulatorVendorId = 0x0000DE17;
+inline constexpr std::uint32_t kEmulatorProductCode = 0x00000402;
+inline constexpr std::uint32_t kEmulatorRevision = 0x00010000;
+// The serial number is 0x00010000 + the node ID.
+
 class Emulator {
  public:
   Emulator(const EmulatorConfig& config, Outbox out);
+  ~Emulator();
+  Emulator(const Emulator&) = delete;
+  Emulator& operator=(const Emulator&) = delete;
 
   // The drives' boot-up messages.
   void boot();
@@ -128,9 +139,12 @@ class Emulator {
     bool corrupt_next{false};
     std::uint32_t delay_us{0};
   };
+  class DriveObjects;  // a drive's object dictionary (drive_objects.hpp)
 
   void handle_nmt(const delta::can::Frame& f);
-  void handle_sdo(Drive& d, const delta::can::Frame& f);
+  void handle_sdo(unsigned j, const delta::can::Frame& f);
+  void flush_sdo(unsigned j);
+  void apply_controlword(Drive& d, std::uint16_t controlword);
   void handle_rpdo(Drive& d, const delta::can::Frame& f);
   void handle_sync();
   void handle_consumed_heartbeat(std::uint8_t node);
@@ -150,6 +164,8 @@ class Emulator {
   EmulatorConfig config_;
   Outbox out_;
   std::array<Drive, 3> drives_{};
+  std::array<std::unique_ptr<DriveObjects>, 3> objects_;
+  std::array<std::unique_ptr<delta::can::sdo::Server>, 3> sdo_servers_;
   std::unique_ptr<delta::Plant> plant_;
   std::uint64_t sim_us_{0};
   std::uint64_t syncs_{0};

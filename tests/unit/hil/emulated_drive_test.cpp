@@ -1,0 +1,186 @@
+// The emulated drive as a CiA 301/402 node, frame by frame: its SDO server
+// (common's, over the drive's object dictionary), the objects CiA 402 makes
+// mandatory, and what a node does in each NMT state. Each test here failed
+// before its fix (#17's list of deviations).
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "delta/can/protocol.hpp"
+#include "delta/can/sdo.hpp"
+#include "emu/emulator.hpp"
+
+namespace emu {
+namespace {
+
+namespace p = delta::can::protocol;
+namespace sdo = delta::can::sdo;
+using delta::can::Frame;
+
+// One emulator with the lumped plant; the frames it sends are collected.
+struct Bus {
+  std::vector<Frame> out;
+  Emulator emulator;
+  std::uint64_t wall_us{1'000'000};
+
+  explicit Bus(const EmulatorConfig& config = {})
+      : emulator(config, [this](const Frame& f, std::uint32_t) { out.push_back(f); }) {
+    emulator.boot();
+  }
+
+  void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
+    Frame f{};
+    f.id = id;
+    f.dlc = dlc;
+    f.data = data;
+    emulator.on_frame(f);
+  }
+  void nmt(std::uint8_t command, std::uint8_t node) {
+    send(p::cob_id(p::kNmt, 0), 2, {command, node});
+  }
+  // One expedited or segmented request to node 1, and its answers.
+  std::vector<sdo::Payload> ask(const sdo::Payload& request) {
+    out.clear();
+    send(p::cob_id(p::kSdoRx, 1), 8, request);
+    std::vector<sdo::Payload> answers;
+    for (const Frame& f : out) {
+      if (f.id == p::cob_id(p::kSdoTx, 1)) answers.push_back(f.data);
+    }
+    return answers;
+  }
+  sdo::Payload ask_one(const sdo::Payload& request) {
+    const std::vector<sdo::Payload> a = ask(request);
+    EXPECT_EQ(a.size(), 1u);
+    return a.empty() ? sdo::Payload{} : a.front();
+  }
+  std::uint32_t abort_code(const sdo::Payload& request) {
+    const sdo::Payload r = ask_one(request);
+    return r[0] == sdo::kAbort ? sdo::get_u32(r) : 0u;
+  }
+  std::uint32_t read(std::uint16_t index, std::uint8_t sub) {
+    const sdo::Response r = sdo::parse_response(ask_one(sdo::upload_request(index, sub)));
+    EXPECT_EQ(r.kind, sdo::ResponseKind::kUploadValue) << std::hex << index << ":" << int{sub};
+    return r.value;
+  }
+  // A whole transfer with common's client, frame by frame.
+  sdo::Client client;
+  void run_client() {
+    for (int guard = 0; guard < 10000 && client.status() == sdo::ClientStatus::kBusy; ++guard) {
+      sdo::Payload request;
+      if (!client.pending(request)) break;
+      client.sent(wall_us);
+      for (const sdo::Payload& answer : ask(request)) client.on_frame(answer, wall_us);
+    }
+  }
+};
+
+// CiA 301: a download of the wrong length is aborted with 0x06070012/13 and
+// stores nothing (1 byte written to 0x1006 set all 4, and 0x6060 took 2 or 4
+// bytes); a download without the size indicated takes the object's size; an
+// upload answers with the object's own size (not always 4 bytes).
+TEST(EmulatedDriveTest, SdoLengthsAreTheObjectsOwn) {
+  Bus bus;
+  const std::uint32_t cycle = bus.read(0x1006, 0);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1006, 0, 0x000007D0, 1)),
+            sdo::kAbortLengthTooLow);
+  EXPECT_EQ(bus.read(0x1006, 0), cycle);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6060, 0, 10, 2)), sdo::kAbortLengthTooHigh);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6060, 0, 10, 4)), sdo::kAbortLengthTooHigh);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1017, 0, 100, 1)), sdo::kAbortLengthTooLow);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1017, 0, 100, 4)), sdo::kAbortLengthTooHigh);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1017, 0, 100, 2)), 0u);
+  sdo::Payload unsized = sdo::download_request(0x1017, 0, 120, 4);
+  unsized[0] = 0x22;  // expedited, size not indicated
+  EXPECT_EQ(bus.abort_code(unsized), 0u);
+  EXPECT_EQ(bus.read(0x1017, 0), 120u);
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x1017, 0))[0], 0x4B);  // 2 bytes
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x6061, 0))[0], 0x4F);  // 1 byte
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x6041, 0))[0], 0x4B);
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x1001, 0))[0], 0x4F);
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x1000, 0))[0], 0x43);  // 4 bytes
+}
+
+TEST(EmulatedDriveTest, HasTheMandatoryObjectsWithTheirTypes) {
+  Bus bus;
+  EXPECT_EQ(bus.read(0x1018, 0), 4u);
+  EXPECT_EQ(bus.read(0x1018, 1), kEmulatorVendorId);
+  EXPECT_EQ(bus.read(0x1018, 2), kEmulatorProductCode);
+  EXPECT_EQ(bus.read(0x1018, 3), kEmulatorRevision);
+  EXPECT_EQ(bus.read(0x1018, 4), 0x00010001u);  // node 1
+  EXPECT_EQ(bus.abort_code(sdo::upload_request(0x1018, 5)), sdo::kAbortSubindexDoesNotExist);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1018, 1, 1, 4)), sdo::kAbortReadOnly);
+  EXPECT_EQ(bus.read(0x6502, 0), 1u << 9);                          // cyclic synchronous torque
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x6064, 0))[0], 0x43);  // INTEGER32
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x6071, 0))[0], 0x4B);  // INTEGER16
+  EXPECT_EQ(bus.ask_one(sdo::upload_request(0x6078, 0))[0], 0x4B);  // INTEGER16
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6071, 0, 0xFF9C, 2)), 0u);  // -100 per mille
+  EXPECT_EQ(bus.read(0x6071, 0), 0xFF9Cu);
+}
+
+TEST(EmulatedDriveTest, TheDeviceNameUploadsInSegments) {
+  Bus bus;
+  std::vector<std::uint8_t> name(64);
+  bus.client.upload(0x1008, 0, name, sdo::Transfer::kAuto, bus.wall_us);
+  bus.run_client();
+  ASSERT_EQ(bus.client.status(), sdo::ClientStatus::kDone)
+      << sdo::abort_meaning(bus.client.abort_code());
+  EXPECT_EQ(std::string(name.begin(), name.begin() + bus.client.uploaded_size()),
+            "Delta emulated CiA 402 drive");
+  bus.client.upload(0x1008, 0, name, sdo::Transfer::kBlock, bus.wall_us);
+  bus.run_client();
+  ASSERT_EQ(bus.client.status(), sdo::ClientStatus::kDone);
+  EXPECT_EQ(bus.client.uploaded_size(), 28u);
+}
+
+// A master without PDOs can enable the drive through 0x6040.
+TEST(EmulatedDriveTest, TheControlwordEnablesTheDriveBySdo) {
+  Bus bus;
+  for (const std::uint16_t cw :
+       {std::uint16_t{0x0006}, std::uint16_t{0x0007}, std::uint16_t{0x000F}}) {
+    EXPECT_EQ(bus.abort_code(sdo::download_request(0x6040, 0, cw, 2)), 0u);
+  }
+  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kOperationEnabled);
+  EXPECT_EQ(bus.read(0x6041, 0) & 0x6F, 0x27u);
+}
+
+// CiA 301: in NMT stopped only NMT and error control; no SDO, no EMCY.
+TEST(EmulatedDriveTest, AStoppedNodeAnswersNoSdoAndSendsNoEmcy) {
+  EmulatorConfig config;
+  config.faults = {parse_fault("overcurrent:1@0.01"), parse_fault("overcurrent:2@0.01")};
+  Bus bus(config);
+  bus.nmt(p::kNmtStop, 1);
+  EXPECT_TRUE(bus.ask(sdo::upload_request(0x1000, 0)).empty());
+  for (int i = 0; i < 10; ++i) bus.send(p::cob_id(p::kSync, 0), 0, {});
+  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kFault);
+  int emcy_1 = 0;
+  int emcy_2 = 0;
+  for (const Frame& f : bus.out) {
+    emcy_1 += f.id == p::cob_id(p::kEmcy, 1) ? 1 : 0;
+    emcy_2 += f.id == p::cob_id(p::kEmcy, 2) ? 1 : 0;
+  }
+  EXPECT_EQ(emcy_1, 0);
+  EXPECT_EQ(emcy_2, 1);  // node 2, pre-operational, reports it
+  bus.nmt(p::kNmtEnterPreOperational, 1);
+  EXPECT_EQ(bus.read(0x1000, 0), delta::can::od::kDeviceTypeServo);
+}
+
+// The heartbeat is produced in every NMT state, also while SYNCs flow.
+TEST(EmulatedDriveTest, APreOperationalDriveSendsItsHeartbeatWhileSyncsFlow) {
+  Bus bus;
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1017, 0, 10, 2)), 0u);  // 10 ms
+  bus.out.clear();
+  for (int i = 0; i < 20; ++i) bus.send(p::cob_id(p::kSync, 0), 0, {});  // 40 ms of 2 ms cycles
+  int heartbeats = 0;
+  for (const Frame& f : bus.out) {
+    if (f.id == p::cob_id(p::kHeartbeat, 1)) {
+      ++heartbeats;
+      EXPECT_EQ(f.data[0], p::kNmtStatePreOperational);
+    }
+  }
+  EXPECT_GE(heartbeats, 3);
+  EXPECT_LE(heartbeats, 5);
+}
+
+}  // namespace
+}  // namespace emu
