@@ -71,39 +71,21 @@ Frame frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8
   return f;
 }
 
-std::string abort_text(std::uint32_t code) {
-  switch (code) {
-    case sdo::kAbortObjectDoesNotExist:
-      return "object does not exist";
-    case sdo::kAbortSubindexDoesNotExist:
-      return "sub-index does not exist";
-    case sdo::kAbortReadOnly:
-      return "read only";
-    case sdo::kAbortValueRange:
-      return "value out of range";
-    case sdo::kAbortTimeout:
-      return "SDO timeout";
-    case sdo::kAbortCommand:
-      return "unknown command";
-    default:
-      return "abort";
-  }
-}
-
 }  // namespace
 
 CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
     : config_(config), core_(controller_config(config)), bus_(bus) {
-  for (unsigned j = 0; j < 3; ++j) {
-    drives_[j].node = config.joints[j].node;
-    drives_[j].config = config.joints[j];
-  }
   // In lock-step a slow machine must not look like a silent drive: an SDO
   // answer is awaited at least as long as a PDO answer.
   const std::uint32_t sdo_ms = config.mode == CycleMode::kLockStep
                                    ? std::max(config.sdo_timeout_ms, config.lockstep_timeout_ms)
                                    : config.sdo_timeout_ms;
   sdo_timeout_us_ = std::uint64_t{sdo_ms} * 1000;
+  for (unsigned j = 0; j < 3; ++j) {
+    drives_[j].node = config.joints[j].node;
+    drives_[j].config = config.joints[j];
+    drives_[j].sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
+  }
   const std::uint64_t timeout_us = std::uint64_t{config.heartbeat_timeout_ms} * 1000;
   heartbeat_timeout_cycles_ = (timeout_us + config.period_us - 1) / config.period_us;
 }
@@ -128,6 +110,7 @@ void CanopenMaster::restart() {
     d = Drive{};
     d.node = node;
     d.config = config;
+    d.sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
   }
   phase_ = Phase::kIdle;
   failure_reported_ = false;
@@ -135,40 +118,56 @@ void CanopenMaster::restart() {
   clear_problem();
 }
 
-bool CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
-  const od::Object o = object_of(d.sdo_step);
-  sdo::Payload payload{};
+// The value a bring-up step writes, and its size in bytes (0: a read).
+std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) const {
   switch (d.sdo_step) {
     case kWriteMode:
-      payload = sdo::download_request(o.index, o.subindex,
-                                      delta::can::cia402::kModeCyclicSynchronousTorque, 1);
-      break;
+      size = 1;
+      return delta::can::cia402::kModeCyclicSynchronousTorque;
     case kWriteCyclePeriod:
-      payload = sdo::download_request(o.index, o.subindex, config_.period_us, 4);
-      break;
+      size = 4;
+      return config_.period_us;
     case kWriteHeartbeat:
-      payload = sdo::download_request(o.index, o.subindex, config_.heartbeat_ms, 2);
-      break;
+      size = 2;
+      return config_.heartbeat_ms;
     case kWriteConsumerHeartbeat:
       // A timeout of 0 turns the drive's supervision off (CiA 301).
-      payload = sdo::download_request(
-          o.index, o.subindex,
-          od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms), 4);
-      break;
+      size = 4;
+      return od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms);
     case kWriteTpdo2: {
+      size = 4;
       const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);
-      payload = sdo::download_request(o.index, o.subindex,
-                                      config_.velocity_pdo ? cob : (cob | od::kPdoInvalid), 4);
-      break;
+      return config_.velocity_pdo ? cob : (cob | od::kPdoInvalid);
     }
     default:
-      payload = sdo::upload_request(o.index, o.subindex);
-      break;
+      size = 0;
+      return 0;
   }
-  d.sdo_pending = true;
-  d.sdo_sent_us = now_us;
+}
+
+void CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
+  const od::Object o = object_of(d.sdo_step);
+  std::uint8_t size = 0;
+  const std::uint32_t value = step_value(d, size);
+  if (size == 0) {
+    d.sdo.upload(o.index, o.subindex, d.sdo_bytes, sdo::Transfer::kAuto, now_us);
+  } else {
+    for (unsigned i = 0; i < 4; ++i) d.sdo_bytes[i] = static_cast<std::uint8_t>(value >> (8 * i));
+    d.sdo.download(o.index, o.subindex, std::span(d.sdo_bytes).first(size), sdo::Transfer::kAuto,
+                   now_us);
+  }
   ++d.sdo_attempts;
-  return bus_.send(frame(p::cob_id(p::kSdoRx, d.node), 8, payload));
+  pump_sdo(d);
+}
+
+// The client's frames onto the bus; a full transmit queue keeps the rest
+// for the next call (the transfer waits, it does not fail).
+void CanopenMaster::pump_sdo(Drive& d) {
+  sdo::Payload payload;
+  while (d.sdo.pending(payload)) {
+    if (!bus_.send(frame(p::cob_id(p::kSdoRx, d.node), 8, payload))) return;
+    d.sdo.sent(now_us_);
+  }
 }
 
 fw::DriveConfigProgress CanopenMaster::configure_drives() {
@@ -205,18 +204,17 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     if (phase_ == Phase::kFailed) break;
     if (d.sdo_step >= kStepCount) continue;
     all_done = false;
-    if (d.sdo_pending && now_us_ - d.sdo_sent_us >= sdo_timeout_us_) {
-      if (d.sdo_attempts > config_.sdo_retries) {
-        const od::Object o = object_of(d.sdo_step);
-        fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
-             object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
-             std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
-        break;
-      }
-      send_sdo(d, now_us_);
-    } else if (!d.sdo_pending) {
-      send_sdo(d, now_us_);
+    d.sdo.tick(now_us_);
+    pump_sdo(d);
+    if (d.sdo.status() == sdo::ClientStatus::kBusy) continue;
+    if (d.sdo.status() == sdo::ClientStatus::kAborted && d.sdo_attempts > config_.sdo_retries) {
+      const od::Object o = object_of(d.sdo_step);
+      fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
+           object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
+           std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
+      break;
     }
+    send_sdo(d, now_us_);  // the first request, or again after a timeout
   }
   if (phase_ == Phase::kFailed) {
     failure_reported_ = true;
@@ -241,39 +239,49 @@ void CanopenMaster::leave_network() {
 }
 
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
-  if (!d.sdo_pending) return;  // a duplicate or stray answer
+  if (d.sdo.status() != sdo::ClientStatus::kBusy) return;  // a duplicate or stray answer
   const od::Object o = object_of(d.sdo_step);
   const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
   if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
-  const sdo::Response r = sdo::parse_response(f.data);
-  // An answer for another object is the late answer to an earlier, retried
-  // request: not this one's.
-  if (r.index != o.index || r.subindex != o.subindex) return;
-  if (r.kind == sdo::ResponseKind::kAborted) {
-    return fail(at + "the drive aborted the transfer: " + hex(r.value, 8) + " (" +
-                abort_text(r.value) + ")");
+  d.sdo.on_frame(f.data, now_us_);
+  pump_sdo(d);
+  if (d.sdo.status() == sdo::ClientStatus::kBusy) return;
+  if (d.sdo.status() == sdo::ClientStatus::kAborted) {
+    const std::uint32_t code = d.sdo.abort_code();
+    if (d.sdo.aborted_by_server()) {
+      return fail(at + "the drive aborted the transfer: " + hex(code, 8) + " (" +
+                  sdo::abort_meaning(code) + ")");
+    }
+    return fail(at + "unexpected SDO response, command byte " + hex(f.data[0], 2) + " (" +
+                sdo::abort_meaning(code) + ")");
   }
-  const bool is_upload = d.sdo_step <= kReadEncoderIncrements;
-  if (r.kind != (is_upload ? sdo::ResponseKind::kUploadValue : sdo::ResponseKind::kDownloadDone)) {
-    return fail(at + "unexpected SDO response, command byte " + hex(f.data[0], 2));
+  std::uint32_t value = 0;
+  for (unsigned i = 0; i < d.sdo.uploaded_size() && i < 4; ++i) {
+    value |= std::uint32_t{d.sdo_bytes[i]} << (8 * i);
   }
+  take_step_result(d, value, at);
+}
+
+// A bring-up step's answer: what was read is checked and kept; then the
+// next step.
+void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::string& at) {
   switch (d.sdo_step) {
     case kReadDeviceType:
-      if ((r.value & 0xFFFF) != (od::kDeviceTypeServo & 0xFFFF)) {
-        return fail(at + "device type " + hex(r.value, 8) + " is not a CiA 402 drive (0x....0192)");
+      if ((value & 0xFFFF) != (od::kDeviceTypeServo & 0xFFFF)) {
+        return fail(at + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
       }
       break;
     case kReadRatedCurrent:
-      if (r.value == 0) return fail(at + "the drive reports a rated current of 0 mA");
-      d.rated_current_mA = r.value;
+      if (value == 0) return fail(at + "the drive reports a rated current of 0 mA");
+      d.rated_current_mA = value;
       break;
     case kReadRatedTorque:
-      if (r.value == 0) return fail(at + "the drive reports a rated torque of 0 mN m");
-      d.rated_torque_mNm = r.value;
+      if (value == 0) return fail(at + "the drive reports a rated torque of 0 mN m");
+      d.rated_torque_mNm = value;
       break;
     case kReadEncoderIncrements:
-      if (r.value != d.config.model.counts_per_rev) {
-        return fail(at + "the encoder has " + std::to_string(r.value) +
+      if (value != d.config.model.counts_per_rev) {
+        return fail(at + "the encoder has " + std::to_string(value) +
                     " counts per revolution; the configuration says " +
                     std::to_string(d.config.model.counts_per_rev) + " (joint" +
                     std::to_string(&d - drives_.data() + 1) + ".counts_per_rev)");
@@ -283,7 +291,6 @@ void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
     default:
       break;
   }
-  d.sdo_pending = false;
   d.sdo_attempts = 0;
   ++d.sdo_step;
   if (d.sdo_step < kStepCount) send_sdo(d, now_us_);
@@ -373,7 +380,7 @@ void CanopenMaster::begin_cycle(std::uint64_t now_us) {
 bool CanopenMaster::exchange_complete() const {
   if (phase_ == Phase::kConfiguring) {
     for (const Drive& d : drives_) {
-      if (d.sdo_pending) return false;
+      if (d.sdo.status() == sdo::ClientStatus::kBusy) return false;
     }
     return true;
   }
@@ -391,9 +398,8 @@ void CanopenMaster::end_window() {
 std::uint64_t CanopenMaster::sdo_deadline_us() const {
   std::uint64_t earliest = 0;
   for (const Drive& d : drives_) {
-    if (!d.sdo_pending) continue;
-    const std::uint64_t t = d.sdo_sent_us + sdo_timeout_us_;
-    if (earliest == 0 || t < earliest) earliest = t;
+    const std::uint64_t t = d.sdo.deadline_us();
+    if (t != 0 && (earliest == 0 || t < earliest)) earliest = t;
   }
   return earliest;
 }

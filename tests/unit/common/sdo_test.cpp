@@ -580,3 +580,27 @@ TEST(SdoClientTest, AServerResponseWithTheWrongToggleIsAborted) {
 
 }  // namespace
 }  // namespace delta::can::sdo
+
+namespace delta::can::sdo {
+namespace {
+
+// A request that timed out and was repeated may be answered twice; the
+// late answer names the earlier object and must not end the new transfer.
+TEST(SdoClientTest, ALateAnswerAboutAnotherObjectIsIgnored) {
+  Client client(100'000);
+  std::vector<std::uint8_t> buffer(4);
+  client.upload(0x6075, 0, buffer, Transfer::kAuto, 0);
+  client.sent(0);
+  EXPECT_EQ(client.deadline_us(), 100'000u);
+  client.on_frame(frame({0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00}), 10);  // 0x1000's
+  client.on_frame(frame({0x80, 0x00, 0x10, 0x00, 0x00, 0x00, 0x02, 0x06}), 20);  // an old abort
+  EXPECT_EQ(client.status(), ClientStatus::kBusy);
+  client.on_frame(frame({0x43, 0x75, 0x60, 0x00, 0xB8, 0x0B, 0x00, 0x00}), 30);
+  ASSERT_EQ(client.status(), ClientStatus::kDone);
+  EXPECT_EQ(client.uploaded_size(), 4u);
+  EXPECT_EQ(buffer[0] | buffer[1] << 8, 3000);
+  EXPECT_EQ(client.deadline_us(), 0u);
+}
+
+}  // namespace
+}  // namespace delta::can::sdo

@@ -152,6 +152,10 @@ void Client::sent(TimeUs now_us) {
   request(block_download_segment());
 }
 
+TimeUs Client::deadline_us() const {
+  return status_ == ClientStatus::kBusy && deadline_armed_ ? deadline_us_ : 0;
+}
+
 std::uint32_t Client::segment_bytes(std::uint32_t at) const {
   return smaller(kSegmentBytes, static_cast<std::uint32_t>(data_.size()) - at);
 }
@@ -179,7 +183,18 @@ Payload Client::block_download_segment() const {
 void Client::on_frame(const Payload& response, TimeUs now_us) {
   now_us_ = now_us;
   if (status_ != ClientStatus::kBusy || state_ == State::kIdle) return;
-  if (response[0] == kAbort) return fail(get_u32(response), true, false);
+  // An answer about another object is a late answer to an earlier request
+  // (one that timed out and was repeated, or aborted): not this transfer's.
+  const bool initiating = state_ == State::kDownloadInitiate || state_ == State::kUploadInitiate ||
+                          state_ == State::kBlockDownloadInitiate ||
+                          state_ == State::kBlockUploadInitiate;
+  const bool other_object = !multiplexer_is(response, index_, subindex_);
+  if (response[0] == kAbort) {
+    const bool unnamed = multiplexer_is(response, 0, 0);
+    if (other_object && !unnamed) return;
+    return fail(get_u32(response), true, false);
+  }
+  if (initiating && other_object) return;
   switch (state_) {
     case State::kDownloadInitiate:
     case State::kDownloadSegment:

@@ -18,6 +18,7 @@
 #include <string>
 
 #include "delta/can/cia402.hpp"
+#include "delta/can/sdo.hpp"
 #include "delta/can/socketcan.hpp"
 #include "fw/hardware.hpp"
 #include "fw_linux/config.hpp"
@@ -76,8 +77,8 @@ class CanopenMaster {
     DriveUnits units{};
     // bring-up
     unsigned sdo_step{0};
-    bool sdo_pending{false};
-    std::uint64_t sdo_sent_us{0};
+    delta::can::sdo::Client sdo{};
+    std::array<std::uint8_t, 4> sdo_bytes{};  // the value written or read
     unsigned sdo_attempts{0};
     std::uint32_t rated_current_mA{0};
     std::uint32_t rated_torque_mNm{0};
@@ -101,7 +102,10 @@ class CanopenMaster {
     Q12_19 command_current_A{};
   };
 
-  bool send_sdo(Drive& d, std::uint64_t now_us);
+  std::uint32_t step_value(const Drive& d, std::uint8_t& size) const;
+  void send_sdo(Drive& d, std::uint64_t now_us);
+  void pump_sdo(Drive& d);
+  void take_step_result(Drive& d, std::uint32_t value, const std::string& at);
   void handle_sdo_response(Drive& d, const delta::can::Frame& f);
   void handle_tpdo(Drive& d, const delta::can::Frame& f, bool second);
   void fail(const std::string& why);

@@ -318,10 +318,15 @@ class Client {
   // Aborts the transfer in progress with `code` (sent to the server).
   void cancel(AbortCode code);
 
+  // A server's frame. An answer that names another object while this
+  // transfer waits for its first answer is a late answer to an earlier
+  // request and is ignored.
   void on_frame(const Payload& response, TimeUs now_us);
   void tick(TimeUs now_us);
   bool pending(Payload& out) const;
   void sent(TimeUs now_us);
+  // When the transfer times out unless an answer comes (0: not waiting).
+  TimeUs deadline_us() const;
 
   ClientStatus status() const { return status_; }
   AbortCode abort_code() const { return abort_code_; }
