@@ -13,6 +13,8 @@ packages=(
   libmujoco-dev
   # controller I/O: Modbus and GPIO
   libmodbus-dev libgpiod-dev
+  # CANopen device descriptions (EDS files are INI)
+  libinih-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the firmware core on Cortex-M4, run on qemu

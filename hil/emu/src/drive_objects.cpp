@@ -93,6 +93,17 @@ std::span<const Emulator::DriveObjects::Object> Emulator::DriveObjects::objects(
       {0x1018, 2, 4, [](const Emulator&, const Drive&) { return kEmulatorProductCode; }, nullptr},
       {0x1018, 3, 4, [](const Emulator&, const Drive&) { return kEmulatorRevision; }, nullptr},
       {0x1018, 4, 4, [](const Emulator&, const Drive& d) { return 0x00010000u + d.node; }, nullptr},
+      // RPDO1 and TPDO1: fixed (docs/protocol.md); synchronous.
+      {0x1400, 0, 1, [](const Emulator&, const Drive&) { return 2u; }, nullptr},
+      {0x1400, 1, 4,
+       [](const Emulator&, const Drive& d) { return std::uint32_t{p::cob_id(p::kRpdo1, d.node)}; },
+       nullptr},
+      {0x1400, 2, 1, [](const Emulator&, const Drive&) { return 1u; }, nullptr},
+      {0x1800, 0, 1, [](const Emulator&, const Drive&) { return 2u; }, nullptr},
+      {0x1800, 1, 4,
+       [](const Emulator&, const Drive& d) { return std::uint32_t{p::cob_id(p::kTpdo1, d.node)}; },
+       nullptr},
+      {0x1800, 2, 1, [](const Emulator&, const Drive&) { return 1u; }, nullptr},
       {0x1801, 0, 1, [](const Emulator&, const Drive&) { return 2u; }, nullptr},
       {0x1801, 1, 4, [](const Emulator&, const Drive& d) { return d.tpdo2_cob; },
        [](Emulator&, Drive& d, std::uint32_t v) {

@@ -9,6 +9,7 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/can/sdo.hpp"
+#include "delta/canopen/eds.hpp"
 #include "emu/emulator.hpp"
 
 namespace emu {
@@ -180,6 +181,63 @@ TEST(EmulatedDriveTest, APreOperationalDriveSendsItsHeartbeatWhileSyncsFlow) {
   }
   EXPECT_GE(heartbeats, 3);
   EXPECT_LE(heartbeats, 5);
+}
+
+// The EDS the product ships for the emulated drive (docs/eds/) and the
+// drive agree object by object: what the EDS lists answers with its size
+// and access, and nothing answers that the EDS does not list.
+TEST(EmulatedDriveTest, AgreesWithItsEdsObjectByObject) {
+  namespace canopen = delta::canopen;
+  const canopen::Eds eds = canopen::read_eds(DELTA_EDS_DIR "/delta_drive_emu.eds");
+  Bus bus;
+  for (const auto& [key, v] : eds.variables) {
+    SCOPED_TRACE(v.name);
+    ASSERT_TRUE(canopen::readable(v.access));
+    if (v.size_bytes() == 0) {  // a string: its whole text
+      std::vector<std::uint8_t> text(256);
+      bus.client.upload(v.index, v.subindex, text, sdo::Transfer::kAuto, bus.wall_us);
+      bus.run_client();
+      ASSERT_EQ(bus.client.status(), sdo::ClientStatus::kDone);
+      text.resize(bus.client.uploaded_size());
+      if (!v.default_text.empty()) {
+        EXPECT_EQ(std::string(text.begin(), text.end()), v.default_text);
+      }
+      continue;
+    }
+    const sdo::Payload r = bus.ask_one(sdo::upload_request(v.index, v.subindex));
+    ASSERT_NE(r[0], sdo::kAbort) << std::hex << v.index << ":" << int{v.subindex} << " "
+                                 << sdo::abort_meaning(sdo::get_u32(r));
+    EXPECT_EQ(r[0], 0x43 | ((4 - v.size_bytes()) << 2)) << "size of " << v.name;
+    // Writing the value back: a read-only object refuses the access, a
+    // writable one takes it or judges the value.
+    const sdo::Payload w = sdo::download_request(v.index, v.subindex, sdo::get_u32(r),
+                                                 static_cast<std::uint8_t>(v.size_bytes()));
+    const std::uint32_t code = bus.abort_code(w);
+    if (canopen::writable(v.access)) {
+      EXPECT_NE(code, sdo::kAbortReadOnly) << v.name;
+    } else {
+      EXPECT_EQ(code, sdo::kAbortReadOnly) << v.name;
+    }
+    if (const auto value = v.default_value(1); value && !canopen::writable(v.access)) {
+      EXPECT_EQ(sdo::get_u32(r), *value) << v.name << " differs from its DefaultValue";
+    }
+  }
+  for (const std::uint32_t first : {0x1000u, 0x6000u}) {
+    for (std::uint32_t index = first; index < first + 0x1000; ++index) {
+      for (unsigned sub = 0; sub < 8; ++sub) {
+        const auto i = static_cast<std::uint16_t>(index);
+        const auto s = static_cast<std::uint8_t>(sub);
+        const sdo::Payload r = bus.ask_one(sdo::upload_request(i, s));
+        if (r[0] == 0x41) {  // a segmented upload begins: the client ends it
+          EXPECT_TRUE(bus.ask(sdo::abort_transfer(i, s, sdo::kAbortGeneral)).empty());
+        }
+        const bool absent =
+            r[0] == sdo::kAbort && (sdo::get_u32(r) == sdo::kAbortObjectDoesNotExist ||
+                                    sdo::get_u32(r) == sdo::kAbortSubindexDoesNotExist);
+        EXPECT_EQ(absent, eds.find(i, s) == nullptr) << std::hex << index << ":" << sub;
+      }
+    }
+  }
 }
 
 }  // namespace

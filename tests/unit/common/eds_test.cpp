@@ -1,0 +1,213 @@
+// The EDS reader (delta/canopen/eds.hpp): the product's own EDS files, a
+// hand-written one with every construct, and malformed files, each refused
+// with its file:line and what is wrong.
+#include "delta/canopen/eds.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace delta::canopen {
+namespace {
+
+const std::string kHeader = R"([DeviceInfo]
+VendorNumber=0x000000AB
+ProductNumber=1234
+RevisionNumber=0x00020003
+VendorName=Example
+ProductName=Example drive
+
+[MandatoryObjects]
+SupportedObjects=3
+1=0x1000
+2=0x1001
+3=0x1018
+
+[1000]
+ParameterName=Device type
+DataType=0x0007
+AccessType=ro
+DefaultValue=0x00020192
+
+[1001]
+ParameterName=Error register
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+PDOMapping=1
+
+[1018]
+ParameterName=Identity
+ObjectType=0x9
+SubNumber=2
+
+[1018sub0]
+ParameterName=Highest sub-index
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+
+[1018sub1]
+ParameterName=Vendor-ID
+DataType=0x0007
+AccessType=ro
+DefaultValue=0x000000AB
+)";
+
+// The message of the error `text` raises, or "" if it is accepted.
+std::string error_of(const std::string& text) {
+  try {
+    parse_eds(text, "drive.eds");
+  } catch (const EdsError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(EdsTest, ReadsIdentityObjectsTypesAccessDefaultsAndMapping) {
+  const Eds eds = parse_eds(kHeader + R"(
+[OptionalObjects]
+SupportedObjects=3
+1=0x1800
+2=0x6071
+3=0x1008
+
+[1800]
+ParameterName=TPDO1 communication
+ObjectType=0x9
+SubNumber=2
+
+[1800sub0]
+ParameterName=Highest sub-index
+DataType=0x0005
+AccessType=const
+DefaultValue=1
+
+[1800sub1]
+ParameterName=COB-ID
+DataType=0x0007
+AccessType=rw
+DefaultValue=$NODEID+0x180
+
+[6071]
+ParameterName=Target torque
+DataType=0x0003
+AccessType=rww
+PDOMapping=1
+DefaultValue=-100
+LowLimit=-1000
+
+[1008]
+ParameterName=Device name
+DataType=0x0009
+AccessType=const
+DefaultValue=Example drive ; a comment
+)",
+                            "drive.eds");
+  EXPECT_EQ(eds.identity.vendor_id, 0xABu);
+  EXPECT_EQ(eds.identity.product_code, 1234u);
+  EXPECT_EQ(eds.identity.revision, 0x00020003u);
+  EXPECT_EQ(eds.identity.product_name, "Example drive");
+  EXPECT_EQ(eds.variables.size(), 8u);
+  const EdsVariable* cob = eds.find(0x1800, 1);
+  ASSERT_NE(cob, nullptr);
+  EXPECT_EQ(cob->default_value(5), 0x185u);
+  EXPECT_TRUE(writable(cob->access));
+  EXPECT_EQ(cob->size_bytes(), 4u);
+  const EdsVariable* torque = eds.find(0x6071, 0);
+  ASSERT_NE(torque, nullptr);
+  EXPECT_TRUE(torque->pdo_mappable);
+  EXPECT_EQ(torque->size_bytes(), 2u);
+  EXPECT_EQ(torque->default_value(1), 0xFF9Cu);  // -100 as INTEGER16
+  EXPECT_FALSE(eds.find(0x1001, 0)->default_value(1).has_value());
+  EXPECT_TRUE(eds.find(0x1001, 0)->pdo_mappable);
+  EXPECT_FALSE(writable(eds.find(0x1008, 0)->access));
+  EXPECT_EQ(eds.find(0x1008, 0)->default_text, "Example drive");
+  EXPECT_EQ(eds.find(0x1008, 0)->size_bytes(), 0u);
+  EXPECT_EQ(eds.find(0x1800, 2), nullptr);
+  EXPECT_TRUE(eds.has_object(0x1018));
+  EXPECT_FALSE(eds.has_object(0x1017));
+}
+
+TEST(EdsTest, NumbersAreDecimalHexOctalAndNodeRelative) {
+  EXPECT_EQ(parse_eds_number("42", 0), 42);
+  EXPECT_EQ(parse_eds_number(" 0x2A ", 0), 42);
+  EXPECT_EQ(parse_eds_number("052", 0), 42);
+  EXPECT_EQ(parse_eds_number("-7", 0), -7);
+  EXPECT_EQ(parse_eds_number("$NODEID+0x200", 3), 0x203);
+  EXPECT_EQ(parse_eds_number("0x200+$NODEID", 3), 0x203);
+  EXPECT_EQ(parse_eds_number("$NODEID", 9), 9);
+  EXPECT_FALSE(parse_eds_number("0x", 0));
+  EXPECT_FALSE(parse_eds_number("12a", 0));
+  EXPECT_FALSE(parse_eds_number("09", 0));  // not octal
+  EXPECT_FALSE(parse_eds_number("$NODEID-1", 0));
+  EXPECT_FALSE(parse_eds_number("", 0));
+}
+
+TEST(EdsTest, MalformedFilesAreRefusedWithFileLineAndWhat) {
+  EXPECT_EQ(error_of("[DeviceInfo]\nVendorNumber=1\nthis is not ini\n"),
+            "drive.eds:3: not an INI line (expected [Section], Key=Value or a ; comment)");
+  EXPECT_EQ(error_of("[FileInfo]\nFileName=x\n"), "drive.eds:1: no [DeviceInfo] section");
+  std::string text = kHeader;
+  text.replace(text.find("ProductNumber=1234"), 18, "ProductNumber=12x4");
+  EXPECT_EQ(error_of(text),
+            "drive.eds:3: [DeviceInfo] ProductNumber=12x4: not a number (decimal, 0x "
+            "hexadecimal or 0 octal)");
+  text = kHeader;
+  text.replace(text.find("3=0x1018"), 8, "3=0x1017");
+  EXPECT_EQ(error_of(text), "drive.eds:12: object 0x1017 is listed but has no [1017] section");
+  text = kHeader;
+  text.replace(text.find("DataType=0x0005\nAccessType=ro\nPDOMapping"), 15, "DataType=0x0042");
+  EXPECT_EQ(error_of(text), "drive.eds:23: [1001] DataType=0x0042: not a CiA 301 basic data type");
+  text = kHeader;
+  text.replace(text.find("AccessType=ro\nPDOMapping"), 13, "AccessType=rx");
+  EXPECT_EQ(error_of(text),
+            "drive.eds:24: [1001] AccessType=rx: not one of ro, wo, rw, rwr, rww, const");
+  text = kHeader;
+  text.replace(text.find("PDOMapping=1"), 12, "PDOMapping=2");
+  EXPECT_EQ(error_of(text), "drive.eds:25: [1001] PDOMapping must be 0 or 1");
+  text = kHeader;
+  text.replace(text.find("SubNumber=2"), 11, "SubNumber=3");
+  EXPECT_EQ(error_of(text), "drive.eds:30: [1018] SubNumber=3 but 2 [1018subN] sections");
+  text = kHeader;
+  text.replace(text.find("DefaultValue=1\n"), 14, "DefaultValue=256");
+  EXPECT_EQ(error_of(text), "drive.eds:36: [1018sub0] DefaultValue=256 does not fit UNSIGNED8");
+  text = kHeader;
+  text.replace(text.find("ParameterName=Error register\n"), 29, "");
+  EXPECT_EQ(error_of(text), "drive.eds:21: [1001] has no ParameterName");
+  text = kHeader + "[1000]\nDataType=0x0006\n";
+  EXPECT_EQ(error_of(text), "drive.eds:44: [1000] DataType is given twice (line 16 and here)");
+  text = kHeader;
+  text.replace(text.find("SupportedObjects=3"), 18, "SupportedObjects=4");
+  EXPECT_EQ(error_of(text),
+            "drive.eds:9: [MandatoryObjects] SupportedObjects=4 but there is no entry 4");
+  text = kHeader;
+  const std::string list = "SupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018";
+  text.replace(text.find(list), list.size(), "SupportedObjects=2\n1=0x1000\n2=0x1018");
+  EXPECT_EQ(error_of(text),
+            "drive.eds:1: no object 0x1001 (error register), which CiA 301 makes mandatory");
+  EXPECT_EQ(error_of(kHeader + "[X]\nK=" + std::string(300, 'v') + "\n"),
+            "drive.eds:44: the line is longer than 198 characters");
+  EXPECT_EQ(error_of(kHeader), "");
+}
+
+TEST(EdsTest, AMissingFileIsNamed) {
+  try {
+    read_eds("/nonexistent/drive.eds");
+    FAIL() << "no error";
+  } catch (const EdsError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "/nonexistent/drive.eds: cannot open: No such file or directory");
+  }
+}
+
+TEST(EdsTest, TheProductsOwnEdsFilesAreValid) {
+  const Eds drive = read_eds(DELTA_EDS_DIR "/delta_drive_emu.eds");
+  EXPECT_EQ(drive.identity.vendor_id, 0x0000DE17u);
+  EXPECT_EQ(drive.identity.product_code, 0x00000402u);
+  EXPECT_EQ(drive.find(0x1018, 4)->default_value(2), 0x00010002u);
+  EXPECT_EQ(drive.find(0x1801, 1)->default_value(2), 0x80000282u);
+}
+
+}  // namespace
+}  // namespace delta::canopen
