@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 #include "delta/can/protocol.hpp"
 #include "fw/torque_from_current.hpp"
+#include "fw_linux/bring_up.hpp"
 
 namespace fw_linux {
 
@@ -16,41 +18,8 @@ using delta::can::cia402::State;
 
 namespace {
 
-// The bring-up of one drive, one expedited SDO transfer per step.
-enum Step : unsigned {
-  kReadDeviceType,
-  kReadRatedCurrent,
-  kReadRatedTorque,
-  kReadEncoderIncrements,
-  kWriteMode,
-  kWriteCyclePeriod,
-  kWriteHeartbeat,
-  kWriteConsumerHeartbeat,
-  kWriteTpdo2,
-  kStepCount,
-};
-
 od::Object object_of(unsigned step) {
-  switch (step) {
-    case kReadDeviceType:
-      return od::kDeviceType;
-    case kReadRatedCurrent:
-      return od::kMotorRatedCurrent;
-    case kReadRatedTorque:
-      return od::kMotorRatedTorque;
-    case kReadEncoderIncrements:
-      return od::kEncoderIncrements;
-    case kWriteMode:
-      return od::kModesOfOperation;
-    case kWriteCyclePeriod:
-      return od::kCommunicationCycle;
-    case kWriteHeartbeat:
-      return od::kProducerHeartbeat;
-    case kWriteConsumerHeartbeat:
-      return od::kConsumerHeartbeat;
-    default:
-      return od::kTpdo2CobId;
-  }
+  return kBringUp[step].object;
 }
 
 std::string hex(std::uint32_t v, int digits) {
@@ -202,7 +171,7 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
   bool all_done = true;
   for (Drive& d : drives_) {
     if (phase_ == Phase::kFailed) break;
-    if (d.sdo_step >= kStepCount) continue;
+    if (d.sdo_step >= kBringUpStepCount) continue;
     all_done = false;
     d.sdo.tick(now_us_);
     pump_sdo(d);
@@ -271,6 +240,12 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
         return fail(at + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
       }
       break;
+    case kReadVendorId:
+    case kReadProductCode:
+    case kReadRevisionNumber:
+    case kReadSerialNumber:
+      if (!identity_matches(d, value, at)) return;
+      break;
     case kReadRatedCurrent:
       if (value == 0) return fail(at + "the drive reports a rated current of 0 mA");
       d.rated_current_mA = value;
@@ -292,8 +267,39 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
       break;
   }
   d.sdo_attempts = 0;
-  ++d.sdo_step;
-  if (d.sdo_step < kStepCount) send_sdo(d, now_us_);
+  next_step(d);
+  if (d.sdo_step < kBringUpStepCount) send_sdo(d, now_us_);
+}
+
+// The vendor ID is always read (0x1018:1 is mandatory); the product code,
+// revision and serial number only when the configuration expects them.
+void CanopenMaster::next_step(Drive& d) const {
+  const DriveIdentity& id = d.config.identity;
+  for (++d.sdo_step; d.sdo_step < kBringUpStepCount; ++d.sdo_step) {
+    const bool skip = (d.sdo_step == kReadProductCode && !id.product_code) ||
+                      (d.sdo_step == kReadRevisionNumber && !id.revision) ||
+                      (d.sdo_step == kReadSerialNumber && !id.serial);
+    if (!skip) return;
+  }
+}
+
+// 0x1018 against the configuration: the vendor ID, product code and serial
+// number exactly, the revision by its major part (CiA 301: the minor part
+// changes without changing the CANopen behaviour).
+bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::string& at) {
+  const DriveIdentity& id = d.config.identity;
+  const std::optional<std::uint32_t> expected[] = {id.vendor_id, id.product_code, id.revision,
+                                                   id.serial};
+  const std::optional<std::uint32_t>& want = expected[d.sdo_step - kReadVendorId];
+  if (!want) return true;
+  const bool revision = d.sdo_step == kReadRevisionNumber;
+  const bool same = revision ? (found >> 16) == (*want >> 16) : found == *want;
+  if (same) return true;
+  fail(at + std::string(kBringUp[d.sdo_step].what) + " " + hex(found, 8) + "; " + id.source +
+       " expects " + hex(*want, 8) +
+       (revision ? " (major revision " + std::to_string(*want >> 16) + ")" : "") +
+       ": is this the drive the configuration describes?");
+  return false;
 }
 
 void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {

@@ -10,10 +10,12 @@
 #include <set>
 #include <sstream>
 
+#include "delta/canopen/eds.hpp"
 #include "delta/custom_trajectory_block.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/input_error.hpp"
 #include "delta/trajectory_file.hpp"
+#include "fw_linux/bring_up.hpp"
 
 namespace fw_linux {
 namespace {
@@ -74,6 +76,50 @@ std::uint32_t parse_unsigned(const std::string& v, const std::string& where, con
                       " to " + std::to_string(hi) + ", got '" + v + "'");
   }
   return static_cast<std::uint32_t>(d);
+}
+
+std::string object_text(delta::can::od::Object o) {
+  char b[32];
+  std::snprintf(b, sizeof b, "0x%04X:%02X", o.index, o.subindex);
+  return b;
+}
+
+// A drive's EDS, checked against what the bring-up and the PDOs use: each
+// object must exist, be readable or writable as used, and a PDO's objects
+// mappable.
+delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& where) {
+  delta::canopen::Eds eds;
+  try {
+    eds = delta::canopen::read_eds(path);
+  } catch (const delta::canopen::EdsError& e) {
+    throw ConfigError(where + ": " + e.what());
+  }
+  for (unsigned step = 0; step < kBringUpStepCount; ++step) {
+    if (step == kReadSerialNumber) continue;  // only with jointN.serial; optional in CiA 301
+    const BringUpObject& b = kBringUp[step];
+    const delta::canopen::EdsVariable* v = eds.find(b.object.index, b.object.subindex);
+    const std::string name = object_text(b.object) + " (" + b.what + ")";
+    if (v == nullptr) {
+      throw ConfigError(where + ": " + path + " has no object " + name + ", which the bring-up " +
+                        (b.write ? "writes" : "reads"));
+    }
+    const bool ok =
+        b.write ? delta::canopen::writable(v->access) : delta::canopen::readable(v->access);
+    if (!ok) {
+      throw ConfigError(where + ": " + path + ":" + std::to_string(v->line) + ": " + name +
+                        " is not " + (b.write ? "writable" : "readable") + ", and the bring-up " +
+                        (b.write ? "writes" : "reads") + " it");
+    }
+  }
+  for (const delta::can::od::Object o : kPdoObjects) {
+    const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
+    if (v == nullptr || !v->pdo_mappable) {
+      throw ConfigError(where + ": " + path + ": object " + object_text(o) +
+                        (v == nullptr ? " is missing" : " is not PDO-mappable") +
+                        "; the drive's PDOs carry it (docs/protocol.md)");
+    }
+  }
+  return eds;
 }
 
 bool parse_bool(const std::string& v, const std::string& where, const std::string& key) {
@@ -246,6 +292,18 @@ std::map<std::string, Setter> make_setters() {
     };
     s[p + "torque_offset_Nm"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].torque_offset_Nm = parse_number(v, w, p + "torque_offset_Nm");
+    };
+    s[p + "eds"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].eds_path = v;
+      const delta::canopen::Eds eds = read_drive_eds(v, w + ": " + p + "eds");
+      DriveIdentity& id = c.joints[j].identity;
+      id.vendor_id = eds.identity.vendor_id;
+      id.product_code = eds.identity.product_code;
+      id.revision = eds.identity.revision;
+      id.source = p + "eds = " + v;
+    };
+    s[p + "serial"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      c.joints[j].identity.serial = parse_unsigned(v, w, p + "serial", 0, 0xFFFFFFFFu);
     };
   }
   return s;

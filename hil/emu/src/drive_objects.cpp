@@ -143,6 +143,12 @@ std::span<const Emulator::DriveObjects::Object> Emulator::DriveObjects::objects(
          return static_cast<std::uint32_t>(e.position_counts(d, e.plant_->state().q_rad[j]));
        },
        nullptr},
+      {0x606C, 0, 4,
+       [](const Emulator& e, const Drive& d) {
+         const unsigned j = d.node - p::kFirstDriveNode;
+         return static_cast<std::uint32_t>(e.velocity_counts_s(d, e.plant_->state().qd_rad_s[j]));
+       },
+       nullptr},
       {0x6071, 0, 2,
        [](const Emulator&, const Drive& d) {
          return std::uint32_t{static_cast<std::uint16_t>(d.target_torque_pm)};

@@ -365,6 +365,11 @@ std::int32_t Emulator::position_counts(const Drive& d, double q) const {
   return static_cast<std::int32_t>(d.model.inverted ? -counts : counts);
 }
 
+std::int32_t Emulator::velocity_counts_s(const Drive& d, double qd) const {
+  const double counts_s = qd / kTwoPi * d.model.gear_ratio * d.model.counts_per_rev;
+  return static_cast<std::int32_t>((d.model.inverted ? -1 : 1) * std::llround(counts_s));
+}
+
 void Emulator::advance(double dt_s) {
   bool all_enabled = true;
   for (const Drive& d : drives_)
@@ -444,9 +449,7 @@ void Emulator::handle_sync() {
     send(p::cob_id(p::kTpdo1, d.node), dlc, tpdo1, d.delay_us);
     if ((d.tpdo2_cob & od::kPdoInvalid) == 0) {
       std::array<std::uint8_t, 8> tpdo2{};
-      const double counts_s = qd / kTwoPi * d.model.gear_ratio * d.model.counts_per_rev;
-      p::pack(tpdo2, p::kTpdo2VelocityActual,
-              (d.model.inverted ? -1 : 1) * static_cast<std::int64_t>(std::llround(counts_s)));
+      p::pack(tpdo2, p::kTpdo2VelocityActual, velocity_counts_s(d, qd));
       send(p::cob_id(p::kTpdo2, d.node), 4, tpdo2, d.delay_us);
     }
   }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <deque>
 #include <fstream>
+#include <iterator>
 
 #include "delta/can/protocol.hpp"
 #include "delta/modbus/register_map.hpp"
@@ -121,6 +122,59 @@ TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.conf: cannot open"),
               std::string::npos);
   }
+}
+
+// The emulated drive's EDS (docs/eds/), edited: `from` replaced by `to`,
+// written to a file of this process's own.
+std::string edited_eds(const std::string& from, const std::string& to, const std::string& name) {
+  std::ifstream in(DELTA_EDS_DIR "/delta_drive_emu.eds");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  const std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(PortConfigTest, ADrivesEdsGivesTheIdentityToExpect) {
+  const std::string eds = DELTA_EDS_DIR "/delta_drive_emu.eds";
+  const PortConfig c =
+      read_port_config(write_temp("joint2.eds = " + eds + "\njoint2.serial = 65538\n"));
+  const DriveIdentity& id = c.joints[1].identity;
+  EXPECT_EQ(id.vendor_id, 0x0000DE17u);
+  EXPECT_EQ(id.product_code, 0x00000402u);
+  EXPECT_EQ(id.revision, 0x00010000u);
+  EXPECT_EQ(id.serial, 65538u);
+  EXPECT_EQ(id.source, "joint2.eds = " + eds);
+  EXPECT_FALSE(c.joints[0].identity.vendor_id.has_value());  // no EDS: any identity
+}
+
+TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
+  // Malformed: the EDS's own file:line after the configuration's.
+  std::string path = edited_eds(
+      "DataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1400]",
+      "DataType=0x0066\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1400]", "bad_type.eds");
+  std::string e = config_error("joint1.eds = " + path + "\n");
+  EXPECT_NE(e.find("port_test.conf:1:14: joint1.eds: " + path + ":"), std::string::npos) << e;
+  EXPECT_NE(e.find("[1017] DataType=0x0066: not a CiA 301 basic data type"), std::string::npos)
+      << e;
+  // An object the bring-up writes, read-only in this drive.
+  path =
+      edited_eds("DataType=0x0002\nAccessType=rw", "DataType=0x0002\nAccessType=ro", "ro_mode.eds");
+  e = config_error("joint3.eds = " + path + "\n");
+  EXPECT_NE(e.find("0x6060:00 (modes of operation) is not writable, and the bring-up writes it"),
+            std::string::npos)
+      << e;
+  // A PDO's object that the drive cannot map.
+  path = edited_eds("DataType=0x0004\nAccessType=ro\nPDOMapping=1\n\n[6071]",
+                    "DataType=0x0004\nAccessType=ro\nPDOMapping=0\n\n[6071]", "unmapped.eds");
+  e = config_error("joint1.eds = " + path + "\n");
+  EXPECT_NE(e.find("object 0x606C:00 is not PDO-mappable; the drive's PDOs carry it"),
+            std::string::npos)
+      << e;
+  e = config_error("joint1.eds = /nonexistent/drive.eds\n");
+  EXPECT_NE(e.find("joint1.eds: /nonexistent/drive.eds: cannot open"), std::string::npos) << e;
 }
 
 // Values that parse but cannot be represented are refused at load time,
@@ -385,6 +439,42 @@ TEST(InProcessPortTest, ALateAnswerToARetriedSdoRequestIsIgnored) {
   rig.bus.to_master_.push_front(first);
   EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
   EXPECT_EQ(rig.master.last_problem(), "");
+}
+
+TEST(InProcessPortTest, DrivesWithTheIdentityOfTheirEdsComeUp) {
+  PortConfig c = Rig::config();
+  for (unsigned j = 0; j < 3; ++j) {
+    c.joints[j].identity.vendor_id = emu::kEmulatorVendorId;
+    c.joints[j].identity.product_code = emu::kEmulatorProductCode;
+    c.joints[j].identity.revision = emu::kEmulatorRevision | 0x0007;  // another minor revision
+    c.joints[j].identity.serial = 0x00010001u + j;
+  }
+  Rig rig(c, {});
+  EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
+}
+
+TEST(InProcessPortTest, ADriveOfAnotherProductOrSerialIsRefusedNamingNodeObjectAndBothValues) {
+  PortConfig c = Rig::config();
+  c.joints[1].identity.product_code = 0x00000403;
+  c.joints[1].identity.source = "joint2.eds = other.eds";
+  Rig rig(c, {});
+  for (int n = 0; n < 50 && rig.controller.state() != fw::State::kFault; ++n) rig.cycle();
+  EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveConfigFailed);
+  EXPECT_EQ(
+      rig.master.last_problem(),
+      "node 2, 0x1018:02: product code 0x00000402; joint2.eds = other.eds expects 0x00000403: "
+      "is this the drive the configuration describes?");
+  c = Rig::config();
+  c.joints[2].identity.serial = 12;
+  c.joints[2].identity.revision = 0x00020000;
+  c.joints[2].identity.source = "joint3.serial";
+  Rig second(c, {});
+  for (int n = 0; n < 50 && second.controller.state() != fw::State::kFault; ++n) second.cycle();
+  EXPECT_NE(
+      second.master.last_problem().find("node 3, 0x1018:03: revision number 0x00010000; "
+                                        "joint3.serial expects 0x00020000 (major revision 2)"),
+      std::string::npos)
+      << second.master.last_problem();
 }
 
 TEST(InProcessPortTest, AWrongValueInTheBringUpFaultsWithItsCauseAndIsNotRetried) {

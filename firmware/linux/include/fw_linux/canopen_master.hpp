@@ -106,6 +106,8 @@ class CanopenMaster {
   void send_sdo(Drive& d, std::uint64_t now_us);
   void pump_sdo(Drive& d);
   void take_step_result(Drive& d, std::uint32_t value, const std::string& at);
+  void next_step(Drive& d) const;
+  bool identity_matches(Drive& d, std::uint32_t found, const std::string& at);
   void handle_sdo_response(Drive& d, const delta::can::Frame& f);
   void handle_tpdo(Drive& d, const delta::can::Frame& f, bool second);
   void fail(const std::string& why);

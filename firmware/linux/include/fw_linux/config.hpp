@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -28,11 +29,29 @@ enum class CycleMode : std::uint8_t {
   kLockStep,  // the next cycle starts when the last exchange completed
 };
 
+// The identity (0x1018) a drive must show at bring-up: from its EDS's
+// [DeviceInfo] (jointN.eds) and jointN.serial. Unset parts are not checked.
+struct DriveIdentity {
+  std::optional<std::uint32_t> vendor_id;
+  std::optional<std::uint32_t> product_code;
+  std::optional<std::uint32_t> revision;  // its major part (high 16 bits) must match
+  std::optional<std::uint32_t> serial;
+  std::string source;  // where the expectation comes from, for messages
+};
+
 struct JointDrive {
   std::uint8_t node{1};
   delta::DriveModel model{delta::kDefaultDrive};
   double torque_offset_Nm{0.0};
+  std::string eds_path;  // empty: the generic CiA 402 profile, any identity
+  DriveIdentity identity;
 };
+
+inline JointDrive joint_on_node(std::uint8_t node) {
+  JointDrive j;
+  j.node = node;
+  return j;
+}
 
 // The Modbus server (docs/modbus.md). Off unless tcp or rtu_device is set.
 struct ModbusConfig {
@@ -72,7 +91,7 @@ struct PortConfig {
   std::uint16_t controller_heartbeat_timeout_ms{150};
   std::uint32_t sdo_timeout_ms{100};
   std::uint32_t sdo_retries{2};
-  std::array<JointDrive, 3> joints{JointDrive{1}, JointDrive{2}, JointDrive{3}};
+  std::array<JointDrive, 3> joints{joint_on_node(1), joint_on_node(2), joint_on_node(3)};
   delta::Geometry geometry{delta::kDefaultGeometry};
 
   double min_rad{-1.2};

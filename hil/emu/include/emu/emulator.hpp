@@ -160,6 +160,7 @@ class Emulator {
             std::uint32_t delay_us = 0);
   double noise();
   std::int32_t position_counts(const Drive& d, double q) const;
+  std::int32_t velocity_counts_s(const Drive& d, double qd) const;
 
   EmulatorConfig config_;
   Outbox out_;

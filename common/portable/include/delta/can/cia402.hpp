@@ -151,6 +151,10 @@ inline constexpr Object kErrorRegister{0x1001, 0};       // u8
 inline constexpr Object kCommunicationCycle{0x1006, 0};  // u32 us, the SYNC period
 inline constexpr Object kConsumerHeartbeat{0x1016, 1};   // u32: node << 16 | timeout ms, 0 = off
 inline constexpr Object kProducerHeartbeat{0x1017, 0};   // u16 ms, 0 = off
+inline constexpr Object kVendorId{0x1018, 1};            // u32
+inline constexpr Object kProductCode{0x1018, 2};         // u32
+inline constexpr Object kRevisionNumber{0x1018, 3};      // u32: major << 16 | minor
+inline constexpr Object kSerialNumber{0x1018, 4};        // u32
 inline constexpr Object kTpdo2CobId{0x1801, 1};          // u32, bit 31 set = PDO off
 inline constexpr Object kControlword{0x6040, 0};         // u16
 inline constexpr Object kStatusword{0x6041, 0};          // u16
