@@ -208,9 +208,9 @@ TEST_F(ExcitationSession, BringUpIsNmtSdoConfigurationThenCia402Enable) {
       EXPECT_NE(r.kind, delta::can::sdo::ResponseKind::kAborted) << std::hex << r.index;
       ++answered[(std::uint32_t{r.index} << 8) | r.subindex];
     }
-    EXPECT_EQ(requests, 9);
-    for (std::uint32_t key : {0x100000u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u, 0x100600u,
-                              0x101700u, 0x101601u, 0x180101u}) {
+    EXPECT_EQ(requests, 10);
+    for (std::uint32_t key : {0x100000u, 0x101801u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u,
+                              0x100600u, 0x101700u, 0x101601u, 0x180101u}) {
       EXPECT_EQ(answered[key], 1) << std::hex << key;
     }
     // CiA 402 after the start: shutdown, switch on, enable operation, in that
