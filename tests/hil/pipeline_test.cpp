@@ -602,6 +602,31 @@ TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
   }
 }
 
+// Bring-up against the drive on the bus (real programs on vcan): the
+// emulator runs as the second product (docs/eds/delta_drive_emu_b.eds); a
+// controller configured with the first product's EDS for joint 2 refuses it
+// naming node, object and both values; configured with the second's, the
+// drives come up.
+TEST(DriveIdentity, ADriveOfAnotherProductIsRefusedAndItsOwnEdsBringsItUp) {
+  const std::string a = kSource + "/docs/eds/delta_drive_emu.eds";
+  const std::string b = kSource + "/docs/eds/delta_drive_emu_b.eds";
+  hil::Child emu = start_emulator({"--plant", "lumped", "--eds", b});
+  hil::Child wrong = hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run",
+                                        "path1", "--exit-when-done", "--set", "joint2.eds=" + a});
+  EXPECT_EQ(wrong.wait(120s).value_or(-1), 3) << wrong.err();
+  EXPECT_NE(wrong.err().find("fault 10 ("), std::string::npos) << wrong.err();
+  EXPECT_NE(wrong.err().find("node 2, 0x1018:02: product code 0x00000403; joint2.eds = " + a +
+                             " expects 0x00000402"),
+            std::string::npos)
+      << wrong.err();
+  hil::Child right = hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run",
+                                        "path1", "--exit-when-done", "--set", "joint1.eds=" + b,
+                                        "--set", "joint2.eds=" + b, "--set", "joint3.eds=" + b});
+  EXPECT_TRUE(right.wait_for_output("delta_fw: running\n", 60s)) << right.err();
+  EXPECT_EQ(right.terminate(60s).value_or(-1), 5) << right.err();
+  emu.terminate(30s);
+}
+
 // The e-stop on a real kernel GPIO chip (gpio-sim, in hil/vcan-run's VM):
 // opened during motion, it faults the controller within a cycle, the drives
 // are disabled, the enable and brake lines go low (braked), and the log up

@@ -19,17 +19,16 @@ namespace cia = delta::can::cia402;
 
 namespace {
 
-constexpr std::string_view kDeviceName = "Delta emulated CiA 402 drive";
 constexpr std::string_view kHardwareVersion = "vcan";
 constexpr std::string_view kEmulatorSoftwareVersion = "delta_drive_emu " DELTA_VERSION;
 // CiA 402: bit 9 of 0x6502, cyclic synchronous torque mode; the only one.
 constexpr std::uint32_t kSupportedModesCst = 1u << 9;
 
 // The visible strings: device name, hardware and software version.
-std::string_view string_object(std::uint16_t index) {
+std::string_view string_object(std::uint16_t index, const EmulatedIdentity& identity) {
   switch (index) {
     case 0x1008:
-      return kDeviceName;
+      return identity.device_name;
     case 0x1009:
       return kHardwareVersion;
     case 0x100A:
@@ -89,9 +88,11 @@ std::span<const Emulator::DriveObjects::Object> Emulator::DriveObjects::objects(
          return ok;
        }},
       {0x1018, 0, 1, [](const Emulator&, const Drive&) { return 4u; }, nullptr},
-      {0x1018, 1, 4, [](const Emulator&, const Drive&) { return kEmulatorVendorId; }, nullptr},
-      {0x1018, 2, 4, [](const Emulator&, const Drive&) { return kEmulatorProductCode; }, nullptr},
-      {0x1018, 3, 4, [](const Emulator&, const Drive&) { return kEmulatorRevision; }, nullptr},
+      {0x1018, 1, 4, [](const Emulator& e, const Drive&) { return e.identity_.vendor_id; },
+       nullptr},
+      {0x1018, 2, 4, [](const Emulator& e, const Drive&) { return e.identity_.product_code; },
+       nullptr},
+      {0x1018, 3, 4, [](const Emulator& e, const Drive&) { return e.identity_.revision; }, nullptr},
       {0x1018, 4, 4, [](const Emulator&, const Drive& d) { return 0x00010000u + d.node; }, nullptr},
       // RPDO1 and TPDO1: fixed (docs/protocol.md); synchronous.
       {0x1400, 0, 1, [](const Emulator&, const Drive&) { return 2u; }, nullptr},
@@ -195,7 +196,7 @@ Emulator::DriveObjects::DriveObjects(Emulator& emulator, Drive& drive)
 
 sdo::AbortCode Emulator::DriveObjects::find(std::uint16_t index, std::uint8_t subindex,
                                             sdo::ObjectInfo& info) {
-  if (const std::string_view s = string_object(index); !s.empty()) {
+  if (const std::string_view s = string_object(index, emulator_.identity_); !s.empty()) {
     if (subindex != 0) return sdo::kAbortSubindexDoesNotExist;
     info = sdo::ObjectInfo{static_cast<std::uint32_t>(s.size()), 0, true, false, true};
     return sdo::kNoAbort;
@@ -209,7 +210,7 @@ sdo::AbortCode Emulator::DriveObjects::find(std::uint16_t index, std::uint8_t su
 
 sdo::AbortCode Emulator::DriveObjects::read(std::uint16_t index, std::uint8_t subindex,
                                             std::uint32_t offset, std::span<std::uint8_t> out) {
-  if (const std::string_view s = string_object(index); !s.empty()) {
+  if (const std::string_view s = string_object(index, emulator_.identity_); !s.empty()) {
     std::memcpy(out.data(), s.data() + offset, out.size());
     return sdo::kNoAbort;
   }
@@ -234,6 +235,56 @@ sdo::AbortCode Emulator::DriveObjects::write(std::uint16_t index, std::uint8_t s
     staged_ |= std::uint32_t{data[i]} << (8 * (offset + i));
   }
   return last ? o->set(emulator_, drive_, staged_) : sdo::kNoAbort;
+}
+
+EmulatedIdentity identity_of(const delta::canopen::Eds& eds) {
+  EmulatedIdentity id;
+  id.vendor_id = eds.identity.vendor_id;
+  id.product_code = eds.identity.product_code;
+  id.revision = eds.identity.revision;
+  if (const delta::canopen::EdsVariable* name = eds.find(0x1008, 0); name != nullptr) {
+    id.device_name = name->default_text;
+  }
+  return id;
+}
+
+std::string Emulator::eds_mismatch(const delta::canopen::Eds& eds) {
+  return DriveObjects::mismatch(*objects_[0], eds);
+}
+
+// Both ways: each EDS variable against the drive, then each of the drive's
+// objects against the EDS.
+std::string Emulator::DriveObjects::mismatch(DriveObjects& drive, const delta::canopen::Eds& eds) {
+  char at[64];
+  for (const auto& [key, v] : eds.variables) {
+    std::snprintf(at, sizeof at, ":%d: 0x%04X:%02X (", v.line, v.index, v.subindex);
+    const std::string where = eds.path + at + v.name + ")";
+    sdo::ObjectInfo info;
+    if (drive.find(v.index, v.subindex, info) != sdo::kNoAbort) {
+      return where + " is not an object of the emulated drive";
+    }
+    if (v.size_bytes() != (info.variable_length ? 0 : info.size)) {
+      return where + " has " + std::to_string(v.size_bytes()) +
+             " bytes; the emulated drive's has " + std::to_string(info.size);
+    }
+    if (delta::canopen::writable(v.access) != info.writable) {
+      return where + (info.writable ? " is writable" : " is read-only") + " in the emulated drive";
+    }
+  }
+  for (const Object& o : objects()) {
+    if (eds.find(o.index, o.subindex) == nullptr) {
+      std::snprintf(at, sizeof at, "0x%04X:%02X", o.index, o.subindex);
+      return eds.path + ": the emulated drive has object " + at + ", which the EDS does not list";
+    }
+  }
+  for (const std::uint16_t index :
+       {std::uint16_t{0x1008}, std::uint16_t{0x1009}, std::uint16_t{0x100A}}) {
+    if (eds.find(index, 0) == nullptr) {
+      std::snprintf(at, sizeof at, "0x%04X:00", index);
+      return eds.path + ": the emulated drive has object " + at + ", which the EDS does not list";
+    }
+  }
+  return "";
 }
 
 }  // namespace emu

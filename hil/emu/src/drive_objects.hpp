@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 
 #include "delta/can/sdo.hpp"
 #include "emu/emulator.hpp"
@@ -19,6 +20,9 @@ class Emulator::DriveObjects final : public delta::can::sdo::ObjectDictionary {
                                   std::span<std::uint8_t> out) override;
   delta::can::sdo::AbortCode write(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
                                    std::span<const std::uint8_t> data, bool last) override;
+
+  // Where `eds` and these objects disagree, in words; "" if they agree.
+  static std::string mismatch(DriveObjects& drive, const delta::canopen::Eds& eds);
 
  private:
   // A scalar object: its size, how to read it, and how to write it

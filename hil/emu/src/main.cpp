@@ -70,7 +70,8 @@ void configure_plant(const std::string& plant, const std::string& robot_path,
 // The command line into config, or the exit code when it asked for help or
 // was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
-                                   emu::EmulatorConfig& config) {
+                                   emu::EmulatorConfig& config,
+                                   std::optional<delta::canopen::Eds>& eds) {
   CLI::App app(kDescription, "delta_drive_emu");
   app.set_version_flag("--version", std::string("delta_drive_emu ") + DELTA_VERSION);
   app.add_option("--can", iface, "the CAN interface (vcan0)")->required();
@@ -113,8 +114,16 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
           ">= 0"))
       ->capture_default_str();
   app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
+  std::string eds_path;
+  app.add_option("--eds", eds_path,
+                 "the drives' EDS (CiA 306), for their identity (0x1018) and name (0x1008); it "
+                 "must list exactly the emulated drive's objects (default: the identity of "
+                 "docs/eds/delta_drive_emu.eds)");
   try {
     app.parse(argc, argv);
+    if (!eds_path.empty()) {
+      eds = delta::canopen::read_eds(eds_path);
+    }
     if (initial->count()) config.initial_q_rad = {initial_q, initial_q, initial_q};
     configure_plant(plant, robot_path, truth->count() ? truth_path : std::string(), config);
     for (const std::string& f : faults) config.faults.push_back(emu::parse_fault(f));
@@ -134,7 +143,8 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
 int main(int argc, char** argv) {
   std::string iface;
   emu::EmulatorConfig config;
-  if (const auto exit_code = parse_arguments(argc, argv, iface, config)) return *exit_code;
+  std::optional<delta::canopen::Eds> eds;
+  if (const auto exit_code = parse_arguments(argc, argv, iface, config, eds)) return *exit_code;
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -158,6 +168,13 @@ int main(int argc, char** argv) {
         ++send_failures;
       }
     });
+    if (eds) {
+      emulator.set_identity(emu::identity_of(*eds));
+      if (const std::string m = emulator.eds_mismatch(*eds); !m.empty()) {
+        std::cerr << "delta_drive_emu: " << m << ": the EDS does not describe the emulated drive\n";
+        return 2;
+      }
+    }
     emulator.on_wall_time(monotonic_us());
     emulator.boot();
     std::cout << "delta_drive_emu: ready on " << iface << std::endl;

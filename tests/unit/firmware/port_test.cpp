@@ -453,6 +453,26 @@ TEST(InProcessPortTest, DrivesWithTheIdentityOfTheirEdsComeUp) {
   EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
 }
 
+// The second product (docs/eds/delta_drive_emu_b.eds): configured with its
+// EDS the bring-up takes it; configured with the first product's, it
+// refuses it.
+TEST(InProcessPortTest, TheBringUpFollowsTheEdsOfTheDriveOnTheBus) {
+  const std::string b = DELTA_EDS_DIR "/delta_drive_emu_b.eds";
+  PortConfig c = read_port_config(write_temp("mode = lockstep\njoint1.eds = " + b +
+                                             "\njoint2.eds = " + b + "\njoint3.eds = " + b + "\n"));
+  Rig rig(c, {});
+  rig.bus.emulator_.set_identity(emu::identity_of(delta::canopen::read_eds(b)));
+  EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  const std::string a = DELTA_EDS_DIR "/delta_drive_emu.eds";
+  c = read_port_config(write_temp("mode = lockstep\njoint1.eds = " + a + "\n"));
+  Rig wrong(c, {});
+  wrong.bus.emulator_.set_identity(emu::identity_of(delta::canopen::read_eds(b)));
+  for (int n = 0; n < 50 && wrong.controller.state() != fw::State::kFault; ++n) wrong.cycle();
+  EXPECT_EQ(wrong.master.last_problem(),
+            "node 1, 0x1018:02: product code 0x00000403; joint1.eds = " + a +
+                " expects 0x00000402: is this the drive the configuration describes?");
+}
+
 TEST(InProcessPortTest, ADriveOfAnotherProductOrSerialIsRefusedNamingNodeObjectAndBothValues) {
   PortConfig c = Rig::config();
   c.joints[1].identity.product_code = 0x00000403;

@@ -4,6 +4,8 @@
 // before its fix (#17's list of deviations).
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -186,10 +188,14 @@ TEST(EmulatedDriveTest, APreOperationalDriveSendsItsHeartbeatWhileSyncsFlow) {
 // The EDS the product ships for the emulated drive (docs/eds/) and the
 // drive agree object by object: what the EDS lists answers with its size
 // and access, and nothing answers that the EDS does not list.
-TEST(EmulatedDriveTest, AgreesWithItsEdsObjectByObject) {
+class EmulatedDriveEdsTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(EmulatedDriveEdsTest, AgreesWithItsEdsObjectByObject) {
   namespace canopen = delta::canopen;
-  const canopen::Eds eds = canopen::read_eds(DELTA_EDS_DIR "/delta_drive_emu.eds");
+  const canopen::Eds eds = canopen::read_eds(std::string(DELTA_EDS_DIR "/") + GetParam());
   Bus bus;
+  bus.emulator.set_identity(identity_of(eds));
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds), "");
   for (const auto& [key, v] : eds.variables) {
     SCOPED_TRACE(v.name);
     ASSERT_TRUE(canopen::readable(v.access));
@@ -238,6 +244,38 @@ TEST(EmulatedDriveTest, AgreesWithItsEdsObjectByObject) {
       }
     }
   }
+}
+
+INSTANTIATE_TEST_SUITE_P(BothProducts, EmulatedDriveEdsTest,
+                         ::testing::Values("delta_drive_emu.eds", "delta_drive_emu_b.eds"));
+
+// delta_drive_emu --eds refuses an EDS that does not describe it, saying
+// where they differ.
+TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
+  namespace canopen = delta::canopen;
+  Bus bus;
+  const auto eds_text = [](const std::string& from, const std::string& to) {
+    std::ifstream in(DELTA_EDS_DIR "/delta_drive_emu.eds");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    text.replace(text.find(from), from.size(), to);
+    return canopen::parse_eds(text, "x.eds");
+  };
+  EXPECT_EQ(
+      bus.emulator.eds_mismatch(eds_text("DataType=0x0006\nAccessType=rw\nDefaultValue=3000",
+                                         "DataType=0x0007\nAccessType=rw\nDefaultValue=3000")),
+      "x.eds:348: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text(
+                "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=rw",
+                "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=ro")),
+            "x.eds:348: 0x6073:00 (Max current) is writable in the emulated drive");
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=22\n", "SupportedObjects=21\n")),
+            "x.eds: the emulated drive has object 0x606C:00, which the EDS does not list");
+  EXPECT_EQ(
+      bus.emulator.eds_mismatch(eds_text("[ManufacturerObjects]\nSupportedObjects=0",
+                                         "[ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n"
+                                         "[2000]\nParameterName=Extra\nDataType=0x0007\n"
+                                         "AccessType=rw")),
+      "x.eds:416: 0x2000:00 (Extra) is not an object of the emulated drive");
 }
 
 }  // namespace

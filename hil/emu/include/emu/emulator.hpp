@@ -23,6 +23,7 @@
 #include "delta/can/cia402.hpp"
 #include "delta/can/sdo.hpp"
 #include "delta/can/socketcan.hpp"
+#include "delta/canopen/eds.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/plant.hpp"
@@ -57,6 +58,23 @@ enum class PlantKind : std::uint8_t {
   kMujoco,  // the multibody robot of `robot` (delta_drive_emu's default)
 };
 
+// The emulated drives' identity (0x1018) and name (0x1008). The default
+// vendor ID is not one CiA assigned: no real drive has it.
+inline constexpr std::uint32_t kEmulatorVendorId = 0x0000DE17;
+inline constexpr std::uint32_t kEmulatorProductCode = 0x00000402;
+inline constexpr std::uint32_t kEmulatorRevision = 0x00010000;
+
+struct EmulatedIdentity {
+  std::uint32_t vendor_id{kEmulatorVendorId};
+  std::uint32_t product_code{kEmulatorProductCode};
+  std::uint32_t revision{kEmulatorRevision};
+  std::string device_name{"Delta emulated CiA 402 drive"};
+  // The serial number is 0x00010000 + the node ID.
+};
+
+// The identity an EDS describes ([DeviceInfo], 0x1008's DefaultValue).
+EmulatedIdentity identity_of(const delta::canopen::Eds& eds);
+
 struct EmulatorConfig {
   PlantKind plant{PlantKind::kLumped};
   delta::RobotDescription robot{delta::default_robot_description()};
@@ -78,13 +96,6 @@ struct EmulatorConfig {
 // Frames leave with a delay (wall clock, microseconds; 0 = now).
 using Outbox = std::function<void(const delta::can::Frame&, std::uint32_t delay_us)>;
 
-// The emulated drives' identity (0x1018). The vendor ID is not one CiA
-// assigned: no real drive has it.
-inline constexpr std::uint32_t kEmulatorVendorId = 0x0000DE17;
-inline constexpr std::uint32_t kEmulatorProductCode = 0x00000402;
-inline constexpr std::uint32_t kEmulatorRevision = 0x00010000;
-// The serial number is 0x00010000 + the node ID.
-
 class Emulator {
  public:
   Emulator(const EmulatorConfig& config, Outbox out);
@@ -104,6 +115,11 @@ class Emulator {
   delta::Joint3 qd_rad_s() const { return plant_->state().qd_rad_s; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
+  // The drives' identity and name (default: EmulatedIdentity{}).
+  void set_identity(const EmulatedIdentity& identity) { identity_ = identity; }
+  // Where an EDS and the emulated drive's objects disagree (an object one
+  // has and the other not, a size, an access), in words; "" if they agree.
+  std::string eds_mismatch(const delta::canopen::Eds& eds);
   // A line per drive: node, NMT state, CiA 402 state.
   std::string describe() const;
   // Set when the plant faulted (diverged, ran away, left the workspace, its
@@ -163,6 +179,7 @@ class Emulator {
   std::int32_t velocity_counts_s(const Drive& d, double qd) const;
 
   EmulatorConfig config_;
+  EmulatedIdentity identity_;
   Outbox out_;
   std::array<Drive, 3> drives_{};
   std::array<std::unique_ptr<DriveObjects>, 3> objects_;
