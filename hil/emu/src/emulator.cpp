@@ -122,7 +122,8 @@ Emulator::Emulator(const EmulatorConfig& config, Outbox out)
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];
     drives_[j].tpdo2_cob = p::cob_id(p::kTpdo2, drives_[j].node) | od::kPdoInvalid;
-    objects_[j] = std::make_unique<DriveObjects>(*this, drives_[j]);
+    objects_[j] = std::make_unique<DriveTable>(DriveContext{*this, drives_[j]},
+                                               DriveObjects::scalars(), DriveObjects::texts());
     sdo_servers_[j] = std::make_unique<sdo::Server>(*objects_[j]);
   }
 }

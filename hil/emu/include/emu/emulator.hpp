@@ -24,6 +24,7 @@
 #include "delta/can/sdo.hpp"
 #include "delta/can/socketcan.hpp"
 #include "delta/canopen/eds.hpp"
+#include "delta/canopen/object_table.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/plant.hpp"
@@ -155,7 +156,9 @@ class Emulator {
     bool corrupt_next{false};
     std::uint32_t delay_us{0};
   };
-  class DriveObjects;  // a drive's object dictionary (drive_objects.hpp)
+  struct DriveContext;  // a drive's object dictionary (drive_objects.hpp)
+  class DriveObjects;
+  using DriveTable = delta::canopen::ObjectTable<DriveContext>;
 
   void handle_nmt(const delta::can::Frame& f);
   void handle_sdo(unsigned j, const delta::can::Frame& f);
@@ -182,7 +185,7 @@ class Emulator {
   EmulatedIdentity identity_;
   Outbox out_;
   std::array<Drive, 3> drives_{};
-  std::array<std::unique_ptr<DriveObjects>, 3> objects_;
+  std::array<std::unique_ptr<DriveTable>, 3> objects_;
   std::array<std::unique_ptr<delta::can::sdo::Server>, 3> sdo_servers_;
   std::unique_ptr<delta::Plant> plant_;
   std::uint64_t sim_us_{0};

@@ -1,0 +1,145 @@
+// A node's object dictionary as a table, behind common's SDO server: each
+// scalar object with its size and how to read and (if writable) write it
+// from the node's state, each visible string with how to read it. Written
+// once for the emulated drives and the controller's own node; the same
+// table checks that the node's EDS describes it.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <span>
+#include <string>
+
+#include "delta/can/sdo.hpp"
+#include "delta/canopen/eds.hpp"
+
+namespace delta::canopen {
+
+template <class Context>
+class ObjectTable final : public can::sdo::ObjectDictionary {
+ public:
+  struct Scalar {
+    std::uint16_t index;
+    std::uint8_t subindex;
+    std::uint8_t size;  // bytes, 1 to 4
+    std::uint32_t (*get)(const Context&);
+    // nullptr: read-only. Checks the value; an abort leaves the state as it was.
+    can::sdo::AbortCode (*set)(Context&, std::uint32_t);
+  };
+  struct Text {  // a read-only VISIBLE_STRING
+    std::uint16_t index;
+    std::uint8_t subindex;
+    std::string (*get)(const Context&);
+  };
+
+  ObjectTable(Context context, std::span<const Scalar> scalars, std::span<const Text> texts)
+      : context_(context), scalars_(scalars), texts_(texts) {}
+
+  can::sdo::AbortCode find(std::uint16_t index, std::uint8_t subindex,
+                           can::sdo::ObjectInfo& info) override {
+    if (const Text* t = text(index, subindex)) {
+      info = {static_cast<std::uint32_t>(t->get(context_).size()), 0, true, false, true};
+      return can::sdo::kNoAbort;
+    }
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    const Scalar* s = scalar(index, subindex, code);
+    if (s == nullptr) return code;
+    info = {s->size, s->size, true, s->set != nullptr, false};
+    return can::sdo::kNoAbort;
+  }
+
+  can::sdo::AbortCode read(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
+                           std::span<std::uint8_t> out) override {
+    if (const Text* t = text(index, subindex)) {
+      const std::string value = t->get(context_);
+      if (offset + out.size() > value.size()) return can::sdo::kAbortNoData;  // it changed
+      if (!out.empty()) std::memcpy(out.data(), value.data() + offset, out.size());
+      return can::sdo::kNoAbort;
+    }
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    const Scalar* s = scalar(index, subindex, code);
+    if (s == nullptr) return code;
+    const std::uint32_t v = s->get(context_);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      out[i] = static_cast<std::uint8_t>(v >> (8 * (offset + i)));
+    }
+    return can::sdo::kNoAbort;
+  }
+
+  can::sdo::AbortCode write(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
+                            std::span<const std::uint8_t> data, bool last) override {
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    const Scalar* s = scalar(index, subindex, code);
+    if (s == nullptr) return text(index, subindex) ? can::sdo::kAbortReadOnly : code;
+    if (s->set == nullptr) return can::sdo::kAbortReadOnly;
+    if (offset == 0) staged_ = 0;
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      staged_ |= std::uint32_t{data[i]} << (8 * (offset + i));
+    }
+    return last ? s->set(context_, staged_) : can::sdo::kNoAbort;
+  }
+
+  // Where `eds` and this table disagree, both ways (an object one has and
+  // the other not, a size, write access), in words with the EDS's line and
+  // `node` for the node ("the emulated drive"); "" if they agree.
+  std::string mismatch(const Eds& eds, const std::string& node) {
+    char at[64];
+    for (const auto& [key, v] : eds.variables) {
+      std::snprintf(at, sizeof at, ":%d: 0x%04X:%02X (", v.line, v.index, v.subindex);
+      const std::string where = eds.path + at + v.name + ")";
+      can::sdo::ObjectInfo info;
+      if (find(v.index, v.subindex, info) != can::sdo::kNoAbort)
+        return where + " is not an object of " + node;
+      if (v.size_bytes() != (info.variable_length ? 0 : info.size)) {
+        return where + " has " + std::to_string(v.size_bytes()) + " bytes; " + node + "'s has " +
+               std::to_string(info.size);
+      }
+      if (writable(v.access) != info.writable) {
+        return where + (info.writable ? " is writable" : " is read-only") + " in " + node;
+      }
+    }
+    const auto unlisted = [&](std::uint16_t index, std::uint8_t subindex) {
+      std::snprintf(at, sizeof at, "0x%04X:%02X", index, subindex);
+      return eds.path + ": " + node + " has object " + at + ", which the EDS does not list";
+    };
+    for (const Scalar& s : scalars_) {
+      if (eds.find(s.index, s.subindex) == nullptr) return unlisted(s.index, s.subindex);
+    }
+    for (const Text& t : texts_) {
+      if (eds.find(t.index, t.subindex) == nullptr) return unlisted(t.index, t.subindex);
+    }
+    return "";
+  }
+
+ private:
+  const Text* text(std::uint16_t index, std::uint8_t subindex) const {
+    for (const Text& t : texts_) {
+      if (t.index == index && t.subindex == subindex) return &t;
+    }
+    return nullptr;
+  }
+  const Scalar* scalar(std::uint16_t index, std::uint8_t subindex,
+                       can::sdo::AbortCode& code) const {
+    code = can::sdo::kAbortObjectDoesNotExist;
+    for (const Scalar& s : scalars_) {
+      if (s.index != index) continue;
+      if (s.subindex == subindex) {
+        code = can::sdo::kNoAbort;
+        return &s;
+      }
+      code = can::sdo::kAbortSubindexDoesNotExist;
+    }
+    for (const Text& t : texts_) {
+      if (t.index == index) code = can::sdo::kAbortSubindexDoesNotExist;
+    }
+    return nullptr;
+  }
+
+  Context context_;
+  std::span<const Scalar> scalars_;
+  std::span<const Text> texts_;
+  std::uint32_t staged_{0};  // a download's bytes until its last piece
+};
+
+}  // namespace delta::canopen
