@@ -17,7 +17,7 @@
 #include "delta/can/cia402.hpp"
 #include "delta/can/protocol.hpp"
 #include "fw/controller.hpp"
-#include "fw_linux/announcer.hpp"
+#include "fw_linux/controller_node.hpp"
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/monotonic_clock.hpp"
 #include "fw_linux/run_coordinator.hpp"
@@ -39,8 +39,18 @@ bool wait_readable_until(int fd, std::uint64_t deadline_us) {
   return ppoll(&pfd, 1, &ts, nullptr) > 0;
 }
 
-void drain(delta::can::Socket& socket, CanopenMaster& master) {
-  while (auto r = socket.receive()) master.on_frame(*r, monotonic_us());
+// Frames to the controller's own node (NMT, its SDO requests) go there;
+// the rest (the drives') to the master.
+void drain(delta::can::Socket& socket, CanopenMaster& master, ControllerNode& node) {
+  const std::uint32_t own_sdo = p::cob_id(p::kSdoRx, p::kControllerNode);
+  while (auto r = socket.receive()) {
+    const bool own = !r->error && (r->frame.id == p::cob_id(p::kNmt, 0) || r->frame.id == own_sdo);
+    if (own) {
+      node.on_frame(r->frame, monotonic_us());
+    } else {
+      master.on_frame(*r, monotonic_us());
+    }
+  }
 }
 
 void set_realtime(int priority, std::ostream& out) {
@@ -107,13 +117,17 @@ std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerCo
 // What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats (and
 // error frames, which need no filter).
 delta::can::Socket open_drive_socket(const std::string& iface) {
-  return delta::can::Socket::open(iface,
-                                  {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
-                                   {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
-                                   {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
-                                   {p::kEmcy.base_id, p::kFunctionCodeMask, false},
-                                   {p::kHeartbeat.base_id, p::kFunctionCodeMask, false}},
-                                  1 << 20);
+  return delta::can::Socket::open(
+      iface,
+      {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
+       {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
+       {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
+       {p::kEmcy.base_id, p::kFunctionCodeMask, false},
+       {p::kHeartbeat.base_id, p::kFunctionCodeMask, false},
+       // and what comes to the controller's own node
+       {p::cob_id(p::kNmt, 0), p::kStandardIdMask, false},
+       {p::cob_id(p::kSdoRx, p::kControllerNode), p::kStandardIdMask, false}},
+      1 << 20);
 }
 
 // The real-time tick: a timerfd every period, and the wake-up latencies in
@@ -187,16 +201,17 @@ struct Loop {
         master(config, sink),
         hw(master, io, sink),
         controller(hw, core),
-        announcer(sink, config),
+        node(sink, config),
         coordinator(std::move(runs), options.exit_when_done, options.panel, out) {
     if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
+    hw.gate_pdos(&node);
   }
   delta::can::Socket socket;
   SocketSink sink;
   CanopenMaster master;
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
-  Announcer announcer;
+  ControllerNode node;
   RunCoordinator coordinator;
 };
 
@@ -206,7 +221,7 @@ struct Loop {
 // request's, if sooner).
 void exchange(Loop& l, std::optional<std::uint64_t> window_end_us,
               std::uint64_t lockstep_timeout_us) {
-  drain(l.socket, l.master);  // whatever came after the last window is late
+  drain(l.socket, l.master, l.node);  // whatever came after the last window is late
   l.master.begin_cycle(monotonic_us());
   std::uint64_t deadline_us = window_end_us ? *window_end_us : monotonic_us() + lockstep_timeout_us;
   if (!window_end_us && l.master.sdo_deadline_us() != 0) {
@@ -214,7 +229,7 @@ void exchange(Loop& l, std::optional<std::uint64_t> window_end_us,
   }
   while (!l.master.exchange_complete()) {
     if (!wait_readable_until(l.socket.fd(), deadline_us)) break;
-    drain(l.socket, l.master);
+    drain(l.socket, l.master, l.node);
   }
   l.master.end_window();
 }
@@ -274,7 +289,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
     l.master.send_commands();
     stats.step_max_us =
         std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
-    l.announcer.after_step(l.controller.fault(), l.controller.cycles());
+    l.node.after_step(l.controller.fault(), l.controller.cycles(), monotonic_us());
     ++stats.cycles;
     l.coordinator.after_step(l.controller, l.hw, l.master);
     if (const auto code = l.coordinator.exit_code()) exit_code = *code;

@@ -9,9 +9,9 @@
 #include "delta/can/protocol.hpp"
 #include "emu/emulator.hpp"
 #include "fw/controller.hpp"
-#include "fw_linux/announcer.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/controller_node.hpp"
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/safety_io.hpp"
 
@@ -62,7 +62,7 @@ struct Rig {
         master(c, bus),
         hw(master, io, bus),
         controller(hw, controller_config(c)),
-        announcer(bus, c) {
+        node(bus, c) {
     bus.emulator_.boot();
   }
   static PortConfig config() {
@@ -77,14 +77,14 @@ struct Rig {
     master.end_window();
     controller.step();
     master.send_commands();
-    announcer.after_step(controller.fault(), controller.cycles());
+    node.after_step(controller.fault(), controller.cycles(), 0);
   }
   InProcessBus bus;
   CanopenMaster master;
   SimulatedSafetyIo io;
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
-  Announcer announcer;
+  ControllerNode node;
 };
 
 }  // namespace fw_linux

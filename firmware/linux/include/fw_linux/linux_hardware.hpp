@@ -8,6 +8,7 @@
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
 #include "fw_linux/canopen_master.hpp"
+#include "fw_linux/controller_node.hpp"
 #include "fw_linux/safety_io.hpp"
 
 namespace fw_linux {
@@ -52,9 +53,12 @@ class LinuxHardware {
   // here, and the core's sequence still counts it.
   bool log(const fw::LogRecord& r) {
     if (log_enabled_ != nullptr && !log_enabled_->load(std::memory_order_relaxed)) return true;
+    if (node_ != nullptr && !node_->pdos_allowed()) return true;  // NMT: not operational
     return send_log_frames(log_bus_, r);
   }
   void gate_log(const std::atomic<bool>* enabled) { log_enabled_ = enabled; }
+  // The log frames are the controller node's TPDOs: sent while it is operational.
+  void gate_pdos(const ControllerNode* node) { node_ = node; }
 
   // What the last cycle read and wrote on the safety lines.
   bool last_estop_open() const { return estop_open_; }
@@ -65,6 +69,7 @@ class LinuxHardware {
   SafetyIo& io_;
   FrameSink& log_bus_;
   const std::atomic<bool>* log_enabled_{nullptr};
+  const ControllerNode* node_{nullptr};
   bool estop_open_{false};
   fw::SafetyOutputs outputs_{};
 };

@@ -1,0 +1,75 @@
+// The controller's own CANopen node, node 16 (docs/protocol.md): an NMT
+// slave that starts itself (a self-starting NMT master, CiA 302), an SDO
+// server over its object dictionary (docs/eds/delta_fw.eds), its heartbeat
+// (0x710, every heartbeat_ms, which the drives supervise through 0x1016)
+// and an emergency (0x090) when it enters or leaves a fault, with the
+// fault code and cycle. The log frames are its TPDOs: sent only while it
+// is operational.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+
+#include "delta/can/sdo.hpp"
+#include "delta/canopen/eds.hpp"
+#include "delta/canopen/object_table.hpp"
+#include "fw/faults.hpp"
+#include "fw_linux/canopen_master.hpp"
+#include "fw_linux/config.hpp"
+
+namespace fw_linux {
+
+// The controller's identity (0x1018): the product's vendor ID (not one CiA
+// assigned), the product code of delta_fw, the version as the revision.
+inline constexpr std::uint32_t kControllerVendorId = 0x0000DE17;
+inline constexpr std::uint32_t kControllerProductCode = 0x00000016;
+
+class ControllerNode {
+ public:
+  ControllerNode(FrameSink& bus, const PortConfig& c);
+  ControllerNode(const ControllerNode&) = delete;
+  ControllerNode& operator=(const ControllerNode&) = delete;
+
+  // An NMT command (for node 16 or all) or an SDO request to node 16.
+  void on_frame(const delta::can::Frame& f, std::uint64_t now_us);
+  // After every control step: boot-up, emergencies, the heartbeat and the
+  // SDO server's timeouts.
+  void after_step(fw::Fault fault, std::uint32_t cycle, std::uint64_t now_us);
+
+  // CiA 301: PDOs only in operational.
+  bool pdos_allowed() const { return nmt_ == kOperational; }
+  std::uint8_t nmt_state() const { return nmt_; }
+  // Where `eds` and this node's objects disagree; "" if they agree.
+  std::string eds_mismatch(const delta::canopen::Eds& eds);
+
+ private:
+  static constexpr std::uint8_t kOperational = 5;
+  struct Context {
+    ControllerNode& node;
+  };
+  using Table = delta::canopen::ObjectTable<Context>;
+  static std::span<const Table::Scalar> scalars();
+  static std::span<const Table::Text> texts();
+
+  void handle_nmt(const delta::can::Frame& f);
+  void reset_communication();
+  void flush_sdo(std::uint64_t now_us);
+  void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data);
+
+  FrameSink& bus_;
+  std::uint32_t period_us_;
+  std::uint16_t configured_heartbeat_ms_;
+  std::uint16_t heartbeat_ms_;
+  std::uint32_t since_heartbeat_us_{0};
+  std::uint8_t nmt_{kOperational};
+  bool boot_up_due_{true};
+  fw::Fault fault_{fw::Fault::kNone};  // as of the last step (0x1001)
+  fw::Fault last_reported_{fw::Fault::kNone};
+  Table table_;
+  std::optional<delta::can::sdo::Server> server_;
+};
+
+}  // namespace fw_linux

@@ -1,0 +1,168 @@
+#include "fw_linux/controller_node.hpp"
+
+#include "delta/can/cia402.hpp"
+#include "delta/can/protocol.hpp"
+
+namespace fw_linux {
+
+namespace p = delta::can::protocol;
+namespace sdo = delta::can::sdo;
+
+namespace {
+
+static_assert(p::kNmtStateOperational == 5);
+
+constexpr std::uint32_t kVersionRevision =
+    (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR;
+
+std::string version_text() {
+  return std::to_string(DELTA_FW_VERSION_MAJOR) + "." + std::to_string(DELTA_FW_VERSION_MINOR) +
+         "." + std::to_string(DELTA_FW_VERSION_PATCH);
+}
+
+// The log frames LOG_A, LOG_B, LOG_C are node 16's TPDO1-3.
+constexpr std::uint32_t log_cob_id(unsigned tpdo) {
+  return tpdo == 0 ? p::kLogA.base_id : (tpdo == 1 ? p::kLogB.base_id : p::kLogC.base_id);
+}
+
+}  // namespace
+
+// The objects, in index order (docs/protocol.md, docs/eds/delta_fw.eds).
+std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
+  static const Table::Scalar kScalars[] = {
+      {0x1000, 0, 4, [](const Context&) { return 0u; }, nullptr},  // no standard profile
+      {0x1001, 0, 1, [](const Context& c) { return c.node.fault_ == fw::Fault::kNone ? 0u : 1u; },
+       nullptr},
+      {0x1017, 0, 2, [](const Context& c) { return std::uint32_t{c.node.heartbeat_ms_}; },
+       [](Context& c, std::uint32_t v) {
+         c.node.heartbeat_ms_ = static_cast<std::uint16_t>(v);
+         c.node.since_heartbeat_us_ = 0;
+         return sdo::kNoAbort;
+       }},
+      {0x1018, 0, 1, [](const Context&) { return 4u; }, nullptr},
+      {0x1018, 1, 4, [](const Context&) { return kControllerVendorId; }, nullptr},
+      {0x1018, 2, 4, [](const Context&) { return kControllerProductCode; }, nullptr},
+      {0x1018, 3, 4, [](const Context&) { return kVersionRevision; }, nullptr},
+      {0x1018, 4, 4, [](const Context&) { return 0u; }, nullptr},
+      {0x1800, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1800, 1, 4, [](const Context&) { return log_cob_id(0); }, nullptr},
+      {0x1800, 2, 1, [](const Context&) { return 1u; }, nullptr},  // every SYNC
+      {0x1801, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1801, 1, 4, [](const Context&) { return log_cob_id(1); }, nullptr},
+      {0x1801, 2, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1802, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1802, 1, 4, [](const Context&) { return log_cob_id(2); }, nullptr},
+      {0x1802, 2, 1, [](const Context&) { return 1u; }, nullptr},
+  };
+  return kScalars;
+}
+
+std::span<const ControllerNode::Table::Text> ControllerNode::texts() {
+  static const Table::Text kTexts[] = {
+      {0x1008, 0, [](const Context&) { return std::string("delta_fw"); }},
+      {0x1009, 0, [](const Context&) { return std::string("Linux"); }},
+      {0x100A, 0, [](const Context&) { return version_text(); }},
+  };
+  return kTexts;
+}
+
+ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c)
+    : bus_(bus),
+      period_us_(c.period_us),
+      configured_heartbeat_ms_(static_cast<std::uint16_t>(c.heartbeat_ms)),
+      heartbeat_ms_(configured_heartbeat_ms_),
+      table_(Context{*this}, scalars(), texts()) {
+  server_.emplace(table_);
+}
+
+std::string ControllerNode::eds_mismatch(const delta::canopen::Eds& eds) {
+  return table_.mismatch(eds, "the controller");
+}
+
+void ControllerNode::on_frame(const delta::can::Frame& f, std::uint64_t now_us) {
+  if (f.extended || f.remote || f.error_frame) return;
+  if (f.id == p::cob_id(p::kNmt, 0)) return handle_nmt(f);
+  if (f.id != p::cob_id(p::kSdoRx, p::kControllerNode) || f.dlc != 8) return;
+  if (nmt_ == p::kNmtStateStopped) return;  // CiA 301: NMT and error control only
+  server_->on_frame(f.data, now_us);
+  flush_sdo(now_us);
+}
+
+void ControllerNode::handle_nmt(const delta::can::Frame& f) {
+  if (f.dlc != 2 || (f.data[1] != 0 && f.data[1] != p::kControllerNode)) return;
+  switch (f.data[0]) {
+    case p::kNmtStart:
+      nmt_ = kOperational;
+      break;
+    case p::kNmtStop:
+      nmt_ = p::kNmtStateStopped;
+      break;
+    case p::kNmtEnterPreOperational:
+      nmt_ = p::kNmtStatePreOperational;
+      break;
+    case p::kNmtResetNode:
+    case p::kNmtResetCommunication:
+      reset_communication();
+      break;
+    default:
+      break;
+  }
+}
+
+// The communication objects back to the configuration, a transfer in
+// progress dropped, the boot-up message; then it starts itself again.
+void ControllerNode::reset_communication() {
+  heartbeat_ms_ = configured_heartbeat_ms_;
+  since_heartbeat_us_ = 0;
+  server_.emplace(table_);
+  boot_up_due_ = true;
+}
+
+void ControllerNode::flush_sdo(std::uint64_t now_us) {
+  sdo::Payload reply;
+  while (server_->pending(reply)) {
+    send(p::cob_id(p::kSdoTx, p::kControllerNode), 8, reply);
+    server_->sent(now_us);
+  }
+}
+
+void ControllerNode::after_step(fw::Fault fault, std::uint32_t cycle, std::uint64_t now_us) {
+  if (boot_up_due_) {
+    send(p::kControllerHeartbeat.base_id, p::kControllerHeartbeat.dlc, {p::kNmtStateBootUp});
+    boot_up_due_ = false;
+    nmt_ = kOperational;
+  }
+  fault_ = fault;
+  if (fault != last_reported_ && nmt_ != p::kNmtStateStopped) {
+    std::array<std::uint8_t, 8> d{};
+    const std::uint16_t code =
+        fault == fw::Fault::kNone
+            ? delta::can::od::kEmcyErrorReset
+            : static_cast<std::uint16_t>(delta::can::od::kEmcyControllerFaultBase +
+                                         static_cast<std::uint16_t>(fault));
+    p::pack(d, p::kControllerEmcyErrorCode, code);
+    p::pack(d, p::kControllerEmcyErrorRegister, fault == fw::Fault::kNone ? 0 : 1);
+    p::pack(d, p::kControllerEmcyFaultCode, static_cast<std::uint16_t>(fault));
+    p::pack(d, p::kControllerEmcyCycle, cycle);
+    send(p::kControllerEmcy.base_id, p::kControllerEmcy.dlc, d);
+    last_reported_ = fault;
+  }
+  since_heartbeat_us_ += period_us_;
+  if (heartbeat_ms_ != 0 && since_heartbeat_us_ >= std::uint32_t{heartbeat_ms_} * 1000u) {
+    since_heartbeat_us_ = 0;
+    send(p::kControllerHeartbeat.base_id, p::kControllerHeartbeat.dlc, {nmt_});
+  }
+  server_->tick(now_us);
+  flush_sdo(now_us);
+}
+
+void ControllerNode::send(std::uint32_t id, std::uint8_t dlc,
+                          const std::array<std::uint8_t, 8>& data) {
+  delta::can::Frame f;
+  f.id = id;
+  f.dlc = dlc;
+  f.data = data;
+  bus_.send(f);
+}
+
+}  // namespace fw_linux

@@ -1,0 +1,195 @@
+// The controller's own CANopen node (node 16): boot-up and heartbeat, its
+// SDO server and object dictionary (against docs/eds/delta_fw.eds), NMT
+// commands, and emergencies.
+#include "fw_linux/controller_node.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "delta/can/protocol.hpp"
+
+namespace fw_linux {
+namespace {
+
+namespace p = delta::can::protocol;
+namespace sdo = delta::can::sdo;
+using delta::can::Frame;
+
+struct Recorder : FrameSink {
+  std::vector<Frame> frames;
+  bool send(const Frame& f) override {
+    frames.push_back(f);
+    return true;
+  }
+  std::vector<Frame> take() { return std::exchange(frames, {}); }
+};
+
+struct NodeRig {
+  Recorder bus;
+  PortConfig config;
+  ControllerNode node{bus, config};
+  std::uint64_t now_us{0};
+  sdo::Client client;
+
+  void step(fw::Fault fault = fw::Fault::kNone, int cycles = 1) {
+    for (int i = 0; i < cycles; ++i) {
+      now_us += config.period_us;
+      node.after_step(fault, 0, now_us);
+    }
+  }
+  void frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
+    Frame f{};
+    f.id = id;
+    f.dlc = dlc;
+    f.data = data;
+    node.on_frame(f, now_us);
+  }
+  void nmt(std::uint8_t command, std::uint8_t node_id) {
+    frame(p::cob_id(p::kNmt, 0), 2, {command, node_id});
+  }
+  // One whole transfer with common's client; the answers node 16 sent.
+  void transfer() {
+    for (int guard = 0; guard < 1000 && client.status() == sdo::ClientStatus::kBusy; ++guard) {
+      sdo::Payload request;
+      if (!client.pending(request)) break;
+      client.sent(now_us);
+      frame(p::cob_id(p::kSdoRx, p::kControllerNode), 8, request);
+      for (const Frame& f : bus.take()) {
+        if (f.id == p::cob_id(p::kSdoTx, p::kControllerNode)) client.on_frame(f.data, now_us);
+      }
+    }
+  }
+  std::string read_text(std::uint16_t index) {
+    std::vector<std::uint8_t> buffer(64);
+    client.upload(index, 0, buffer, sdo::Transfer::kAuto, now_us);
+    transfer();
+    EXPECT_EQ(client.status(), sdo::ClientStatus::kDone) << sdo::abort_meaning(client.abort_code());
+    return std::string(buffer.begin(), buffer.begin() + client.uploaded_size());
+  }
+  std::uint32_t read(std::uint16_t index, std::uint8_t sub) {
+    std::vector<std::uint8_t> buffer(4);
+    client.upload(index, sub, buffer, sdo::Transfer::kAuto, now_us);
+    transfer();
+    EXPECT_EQ(client.status(), sdo::ClientStatus::kDone) << sdo::abort_meaning(client.abort_code());
+    std::uint32_t v = 0;
+    for (unsigned i = 0; i < client.uploaded_size(); ++i) v |= std::uint32_t{buffer[i]} << (8 * i);
+    return v;
+  }
+  std::vector<std::uint8_t> heartbeats() {
+    std::vector<std::uint8_t> states;
+    for (const Frame& f : bus.take()) {
+      if (f.id == p::kControllerHeartbeat.base_id) states.push_back(f.data[0]);
+    }
+    return states;
+  }
+};
+
+TEST(ControllerNodeTest, BootsUpThenSendsItsHeartbeatEveryHeartbeatTime) {
+  NodeRig rig;  // 2 ms cycles, heartbeat every 50 ms
+  rig.step();
+  EXPECT_EQ(rig.heartbeats(), std::vector<std::uint8_t>{0});  // boot-up
+  rig.step(fw::Fault::kNone, 100);
+  EXPECT_EQ(rig.heartbeats(), (std::vector<std::uint8_t>{5, 5, 5, 5}));  // 200 ms, operational
+  EXPECT_TRUE(rig.node.pdos_allowed());
+}
+
+TEST(ControllerNodeTest, AnswersSdoWithItsIdentityNameAndVersion) {
+  NodeRig rig;
+  rig.step();
+  EXPECT_EQ(rig.read(0x1018, 1), kControllerVendorId);
+  EXPECT_EQ(rig.read(0x1018, 2), kControllerProductCode);
+  EXPECT_EQ(rig.read(0x1018, 3),
+            (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR);
+  EXPECT_EQ(rig.read_text(0x1008), "delta_fw");  // 8 bytes: a segmented upload
+  EXPECT_EQ(rig.read_text(0x100A), DELTA_PROJECT_VERSION);
+  EXPECT_EQ(rig.read(0x1800, 1), p::kLogA.base_id);
+  EXPECT_EQ(rig.read(0x1802, 1), p::kLogC.base_id);
+  const std::uint8_t one[] = {10};
+  rig.client.download(0x1017, 0, one, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  EXPECT_EQ(rig.client.abort_code(), sdo::kAbortLengthTooLow);
+  const std::uint8_t four[] = {0, 0, 0, 0};
+  rig.client.download(0x1000, 0, four, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  EXPECT_EQ(rig.client.abort_code(), sdo::kAbortReadOnly);
+  // The producer heartbeat time is writable: 10 ms.
+  const std::uint8_t ten[] = {10, 0};
+  rig.client.download(0x1017, 0, ten, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  ASSERT_EQ(rig.client.status(), sdo::ClientStatus::kDone);
+  rig.bus.take();
+  rig.step(fw::Fault::kNone, 50);
+  EXPECT_EQ(rig.heartbeats().size(), 10u);
+}
+
+TEST(ControllerNodeTest, ObeysNmtForItselfAndAllAndIgnoresOtherNodes) {
+  NodeRig rig;
+  rig.step();
+  rig.nmt(p::kNmtStop, 3);  // another node's
+  EXPECT_TRUE(rig.node.pdos_allowed());
+  rig.nmt(p::kNmtStop, p::kControllerNode);
+  EXPECT_FALSE(rig.node.pdos_allowed());
+  rig.bus.take();
+  // Stopped: the heartbeat says so; no SDO answer, no EMCY.
+  rig.step(fw::Fault::kDriveConfigFailed, 25);
+  bool emcy = false;
+  for (const Frame& f : rig.bus.frames) emcy = emcy || f.id == p::kControllerEmcy.base_id;
+  EXPECT_FALSE(emcy);
+  EXPECT_EQ(rig.heartbeats(), std::vector<std::uint8_t>{4});
+  rig.frame(p::cob_id(p::kSdoRx, p::kControllerNode), 8, sdo::upload_request(0x1000, 0));
+  EXPECT_TRUE(rig.bus.take().empty());
+  rig.nmt(p::kNmtEnterPreOperational, 0);  // all nodes
+  rig.step(fw::Fault::kDriveConfigFailed, 25);
+  EXPECT_FALSE(rig.node.pdos_allowed());
+  EXPECT_EQ(rig.heartbeats(), std::vector<std::uint8_t>{127});
+  rig.nmt(p::kNmtStart, 0);
+  EXPECT_TRUE(rig.node.pdos_allowed());
+  EXPECT_EQ(rig.read(0x1001, 0), 1u);  // in fault: the error register's generic bit
+}
+
+TEST(ControllerNodeTest, ResetCommunicationRestoresTheHeartbeatAndBootsUpAgain) {
+  NodeRig rig;
+  rig.step();
+  const std::uint8_t zero[] = {0, 0};
+  rig.client.download(0x1017, 0, zero, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  rig.bus.take();
+  rig.step(fw::Fault::kNone, 50);
+  EXPECT_TRUE(rig.heartbeats().empty());  // 0: no heartbeat
+  rig.nmt(p::kNmtResetCommunication, p::kControllerNode);
+  rig.step(fw::Fault::kNone, 25);
+  EXPECT_EQ(rig.heartbeats(), (std::vector<std::uint8_t>{0, 5}));
+  EXPECT_EQ(rig.read(0x1017, 0), 50u);
+}
+
+TEST(ControllerNodeTest, SendsAnEmergencyOnEnteringAndLeavingAFault) {
+  NodeRig rig;
+  rig.step();
+  rig.bus.take();
+  rig.step(fw::Fault::kDriveConfigFailed);
+  rig.step(fw::Fault::kDriveConfigFailed);
+  rig.step(fw::Fault::kNone);
+  std::vector<std::uint16_t> codes;
+  for (const Frame& f : rig.bus.take()) {
+    if (f.id == p::kControllerEmcy.base_id)
+      codes.push_back(static_cast<std::uint16_t>(f.data[0] | f.data[1] << 8));
+  }
+  EXPECT_EQ(codes, (std::vector<std::uint16_t>{0xFF0A, 0x0000}));
+}
+
+TEST(ControllerNodeTest, ItsEdsListsExactlyItsObjects) {
+  NodeRig rig;
+  const delta::canopen::Eds eds = delta::canopen::read_eds(DELTA_EDS_DIR "/delta_fw.eds");
+  EXPECT_EQ(rig.node.eds_mismatch(eds), "");
+  EXPECT_EQ(eds.identity.vendor_id, kControllerVendorId);
+  EXPECT_EQ(eds.identity.product_code, kControllerProductCode);
+  EXPECT_EQ(eds.identity.revision,
+            (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR)
+      << "docs/eds/delta_fw.eds: RevisionNumber is the firmware's version";
+  EXPECT_EQ(eds.find(0x1017, 0)->default_value(16), rig.config.heartbeat_ms);
+}
+
+}  // namespace
+}  // namespace fw_linux
