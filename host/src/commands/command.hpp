@@ -45,5 +45,6 @@ void add_record_command(CLI::App& app, CommandContext& context);
 void add_excite_command(CLI::App& app, CommandContext& context);
 void add_status_command(CLI::App& app, CommandContext& context);
 void add_dbc_command(CLI::App& app, CommandContext& context);
+void add_sdo_command(CLI::App& app, CommandContext& context);
 
 }  // namespace host_id
