@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <csignal>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -666,6 +667,73 @@ TEST(SdoTool, ReadsAndWritesTheControllersAndADrivesObjects) {
   EXPECT_NE(err.find("node 42, 0x1000:00: no answer within 200 ms"), std::string::npos) << err;
   fw.terminate(60s);
   emu.terminate(30s);
+}
+
+// The drives watch the controller (0x1016): when delta_fw dies mid-motion
+// (SIGKILL: no clean exit), every drive faults with EMCY 0x8130 (heartbeat
+// lost) within its consumer timeout plus the emulator's wall-clock grace
+// for a starved lock-step controller (docs/hil.md), and drops its torque.
+TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
+  BusObserver bus;
+  hil::Child emu = start_emulator({"--plant", "lumped"});
+  hil::Child fw = hil::Child::spawn(
+      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
+  const auto all_enabled = [&bus] {
+    const auto frames = bus.snapshot();
+    int on = 0;
+    for (std::uint8_t node = 1; node <= 3; ++node) {
+      for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
+        if (it->id == p::cob_id(p::kTpdo1, node)) {
+          on += cia::decode_statusword(u16(*it)) == cia::State::kOperationEnabled;
+          break;
+        }
+      }
+    }
+    return on == 3;
+  };
+  while (!all_enabled()) ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
+  kill(fw.pid(), SIGKILL);
+  EXPECT_EQ(fw.wait(30s).value_or(-1), 128 + SIGKILL);
+  const auto heartbeat_lost = [&bus] {
+    int n = 0;
+    for (const Frame& f : bus.snapshot()) {
+      n += p::function_code(f.id) == p::kEmcy.base_id && f.id != p::kControllerEmcy.base_id &&
+           u16(f) == delta::can::od::kEmcyHeartbeat;
+    }
+    return n;
+  };
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (heartbeat_lost() < 3 && std::chrono::steady_clock::now() < deadline) {
+    ASSERT_FALSE(emu.wait_for_output("delta_drive_emu: stopped", 50ms));
+  }
+  const std::vector<Frame> frames = bus.stop();
+  emu.terminate(30s);
+  const auto& times = bus.kernel_times();
+  std::optional<std::chrono::nanoseconds> last_heartbeat;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i].id == p::kControllerHeartbeat.base_id) last_heartbeat = times[i];
+  }
+  ASSERT_TRUE(last_heartbeat.has_value());
+  for (std::uint8_t node = 1; node <= 3; ++node) {
+    SCOPED_TRACE("node " + std::to_string(node));
+    std::optional<std::chrono::nanoseconds> emcy;
+    for (std::size_t i = 0; i < frames.size() && !emcy; ++i) {
+      if (frames[i].id == p::cob_id(p::kEmcy, node) &&
+          u16(frames[i]) == delta::can::od::kEmcyHeartbeat) {
+        emcy = times[i];
+      }
+    }
+    ASSERT_TRUE(emcy.has_value()) << "no EMCY 0x8130";
+    const auto after_ms =
+        std::chrono::duration_cast<std::chrono::milliseconds>(*emcy - *last_heartbeat);
+    std::cout << "node " << int{node} << ": EMCY 0x8130 " << after_ms.count()
+              << " ms after the controller's last heartbeat\n";
+    // 150 ms timeout (controller_heartbeat_timeout_ms) + 1 s grace + the
+    // emulator's 10 ms poll and this machine's scheduling.
+    EXPECT_LE(after_ms.count(), 150 + 1000 + 250);
+    EXPECT_GE(after_ms.count(), 150);
+  }
 }
 
 // The e-stop on a real kernel GPIO chip (gpio-sim, in hil/vcan-run's VM):

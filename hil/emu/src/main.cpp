@@ -149,14 +149,16 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   try {
-    // What the controller sends to drives: NMT, SYNC, RPDO1 and SDO requests.
+    // What the controller sends to drives: NMT, SYNC, RPDO1 and SDO requests;
+    // and the heartbeats their consumers (0x1016) watch.
     namespace p = delta::can::protocol;
     delta::can::Socket socket =
         delta::can::Socket::open(iface,
                                  {{p::kNmt.base_id, p::kStandardIdMask, false},
                                   {p::kSync.base_id, p::kStandardIdMask, false},
                                   {p::kRpdo1.base_id, p::kFunctionCodeMask, false},
-                                  {p::kSdoRx.base_id, p::kFunctionCodeMask, false}},
+                                  {p::kSdoRx.base_id, p::kFunctionCodeMask, false},
+                                  {p::kHeartbeat.base_id, p::kFunctionCodeMask, false}},
                                  1 << 20);
     // Frames due later (delay-pdo), by wall time.
     std::multimap<std::uint64_t, delta::can::Frame> delayed;
