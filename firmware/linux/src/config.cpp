@@ -419,9 +419,20 @@ void validate(const PortConfig& c) {
           "approach_s, stop_s and blend_s must be positive");
   require(c.heartbeat_timeout_ms > c.heartbeat_ms,
           "heartbeat_timeout_ms must be longer than heartbeat_ms");
-  require(
-      c.controller_heartbeat_timeout_ms == 0 || c.controller_heartbeat_timeout_ms > c.heartbeat_ms,
-      "controller_heartbeat_timeout_ms must be 0 (off) or longer than heartbeat_ms");
+  // The heartbeat leaves after a control step: every heartbeat_ms rounded
+  // up to whole cycles. The drives must not time out between two.
+  const std::uint64_t heartbeat_interval_us =
+      (std::uint64_t{c.heartbeat_ms} * 1000 + c.period_us - 1) / c.period_us * c.period_us;
+  require(c.controller_heartbeat_timeout_ms == 0 ||
+              (c.heartbeat_ms != 0 &&
+               std::uint64_t{c.controller_heartbeat_timeout_ms} * 1000 > heartbeat_interval_us),
+          "controller_heartbeat_timeout_ms must be 0 (off) or longer than heartbeat_ms: the "
+          "controller's heartbeat comes every " +
+              std::to_string(heartbeat_interval_us / 1000) +
+              " ms (heartbeat_ms = " + std::to_string(c.heartbeat_ms) +
+              " in whole cycles of period_us = " + std::to_string(c.period_us) +
+              "), and controller_heartbeat_timeout_ms = " +
+              std::to_string(c.controller_heartbeat_timeout_ms));
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     const delta::DriveModel& m = c.joints[j].model;

@@ -172,7 +172,10 @@ void Emulator::boot() {
 }
 
 namespace {
-constexpr std::uint64_t kConsumerWallGraceUs = 1'000'000;
+// Longer than delta_fw's lock-step timeout (1 s): a drive that stays
+// silent makes each lock-step cycle last that long, and the controller is
+// still alive.
+constexpr std::uint64_t kConsumerWallGraceUs = 2'000'000;
 }  // namespace
 
 void Emulator::on_wall_time(std::uint64_t now_us) {
@@ -181,15 +184,20 @@ void Emulator::on_wall_time(std::uint64_t now_us) {
     sdo_servers_[j]->tick(now_us);
     flush_sdo(j);
   }
-  const bool syncs_flowing = last_sync_wall_us_ != 0 && now_us - last_sync_wall_us_ < 100000;
-  if (syncs_flowing) return;
-  // By the wall clock, with a grace of kConsumerWallGraceUs: a lock-step
-  // controller on a starved machine can pause for a second without being
-  // dead (a real drive has no such grace).
-  check_consumers([now_us](const Drive& d) {
-    const std::uint64_t elapsed = now_us - d.consumed_wall_us;
-    return elapsed > kConsumerWallGraceUs ? elapsed - kConsumerWallGraceUs : 0;
-  });
+  const std::uint64_t since_sync_us =
+      last_sync_wall_us_ == 0 ? ~std::uint64_t{0} : now_us - last_sync_wall_us_;
+  // While SYNCs come the consumers run on simulated time (handle_sync).
+  // Once they stopped for kConsumerWallGraceUs, by the wall clock, with that
+  // grace: a lock-step controller on a starved machine, or waiting for a
+  // silent drive, is not taken for a dead one (a real drive has no grace).
+  if (since_sync_us >= kConsumerWallGraceUs) {
+    check_consumers([now_us](const Drive& d) {
+      const std::uint64_t elapsed = now_us - d.consumed_wall_us;
+      return elapsed > kConsumerWallGraceUs ? elapsed - kConsumerWallGraceUs : 0;
+    });
+  }
+  if (since_sync_us < 100000) return;
+  // The heartbeat by the wall clock once SYNCs stopped for 100 ms.
   for (Drive& d : drives_) {
     if (d.heartbeat_ms == 0) continue;
     if (now_us - d.last_heartbeat_wall_us >= std::uint64_t{d.heartbeat_ms} * 1000) {

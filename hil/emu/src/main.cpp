@@ -192,11 +192,14 @@ int main(int argc, char** argv) {
       }
       pollfd pfd{socket.fd(), POLLIN, 0};
       poll(&pfd, 1, timeout_ms);
-      now = monotonic_us();
-      emulator.on_wall_time(now);
+      // Frames first, stamped with the time now, then the clocks' checks: a
+      // heartbeat that waited in the socket while this process was not
+      // scheduled still counts.
+      emulator.set_wall_time(monotonic_us());
       while (auto r = socket.receive()) {
         if (!r->error) emulator.on_frame(r->frame);
       }
+      emulator.on_wall_time(monotonic_us());
       while (!delayed.empty() && delayed.begin()->first <= monotonic_us()) {
         if (socket.send(delayed.begin()->second) != delta::can::SendResult::kOk) ++send_failures;
         delayed.erase(delayed.begin());

@@ -107,7 +107,10 @@ class Emulator {
   // The drives' boot-up messages.
   void boot();
   void on_frame(const delta::can::Frame& f);
-  // Heartbeats by wall clock while no SYNC comes (pre-operational).
+  // The wall clock, for the frames that on_frame() then gets.
+  void set_wall_time(std::uint64_t now_us) { wall_us_ = now_us; }
+  // Heartbeats by wall clock while no SYNC comes (pre-operational), the
+  // consumers' supervision once SYNCs stopped, SDO timeouts.
   void on_wall_time(std::uint64_t now_us);
 
   double simulated_s() const { return static_cast<double>(sim_us_) * 1e-6; }
