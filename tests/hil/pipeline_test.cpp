@@ -175,7 +175,7 @@ class ExcitationSession : public ::testing::Test {
 
 TEST_F(ExcitationSession, TheProgramsFinishCleanly) {
   const Session& s = *g_session;
-  EXPECT_EQ(s.fw_exit, 0) << s.fw_err;
+  EXPECT_EQ(s.fw_exit, 0) << s.fw_err << s.emu_err;
   EXPECT_NE(s.fw_err.find("delta_fw: running path1"), std::string::npos) << s.fw_err;
   EXPECT_EQ(s.record_exit, 0) << s.record_out;
   EXPECT_EQ(s.emu_exit, 0) << s.emu_err;
@@ -210,11 +210,17 @@ TEST_F(ExcitationSession, BringUpIsNmtSdoConfigurationThenCia402Enable) {
       EXPECT_NE(r.kind, delta::can::sdo::ResponseKind::kAborted) << std::hex << r.index;
       ++answered[(std::uint32_t{r.index} << 8) | r.subindex];
     }
-    EXPECT_EQ(requests, 10);
-    for (std::uint32_t key : {0x100000u, 0x101801u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u,
-                              0x100600u, 0x101700u, 0x101601u, 0x180101u}) {
+    // Ten objects, and the PDOs' mapping: 18 writes (docs/protocol.md).
+    EXPECT_EQ(requests, 10 + 18);
+    for (std::uint32_t key :
+         {0x100000u, 0x101801u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u, 0x100600u, 0x101700u,
+          0x101601u, 0x160001u, 0x160002u, 0x160003u, 0x1A0001u, 0x1A0002u, 0x1A0003u, 0x1A0101u}) {
       EXPECT_EQ(answered[key], 1) << std::hex << key;
     }
+    for (std::uint32_t key : {0x140001u, 0x180001u, 0x160000u, 0x1A0000u}) {
+      EXPECT_EQ(answered[key], 2) << std::hex << key;  // off and on; 0 and the count
+    }
+    EXPECT_EQ(answered[0x180101u], 2);  // off for the mapping, then as velocity_pdo says
     // CiA 402 after the start: shutdown, switch on, enable operation, in that
     // order, and the drive reports operation enabled; at the end it is
     // disabled again (controlword 0, switch on disabled).
@@ -703,7 +709,7 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
     }
     return n;
   };
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
   while (heartbeat_lost() < 3 && std::chrono::steady_clock::now() < deadline) {
     ASSERT_FALSE(emu.wait_for_output("delta_drive_emu: stopped", 50ms));
   }
@@ -729,10 +735,10 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
         std::chrono::duration_cast<std::chrono::milliseconds>(*emcy - *last_heartbeat);
     std::cout << "node " << int{node} << ": EMCY 0x8130 " << after_ms.count()
               << " ms after the controller's last heartbeat\n";
-    // 150 ms timeout (controller_heartbeat_timeout_ms) + 2 s grace + the
+    // 150 ms timeout (controller_heartbeat_timeout_ms) + 5 s grace + the
     // emulator's 10 ms poll and this machine's scheduling.
-    EXPECT_LE(after_ms.count(), 150 + 2000 + 250);
-    EXPECT_GE(after_ms.count(), 2000);
+    EXPECT_LE(after_ms.count(), 150 + 5000 + 250);
+    EXPECT_GE(after_ms.count(), 5000);
   }
 }
 

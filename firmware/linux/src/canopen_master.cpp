@@ -18,8 +18,8 @@ using delta::can::cia402::State;
 
 namespace {
 
-od::Object object_of(unsigned step) {
-  return kBringUp[step].object;
+od::Object object_of(unsigned step, unsigned mapping_write) {
+  return step == kWritePdoMapping ? kPdoMapping[mapping_write].object : kBringUp[step].object;
 }
 
 std::string hex(std::uint32_t v, int digits) {
@@ -103,6 +103,11 @@ std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) cons
       // A timeout of 0 turns the drive's supervision off (CiA 301).
       size = 4;
       return od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms);
+    case kWritePdoMapping: {
+      const PdoMappingWrite& w = kPdoMapping[d.mapping_write];
+      size = w.size;
+      return w.node_relative ? w.value + d.node : w.value;
+    }
     case kWriteTpdo2: {
       size = 4;
       const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);
@@ -115,7 +120,7 @@ std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) cons
 }
 
 void CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
-  const od::Object o = object_of(d.sdo_step);
+  const od::Object o = object_of(d.sdo_step, d.mapping_write);
   std::uint8_t size = 0;
   const std::uint32_t value = step_value(d, size);
   if (size == 0) {
@@ -177,7 +182,7 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     pump_sdo(d);
     if (d.sdo.status() == sdo::ClientStatus::kBusy) continue;
     if (d.sdo.status() == sdo::ClientStatus::kAborted && d.sdo_attempts > config_.sdo_retries) {
-      const od::Object o = object_of(d.sdo_step);
+      const od::Object o = object_of(d.sdo_step, d.mapping_write);
       fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
            object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
            std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
@@ -209,7 +214,7 @@ void CanopenMaster::leave_network() {
 
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
   if (d.sdo.status() != sdo::ClientStatus::kBusy) return;  // a duplicate or stray answer
-  const od::Object o = object_of(d.sdo_step);
+  const od::Object o = object_of(d.sdo_step, d.mapping_write);
   const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
   if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
   d.sdo.on_frame(f.data, now_us_);
@@ -267,6 +272,9 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
       break;
   }
   d.sdo_attempts = 0;
+  if (d.sdo_step == kWritePdoMapping && ++d.mapping_write < kPdoMappingWrites) {
+    return send_sdo(d, now_us_);  // the mapping's next write
+  }
   next_step(d);
   if (d.sdo_step < kBringUpStepCount) send_sdo(d, now_us_);
 }

@@ -111,6 +111,14 @@ delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& w
                         (b.write ? "writes" : "reads") + " it");
     }
   }
+  for (const PdoMappingWrite& w : kPdoMapping) {
+    const delta::canopen::EdsVariable* v = eds.find(w.object.index, w.object.subindex);
+    if (v == nullptr || !delta::canopen::writable(v->access)) {
+      throw ConfigError(where + ": " + path + ": object " + object_text(w.object) +
+                        (v == nullptr ? " is missing" : " is not writable") +
+                        "; the bring-up writes the PDOs' mapping there (docs/protocol.md)");
+    }
+  }
   for (const delta::can::od::Object o : kPdoObjects) {
     const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
     if (v == nullptr || !v->pdo_mappable) {

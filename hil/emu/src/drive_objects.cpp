@@ -4,9 +4,12 @@
 // checks. The protocol (lengths, segments, blocks, aborts) is the server's.
 #include "drive_objects.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "delta/can/protocol.hpp"
 
@@ -24,13 +27,48 @@ constexpr std::string_view kEmulatorSoftwareVersion = "delta_drive_emu " DELTA_V
 // CiA 402: bit 9 of 0x6502, cyclic synchronous torque mode; the only one.
 constexpr std::uint32_t kSupportedModesCst = 1u << 9;
 
+// The objects a PDO may carry (PDOMapping=1 in docs/eds/delta_drive_emu.eds).
+constexpr std::uint16_t kMappable[] = {0x1001, 0x6040, 0x6041, 0x6060, 0x6061,
+                                       0x6064, 0x606C, 0x6071, 0x6078, 0x607A};
+
 }  // namespace
+
+// A PDO's COB-ID (0x1400:1, 0x1800:1, 0x1801:1) and mapping (0x1600,
+// 0x1A00, 0x1A01): PDO 0 is RPDO1, 1 TPDO1, 2 TPDO2.
+template <unsigned Pdo>
+std::uint32_t Emulator::DriveObjects::cob_id_get(const DriveContext& c) {
+  return c.e.pdo_cob_id(c.d, Pdo) | (c.d.pdos[Pdo].valid ? 0u : od::kPdoInvalid);
+}
+
+template <unsigned Pdo>
+sdo::AbortCode Emulator::DriveObjects::cob_id_set(DriveContext& c, std::uint32_t v) {
+  return c.e.set_pdo_cob_id(c.d, Pdo, v);
+}
+
+template <unsigned Pdo, std::size_t Sub>
+std::uint32_t Emulator::DriveObjects::mapping_get(const DriveContext& c) {
+  const PdoMapping& m = c.d.pdos[Pdo];
+  return Sub == 0 ? m.count : m.entries[Sub - 1];
+}
+
+template <unsigned Pdo, std::size_t Sub>
+sdo::AbortCode Emulator::DriveObjects::mapping_set(DriveContext& c, std::uint32_t v) {
+  return c.e.set_mapping(c.d, Pdo, Sub, v);
+}
+
+template <unsigned Pdo, std::size_t... Sub>
+auto Emulator::DriveObjects::mapping_objects(std::uint16_t index, std::index_sequence<Sub...>)
+    -> std::array<DriveTable::Scalar, sizeof...(Sub)> {
+  return {DriveTable::Scalar{index, static_cast<std::uint8_t>(Sub),
+                             static_cast<std::uint8_t>(Sub == 0 ? 1 : 4), &mapping_get<Pdo, Sub>,
+                             &mapping_set<Pdo, Sub>}...};
+}
 
 // The objects, in index order. Values are their bit patterns, little
 // endian on the bus.
 auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
   constexpr sdo::AbortCode ok = sdo::kNoAbort;
-  static const DriveTable::Scalar kObjects[] = {
+  static const DriveTable::Scalar kFixed[] = {
       {0x1000, 0, 4, [](const DriveContext&) { return od::kDeviceTypeServo; }, nullptr},
       {0x1001, 0, 1,
        [](const DriveContext& c) { return c.d.state == cia::State::kFault ? 1u : 0u; }, nullptr},
@@ -58,29 +96,21 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
          return ok;
        }},
       {0x1018, 0, 1, [](const DriveContext&) { return 4u; }, nullptr},
-      {0x1018, 1, 4, [](const DriveContext& c) { return c.e.identity_.vendor_id; }, nullptr},
-      {0x1018, 2, 4, [](const DriveContext& c) { return c.e.identity_.product_code; }, nullptr},
-      {0x1018, 3, 4, [](const DriveContext& c) { return c.e.identity_.revision; }, nullptr},
+      {0x1018, 1, 4, [](const DriveContext& c) { return c.e.product_.vendor_id; }, nullptr},
+      {0x1018, 2, 4, [](const DriveContext& c) { return c.e.product_.product_code; }, nullptr},
+      {0x1018, 3, 4, [](const DriveContext& c) { return c.e.product_.revision; }, nullptr},
       {0x1018, 4, 4, [](const DriveContext& c) { return 0x00010000u + c.d.node; }, nullptr},
-      // RPDO1 and TPDO1: fixed (docs/protocol.md); synchronous.
+      // The PDOs' communication: the predefined COB-IDs, bit 31 turns a PDO
+      // off and on; synchronous (transmission type 1).
       {0x1400, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
-      {0x1400, 1, 4,
-       [](const DriveContext& c) { return std::uint32_t{p::cob_id(p::kRpdo1, c.d.node)}; },
-       nullptr},
+      {0x1400, 1, 4, &cob_id_get<0>, &cob_id_set<0>},
       {0x1400, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
       {0x1800, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
-      {0x1800, 1, 4,
-       [](const DriveContext& c) { return std::uint32_t{p::cob_id(p::kTpdo1, c.d.node)}; },
-       nullptr},
+      {0x1800, 1, 4, &cob_id_get<1>, &cob_id_set<1>},
       {0x1800, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
       {0x1801, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
-      {0x1801, 1, 4, [](const DriveContext& c) { return c.d.tpdo2_cob; },
-       [](DriveContext& c, std::uint32_t v) {
-         if ((v & 0x7FF) != p::cob_id(p::kTpdo2, c.d.node)) return sdo::kAbortValueRange;
-         c.d.tpdo2_cob = v;
-         return ok;
-       }},
-      {0x1801, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},  // every SYNC
+      {0x1801, 1, 4, &cob_id_get<2>, &cob_id_set<2>},
+      {0x1801, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
       {0x6040, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.controlword}; },
        [](DriveContext& c, std::uint32_t v) {
          c.e.apply_controlword(c.d, static_cast<std::uint16_t>(v));
@@ -121,6 +151,12 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
          c.d.target_torque_pm = static_cast<std::int16_t>(static_cast<std::uint16_t>(v));
          return ok;
        }},
+      {0x607A, 0, 4,
+       [](const DriveContext& c) { return static_cast<std::uint32_t>(c.d.target_position); },
+       [](DriveContext& c, std::uint32_t v) {
+         c.d.target_position = static_cast<std::int32_t>(v);
+         return ok;
+       }},
       {0x6073, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.max_current_pm}; },
        [](DriveContext& c, std::uint32_t v) {
          if (v == 0 || v > 0x7FFF) return sdo::kAbortValueRange;
@@ -139,9 +175,7 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
        nullptr},
       {0x6078, 0, 2,
        [](const DriveContext& c) {
-         const long pm = std::lround(c.d.current_A / c.d.model.rated_current_A * 1000.0);
-         return std::uint32_t{
-             static_cast<std::uint16_t>(pm < -32768 ? -32768 : (pm > 32767 ? 32767 : pm))};
+         return std::uint32_t{static_cast<std::uint16_t>(c.d.current_measured_pm)};
        },
        nullptr},
       {0x608F, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
@@ -149,25 +183,58 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x608F, 2, 4, [](const DriveContext&) { return 1u; }, nullptr},
       {0x6502, 0, 4, [](const DriveContext&) { return kSupportedModesCst; }, nullptr},
   };
+  // The mapping objects of RPDO1, TPDO1, TPDO2: sub-index 0 the count,
+  // 1 to 8 the entries.
+  static const std::vector<DriveTable::Scalar> kObjects = [] {
+    std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
+    for (const auto& mapping : {mapping_objects<0>(0x1600, std::make_index_sequence<9>()),
+                                mapping_objects<1>(0x1A00, std::make_index_sequence<9>()),
+                                mapping_objects<2>(0x1A01, std::make_index_sequence<9>())}) {
+      all.insert(all.end(), mapping.begin(), mapping.end());
+    }
+    for (DriveTable::Scalar& o : all) {
+      for (const std::uint16_t index : kMappable)
+        o.pdo_mappable = o.pdo_mappable || o.index == index;
+    }
+    return all;
+  }();
   return kObjects;
 }
 
 auto Emulator::DriveObjects::texts() -> std::span<const DriveTable::Text> {
   static const DriveTable::Text kTexts[] = {
-      {0x1008, 0, [](const DriveContext& c) { return c.e.identity_.device_name; }},
+      {0x1008, 0, [](const DriveContext& c) { return c.e.product_.device_name; }},
       {0x1009, 0, [](const DriveContext&) { return std::string(kHardwareVersion); }},
       {0x100A, 0, [](const DriveContext&) { return std::string(kEmulatorSoftwareVersion); }},
   };
   return kTexts;
 }
 
-EmulatedIdentity identity_of(const delta::canopen::Eds& eds) {
-  EmulatedIdentity id;
+EmulatedProduct product_of(const delta::canopen::Eds& eds) {
+  EmulatedProduct id;
   id.vendor_id = eds.identity.vendor_id;
   id.product_code = eds.identity.product_code;
   id.revision = eds.identity.revision;
   if (const delta::canopen::EdsVariable* name = eds.find(0x1008, 0); name != nullptr) {
     id.device_name = name->default_text;
+  }
+  // The PDOs' defaults; what the EDS leaves out keeps the built-in value.
+  const std::uint16_t communication[] = {0x1400, 0x1800, 0x1801};
+  const std::uint16_t mapping[] = {0x1600, 0x1A00, 0x1A01};
+  for (unsigned pdo = 0; pdo < 3; ++pdo) {
+    PdoMapping& m = id.pdos[pdo];
+    if (const auto* cob = eds.find(communication[pdo], 1)) {
+      if (const auto v = cob->default_value(1)) m.valid = (*v & od::kPdoInvalid) == 0;
+    }
+    if (const auto* count = eds.find(mapping[pdo], 0)) {
+      if (const auto v = count->default_value(1)) m.count = static_cast<std::uint8_t>(*v);
+    }
+    for (unsigned sub = 1; sub <= m.entries.size(); ++sub) {
+      if (const auto* entry = eds.find(mapping[pdo], static_cast<std::uint8_t>(sub))) {
+        if (const auto v = entry->default_value(1))
+          m.entries[sub - 1] = static_cast<std::uint32_t>(*v);
+      }
+    }
   }
   return id;
 }

@@ -121,7 +121,7 @@ Emulator::Emulator(const EmulatorConfig& config, Outbox out)
   for (unsigned j = 0; j < 3; ++j) {
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];
-    drives_[j].tpdo2_cob = p::cob_id(p::kTpdo2, drives_[j].node) | od::kPdoInvalid;
+    drives_[j].pdos = product_.pdos;
     objects_[j] = std::make_unique<DriveTable>(DriveContext{*this, drives_[j]},
                                                DriveObjects::scalars(), DriveObjects::texts());
     sdo_servers_[j] = std::make_unique<sdo::Server>(*objects_[j]);
@@ -172,10 +172,11 @@ void Emulator::boot() {
 }
 
 namespace {
-// Longer than delta_fw's lock-step timeout (1 s): a drive that stays
-// silent makes each lock-step cycle last that long, and the controller is
-// still alive.
-constexpr std::uint64_t kConsumerWallGraceUs = 2'000'000;
+// Far longer than delta_fw's lock-step timeout (1 s: a drive that stays
+// silent makes each lock-step cycle last that long) and than the stalls
+// of a lock-step run in the emulated HIL VM (2.7 s seen): the controller
+// is still alive then.
+constexpr std::uint64_t kConsumerWallGraceUs = 5'000'000;
 }  // namespace
 
 void Emulator::on_wall_time(std::uint64_t now_us) {
@@ -246,7 +247,7 @@ void Emulator::on_frame(const Frame& f) {
   if (function == p::kSdoRx.base_id) {
     handle_sdo(j, f);
   } else if (function == p::kRpdo1.base_id) {
-    handle_rpdo(d, f);
+    handle_rpdo(j, f);
   }
 }
 
@@ -272,7 +273,7 @@ void Emulator::handle_nmt(const Frame& f) {
         d.heartbeat_ms = 0;
         d.consumer = 0;
         d.consumer_armed = false;
-        d.tpdo2_cob = p::cob_id(p::kTpdo2, d.node) | od::kPdoInvalid;
+        d.pdos = product_.pdos;
         if (!d.silent) {
           std::array<std::uint8_t, 8> data{};
           send(p::cob_id(p::kHeartbeat, d.node), 1, data);  // boot-up
@@ -310,10 +311,104 @@ void Emulator::apply_controlword(Drive& d, std::uint16_t controlword) {
   }
 }
 
-void Emulator::handle_rpdo(Drive& d, const Frame& f) {
-  if (d.nmt != p::kNmtStateOperational || f.dlc != p::kRpdo1.dlc) return;
-  apply_controlword(d, static_cast<std::uint16_t>(p::unpack(f.data, p::kRpdo1Controlword)));
-  d.target_torque_pm = static_cast<std::int16_t>(p::unpack(f.data, p::kRpdo1TargetTorque));
+// RPDO1 as mapped: each entry written to its object, in order (the
+// controlword applies its transition). A frame shorter than the mapping is
+// not processed: EMCY 0x8210 (CiA 301).
+void Emulator::handle_rpdo(unsigned j, const Frame& f) {
+  Drive& d = drives_[j];
+  const PdoMapping& m = d.pdos[0];
+  if (d.nmt != p::kNmtStateOperational || !m.valid) return;
+  unsigned bytes = 0;
+  for (unsigned i = 0; i < m.count; ++i) bytes += (m.entries[i] & 0xFF) / 8;
+  if (f.dlc < bytes) {
+    std::array<std::uint8_t, 8> data{};
+    p::pack(data, p::kEmcyErrorCode, od::kEmcyPdoLength);
+    send(p::cob_id(p::kEmcy, d.node), 8, data);
+    return;
+  }
+  unsigned at = 0;
+  for (unsigned i = 0; i < m.count; ++i) {
+    const std::uint32_t e = m.entries[i];
+    const unsigned n = (e & 0xFF) / 8;
+    objects_[j]->write(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
+                       std::span<const std::uint8_t>(f.data).subspan(at, n), true);
+    at += n;
+  }
+}
+
+// A TPDO as mapped, each entry read from its object.
+void Emulator::send_tpdo(unsigned j, unsigned pdo) {
+  Drive& d = drives_[j];
+  const PdoMapping& m = d.pdos[pdo];
+  if (!m.valid || m.count == 0) return;
+  std::array<std::uint8_t, 8> data{};
+  unsigned at = 0;
+  for (unsigned i = 0; i < m.count; ++i) {
+    const std::uint32_t e = m.entries[i];
+    const unsigned n = (e & 0xFF) / 8;
+    objects_[j]->read(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
+                      std::span<std::uint8_t>(data).subspan(at, n));
+    at += n;
+  }
+  auto dlc = static_cast<std::uint8_t>(at);
+  if (pdo == 1 && d.corrupt_next) {
+    dlc = 5;
+    d.corrupt_next = false;
+  }
+  send(pdo_cob_id(d, pdo), dlc, data, d.delay_us);
+}
+
+std::uint32_t Emulator::pdo_cob_id(const Drive& d, unsigned pdo) const {
+  const p::Message& m = pdo == 0 ? p::kRpdo1 : (pdo == 1 ? p::kTpdo1 : p::kTpdo2);
+  return p::cob_id(m, d.node);
+}
+
+// The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
+// PDO off and on.
+sdo::AbortCode Emulator::set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v) {
+  if ((v & 0x7FFFFFFF) != pdo_cob_id(d, pdo)) return sdo::kAbortValueRange;
+  d.pdos[pdo].valid = (v & od::kPdoInvalid) == 0;
+  return sdo::kNoAbort;
+}
+
+// CiA 301's rules for a mapping: only while the PDO is off; entries only
+// while sub-index 0 is 0; each entry an existing, mappable object of its
+// whole size (readable for a TPDO, writable for an RPDO); at most 8 bytes.
+sdo::AbortCode Emulator::set_mapping(Drive& d, unsigned pdo, unsigned sub, std::uint32_t v) {
+  PdoMapping& m = d.pdos[pdo];
+  if (m.valid) return sdo::kAbortValueRange;
+  if (sub != 0) {
+    if (m.count != 0) return sdo::kAbortValueRange;
+    if (v != 0) {
+      if (const sdo::AbortCode c = check_mapping_entry(d, pdo, v); c != sdo::kNoAbort) return c;
+    }
+    m.entries[sub - 1] = v;
+    return sdo::kNoAbort;
+  }
+  if (v > m.entries.size()) return sdo::kAbortValueRange;
+  unsigned bits = 0;
+  for (unsigned i = 0; i < v; ++i) {
+    if (const sdo::AbortCode c = check_mapping_entry(d, pdo, m.entries[i]); c != sdo::kNoAbort) {
+      return c;
+    }
+    bits += m.entries[i] & 0xFF;
+  }
+  if (bits > 64) return sdo::kAbortPdoLength;
+  m.count = static_cast<std::uint8_t>(v);
+  return sdo::kNoAbort;
+}
+
+sdo::AbortCode Emulator::check_mapping_entry(const Drive& d, unsigned pdo,
+                                             std::uint32_t entry) const {
+  const auto index = static_cast<std::uint16_t>(entry >> 16);
+  const auto sub = static_cast<std::uint8_t>(entry >> 8);
+  const unsigned j = d.node - p::kFirstDriveNode;
+  sdo::ObjectInfo info;
+  if (const sdo::AbortCode c = objects_[j]->find(index, sub, info); c != sdo::kNoAbort) return c;
+  const bool usable = pdo == 0 ? info.writable : info.readable;
+  if (!objects_[j]->mappable(index, sub) || !usable) return sdo::kAbortNotMappable;
+  if ((entry & 0xFF) != info.size * 8) return sdo::kAbortParameterIncompatible;
+  return sdo::kNoAbort;
 }
 
 void Emulator::enter_fault(Drive& d, std::uint16_t emcy_code) {
@@ -434,7 +529,6 @@ void Emulator::handle_sync() {
   ++syncs_;
   trigger_faults();
   check_consumers([this](const Drive& d) { return sim_us_ - d.consumed_sim_us; });
-  const delta::JointState joints = plant_->state();
   for (unsigned j = 0; j < 3; ++j) {
     Drive& d = drives_[j];
     if (d.state == cia::State::kFaultReactionActive) d.state = cia::State::kFault;
@@ -445,22 +539,12 @@ void Emulator::handle_sync() {
       send_heartbeat(d);
     }
     if (d.nmt != p::kNmtStateOperational || d.silent) continue;
-    const double q = joints.q_rad[j];
-    const double qd = joints.qd_rad_s[j];
-    std::array<std::uint8_t, 8> tpdo1{};
-    p::pack(tpdo1, p::kTpdo1Statusword, cia::encode_statusword(d.state));
-    p::pack(tpdo1, p::kTpdo1PositionActual, position_counts(d, q));
+    // The current is measured, with its noise, once per SYNC (0x6078).
     const double measured_A = d.current_A + config_.current_noise_A * noise();
     const long pm = std::lround(measured_A / d.model.rated_current_A * 1000.0);
-    p::pack(tpdo1, p::kTpdo1CurrentActual, std::max(-32768L, std::min(32767L, pm)));
-    const std::uint8_t dlc = d.corrupt_next ? 5 : 8;
-    d.corrupt_next = false;
-    send(p::cob_id(p::kTpdo1, d.node), dlc, tpdo1, d.delay_us);
-    if ((d.tpdo2_cob & od::kPdoInvalid) == 0) {
-      std::array<std::uint8_t, 8> tpdo2{};
-      p::pack(tpdo2, p::kTpdo2VelocityActual, velocity_counts_s(d, qd));
-      send(p::cob_id(p::kTpdo2, d.node), 4, tpdo2, d.delay_us);
-    }
+    d.current_measured_pm = static_cast<std::int16_t>(std::max(-32768L, std::min(32767L, pm)));
+    send_tpdo(j, 1);
+    send_tpdo(j, 2);
   }
 }
 

@@ -171,7 +171,7 @@ int main(int argc, char** argv) {
       }
     });
     if (eds) {
-      emulator.set_identity(emu::identity_of(*eds));
+      emulator.set_product(emu::product_of(*eds));
       if (const std::string m = emulator.eds_mismatch(*eds); !m.empty()) {
         std::cerr << "delta_drive_emu: " << m << ": the EDS does not describe the emulated drive\n";
         return 2;

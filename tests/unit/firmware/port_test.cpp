@@ -341,7 +341,7 @@ TEST(InProcessPortTest, DrivesTimeTheControllersHeartbeatByWallClockWhenSyncsSto
     ASSERT_EQ(rig.controller.state(), fw::State::kReady);
     if (clean_exit) rig.master.leave_network();
     const std::uint64_t stopped_us = wall_us;
-    while (wall_us - stopped_us < 4'000'000 &&
+    while (wall_us - stopped_us < 7'000'000 &&
            rig.bus.emulator_.drive_state(1) != cia::State::kFault) {
       rig.bus.emulator_.on_wall_time(wall_us += 1000);
     }
@@ -350,9 +350,9 @@ TEST(InProcessPortTest, DrivesTimeTheControllersHeartbeatByWallClockWhenSyncsSto
       EXPECT_EQ(rig.bus.emulator_.nmt_state(1), p::kNmtStatePreOperational);
     } else {
       // The last heartbeat came 0..50 ms before the stop: 150 ms timeout
-      // plus the 2 s grace after it.
-      EXPECT_GE(wall_us - stopped_us, 2'100'000u);
-      EXPECT_LE(wall_us - stopped_us, 2'151'000u);
+      // plus the 5 s grace after it.
+      EXPECT_GE(wall_us - stopped_us, 5'100'000u);
+      EXPECT_LE(wall_us - stopped_us, 5'151'000u);
       EXPECT_EQ(rig.bus.emulator_.drive_state(1), cia::State::kFault);
     }
   }
@@ -469,12 +469,12 @@ TEST(InProcessPortTest, TheBringUpFollowsTheEdsOfTheDriveOnTheBus) {
   PortConfig c = read_port_config(write_temp("mode = lockstep\njoint1.eds = " + b +
                                              "\njoint2.eds = " + b + "\njoint3.eds = " + b + "\n"));
   Rig rig(c, {});
-  rig.bus.emulator_.set_identity(emu::identity_of(delta::canopen::read_eds(b)));
+  rig.bus.emulator_.set_product(emu::product_of(delta::canopen::read_eds(b)));
   EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
   const std::string a = DELTA_EDS_DIR "/delta_drive_emu.eds";
   c = read_port_config(write_temp("mode = lockstep\njoint1.eds = " + a + "\n"));
   Rig wrong(c, {});
-  wrong.bus.emulator_.set_identity(emu::identity_of(delta::canopen::read_eds(b)));
+  wrong.bus.emulator_.set_product(emu::product_of(delta::canopen::read_eds(b)));
   for (int n = 0; n < 50 && wrong.controller.state() != fw::State::kFault; ++n) wrong.cycle();
   EXPECT_EQ(wrong.master.last_problem(),
             "node 1, 0x1018:02: product code 0x00000403; joint1.eds = " + a +

@@ -188,13 +188,78 @@ TEST(EmulatedDriveTest, APreOperationalDriveSendsItsHeartbeatWhileSyncsFlow) {
 // The EDS the product ships for the emulated drive (docs/eds/) and the
 // drive agree object by object: what the EDS lists answers with its size
 // and access, and nothing answers that the EDS does not list.
+// PDO mapping by SDO (CiA 301): the rules and their abort codes, and the
+// PDOs following the mapping.
+TEST(EmulatedDriveTest, APdoMappingIsChangedOnlyByCiA301sRulesAndThePdoFollowsIt) {
+  Bus bus;
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t v,
+                         std::uint8_t size) {
+    return bus.abort_code(sdo::download_request(index, sub, v, size));
+  };
+  // TPDO1 is on: its mapping is fixed.
+  EXPECT_EQ(write(0x1A00, 0, 0, 1), sdo::kAbortValueRange);
+  EXPECT_EQ(write(0x1800, 1, 0x80000185, 4), sdo::kAbortValueRange);  // another ID
+  EXPECT_EQ(write(0x1800, 1, 0x80000181, 4), 0u);                     // off
+  EXPECT_EQ(bus.read(0x1800, 1), 0x80000181u);
+  EXPECT_EQ(write(0x1A00, 1, 0x60640020, 4), sdo::kAbortValueRange);  // entries while count 3
+  EXPECT_EQ(write(0x1A00, 0, 0, 1), 0u);
+  EXPECT_EQ(write(0x1A00, 1, 0x20000020, 4), sdo::kAbortObjectDoesNotExist);
+  EXPECT_EQ(write(0x1A00, 1, 0x60730010, 4), sdo::kAbortNotMappable);            // max current
+  EXPECT_EQ(write(0x1A00, 1, 0x60640010, 4), sdo::kAbortParameterIncompatible);  // 16 of 32 bits
+  EXPECT_EQ(write(0x1600, 1, 0x60410010, 4), sdo::kAbortValueRange);             // RPDO1 is on
+  EXPECT_EQ(write(0x1400, 1, 0x80000201, 4), 0u);
+  EXPECT_EQ(write(0x1600, 0, 0, 1), 0u);
+  EXPECT_EQ(write(0x1600, 1, 0x60410010, 4),
+            sdo::kAbortNotMappable);  // read-only: not into an RPDO
+  // Three 32-bit objects are 12 bytes: too long for a PDO.
+  EXPECT_EQ(write(0x1A00, 1, 0x60640020, 4), 0u);
+  EXPECT_EQ(write(0x1A00, 2, 0x606C0020, 4), 0u);
+  EXPECT_EQ(write(0x1A00, 3, 0x607A0020, 4), 0u);
+  EXPECT_EQ(write(0x1A00, 0, 3, 1), sdo::kAbortPdoLength);
+  // Position then statusword: 6 bytes.
+  EXPECT_EQ(write(0x1A00, 2, 0x60410010, 4), 0u);
+  EXPECT_EQ(write(0x1A00, 0, 2, 1), 0u);
+  EXPECT_EQ(write(0x1800, 1, 0x00000181, 4), 0u);
+  EXPECT_EQ(write(0x1A00, 0, 1, 1), sdo::kAbortValueRange);  // on again: fixed
+  const auto position = static_cast<std::int32_t>(bus.read(0x6064, 0));
+  const auto statusword = bus.read(0x6041, 0);
+  bus.nmt(p::kNmtStart, 1);
+  bus.out.clear();
+  bus.send(p::cob_id(p::kSync, 0), 0, {});
+  const Frame* tpdo1 = nullptr;
+  for (const Frame& f : bus.out) {
+    if (f.id == p::cob_id(p::kTpdo1, 1)) tpdo1 = &f;
+  }
+  ASSERT_NE(tpdo1, nullptr);
+  EXPECT_EQ(tpdo1->dlc, 6);
+  EXPECT_EQ(static_cast<std::int32_t>(tpdo1->data[0] | tpdo1->data[1] << 8 | tpdo1->data[2] << 16 |
+                                      tpdo1->data[3] << 24),
+            position);
+  EXPECT_EQ(std::uint32_t{tpdo1->data[4]} | std::uint32_t{tpdo1->data[5]} << 8, statusword);
+}
+
+// An RPDO shorter than its mapping is not processed: EMCY 0x8210.
+TEST(EmulatedDriveTest, AShortRpdoIsRefusedWithTheLengthEmergency) {
+  Bus bus;
+  bus.nmt(p::kNmtStart, 1);
+  bus.out.clear();
+  bus.send(p::cob_id(p::kRpdo1, 1), 4, {0x06, 0x00, 0x10, 0x00});
+  ASSERT_EQ(bus.out.size(), 1u);
+  EXPECT_EQ(bus.out[0].id, p::cob_id(p::kEmcy, 1));
+  EXPECT_EQ(bus.out[0].data[0] | bus.out[0].data[1] << 8, 0x8210);
+  EXPECT_EQ(bus.read(0x6040, 0), 0u);  // not taken
+  bus.send(p::cob_id(p::kRpdo1, 1), 8, {0x06, 0x00, 0x10, 0x00, 0, 0, 0, 0});
+  EXPECT_EQ(bus.read(0x6040, 0), 6u);
+  EXPECT_EQ(bus.read(0x6071, 0), 16u);
+}
+
 class EmulatedDriveEdsTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(EmulatedDriveEdsTest, AgreesWithItsEdsObjectByObject) {
   namespace canopen = delta::canopen;
   const canopen::Eds eds = canopen::read_eds(std::string(DELTA_EDS_DIR "/") + GetParam());
   Bus bus;
-  bus.emulator.set_identity(identity_of(eds));
+  bus.emulator.set_product(product_of(eds));
   EXPECT_EQ(bus.emulator.eds_mismatch(eds), "");
   for (const auto& [key, v] : eds.variables) {
     SCOPED_TRACE(v.name);
@@ -263,19 +328,19 @@ TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
   EXPECT_EQ(
       bus.emulator.eds_mismatch(eds_text("DataType=0x0006\nAccessType=rw\nDefaultValue=3000",
                                          "DataType=0x0007\nAccessType=rw\nDefaultValue=3000")),
-      "x.eds:348: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
+      "x.eds:352: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
   EXPECT_EQ(bus.emulator.eds_mismatch(eds_text(
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=rw",
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=ro")),
-            "x.eds:348: 0x6073:00 (Max current) is writable in the emulated drive");
-  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=22\n", "SupportedObjects=21\n")),
+            "x.eds:352: 0x6073:00 (Max current) is writable in the emulated drive");
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=26\n", "SupportedObjects=21\n")),
             "x.eds: the emulated drive has object 0x606C:00, which the EDS does not list");
   EXPECT_EQ(
       bus.emulator.eds_mismatch(eds_text("[ManufacturerObjects]\nSupportedObjects=0",
                                          "[ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n"
                                          "[2000]\nParameterName=Extra\nDataType=0x0007\n"
                                          "AccessType=rw")),
-      "x.eds:416: 0x2000:00 (Extra) is not an object of the emulated drive");
+      "x.eds:662: 0x2000:00 (Extra) is not an object of the emulated drive");
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 // of a drive's EDS against it (config.cpp).
 #pragma once
 
-#include <span>
+#include <cstdint>
 
 #include "delta/can/cia402.hpp"
 
@@ -22,6 +22,7 @@ enum BringUpStep : unsigned {
   kWriteCyclePeriod,
   kWriteHeartbeat,
   kWriteConsumerHeartbeat,
+  kWritePdoMapping,  // the writes of kPdoMapping, one after the other
   kWriteTpdo2,
   kBringUpStepCount,
 };
@@ -45,8 +46,42 @@ inline constexpr BringUpObject kBringUp[kBringUpStepCount] = {
     {delta::can::od::kCommunicationCycle, true, "communication cycle period"},
     {delta::can::od::kProducerHeartbeat, true, "producer heartbeat time"},
     {delta::can::od::kConsumerHeartbeat, true, "consumer heartbeat time"},
+    {{0x1600, 0}, true, "PDO mapping"},  // see kPdoMapping
     {delta::can::od::kTpdo2CobId, true, "TPDO2 COB-ID"},
 };
+
+// The PDOs' mapping, written in CiA 301's order for each PDO: off (bit 31
+// of its COB-ID), no entries, the entries, their count, on. TPDO2 is left
+// off here; kWriteTpdo2 turns it on when velocity_pdo is set. The layout
+// is docs/protocol.md's, whatever the drive's own default mapping.
+struct PdoMappingWrite {
+  delta::can::od::Object object;
+  std::uint32_t value;  // + the node ID when node_relative
+  std::uint8_t size;
+  bool node_relative;
+};
+
+inline constexpr PdoMappingWrite kPdoMapping[] = {
+    {{0x1400, 1}, 0x80000200, 4, true},  // RPDO1 off
+    {{0x1600, 0}, 0, 1, false},
+    {{0x1600, 1}, 0x60400010, 4, false},  // controlword
+    {{0x1600, 2}, 0x60710010, 4, false},  // target torque
+    {{0x1600, 3}, 0x607A0020, 4, false},  // target position
+    {{0x1600, 0}, 3, 1, false},
+    {{0x1400, 1}, 0x00000200, 4, true},  // RPDO1 on
+    {{0x1800, 1}, 0x80000180, 4, true},  // TPDO1 off
+    {{0x1A00, 0}, 0, 1, false},
+    {{0x1A00, 1}, 0x60410010, 4, false},  // statusword
+    {{0x1A00, 2}, 0x60640020, 4, false},  // position actual value
+    {{0x1A00, 3}, 0x60780010, 4, false},  // current actual value
+    {{0x1A00, 0}, 3, 1, false},
+    {{0x1800, 1}, 0x00000180, 4, true},  // TPDO1 on
+    {{0x1801, 1}, 0x80000280, 4, true},  // TPDO2 off
+    {{0x1A01, 0}, 0, 1, false},
+    {{0x1A01, 1}, 0x606C0020, 4, false},  // velocity actual value
+    {{0x1A01, 0}, 1, 1, false},
+};
+inline constexpr unsigned kPdoMappingWrites = sizeof kPdoMapping / sizeof kPdoMapping[0];
 
 // The objects the fixed PDOs carry (docs/protocol.md): they must be
 // mappable in a drive's EDS.

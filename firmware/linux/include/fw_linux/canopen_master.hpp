@@ -77,6 +77,7 @@ class CanopenMaster {
     DriveUnits units{};
     // bring-up
     unsigned sdo_step{0};
+    unsigned mapping_write{0};  // in kWritePdoMapping: which of kPdoMapping
     delta::can::sdo::Client sdo{};
     std::array<std::uint8_t, 4> sdo_bytes{};  // the value written or read
     unsigned sdo_attempts{0};

@@ -59,22 +59,39 @@ enum class PlantKind : std::uint8_t {
   kMujoco,  // the multibody robot of `robot` (delta_drive_emu's default)
 };
 
-// The emulated drives' identity (0x1018) and name (0x1008). The default
-// vendor ID is not one CiA assigned: no real drive has it.
+// The emulated drives' product: identity (0x1018), name (0x1008) and the
+// PDOs' default mapping. The default vendor ID is not one CiA assigned: no
+// real drive has it.
 inline constexpr std::uint32_t kEmulatorVendorId = 0x0000DE17;
 inline constexpr std::uint32_t kEmulatorProductCode = 0x00000402;
 inline constexpr std::uint32_t kEmulatorRevision = 0x00010000;
 
-struct EmulatedIdentity {
+// A PDO's communication validity and mapping (CiA 301): each entry is
+// index << 16 | sub-index << 8 | length in bits.
+struct PdoMapping {
+  bool valid{false};  // bit 31 of the COB-ID clear
+  std::uint8_t count{0};
+  std::array<std::uint32_t, 8> entries{};
+};
+
+// RPDO1, TPDO1, TPDO2 as docs/protocol.md's table lays them out.
+inline constexpr std::array<PdoMapping, 3> kDefaultPdos{
+    PdoMapping{true, 3, {0x60400010, 0x60710010, 0x607A0020}},
+    PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}}, PdoMapping{false, 1, {0x606C0020}}};
+
+struct EmulatedProduct {
   std::uint32_t vendor_id{kEmulatorVendorId};
   std::uint32_t product_code{kEmulatorProductCode};
   std::uint32_t revision{kEmulatorRevision};
   std::string device_name{"Delta emulated CiA 402 drive"};
+  std::array<PdoMapping, 3> pdos{kDefaultPdos};  // RPDO1, TPDO1, TPDO2
   // The serial number is 0x00010000 + the node ID.
 };
 
-// The identity an EDS describes ([DeviceInfo], 0x1008's DefaultValue).
-EmulatedIdentity identity_of(const delta::canopen::Eds& eds);
+// The product an EDS describes: [DeviceInfo], 0x1008's DefaultValue, the
+// default PDO validity (0x1400:1, 0x1800:1, 0x1801:1) and mapping (0x1600,
+// 0x1A00, 0x1A01).
+EmulatedProduct product_of(const delta::canopen::Eds& eds);
 
 struct EmulatorConfig {
   PlantKind plant{PlantKind::kLumped};
@@ -119,8 +136,8 @@ class Emulator {
   delta::Joint3 qd_rad_s() const { return plant_->state().qd_rad_s; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
-  // The drives' identity and name (default: EmulatedIdentity{}).
-  void set_identity(const EmulatedIdentity& identity) { identity_ = identity; }
+  // The drives' identity and name (default: EmulatedProduct{}).
+  void set_product(const EmulatedProduct& identity) { product_ = identity; }
   // Where an EDS and the emulated drive's objects disagree (an object one
   // has and the other not, a size, an access), in words; "" if they agree.
   std::string eds_mismatch(const delta::canopen::Eds& eds);
@@ -141,7 +158,9 @@ class Emulator {
     std::int8_t mode{0};
     std::uint32_t cycle_us{0};
     std::uint16_t heartbeat_ms{0};
-    std::uint32_t tpdo2_cob{0};
+    std::array<PdoMapping, 3> pdos{};     // RPDO1, TPDO1, TPDO2
+    std::int32_t target_position{0};      // 0x607A: mappable, not used (CST only)
+    std::int16_t current_measured_pm{0};  // 0x6078, with the noise, per SYNC
     std::uint16_t max_current_pm{3000};
     double current_A{0.0};
     std::uint64_t next_heartbeat_sim_us{0};
@@ -167,7 +186,13 @@ class Emulator {
   void handle_sdo(unsigned j, const delta::can::Frame& f);
   void flush_sdo(unsigned j);
   void apply_controlword(Drive& d, std::uint16_t controlword);
-  void handle_rpdo(Drive& d, const delta::can::Frame& f);
+  void handle_rpdo(unsigned j, const delta::can::Frame& f);
+  void send_tpdo(unsigned j, unsigned pdo);
+  std::uint32_t pdo_cob_id(const Drive& d, unsigned pdo) const;
+  delta::can::sdo::AbortCode set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v);
+  delta::can::sdo::AbortCode set_mapping(Drive& d, unsigned pdo, unsigned sub, std::uint32_t v);
+  delta::can::sdo::AbortCode check_mapping_entry(const Drive& d, unsigned pdo,
+                                                 std::uint32_t entry) const;
   void handle_sync();
   void handle_consumed_heartbeat(std::uint8_t node);
   // Faults the drives whose consumer timed out: elapsed since the last
@@ -185,7 +210,7 @@ class Emulator {
   std::int32_t velocity_counts_s(const Drive& d, double qd) const;
 
   EmulatorConfig config_;
-  EmulatedIdentity identity_;
+  EmulatedProduct product_;
   Outbox out_;
   std::array<Drive, 3> drives_{};
   std::array<std::unique_ptr<DriveTable>, 3> objects_;

@@ -26,6 +26,7 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     std::uint32_t (*get)(const Context&);
     // nullptr: read-only. Checks the value; an abort leaves the state as it was.
     can::sdo::AbortCode (*set)(Context&, std::uint32_t);
+    bool pdo_mappable{false};
   };
   struct Text {  // a read-only VISIBLE_STRING
     std::uint16_t index;
@@ -80,6 +81,13 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     return last ? s->set(context_, staged_) : can::sdo::kNoAbort;
   }
 
+  // Whether index:subindex may be mapped into a PDO.
+  bool mappable(std::uint16_t index, std::uint8_t subindex) const {
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    const Scalar* s = scalar(index, subindex, code);
+    return s != nullptr && s->pdo_mappable;
+  }
+
   // Where `eds` and this table disagree, both ways (an object one has and
   // the other not, a size, write access), in words with the EDS's line and
   // `node` for the node ("the emulated drive"); "" if they agree.
@@ -97,6 +105,9 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       }
       if (writable(v.access) != info.writable) {
         return where + (info.writable ? " is writable" : " is read-only") + " in " + node;
+      }
+      if (v.pdo_mappable != mappable(v.index, v.subindex)) {
+        return where + (v.pdo_mappable ? " is not" : " is") + " PDO-mappable in " + node;
       }
     }
     const auto unlisted = [&](std::uint16_t index, std::uint8_t subindex) {

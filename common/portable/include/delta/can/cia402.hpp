@@ -185,6 +185,7 @@ constexpr std::uint16_t consumer_heartbeat_timeout_ms(std::uint32_t v) {
 inline constexpr std::uint16_t kEmcyErrorReset = 0x0000;
 inline constexpr std::uint16_t kEmcyOvercurrent = 0x2310;  // continuous over-current
 inline constexpr std::uint16_t kEmcyHeartbeat = 0x8130;    // life guard / heartbeat error
+inline constexpr std::uint16_t kEmcyPdoLength = 0x8210;    // PDO not processed: length error
 // The controller's faults: 0xFF00 + the firmware's fault code (docs/firmware.md).
 inline constexpr std::uint16_t kEmcyControllerFaultBase = 0xFF00;
 
