@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -236,6 +237,23 @@ TEST(EmulatedDriveTest, APdoMappingIsChangedOnlyByCiA301sRulesAndThePdoFollowsIt
                                       tpdo1->data[3] << 24),
             position);
   EXPECT_EQ(std::uint32_t{tpdo1->data[4]} | std::uint32_t{tpdo1->data[5]} << 8, statusword);
+}
+
+// The second product's EDS gives another default mapping, which its
+// PDOs follow until a master writes its own.
+TEST(EmulatedDriveTest, AnEdsGivesTheDefaultMapping) {
+  Bus bus;
+  bus.emulator.set_product(
+      product_of(delta::canopen::read_eds(DELTA_EDS_DIR "/delta_drive_emu_b.eds")));
+  EXPECT_EQ(bus.read(0x1A00, 0), 2u);
+  EXPECT_EQ(bus.read(0x1801, 1), 0x281u);  // TPDO2 on (node 1)
+  bus.nmt(p::kNmtStart, 1);
+  bus.out.clear();
+  bus.send(p::cob_id(p::kSync, 0), 0, {});
+  std::map<std::uint32_t, int> dlc;
+  for (const Frame& f : bus.out) dlc[f.id] = f.dlc;
+  EXPECT_EQ(dlc[p::cob_id(p::kTpdo1, 1)], 6);  // statusword, position
+  EXPECT_EQ(dlc[p::cob_id(p::kTpdo2, 1)], 6);  // current, velocity
 }
 
 // An RPDO shorter than its mapping is not processed: EMCY 0x8210.

@@ -137,7 +137,10 @@ class Emulator {
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
   // The drives' identity and name (default: EmulatedProduct{}).
-  void set_product(const EmulatedProduct& identity) { product_ = identity; }
+  void set_product(const EmulatedProduct& product) {
+    product_ = product;
+    for (Drive& d : drives_) d.pdos = product.pdos;
+  }
   // Where an EDS and the emulated drive's objects disagree (an object one
   // has and the other not, a size, an access), in words; "" if they agree.
   std::string eds_mismatch(const delta::canopen::Eds& eds);
