@@ -90,6 +90,20 @@ std::uint16_t u16(const Frame& f) {
   return static_cast<std::uint16_t>(f.data[0] | (f.data[1] << 8));
 }
 
+// Whether each drive's latest TPDO1 on the bus says operation enabled.
+bool all_drives_enabled(const std::vector<Frame>& frames) {
+  int on = 0;
+  for (std::uint8_t node = 1; node <= 3; ++node) {
+    for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
+      if (it->id == p::cob_id(p::kTpdo1, node)) {
+        on += cia::decode_statusword(u16(*it)) == cia::State::kOperationEnabled;
+        break;
+      }
+    }
+  }
+  return on == 3;
+}
+
 hil::Child start_emulator(const std::vector<std::string>& extra = {}) {
   std::vector<std::string> argv{kBin + "/delta_drive_emu", "--can", kIface};
   argv.insert(argv.end(), extra.begin(), extra.end());
@@ -582,17 +596,7 @@ TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
   bool enabled = false;
   while (!enabled && std::chrono::steady_clock::now() < enabled_deadline) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms)) << "the run ended first";
-    const auto frames = bus.snapshot();
-    int on = 0;
-    for (std::uint8_t node = 1; node <= 3; ++node) {
-      for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
-        if (it->id == p::cob_id(p::kTpdo1, node)) {
-          on += cia::decode_statusword(u16(*it)) == cia::State::kOperationEnabled;
-          break;
-        }
-      }
-    }
-    enabled = on == 3;
+    enabled = all_drives_enabled(bus.snapshot());
   }
   ASSERT_TRUE(enabled);
   EXPECT_EQ(fw.terminate(60s).value_or(-1), 5) << fw.err();
@@ -685,20 +689,9 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   hil::Child fw = hil::Child::spawn(
       {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
   ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
-  const auto all_enabled = [&bus] {
-    const auto frames = bus.snapshot();
-    int on = 0;
-    for (std::uint8_t node = 1; node <= 3; ++node) {
-      for (auto it = frames.rbegin(); it != frames.rend(); ++it) {
-        if (it->id == p::cob_id(p::kTpdo1, node)) {
-          on += cia::decode_statusword(u16(*it)) == cia::State::kOperationEnabled;
-          break;
-        }
-      }
-    }
-    return on == 3;
-  };
-  while (!all_enabled()) ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
+  while (!all_drives_enabled(bus.snapshot())) {
+    ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
+  }
   kill(fw.pid(), SIGKILL);
   EXPECT_EQ(fw.wait(30s).value_or(-1), 128 + SIGKILL);
   const auto heartbeat_lost = [&bus] {

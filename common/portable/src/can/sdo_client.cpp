@@ -1,21 +1,14 @@
 // CiA 301 SDO client: expedited, segmented and block transfers.
 #include "delta/can/sdo.hpp"
+#include "sdo_bytes.hpp"
 
 namespace delta::can::sdo {
 
 namespace {
 
-constexpr std::uint32_t kSegmentBytes = 7;
-
-// <algorithm> is not used here: newlib's pulls floating point into the
-// Cortex-M build, which may not touch the FPU.
-constexpr std::uint32_t smaller(std::uint32_t a, std::uint32_t b) {
-  return a < b ? a : b;
-}
-
-void copy_bytes(const std::uint8_t* from, std::size_t n, std::uint8_t* to) {
-  for (std::size_t i = 0; i < n; ++i) to[i] = from[i];
-}
+using detail::copy_bytes;
+using detail::kSegmentBytes;
+using detail::smaller;
 
 constexpr bool multiplexer_is(const Payload& r, std::uint16_t index, std::uint8_t subindex) {
   return get_index(r) == index && r[3] == subindex;

@@ -1,22 +1,15 @@
 // CiA 301 SDO server: expedited, segmented and block transfers over an
 // ObjectDictionary.
 #include "delta/can/sdo.hpp"
+#include "sdo_bytes.hpp"
 
 namespace delta::can::sdo {
 
 namespace {
 
-constexpr std::uint32_t kSegmentBytes = 7;
-
-// <algorithm> is not used here: newlib's pulls floating point into the
-// Cortex-M build, which may not touch the FPU.
-constexpr std::uint32_t smaller(std::uint32_t a, std::uint32_t b) {
-  return a < b ? a : b;
-}
-
-void copy_bytes(const std::uint8_t* from, std::size_t n, std::uint8_t* to) {
-  for (std::size_t i = 0; i < n; ++i) to[i] = from[i];
-}
+using detail::copy_bytes;
+using detail::kSegmentBytes;
+using detail::smaller;
 
 constexpr std::uint8_t client_command(const Payload& r) {
   return static_cast<std::uint8_t>(r[0] >> 5);
