@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "delta/input_error.hpp"
+#include "delta/json_text.hpp"
 #include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
 
@@ -321,12 +322,7 @@ nlohmann::json json_report(const FitResult& r) {
 
 SavedResult read_saved_result(const std::string& path) {
   using nlohmann::json;
-  json j;
-  try {
-    j = json::parse(delta::read_whole_file(path));
-  } catch (const json::parse_error& e) {
-    throw delta::InputError(path + ": not valid JSON: " + e.what());
-  }
+  const json j = delta::parse_json(delta::read_whole_file(path), path);
   const auto need = [&](const json& parent, const char* key, const char* where) -> const json& {
     if (!parent.is_object() || !parent.contains(key)) {
       throw delta::InputError(path + ": missing key '" + std::string(where) + key + "'");

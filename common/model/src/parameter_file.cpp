@@ -3,18 +3,14 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/input_error.hpp"
+#include "delta/json_text.hpp"
 #include "delta/read_file.hpp"
 
 namespace delta {
 
 LumpedParameters read_lumped_parameters(const std::string& path) {
   LumpedParameters p = default_lumped_parameters();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_whole_file(path));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
+  nlohmann::json j = parse_json(read_whole_file(path), path);
   if (j.contains("parameters")) j = j["parameters"];  // a saved fit result
   if (!j.is_object()) throw InputError(path + ": expected a JSON object of parameters");
   const auto get = [&](const std::string& key, double& target) {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "delta/input_error.hpp"
+#include "delta/json_text.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/read_file.hpp"
 
@@ -256,12 +257,7 @@ void validate_robot_description(const RobotDescription& d, const std::string& wh
 }
 
 RobotDescription read_robot_description(const std::string& path) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_file_bytes(path).view());
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
-  }
+  const nlohmann::json j = parse_json(read_file_bytes(path).view(), path);
   RobotDescription d = parse(j, path);
   validate_robot_description(d, path);
   return d;

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "delta/input_error.hpp"
+#include "delta/json_text.hpp"
 #include "delta/read_file.hpp"
 
 namespace delta {
@@ -64,12 +65,7 @@ class Reader {
 }  // namespace
 
 BlendedFourierTrajectory parse_trajectory(const std::string& text, const std::string& where) {
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw InputError(where + ": not valid JSON: " + e.what());
-  }
+  const json j = parse_json(text, where);
   if (!j.is_object()) throw InputError(where + ": expected a JSON object");
   const Reader r(j, where);
   if (r.need("format") != kFormat) {

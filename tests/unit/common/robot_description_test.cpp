@@ -138,7 +138,22 @@ TEST(RobotDescriptionTest, NotJsonNamesTheFile) {
     read_robot_description(path);
     FAIL() << "accepted";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()).rfind(path + ": not valid JSON", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind(path + ":1:13: not valid JSON", 0), 0u) << e.what();
+  }
+}
+
+// A number no double holds is the library's out_of_range, not a parse
+// error; it too is an InputError naming where (found by fuzz_robot_description).
+TEST(RobotDescriptionTest, NumberOverflowNamesLineAndColumn) {
+  const std::string path = "/tmp/robot_description_big_" + std::to_string(::getpid()) + ".json";
+  std::ofstream(path)
+      << "{\n  \"format\": \"delta-robot/1\",\n  \"platform\": {\"mass_kg\": 1e1667}\n}\n";
+  try {
+    read_robot_description(path);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ":3:27: not valid JSON: number overflow parsing '1e1667'");
   }
 }
 

@@ -252,7 +252,7 @@ TEST_F(CliTest, ValidateRejectsWhatIsNotAResult) {
   EXPECT_NE(err_.str().find("not a host_id result"), std::string::npos);
   std::ofstream(path("y.json")) << "{not json";
   EXPECT_EQ(run({"validate", path("y.json"), path("p1.csv")}), 1);
-  EXPECT_NE(err_.str().find("y.json: not valid JSON"), std::string::npos);
+  EXPECT_NE(err_.str().find("y.json:1:3: not valid JSON"), std::string::npos);
 }
 
 TEST_F(CliTest, SimulateValidatesItsOptions) {
