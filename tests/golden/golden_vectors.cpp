@@ -5,6 +5,7 @@
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
 #include "fw/trajectory.hpp"
+#include "fw/update/slots.hpp"
 
 namespace fw::golden {
 
@@ -112,6 +113,79 @@ void reference_line(Line& l, const char* name, std::uint32_t tick, const JointRe
 }
 
 }  // namespace
+
+// The firmware update's integer code: CRC-32 and SHA-256 of a fixed byte
+// pattern in uneven pieces, a header's CRC, ImageCheck's verdicts, and the
+// slot machine through a download, a trial, a power loss and a confirmation.
+void update_lines(Line& l, std::uint32_t& lines) {
+  namespace u = delta::update;
+  std::uint8_t data[300];
+  for (std::uint32_t i = 0; i < sizeof data; ++i)
+    data[i] = static_cast<std::uint8_t>(i * 151u + 17u);
+  for (const std::uint32_t n : {0u, 3u, 55u, 56u, 64u, 300u}) {
+    u::Crc32 crc;
+    u::Sha256 sha;
+    for (std::uint32_t at = 0; at < n; at += 13) {
+      const std::uint32_t piece = n - at < 13 ? n - at : 13;
+      crc.add(std::span(data + at, piece));
+      sha.add(std::span(data + at, piece));
+    }
+    const u::Sha256Digest d = sha.finish();
+    l.word("crc32-sha256").num(n).num(crc.value());
+    for (std::uint32_t i = 0; i < 32; i += 4) {
+      l.num((std::int64_t{d[i]} << 24) | (d[i + 1] << 16) | (d[i + 2] << 8) | d[i + 3]);
+    }
+    l.end(lines);
+  }
+  u::ImageHeader h;
+  h.identity = {0xDE17, 0x16, 0x00010002};
+  h.version = {1, 2, 3};
+  h.payload_bytes = 300;
+  h.payload_crc32 = u::crc32(std::span(data, 300));
+  h.payload_sha256 = u::sha256(std::span(data, 300));
+  u::HeaderBytes raw;
+  u::encode_header(h, raw);
+  l.word("image-header-crc")
+      .num(raw[252] | (raw[253] << 8) | (raw[254] << 16) | (std::int64_t{raw[255]} << 24))
+      .end(lines);
+  // The image as bytes, then one bit flipped at a time (none: 556).
+  std::uint8_t image[256 + 300];
+  for (std::uint32_t i = 0; i < 256; ++i) image[i] = raw[i];
+  for (std::uint32_t i = 0; i < 300; ++i) image[256 + i] = data[i];
+  for (const std::uint32_t flip : {556u, 0u, 8u, 40u, 100u, 555u}) {
+    if (flip < sizeof image) image[flip] ^= 1;
+    u::ImageCheck check(4096);
+    if (check.add(std::span(image, 200))) (void)check.add(std::span(image + 200, 356));
+    l.word("image-check").num(flip).num(static_cast<int>(check.finish())).end(lines);
+    if (flip < sizeof image) image[flip] ^= 1;
+  }
+  fw::update::BootRecord r;
+  r.slots[0] = {fw::update::SlotState::kConfirmed, 0x11111111u, {1, 0, 0}};
+  fw::update::Slots s(r);
+  // Braced lists evaluate left to right: download, trial launched, a power
+  // loss (the second boot reverts), then download, trial and confirm.
+  const int steps[] = {static_cast<int>(s.begin_download()),
+                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x22222222u, {1, 1, 0})),
+                       static_cast<int>(s.start_trial()),
+                       s.boot().slot,
+                       s.boot().slot,
+                       static_cast<int>(s.record().last_revert),
+                       static_cast<int>(s.confirm()),
+                       static_cast<int>(s.begin_download()),
+                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x33333333u, {1, 2, 0})),
+                       static_cast<int>(s.start_trial()),
+                       s.boot().slot,
+                       static_cast<int>(s.confirm()),
+                       s.active()};
+  l.word("slots");
+  for (const int v : steps) l.num(v);
+  l.end(lines);
+  fw::update::RecordBytes rec;
+  fw::update::encode(s.record(), rec);
+  l.word("boot-record-crc")
+      .num(rec[32] | (rec[33] << 8) | (rec[34] << 16) | (std::int64_t{rec[35]} << 24))
+      .end(lines);
+}
 
 std::uint32_t write_golden_vectors(TextSink& out) {
   std::uint32_t lines = 0;
@@ -231,6 +305,7 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .end(lines);
     }
   }
+  update_lines(l, lines);
   l.word("end").num(lines + 1).end(lines);
   return lines;
 }
