@@ -15,6 +15,8 @@ packages=(
   libmodbus-dev libgpiod-dev
   # CANopen device descriptions (EDS files are INI)
   libinih-dev
+  # firmware image signatures (Ed25519); openssl checks them in the tests
+  libsodium-dev openssl
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the firmware core on Cortex-M4, run on qemu

@@ -13,7 +13,7 @@
 
 namespace host_id {
 
-void write_file_atomically(const std::string& path, std::string_view content) {
+void write_file_atomically(const std::string& path, std::string_view content, mode_t mode) {
   std::string tmpl = path + ".tmp.XXXXXX";
   const int fd = mkstemp(tmpl.data());
   if (fd < 0) {
@@ -37,7 +37,7 @@ void write_file_atomically(const std::string& path, std::string_view content) {
     data += n;
     left -= static_cast<std::size_t>(n);
   }
-  if (::fchmod(fd, 0644) != 0) fail("cannot set permissions");
+  if (::fchmod(fd, mode) != 0) fail("cannot set permissions");
   if (::fsync(fd) != 0) fail("fsync failed");
   if (::close(fd) != 0) {
     const std::string reason = std::strerror(errno);
