@@ -1,5 +1,7 @@
 #include "fw/update/slots.hpp"
 
+#include "delta/little_endian.hpp"
+
 namespace fw::update {
 
 Launch Slots::boot() {
@@ -66,22 +68,6 @@ namespace {
 
 constexpr std::uint8_t kMagic[4] = {'D', 'B', 'R', '1'};
 
-void put16(RecordBytes& b, std::uint32_t at, std::uint16_t v) {
-  b[at] = static_cast<std::uint8_t>(v);
-  b[at + 1] = static_cast<std::uint8_t>(v >> 8);
-}
-void put32(RecordBytes& b, std::uint32_t at, std::uint32_t v) {
-  for (std::uint32_t i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-std::uint16_t get16(const RecordBytes& b, std::uint32_t at) {
-  return static_cast<std::uint16_t>(b[at] | (b[at + 1] << 8));
-}
-std::uint32_t get32(const RecordBytes& b, std::uint32_t at) {
-  std::uint32_t v = 0;
-  for (std::uint32_t i = 0; i < 4; ++i) v |= std::uint32_t{b[at + i]} << (8 * i);
-  return v;
-}
-
 // Bytes 8-19 slot 0, 20-31 slot 1: state, zero, major, minor, patch, CRC-32.
 constexpr std::uint32_t slot_offset(unsigned i) {
   return 8 + 12 * i;
@@ -99,19 +85,19 @@ void encode(const BootRecord& r, RecordBytes& out) {
   for (unsigned i = 0; i < 2; ++i) {
     const std::uint32_t at = slot_offset(i);
     out[at] = static_cast<std::uint8_t>(r.slots[i].state);
-    put16(out, at + 2, r.slots[i].version.major);
-    put16(out, at + 4, r.slots[i].version.minor);
-    put16(out, at + 6, r.slots[i].version.patch);
-    put32(out, at + 8, r.slots[i].crc32);
+    delta::put_le16(out, at + 2, r.slots[i].version.major);
+    delta::put_le16(out, at + 4, r.slots[i].version.minor);
+    delta::put_le16(out, at + 6, r.slots[i].version.patch);
+    delta::put_le32(out, at + 8, r.slots[i].crc32);
   }
-  put32(out, 32, delta::update::crc32(std::span(out.data(), 32)));
+  delta::put_le32(out, 32, delta::update::crc32(std::span(out.data(), 32)));
 }
 
 bool decode(const RecordBytes& in, BootRecord& out) {
   for (std::uint32_t i = 0; i < 4; ++i) {
     if (in[i] != kMagic[i]) return false;
   }
-  if (get32(in, 32) != delta::update::crc32(std::span(in.data(), 32))) return false;
+  if (delta::get_le32(in, 32) != delta::update::crc32(std::span(in.data(), 32))) return false;
   if (in[4] > 1 || in[5] > 1 || in[6] >= kRevertReasonCount ||
       in[7] >= delta::update::kVerdictCount) {
     return false;
@@ -125,8 +111,9 @@ bool decode(const RecordBytes& in, BootRecord& out) {
     const std::uint32_t at = slot_offset(i);
     if (in[at] >= kSlotStateCount || in[at + 1] != 0) return false;
     r.slots[i].state = static_cast<SlotState>(in[at]);
-    r.slots[i].version = {get16(in, at + 2), get16(in, at + 4), get16(in, at + 6)};
-    r.slots[i].crc32 = get32(in, at + 8);
+    r.slots[i].version = {delta::get_le16(in, at + 2), delta::get_le16(in, at + 4),
+                          delta::get_le16(in, at + 6)};
+    r.slots[i].crc32 = delta::get_le32(in, at + 8);
   }
   out = r;
   return true;

@@ -1,5 +1,7 @@
 #include "delta/update/image.hpp"
 
+#include "delta/little_endian.hpp"
+
 namespace delta::update {
 namespace {
 
@@ -17,21 +19,6 @@ constexpr std::uint32_t kOffsetSignature = 128;
 constexpr std::uint32_t kOffsetReservedB = 192;
 constexpr std::uint32_t kOffsetHeaderCrc = 252;
 
-void put16(HeaderBytes& b, std::uint32_t at, std::uint16_t v) {
-  b[at] = static_cast<std::uint8_t>(v);
-  b[at + 1] = static_cast<std::uint8_t>(v >> 8);
-}
-void put32(HeaderBytes& b, std::uint32_t at, std::uint32_t v) {
-  for (std::uint32_t i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
-}
-std::uint16_t get16(const HeaderBytes& b, std::uint32_t at) {
-  return static_cast<std::uint16_t>(b[at] | (b[at + 1] << 8));
-}
-std::uint32_t get32(const HeaderBytes& b, std::uint32_t at) {
-  std::uint32_t v = 0;
-  for (std::uint32_t i = 0; i < 4; ++i) v |= std::uint32_t{b[at + i]} << (8 * i);
-  return v;
-}
 bool all_zero(const HeaderBytes& b, std::uint32_t from, std::uint32_t to) {
   for (std::uint32_t i = from; i < to; ++i) {
     if (b[i] != 0) return false;
@@ -115,51 +102,51 @@ const char* describe(Verdict v) {
 void encode_header(const ImageHeader& h, HeaderBytes& out) {
   out = HeaderBytes{};
   for (std::uint32_t i = 0; i < kMagic.size(); ++i) out[i] = kMagic[i];
-  put16(out, kOffsetHeaderVersion, kHeaderVersion);
-  put16(out, kOffsetHeaderSize, static_cast<std::uint16_t>(kHeaderBytes));
-  put32(out, kOffsetIdentity, h.identity.vendor_id);
-  put32(out, kOffsetIdentity + 4, h.identity.product_code);
-  put32(out, kOffsetIdentity + 8, h.identity.revision);
-  put16(out, kOffsetVersion, h.version.major);
-  put16(out, kOffsetVersion + 2, h.version.minor);
-  put16(out, kOffsetVersion + 4, h.version.patch);
-  put16(out, kOffsetFlags, h.flags);
+  put_le16(out, kOffsetHeaderVersion, kHeaderVersion);
+  put_le16(out, kOffsetHeaderSize, static_cast<std::uint16_t>(kHeaderBytes));
+  put_le32(out, kOffsetIdentity, h.identity.vendor_id);
+  put_le32(out, kOffsetIdentity + 4, h.identity.product_code);
+  put_le32(out, kOffsetIdentity + 8, h.identity.revision);
+  put_le16(out, kOffsetVersion, h.version.major);
+  put_le16(out, kOffsetVersion + 2, h.version.minor);
+  put_le16(out, kOffsetVersion + 4, h.version.patch);
+  put_le16(out, kOffsetFlags, h.flags);
   for (std::uint32_t i = 0; i < h.build_id.size(); ++i) {
     out[kOffsetBuildId + i] = static_cast<std::uint8_t>(h.build_id[i]);
   }
-  put32(out, kOffsetPayloadBytes, h.payload_bytes);
-  put32(out, kOffsetPayloadCrc, h.payload_crc32);
+  put_le32(out, kOffsetPayloadBytes, h.payload_bytes);
+  put_le32(out, kOffsetPayloadCrc, h.payload_crc32);
   for (std::uint32_t i = 0; i < 32; ++i) out[kOffsetPayloadSha + i] = h.payload_sha256[i];
   for (std::uint32_t i = 0; i < 64; ++i) out[kOffsetSignature + i] = h.signature[i];
-  put32(out, kOffsetHeaderCrc, crc32(std::span(out.data(), kOffsetHeaderCrc)));
+  put_le32(out, kOffsetHeaderCrc, crc32(std::span(out.data(), kOffsetHeaderCrc)));
 }
 
 Verdict decode_header(const HeaderBytes& in, ImageHeader& out) {
   for (std::uint32_t i = 0; i < kMagic.size(); ++i) {
     if (in[i] != kMagic[i]) return Verdict::kNotAnImage;
   }
-  if (get16(in, kOffsetHeaderVersion) != kHeaderVersion ||
-      get16(in, kOffsetHeaderSize) != kHeaderBytes) {
+  if (get_le16(in, kOffsetHeaderVersion) != kHeaderVersion ||
+      get_le16(in, kOffsetHeaderSize) != kHeaderBytes) {
     return Verdict::kUnknownHeaderVersion;
   }
-  if (get32(in, kOffsetHeaderCrc) != crc32(std::span(in.data(), kOffsetHeaderCrc))) {
+  if (get_le32(in, kOffsetHeaderCrc) != crc32(std::span(in.data(), kOffsetHeaderCrc))) {
     return Verdict::kHeaderCrc;
   }
   if (!all_zero(in, kOffsetReservedA, kOffsetSignature) ||
       !all_zero(in, kOffsetReservedB, kOffsetHeaderCrc) ||
-      (get16(in, kOffsetFlags) & ~kFlagSigned) != 0) {
+      (get_le16(in, kOffsetFlags) & ~kFlagSigned) != 0) {
     return Verdict::kReservedNotZero;
   }
-  out.identity = {get32(in, kOffsetIdentity), get32(in, kOffsetIdentity + 4),
-                  get32(in, kOffsetIdentity + 8)};
-  out.version = {get16(in, kOffsetVersion), get16(in, kOffsetVersion + 2),
-                 get16(in, kOffsetVersion + 4)};
-  out.flags = get16(in, kOffsetFlags);
+  out.identity = {get_le32(in, kOffsetIdentity), get_le32(in, kOffsetIdentity + 4),
+                  get_le32(in, kOffsetIdentity + 8)};
+  out.version = {get_le16(in, kOffsetVersion), get_le16(in, kOffsetVersion + 2),
+                 get_le16(in, kOffsetVersion + 4)};
+  out.flags = get_le16(in, kOffsetFlags);
   for (std::uint32_t i = 0; i < out.build_id.size(); ++i) {
     out.build_id[i] = static_cast<char>(in[kOffsetBuildId + i]);
   }
-  out.payload_bytes = get32(in, kOffsetPayloadBytes);
-  out.payload_crc32 = get32(in, kOffsetPayloadCrc);
+  out.payload_bytes = get_le32(in, kOffsetPayloadBytes);
+  out.payload_crc32 = get_le32(in, kOffsetPayloadCrc);
   for (std::uint32_t i = 0; i < 32; ++i) out.payload_sha256[i] = in[kOffsetPayloadSha + i];
   for (std::uint32_t i = 0; i < 64; ++i) out.signature[i] = in[kOffsetSignature + i];
   return Verdict::kOk;
