@@ -41,19 +41,14 @@ std::vector<std::uint8_t> make_image(const ImageFields& fields,
 CheckedImage check_image(std::vector<std::uint8_t> bytes) {
   CheckedImage c;
   c.bytes = std::move(bytes);
-  ImageCheck check(0xFFFFFFFFu);
   if (c.bytes.size() > 0xFFFFFFFFu) {
     c.verdict = Verdict::kTooLarge;
     return c;
   }
+  ImageCheck check(0xFFFFFFFFu);
   (void)check.add(c.bytes);
   c.verdict = check.finish();
-  if (c.bytes.size() >= kHeaderBytes) {
-    HeaderBytes raw;
-    std::copy_n(c.bytes.begin(), kHeaderBytes, raw.begin());
-    ImageHeader h;
-    if (decode_header(raw, h) == Verdict::kOk) c.header = h;
-  }
+  if (check.header_valid()) c.header = check.header();
   return c;
 }
 

@@ -137,8 +137,8 @@ void run_keygen(const std::string& secret_path, const std::string& public_path,
   write_file_atomically(secret_path, up::key_text(k.seed), 0600);  // owner only
   write_file_atomically(public_path, up::key_text(k.public_key));
   context.out << "secret key: " << secret_path << " (keep it off the controller)\n"
-              << "public key: " << public_path << " (give it to the controller: "
-              << "update_public_key in its configuration)\n";
+              << "public key: " << public_path
+              << " (verifies signatures: host_id image info --public-key)\n";
   context.exit_code = 0;
 }
 

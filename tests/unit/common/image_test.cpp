@@ -157,6 +157,26 @@ TEST(ImageTest, EachDefectHasItsVerdict) {
   EXPECT_EQ(check({}), Verdict::kNotAnImage);
 }
 
+// The header stays readable when only the program is wrong (host_id image
+// info prints it), and is not when the header itself is.
+TEST(ImageTest, TheHeaderIsValidWhenOnlyTheProgramIsWrong) {
+  std::vector<std::uint8_t> b = make_image(400).bytes;
+  b[kHeaderBytes + 7] ^= 4;
+  ImageCheck program_wrong(1u << 20);
+  (void)program_wrong.add(b);
+  EXPECT_EQ(program_wrong.finish(), Verdict::kPayloadCrc);
+  EXPECT_TRUE(program_wrong.header_valid());
+  EXPECT_EQ(program_wrong.header().payload_bytes, 400u);
+  b[50] ^= 1;
+  ImageCheck header_wrong(1u << 20);
+  EXPECT_FALSE(header_wrong.add(b));
+  EXPECT_EQ(header_wrong.finish(), Verdict::kHeaderCrc);
+  EXPECT_FALSE(header_wrong.header_valid());
+  ImageCheck too_short(1u << 20);
+  (void)too_short.add(std::span(b).first(200));
+  EXPECT_FALSE(too_short.header_valid());
+}
+
 // A header with a right CRC-32 but a wrong SHA-256 (the CRC alone does not
 // vouch for the program), and reserved bytes set under a valid header CRC.
 TEST(ImageTest, Sha256AndReservedBytesAreCheckedToo) {

@@ -165,7 +165,8 @@ bool ImageCheck::add(std::span<const std::uint8_t> bytes) {
   if (received_ == kHeaderBytes && !header_decoded_) {
     header_decoded_ = true;
     verdict_ = decode_header(raw_, header_);
-    if (verdict_ == Verdict::kOk && header_.payload_bytes > capacity_bytes_) {
+    header_valid_ = verdict_ == Verdict::kOk;
+    if (header_valid_ && header_.payload_bytes > capacity_bytes_) {
       verdict_ = Verdict::kTooLarge;
     }
     if (verdict_ != Verdict::kOk) return false;

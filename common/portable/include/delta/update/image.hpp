@@ -106,7 +106,8 @@ class ImageCheck {
   // After the last byte.
   Verdict finish();
   Verdict verdict() const { return verdict_; }
-  bool header_known() const { return received_ >= kHeaderBytes && verdict_ == Verdict::kOk; }
+  // The header arrived and decoded (the payload may still fail its checks).
+  bool header_valid() const { return header_valid_; }
   const ImageHeader& header() const { return header_; }
   const HeaderBytes& header_bytes() const { return raw_; }
   std::uint32_t received_bytes() const { return received_; }
@@ -115,6 +116,7 @@ class ImageCheck {
   std::uint32_t capacity_bytes_;
   std::uint32_t received_{0};
   bool header_decoded_{false};
+  bool header_valid_{false};
   Verdict verdict_{Verdict::kOk};
   HeaderBytes raw_{};
   ImageHeader header_{};
