@@ -2,6 +2,7 @@
 
 #include "delta/can/cia402.hpp"
 #include "delta/can/protocol.hpp"
+#include "delta/update/image_file.hpp"
 
 namespace fw_linux {
 
@@ -12,20 +13,28 @@ namespace {
 
 static_assert(p::kNmtStateOperational == 5);
 
-constexpr std::uint32_t kVersionRevision =
-    (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR;
-
-std::string version_text() {
-  return std::to_string(DELTA_FW_VERSION_MAJOR) + "." + std::to_string(DELTA_FW_VERSION_MINOR) +
-         "." + std::to_string(DELTA_FW_VERSION_PATCH);
-}
-
 // The log frames LOG_A, LOG_B, LOG_C are node 16's TPDO1-3.
 constexpr std::uint32_t log_cob_id(unsigned tpdo) {
   return tpdo == 0 ? p::kLogA.base_id : (tpdo == 1 ? p::kLogB.base_id : p::kLogC.base_id);
 }
 
 }  // namespace
+
+delta::update::Identity controller_identity(const delta::update::Version& version) {
+  return {kControllerVendorId, kControllerProductCode,
+          (std::uint32_t{version.major} << 16) | version.minor};
+}
+
+StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
+                       const fw::SafetyOutputs& outputs) {
+  StepReport r;
+  r.fault = fault;
+  r.cycle = cycle;
+  r.ready = state == fw::State::kReady;
+  r.safe_to_update = state != fw::State::kRunning && state != fw::State::kStopping &&
+                     !outputs.drive_enable && !outputs.brake_release;
+  return r;
+}
 
 // The objects, in index order (docs/protocol.md, docs/eds/delta_fw.eds).
 std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
@@ -42,7 +51,8 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1018, 0, 1, [](const Context&) { return 4u; }, nullptr},
       {0x1018, 1, 4, [](const Context&) { return kControllerVendorId; }, nullptr},
       {0x1018, 2, 4, [](const Context&) { return kControllerProductCode; }, nullptr},
-      {0x1018, 3, 4, [](const Context&) { return kVersionRevision; }, nullptr},
+      {0x1018, 3, 4, [](const Context& c) { return controller_identity(c.node.version_).revision; },
+       nullptr},
       {0x1018, 4, 4, [](const Context&) { return 0u; }, nullptr},
       {0x1800, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1800, 1, 4, [](const Context&) { return log_cob_id(0); }, nullptr},
@@ -53,6 +63,29 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1802, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1802, 1, 4, [](const Context&) { return log_cob_id(2); }, nullptr},
       {0x1802, 2, 1, [](const Context&) { return 1u; }, nullptr},
+      // Program download (CiA 302-3): one program, 0x1F50:1 (a domain, below).
+      {0x1F50, 0, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1F51, 0, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1F51, 1, 1, [](const Context&) { return 1u; },  // reads 1: this program runs
+       [](Context& c, std::uint32_t v) {
+         return c.node.program_.control(v, c.node.safe_to_update_);
+       }},
+      {0x1F56, 0, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1F56, 1, 4, [](const Context& c) { return c.node.program_.program_crc32(); }, nullptr},
+      {0x1F57, 0, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1F57, 1, 4, [](const Context& c) { return c.node.program_.flash_status(); }, nullptr},
+      // How this program runs under delta_boot, and the last roll-back's reason.
+      {0x2F00, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x2F00, 1, 1,
+       [](const Context& c) {
+         return std::uint32_t{static_cast<std::uint8_t>(c.node.program_.boot_status())};
+       },
+       nullptr},
+      {0x2F00, 2, 1,
+       [](const Context& c) {
+         return std::uint32_t{static_cast<std::uint8_t>(c.node.program_.reverted())};
+       },
+       nullptr},
   };
   return kScalars;
 }
@@ -61,17 +94,31 @@ std::span<const ControllerNode::Table::Text> ControllerNode::texts() {
   static const Table::Text kTexts[] = {
       {0x1008, 0, [](const Context&) { return std::string("delta_fw"); }},
       {0x1009, 0, [](const Context&) { return std::string("Linux"); }},
-      {0x100A, 0, [](const Context&) { return version_text(); }},
+      {0x100A, 0, [](const Context& c) { return delta::update::version_text(c.node.version_); }},
   };
   return kTexts;
 }
 
-ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c)
+std::span<const ControllerNode::Table::Domain> ControllerNode::domains() {
+  static const Table::Domain kDomains[] = {
+      {0x1F50, 1, [](const Context& c) { return c.node.program_.capacity_bytes(); },
+       [](Context& c, std::uint32_t offset, std::span<const std::uint8_t> data, bool last) {
+         return c.node.program_.write(offset, data, last, c.node.safe_to_update_);
+       },
+       [](Context& c) { c.node.program_.abandoned(); }},
+  };
+  return kDomains;
+}
+
+ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c,
+                               const delta::update::Version& version, ProgramDownload& program)
     : bus_(bus),
+      version_(version),
+      program_(program),
       period_us_(c.period_us),
       configured_heartbeat_ms_(static_cast<std::uint16_t>(c.heartbeat_ms)),
       heartbeat_ms_(configured_heartbeat_ms_),
-      table_(Context{*this}, scalars(), texts()) {
+      table_(Context{*this}, scalars(), texts(), domains()) {
   server_.emplace(table_);
 }
 
@@ -126,26 +173,30 @@ void ControllerNode::flush_sdo(std::uint64_t now_us) {
   }
 }
 
-void ControllerNode::after_step(fw::Fault fault, std::uint32_t cycle, std::uint64_t now_us) {
+void ControllerNode::after_step(const StepReport& step, std::uint64_t now_us) {
   if (boot_up_due_) {
     send(p::kControllerHeartbeat.base_id, p::kControllerHeartbeat.dlc, {p::kNmtStateBootUp});
     boot_up_due_ = false;
     nmt_ = kOperational;
   }
-  fault_ = fault;
-  if (fault != last_reported_ && nmt_ != p::kNmtStateStopped) {
-    std::array<std::uint8_t, 8> d{};
+  fault_ = step.fault;
+  safe_to_update_ = step.safe_to_update;
+  program_.after_step(step.ready);
+  if (!revert_reported_ && nmt_ != p::kNmtStateStopped) {
+    revert_reported_ = true;
+    if (program_.reverted() != fw::update::RevertReason::kNone) {
+      emergency(delta::can::od::kEmcyUpdateRolledBack,
+                static_cast<std::uint16_t>(program_.reverted()), step.cycle);
+    }
+  }
+  if (step.fault != last_reported_ && nmt_ != p::kNmtStateStopped) {
     const std::uint16_t code =
-        fault == fw::Fault::kNone
+        step.fault == fw::Fault::kNone
             ? delta::can::od::kEmcyErrorReset
             : static_cast<std::uint16_t>(delta::can::od::kEmcyControllerFaultBase +
-                                         static_cast<std::uint16_t>(fault));
-    p::pack(d, p::kControllerEmcyErrorCode, code);
-    p::pack(d, p::kControllerEmcyErrorRegister, fault == fw::Fault::kNone ? 0 : 1);
-    p::pack(d, p::kControllerEmcyFaultCode, static_cast<std::uint16_t>(fault));
-    p::pack(d, p::kControllerEmcyCycle, cycle);
-    send(p::kControllerEmcy.base_id, p::kControllerEmcy.dlc, d);
-    last_reported_ = fault;
+                                         static_cast<std::uint16_t>(step.fault));
+    emergency(code, static_cast<std::uint16_t>(step.fault), step.cycle);
+    last_reported_ = step.fault;
   }
   since_heartbeat_us_ += period_us_;
   if (heartbeat_ms_ != 0 && since_heartbeat_us_ >= std::uint32_t{heartbeat_ms_} * 1000u) {
@@ -154,6 +205,16 @@ void ControllerNode::after_step(fw::Fault fault, std::uint32_t cycle, std::uint6
   }
   server_->tick(now_us);
   flush_sdo(now_us);
+}
+
+// The error register's generic bit (CiA 301) is set for any code but the reset.
+void ControllerNode::emergency(std::uint16_t code, std::uint16_t fault_code, std::uint32_t cycle) {
+  std::array<std::uint8_t, 8> d{};
+  p::pack(d, p::kControllerEmcyErrorCode, code);
+  p::pack(d, p::kControllerEmcyErrorRegister, code == delta::can::od::kEmcyErrorReset ? 0 : 1);
+  p::pack(d, p::kControllerEmcyFaultCode, fault_code);
+  p::pack(d, p::kControllerEmcyCycle, cycle);
+  send(p::kControllerEmcy.base_id, p::kControllerEmcy.dlc, d);
 }
 
 void ControllerNode::send(std::uint32_t id, std::uint8_t dlc,

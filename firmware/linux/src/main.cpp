@@ -41,7 +41,10 @@ struct Arguments {
 // The command line, or the exit code when it asked for help or was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   CLI::App app(kDescription, "delta_fw");
-  app.set_version_flag("--version", std::string("delta_fw ") + DELTA_VERSION);
+  app.set_version_flag("--version", std::string("delta_fw ") +
+                                        std::to_string(DELTA_FW_VERSION_MAJOR) + "." +
+                                        std::to_string(DELTA_FW_VERSION_MINOR) + "." +
+                                        std::to_string(DELTA_FW_VERSION_PATCH));
   app.add_option("--can", a.run.iface, "the CAN interface (can0, vcan0)")->required();
   app.add_option("--config", a.config_path, "key = value settings (docs/firmware.md)");
   app.add_option("--set", a.overrides, "KEY=VALUE: override one setting (repeatable)")
@@ -98,9 +101,10 @@ std::unique_ptr<fw_linux::SafetyIo> open_safety_io(const fw_linux::PortConfig& c
 }
 
 std::unique_ptr<fw_linux::ModbusServer> open_modbus(const fw_linux::PortConfig& config,
-                                                    fw_linux::ControlPanel& panel) {
+                                                    fw_linux::ControlPanel& panel,
+                                                    const fw_linux::ProgramFacts& program) {
   if (config.modbus.tcp.empty() && config.modbus.rtu_device.empty()) return nullptr;
-  auto modbus = std::make_unique<fw_linux::ModbusServer>(config, panel);
+  auto modbus = std::make_unique<fw_linux::ModbusServer>(config, panel, program);
   if (modbus->tcp_port() != 0) {
     std::cerr << "delta_fw: Modbus TCP on "
               << fw_linux::split_host_port(config.modbus.tcp, "modbus.tcp").first << ":"
@@ -120,7 +124,7 @@ int run(const fw_linux::PortConfig& config, fw_linux::RunOptions options) {
   try {
     const auto io = open_safety_io(config);
     fw_linux::ControlPanel panel;
-    const auto modbus = open_modbus(config, panel);
+    const auto modbus = open_modbus(config, panel, options.program);
     if (modbus) options.panel = &panel;
     return fw_linux::run_port(config, options, *io, g_stop, std::cerr);
   } catch (const fw_linux::GpioError& e) {
@@ -143,9 +147,15 @@ int run(const fw_linux::PortConfig& config, fw_linux::RunOptions options) {
 int main(int argc, char** argv) {
   Arguments arguments;
   if (const auto exit_code = parse_arguments(argc, argv, arguments)) return *exit_code;
+  arguments.run.program.version = {DELTA_FW_VERSION_MAJOR, DELTA_FW_VERSION_MINOR,
+                                   DELTA_FW_VERSION_PATCH};
   fw_linux::PortConfig config;
   try {
     config = load_config(arguments);
+    arguments.run.supervision = fw_linux::boot::supervision_from_environment();
+    if (arguments.run.supervision) {
+      arguments.run.program.rolled_back = arguments.run.supervision->reverted;
+    }
   } catch (const fw_linux::ConfigError& e) {
     std::cerr << "delta_fw: " << e.what() << "\n";
     return fw_linux::kExitUsage;

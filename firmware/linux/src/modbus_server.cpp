@@ -89,8 +89,10 @@ bool moving(const PanelStatus& s) {
 
 }  // namespace
 
-RegisterBank::RegisterBank(const PortConfig& config, ControlPanel& panel)
+RegisterBank::RegisterBank(const PortConfig& config, ControlPanel& panel,
+                           const ProgramFacts& program)
     : config_(config),
+      program_(program),
       core_(controller_config(config)),
       panel_(panel),
       mapping_(
@@ -111,9 +113,10 @@ void RegisterBank::refresh() {
   const PanelStatus s = panel_.status();
   std::uint16_t* in = mapping_->tab_input_registers;
   auto set = [in](const char* name, std::int64_t v) { mb::encode(mb::named(name), v, in); };
-  set("firmware_version_major", DELTA_FW_VERSION_MAJOR);
-  set("firmware_version_minor", DELTA_FW_VERSION_MINOR);
-  set("firmware_version_patch", DELTA_FW_VERSION_PATCH);
+  set("firmware_version_major", program_.version.major);
+  set("firmware_version_minor", program_.version.minor);
+  set("firmware_version_patch", program_.version.patch);
+  set("update_rollback", static_cast<int>(program_.rolled_back));
   set("protocol_version", mb::kMapVersion);
   set("state", static_cast<int>(s.state));
   set("fault_code", static_cast<int>(s.fault));
@@ -332,8 +335,9 @@ bool RegisterBank::write(modbus_t* ctx, const std::uint8_t* request, std::uint16
 
 // --- the transports ---
 
-ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel)
-    : config_(config.modbus), bank_(config, panel) {
+ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel,
+                           const ProgramFacts& program)
+    : config_(config.modbus), bank_(config, panel, program) {
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) throw ModbusError(std::string("Modbus: eventfd: ") + std::strerror(errno));
   auto fail = [this](const std::string& message) {

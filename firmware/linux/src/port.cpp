@@ -201,7 +201,8 @@ struct Loop {
         master(config, sink),
         hw(master, io, sink),
         controller(hw, core),
-        node(sink, config),
+        program(options.supervision, controller_identity(options.program.version)),
+        node(sink, config, options.program.version, program),
         coordinator(std::move(runs), options.exit_when_done, options.panel, out) {
     if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
     hw.gate_pdos(&node);
@@ -211,6 +212,7 @@ struct Loop {
   CanopenMaster master;
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
+  ProgramDownload program;
   ControllerNode node;
   RunCoordinator coordinator;
 };
@@ -289,7 +291,9 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
     l.master.send_commands();
     stats.step_max_us =
         std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
-    l.node.after_step(l.controller.fault(), l.controller.cycles(), monotonic_us());
+    l.node.after_step(step_report(l.controller.state(), l.controller.fault(), l.controller.cycles(),
+                                  l.hw.last_outputs()),
+                      monotonic_us());
     ++stats.cycles;
     l.coordinator.after_step(l.controller, l.hw, l.master);
     if (const auto code = l.coordinator.exit_code()) exit_code = *code;

@@ -1,17 +1,12 @@
 #pragma once
 
-#include <sys/types.h>
-
 #include <string>
-#include <string_view>
+
+#include "delta/atomic_file.hpp"
 
 namespace host_id {
 
-// Writes content to path atomically: into a temporary file in the same
-// folder, flushed to disk, then renamed over path. On any failure the
-// temporary file is removed, path is left as it was, and delta::InputError is
-// thrown. The file gets `mode` (0600 for a secret key).
-void write_file_atomically(const std::string& path, std::string_view content, mode_t mode = 0644);
+using delta::write_file_atomically;
 
 // Where a command keeps what it has when it could not finish:
 // "run.csv" -> "run.partial.csv"; "run" -> "run.partial".

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "delta/can/protocol.hpp"
+#include "node_rig.hpp"
 
 namespace fw_linux {
 namespace {
@@ -16,75 +17,7 @@ namespace {
 namespace p = delta::can::protocol;
 namespace sdo = delta::can::sdo;
 using delta::can::Frame;
-
-struct Recorder : FrameSink {
-  std::vector<Frame> frames;
-  bool send(const Frame& f) override {
-    frames.push_back(f);
-    return true;
-  }
-  std::vector<Frame> take() { return std::exchange(frames, {}); }
-};
-
-struct NodeRig {
-  Recorder bus;
-  PortConfig config;
-  ControllerNode node{bus, config};
-  std::uint64_t now_us{0};
-  sdo::Client client;
-
-  void step(fw::Fault fault = fw::Fault::kNone, int cycles = 1) {
-    for (int i = 0; i < cycles; ++i) {
-      now_us += config.period_us;
-      node.after_step(fault, 0, now_us);
-    }
-  }
-  void frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
-    Frame f{};
-    f.id = id;
-    f.dlc = dlc;
-    f.data = data;
-    node.on_frame(f, now_us);
-  }
-  void nmt(std::uint8_t command, std::uint8_t node_id) {
-    frame(p::cob_id(p::kNmt, 0), 2, {command, node_id});
-  }
-  // One whole transfer with common's client; the answers node 16 sent.
-  void transfer() {
-    for (int guard = 0; guard < 1000 && client.status() == sdo::ClientStatus::kBusy; ++guard) {
-      sdo::Payload request;
-      if (!client.pending(request)) break;
-      client.sent(now_us);
-      frame(p::cob_id(p::kSdoRx, p::kControllerNode), 8, request);
-      for (const Frame& f : bus.take()) {
-        if (f.id == p::cob_id(p::kSdoTx, p::kControllerNode)) client.on_frame(f.data, now_us);
-      }
-    }
-  }
-  std::string read_text(std::uint16_t index) {
-    std::vector<std::uint8_t> buffer(64);
-    client.upload(index, 0, buffer, sdo::Transfer::kAuto, now_us);
-    transfer();
-    EXPECT_EQ(client.status(), sdo::ClientStatus::kDone) << sdo::abort_meaning(client.abort_code());
-    return std::string(buffer.begin(), buffer.begin() + client.uploaded_size());
-  }
-  std::uint32_t read(std::uint16_t index, std::uint8_t sub) {
-    std::vector<std::uint8_t> buffer(4);
-    client.upload(index, sub, buffer, sdo::Transfer::kAuto, now_us);
-    transfer();
-    EXPECT_EQ(client.status(), sdo::ClientStatus::kDone) << sdo::abort_meaning(client.abort_code());
-    std::uint32_t v = 0;
-    for (unsigned i = 0; i < client.uploaded_size(); ++i) v |= std::uint32_t{buffer[i]} << (8 * i);
-    return v;
-  }
-  std::vector<std::uint8_t> heartbeats() {
-    std::vector<std::uint8_t> states;
-    for (const Frame& f : bus.take()) {
-      if (f.id == p::kControllerHeartbeat.base_id) states.push_back(f.data[0]);
-    }
-    return states;
-  }
-};
+using testing::NodeRig;
 
 TEST(ControllerNodeTest, BootsUpThenSendsItsHeartbeatEveryHeartbeatTime) {
   NodeRig rig;  // 2 ms cycles, heartbeat every 50 ms
@@ -100,8 +33,7 @@ TEST(ControllerNodeTest, AnswersSdoWithItsIdentityNameAndVersion) {
   rig.step();
   EXPECT_EQ(rig.read(0x1018, 1), kControllerVendorId);
   EXPECT_EQ(rig.read(0x1018, 2), kControllerProductCode);
-  EXPECT_EQ(rig.read(0x1018, 3),
-            (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR);
+  EXPECT_EQ(rig.read(0x1018, 3), (std::uint32_t{rig.version.major} << 16) | rig.version.minor);
   EXPECT_EQ(rig.read_text(0x1008), "delta_fw");  // 8 bytes: a segmented upload
   EXPECT_EQ(rig.read_text(0x100A), DELTA_PROJECT_VERSION);
   EXPECT_EQ(rig.read(0x1800, 1), p::kLogA.base_id);
@@ -185,8 +117,7 @@ TEST(ControllerNodeTest, ItsEdsListsExactlyItsObjects) {
   EXPECT_EQ(rig.node.eds_mismatch(eds), "");
   EXPECT_EQ(eds.identity.vendor_id, kControllerVendorId);
   EXPECT_EQ(eds.identity.product_code, kControllerProductCode);
-  EXPECT_EQ(eds.identity.revision,
-            (std::uint32_t{DELTA_FW_VERSION_MAJOR} << 16) | DELTA_FW_VERSION_MINOR)
+  EXPECT_EQ(eds.identity.revision, (std::uint32_t{rig.version.major} << 16) | rig.version.minor)
       << "docs/eds/delta_fw.eds: RevisionNumber is the firmware's version";
   EXPECT_EQ(eds.find(0x1017, 0)->default_value(16), rig.config.heartbeat_ms);
 }

@@ -55,6 +55,9 @@ class InProcessBus : public FrameSink {
   std::uint32_t late_id_{~0u};
 };
 
+// The version the rigs' controller reports.
+inline constexpr delta::update::Version kVersion{3, 14, 15};
+
 struct Rig {
   explicit Rig(const emu::EmulatorConfig& ec = {}) : Rig(config(), ec) {}
   Rig(const PortConfig& c, const emu::EmulatorConfig& ec)
@@ -62,7 +65,8 @@ struct Rig {
         master(c, bus),
         hw(master, io, bus),
         controller(hw, controller_config(c)),
-        node(bus, c) {
+        program(std::nullopt, controller_identity(kVersion)),
+        node(bus, c, kVersion, program) {
     bus.emulator_.boot();
   }
   static PortConfig config() {
@@ -77,13 +81,16 @@ struct Rig {
     master.end_window();
     controller.step();
     master.send_commands();
-    node.after_step(controller.fault(), controller.cycles(), 0);
+    node.after_step(
+        step_report(controller.state(), controller.fault(), controller.cycles(), hw.last_outputs()),
+        0);
   }
   InProcessBus bus;
   CanopenMaster master;
   SimulatedSafetyIo io;
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
+  ProgramDownload program;
   ControllerNode node;
 };
 

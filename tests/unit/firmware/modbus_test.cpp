@@ -144,8 +144,12 @@ std::int64_t value(const std::uint16_t* regs, const char* name) {
 
 delta::BlendedFourierTrajectory path1_as_custom(double scale);
 
+// The program the registers describe: its version, and that delta_boot
+// started it after a new program crashed on trial.
+const ProgramFacts kFacts{{3, 14, 15}, fw::update::RevertReason::kCrashed};
+
 struct Fixture : ::testing::Test {
-  Fixture() : server(modbus_config(), panel), loop(panel), client(server.tcp_port()) {}
+  Fixture() : server(modbus_config(), panel, kFacts), loop(panel), client(server.tcp_port()) {}
   void SetUp() override {
     ASSERT_TRUE(client.connected());
     ASSERT_TRUE(poll_until(client, [](const std::uint16_t* r) {
@@ -201,7 +205,8 @@ TEST_F(Fixture, ReadsIdentityGeometryAndLiveValues) {
   EXPECT_EQ(value(r.data(), "firmware_version_major") * 10000 +
                 value(r.data(), "firmware_version_minor") * 100 +
                 value(r.data(), "firmware_version_patch"),
-            DELTA_PROJECT_VERSION_NUMBER);
+            31415);
+  EXPECT_EQ(value(r.data(), "update_rollback"), 3) << "crashed";
   EXPECT_EQ(value(r.data(), "period_us"), 2000);
   EXPECT_EQ(value(r.data(), "trajectory_count"), 4);
   const PortConfig c = Rig::config();
@@ -769,7 +774,7 @@ TEST(ModbusRtuTest, AnswersFramesOnAPseudoTerminalAndIgnoresBadOnes) {
   c.modbus.byte_timeout_ms = 100;
   ControlPanel panel;
   {
-    ModbusServer server(c, panel);
+    ModbusServer server(c, panel, kFacts);
     LoopThread loop(panel);
     // Read input registers 3..4 (protocol version, state) from unit 7.
     const auto read_req = rtu_frame({7, 0x04, 0, 3, 0, 2});
@@ -816,7 +821,7 @@ TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
   PortConfig c = Rig::config();
   c.modbus.rtu_device = "/dev/no-such-tty";
   try {
-    ModbusServer s(c, panel);
+    ModbusServer s(c, panel, kFacts);
     FAIL() << "expected a ModbusError";
   } catch (const ModbusError& e) {
     EXPECT_NE(std::string(e.what()).find("modbus.rtu_device = /dev/no-such-tty: cannot open"),
@@ -826,11 +831,11 @@ TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
   // A port already taken.
   PortConfig a = Rig::config();
   a.modbus.tcp = "127.0.0.1:0";
-  ModbusServer first(a, panel);
+  ModbusServer first(a, panel, kFacts);
   PortConfig b = Rig::config();
   b.modbus.tcp = "127.0.0.1:" + std::to_string(first.tcp_port());
   try {
-    ModbusServer second(b, panel);
+    ModbusServer second(b, panel, kFacts);
     FAIL() << "expected a ModbusError";
   } catch (const ModbusError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot listen"), std::string::npos) << e.what();

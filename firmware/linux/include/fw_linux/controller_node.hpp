@@ -4,7 +4,9 @@
 // (0x710, every heartbeat_ms, which the drives supervise through 0x1016)
 // and an emergency (0x090) when it enters or leaves a fault, with the
 // fault code and cycle. The log frames are its TPDOs: sent only while it
-// is operational.
+// is operational. Program download (CiA 302-3, 0x1F50-0x1F57) goes to
+// ProgramDownload; after delta_boot rolled a new program back, the node's
+// first emergency says why (docs/flashing.md).
 #pragma once
 
 #include <array>
@@ -17,8 +19,10 @@
 #include "delta/canopen/eds.hpp"
 #include "delta/canopen/object_table.hpp"
 #include "fw/faults.hpp"
+#include "fw/hardware.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/program_download.hpp"
 
 namespace fw_linux {
 
@@ -27,9 +31,24 @@ namespace fw_linux {
 inline constexpr std::uint32_t kControllerVendorId = 0x0000DE17;
 inline constexpr std::uint32_t kControllerProductCode = 0x00000016;
 
+// 0x1018 for a program of `version`: revision = major << 16 | minor.
+delta::update::Identity controller_identity(const delta::update::Version& version);
+
+// What the node learns from each control step.
+struct StepReport {
+  fw::Fault fault{fw::Fault::kNone};
+  std::uint32_t cycle{0};
+  bool safe_to_update{false};  // no trajectory, drives disabled, brakes engaged
+  bool ready{false};           // the controller reached ready (its drives up)
+};
+// Safe to update: no trajectory, drives disabled, brakes engaged.
+StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
+                       const fw::SafetyOutputs& outputs);
+
 class ControllerNode {
  public:
-  ControllerNode(FrameSink& bus, const PortConfig& c);
+  ControllerNode(FrameSink& bus, const PortConfig& c, const delta::update::Version& version,
+                 ProgramDownload& program);
   ControllerNode(const ControllerNode&) = delete;
   ControllerNode& operator=(const ControllerNode&) = delete;
 
@@ -37,7 +56,7 @@ class ControllerNode {
   void on_frame(const delta::can::Frame& f, std::uint64_t now_us);
   // After every control step: boot-up, emergencies, the heartbeat and the
   // SDO server's timeouts.
-  void after_step(fw::Fault fault, std::uint32_t cycle, std::uint64_t now_us);
+  void after_step(const StepReport& step, std::uint64_t now_us);
 
   // CiA 301: PDOs only in operational.
   bool pdos_allowed() const { return nmt_ == kOperational; }
@@ -53,13 +72,17 @@ class ControllerNode {
   using Table = delta::canopen::ObjectTable<Context>;
   static std::span<const Table::Scalar> scalars();
   static std::span<const Table::Text> texts();
+  static std::span<const Table::Domain> domains();
 
   void handle_nmt(const delta::can::Frame& f);
   void reset_communication();
   void flush_sdo(std::uint64_t now_us);
   void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data);
+  void emergency(std::uint16_t code, std::uint16_t fault_code, std::uint32_t cycle);
 
   FrameSink& bus_;
+  delta::update::Version version_;
+  ProgramDownload& program_;
   std::uint32_t period_us_;
   std::uint16_t configured_heartbeat_ms_;
   std::uint16_t heartbeat_ms_;
@@ -67,6 +90,8 @@ class ControllerNode {
   std::uint8_t nmt_{kOperational};
   bool boot_up_due_{true};
   fw::Fault fault_{fw::Fault::kNone};  // as of the last step (0x1001)
+  bool safe_to_update_{false};         // as of the last step
+  bool revert_reported_{false};
   fw::Fault last_reported_{fw::Fault::kNone};
   Table table_;
   std::optional<delta::can::sdo::Server> server_;

@@ -16,6 +16,7 @@
 
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
+#include "fw_linux/program_facts.hpp"
 
 struct _modbus;
 struct _modbus_mapping_t;
@@ -42,7 +43,7 @@ struct ModbusStats {
 // writes. Shared by the TCP and RTU threads (one lock).
 class RegisterBank {
  public:
-  RegisterBank(const PortConfig& config, ControlPanel& panel);
+  RegisterBank(const PortConfig& config, ControlPanel& panel, const ProgramFacts& program);
   ~RegisterBank();
   RegisterBank(const RegisterBank&) = delete;
   RegisterBank& operator=(const RegisterBank&) = delete;
@@ -77,6 +78,7 @@ class RegisterBank {
   void refresh();
 
   const PortConfig config_;
+  const ProgramFacts program_;
   const fw::ControllerConfig core_;
   ControlPanel& panel_;
   std::mutex mutex_;
@@ -92,7 +94,7 @@ class ModbusServer {
  public:
   // Opens what the configuration asks for (TCP listening socket, serial
   // device) and starts serving; throws ModbusError when one cannot open.
-  ModbusServer(const PortConfig& config, ControlPanel& panel);
+  ModbusServer(const PortConfig& config, ControlPanel& panel, const ProgramFacts& program);
   ~ModbusServer();  // stops the threads and closes everything
   ModbusServer(const ModbusServer&) = delete;
   ModbusServer& operator=(const ModbusServer&) = delete;

@@ -5,23 +5,28 @@
 #include <atomic>
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "fw_linux/boot_protocol.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
 #include "fw_linux/exit_codes.hpp"
+#include "fw_linux/program_facts.hpp"
 #include "fw_linux/safety_io.hpp"
 
 namespace fw_linux {
 
 struct RunOptions {
   std::string iface;
-  std::vector<std::string> trajectories;  // run one after the other, from ready
-  bool exit_when_done{false};             // exit after the last one (or a fault)
-  std::uint64_t max_cycles{0};            // 0: no limit
-  int rt_priority{0};                     // SCHED_FIFO priority in real time; 0: none
-  ControlPanel* panel{nullptr};           // commands and status for Modbus; may be null
+  std::vector<std::string> trajectories;         // run one after the other, from ready
+  bool exit_when_done{false};                    // exit after the last one (or a fault)
+  std::uint64_t max_cycles{0};                   // 0: no limit
+  int rt_priority{0};                            // SCHED_FIFO priority in real time; 0: none
+  ControlPanel* panel{nullptr};                  // commands and status for Modbus; may be null
+  ProgramFacts program;                          // this program's version (0x1018, 0x100A)
+  std::optional<boot::Supervision> supervision;  // from delta_boot; none without it
 };
 
 struct CycleStats {

@@ -1,6 +1,7 @@
 // A node's object dictionary as a table, behind common's SDO server: each
 // scalar object with its size and how to read and (if writable) write it
-// from the node's state, each visible string with how to read it. Written
+// from the node's state, each visible string with how to read it, each
+// write-only domain with where its bytes go as they arrive. Written
 // once for the emulated drives and the controller's own node; the same
 // table checks that the node's EDS describes it.
 #pragma once
@@ -34,13 +35,28 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     std::string (*get)(const Context&);
   };
 
-  ObjectTable(Context context, std::span<const Scalar> scalars, std::span<const Text> texts)
-      : context_(context), scalars_(scalars), texts_(texts) {}
+  struct Domain {  // a write-only DOMAIN, streamed to the node (program data)
+    std::uint16_t index;
+    std::uint8_t subindex;
+    std::uint32_t (*capacity)(const Context&);  // the most one download may write
+    // The download's bytes in order, the final piece with `last`.
+    can::sdo::AbortCode (*write)(Context&, std::uint32_t offset, std::span<const std::uint8_t>,
+                                 bool last);
+    void (*abandoned)(Context&);  // the download ended without its last piece
+  };
+
+  ObjectTable(Context context, std::span<const Scalar> scalars, std::span<const Text> texts,
+              std::span<const Domain> domains = {})
+      : context_(context), scalars_(scalars), texts_(texts), domains_(domains) {}
 
   can::sdo::AbortCode find(std::uint16_t index, std::uint8_t subindex,
                            can::sdo::ObjectInfo& info) override {
     if (const Text* t = text(index, subindex)) {
       info = {static_cast<std::uint32_t>(t->get(context_).size()), 0, true, false, true};
+      return can::sdo::kNoAbort;
+    }
+    if (const Domain* d = domain(index, subindex)) {
+      info = {0, d->capacity(context_), false, true, true};
       return can::sdo::kNoAbort;
     }
     can::sdo::AbortCode code = can::sdo::kNoAbort;
@@ -58,6 +74,7 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       if (!out.empty()) std::memcpy(out.data(), value.data() + offset, out.size());
       return can::sdo::kNoAbort;
     }
+    if (domain(index, subindex) != nullptr) return can::sdo::kAbortWriteOnly;
     can::sdo::AbortCode code = can::sdo::kNoAbort;
     const Scalar* s = scalar(index, subindex, code);
     if (s == nullptr) return code;
@@ -70,6 +87,7 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
 
   can::sdo::AbortCode write(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
                             std::span<const std::uint8_t> data, bool last) override {
+    if (const Domain* d = domain(index, subindex)) return d->write(context_, offset, data, last);
     can::sdo::AbortCode code = can::sdo::kNoAbort;
     const Scalar* s = scalar(index, subindex, code);
     if (s == nullptr) return text(index, subindex) ? can::sdo::kAbortReadOnly : code;
@@ -79,6 +97,10 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       staged_ |= std::uint32_t{data[i]} << (8 * (offset + i));
     }
     return last ? s->set(context_, staged_) : can::sdo::kNoAbort;
+  }
+
+  void download_abandoned(std::uint16_t index, std::uint8_t subindex) override {
+    if (const Domain* d = domain(index, subindex)) d->abandoned(context_);
   }
 
   // Whether index:subindex may be mapped into a PDO.
@@ -120,6 +142,9 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     for (const Text& t : texts_) {
       if (eds.find(t.index, t.subindex) == nullptr) return unlisted(t.index, t.subindex);
     }
+    for (const Domain& d : domains_) {
+      if (eds.find(d.index, d.subindex) == nullptr) return unlisted(d.index, d.subindex);
+    }
     return "";
   }
 
@@ -127,6 +152,12 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
   const Text* text(std::uint16_t index, std::uint8_t subindex) const {
     for (const Text& t : texts_) {
       if (t.index == index && t.subindex == subindex) return &t;
+    }
+    return nullptr;
+  }
+  const Domain* domain(std::uint16_t index, std::uint8_t subindex) const {
+    for (const Domain& d : domains_) {
+      if (d.index == index && d.subindex == subindex) return &d;
     }
     return nullptr;
   }
@@ -144,12 +175,16 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     for (const Text& t : texts_) {
       if (t.index == index) code = can::sdo::kAbortSubindexDoesNotExist;
     }
+    for (const Domain& d : domains_) {
+      if (d.index == index) code = can::sdo::kAbortSubindexDoesNotExist;
+    }
     return nullptr;
   }
 
   Context context_;
   std::span<const Scalar> scalars_;
   std::span<const Text> texts_;
+  std::span<const Domain> domains_;
   std::uint32_t staged_{0};  // a download's bytes until its last piece
 };
 

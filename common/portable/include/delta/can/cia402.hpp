@@ -188,5 +188,8 @@ inline constexpr std::uint16_t kEmcyHeartbeat = 0x8130;    // life guard / heart
 inline constexpr std::uint16_t kEmcyPdoLength = 0x8210;    // PDO not processed: length error
 // The controller's faults: 0xFF00 + the firmware's fault code (docs/firmware.md).
 inline constexpr std::uint16_t kEmcyControllerFaultBase = 0xFF00;
+// The controller's: delta_boot rolled a new program back (the fault code
+// field holds why, fw::update::RevertReason; docs/flashing.md).
+inline constexpr std::uint16_t kEmcyUpdateRolledBack = 0x6200;  // user software
 
 }  // namespace delta::can::od

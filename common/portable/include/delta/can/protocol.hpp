@@ -204,9 +204,12 @@ inline constexpr std::array<Message, 14> kMessages{{
      Receiver::kRecorderOnly,
      4,
      {{{"error_code", 0, 16, false, kRaw, "",
-        "0xFF00 + fault code on a fault, 0x0000 when the fault is reset"},
-       {"error_register", 16, 8, false, kRaw, "", "1 while in fault"},
-       {"fault_code", 24, 8, false, kRaw, "", "the firmware's fault code (docs/firmware.md)"},
+        "0xFF00 + fault code on a fault, 0x0000 when the fault is reset, 0x6200 after a "
+        "roll-back"},
+       {"error_register", 16, 8, false, kRaw, "", "1 while in fault or on a roll-back"},
+       {"fault_code", 24, 8, false, kRaw, "",
+        "the firmware's fault code (docs/firmware.md); with 0x6200 why delta_boot rolled the "
+        "new program back (docs/flashing.md)"},
        {"cycle", 32, 32, false, kRaw, "", "the controller's cycle counter at the fault"}}},
      "emergency of the controller (EMCY of node 16)"},
     {"CONTROLLER_HEARTBEAT",

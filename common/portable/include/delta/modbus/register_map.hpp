@@ -16,7 +16,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 3;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 4;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 enum class Table : std::uint8_t { kInput, kHolding };
@@ -158,12 +158,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 96> kRegisters{{
+inline constexpr std::array<Register, 97> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (3)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (4)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -213,6 +213,7 @@ inline constexpr std::array<Register, 96> kRegisters{{
     {"tau3", Table::kInput, 70, Type::kI32, 1, 1000000, "N m", "joint 3 torque from current (uN m)"},
     {"trajectory_count", Table::kInput, 72, Type::kU16, 1, 1, "", "trajectories the controller knows (ids 0 .. count-1)"},
     {"stale_log_records", Table::kInput, 73, Type::kU32, 1, 1, "", "of log_records, those marked stale (a drive's feedback missed the cycle)"},
+    {"update_rollback", Table::kInput, 75, Type::kU16, 1, 1, "", "why delta_boot rolled a new program back before this one started (docs/flashing.md): 0 none, 1 no confirmation in time, 2 exited, 3 crashed, 4 power lost during the trial, 5 could not start"},
     // Settings and the command
     {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", kTrajectoryText.data()},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},

@@ -1,0 +1,25 @@
+// Files written so that a crash or a power loss leaves either the old file
+// or the new one, never a mix: for host_id's outputs and for the
+// controller's program slots and boot record (docs/flashing.md).
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <string_view>
+
+namespace delta {
+
+// Writes content to path atomically: into a temporary file in the same
+// folder, flushed to disk, renamed over path, and the folder flushed so
+// that the rename itself survives a power loss. On any failure the
+// temporary file is removed, path is left as it was, and delta::InputError
+// is thrown, naming path and the system's reason. The file gets `mode`
+// (0600 for a secret key, 0755 for a program).
+void write_file_atomically(const std::string& path, std::string_view content, mode_t mode = 0644);
+
+// Renames `from` over `to` (same folder) and flushes the folder; InputError
+// on failure, `to` then as it was.
+void rename_durably(const std::string& from, const std::string& to);
+
+}  // namespace delta
