@@ -20,11 +20,6 @@ constexpr std::uint32_t log_cob_id(unsigned tpdo) {
 
 }  // namespace
 
-delta::update::Identity controller_identity(const delta::update::Version& version) {
-  return {kControllerVendorId, kControllerProductCode,
-          (std::uint32_t{version.major} << 16) | version.minor};
-}
-
 StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
                        const fw::SafetyOutputs& outputs) {
   StepReport r;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands/command.hpp"
+#include "delta/can/protocol.hpp"
 #include "delta/read_file.hpp"
 #include "delta/update/image_file.hpp"
 #include "host_id/atomic_file.hpp"
@@ -25,13 +26,19 @@ constexpr std::uint32_t kDeltaFwProductCode = 0x00000016;
 // Exit status of info for an image that fails its checks.
 constexpr int kExitInvalidImage = 5;
 
+std::string hex_text(std::uint32_t v) {
+  char text[16];
+  std::snprintf(text, sizeof text, "0x%X", v);
+  return text;
+}
+
 struct MakeOptions {
   std::string program;
   std::string out;
   std::string version;
   std::string build_id;
-  std::string vendor{"0xDE17"};
-  std::string product{"0x16"};
+  std::string vendor{hex_text(delta::can::protocol::kControllerVendorId)};
+  std::string product{hex_text(delta::can::protocol::kControllerProductCode)};
   std::string revision;  // default: MAJOR << 16 | MINOR, as delta_fw reports it
 };
 

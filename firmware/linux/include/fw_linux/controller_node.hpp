@@ -22,17 +22,11 @@
 #include "fw/hardware.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/identity.hpp"
 #include "fw_linux/program_download.hpp"
 
 namespace fw_linux {
 
-// The controller's identity (0x1018): the product's vendor ID (not one CiA
-// assigned), the product code of delta_fw, the version as the revision.
-inline constexpr std::uint32_t kControllerVendorId = 0x0000DE17;
-inline constexpr std::uint32_t kControllerProductCode = 0x00000016;
-
-// 0x1018 for a program of `version`: revision = major << 16 | minor.
-delta::update::Identity controller_identity(const delta::update::Version& version);
 
 // What the node learns from each control step.
 struct StepReport {

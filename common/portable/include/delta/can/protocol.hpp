@@ -15,6 +15,11 @@
 namespace delta::can::protocol {
 
 inline constexpr std::uint8_t kControllerNode = 16;
+// The controller's identity (0x1018:1, 0x1018:2), which firmware images
+// name (docs/flashing.md): the product's vendor ID (not one CiA assigned)
+// and the product code of delta_fw.
+inline constexpr std::uint32_t kControllerVendorId = 0x0000DE17;
+inline constexpr std::uint32_t kControllerProductCode = 0x00000016;
 inline constexpr std::uint8_t kFirstDriveNode = 1;
 inline constexpr std::uint8_t kDriveCount = 3;
 
