@@ -27,7 +27,6 @@
 
 namespace fw_linux {
 
-
 // What the node learns from each control step.
 struct StepReport {
   fw::Fault fault{fw::Fault::kNone};
