@@ -19,7 +19,7 @@ namespace {
 constexpr std::array kCommands{add_fit_command,    add_validate_command, add_predict_command,
                                add_design_command, add_simulate_command, add_record_command,
                                add_excite_command, add_status_command,   add_sdo_command,
-                               add_dbc_command,    add_image_command};
+                               add_dbc_command,    add_image_command,    add_flash_command};
 
 constexpr const char* kDescription =
     "Identifies the dynamic parameters of a delta parallel robot from delta-log/1 files "

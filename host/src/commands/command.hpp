@@ -47,5 +47,6 @@ void add_status_command(CLI::App& app, CommandContext& context);
 void add_dbc_command(CLI::App& app, CommandContext& context);
 void add_sdo_command(CLI::App& app, CommandContext& context);
 void add_image_command(CLI::App& app, CommandContext& context);
+void add_flash_command(CLI::App& app, CommandContext& context);
 
 }  // namespace host_id

@@ -53,6 +53,18 @@ SdoOutcome SdoChannel::download(std::uint16_t index, std::uint8_t subindex,
   return o;
 }
 
+void SdoChannel::abort(std::uint16_t index, std::uint8_t subindex, sdo::AbortCode code) {
+  Frame f;
+  f.id = kSdoRequestBase + node_;
+  f.dlc = 8;
+  f.data = sdo::abort_transfer(index, subindex, code);
+  const SendResult sent = socket_.send(f);
+  if (sent == SendResult::kNetworkDown || sent == SendResult::kError) {
+    throw CanError(socket_.interface_name() + ": cannot send to node " + std::to_string(node_) +
+                   " (the interface is down?)");
+  }
+}
+
 // Sends what the client has while the socket takes it, reads the node's
 // answers, runs the client's clock; until the transfer ends and its last
 // frame (a confirmation or an abort) is on the bus.
@@ -60,6 +72,7 @@ SdoOutcome SdoChannel::run(sdo::Client& client) {
   SdoOutcome o;
   const std::uint64_t start = monotonic_us();
   std::uint64_t full_since = 0;  // the transmit queue has been full since
+  std::uint32_t reported = 0;
   for (;;) {
     bool queue_full = false;
     sdo::Payload p;
@@ -98,6 +111,7 @@ SdoOutcome SdoChannel::run(sdo::Client& client) {
       client.on_frame(r->frame.data, monotonic_us());
     }
     client.tick(monotonic_us());
+    if (progress_ && client.transferred() != reported) progress_(reported = client.transferred());
   }
   o.abort = client.status() == sdo::ClientStatus::kDone ? sdo::kNoAbort : client.abort_code();
   o.by_server = client.aborted_by_server();

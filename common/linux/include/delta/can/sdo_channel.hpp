@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -40,6 +41,16 @@ class SdoChannel {
   SdoOutcome download(std::uint16_t index, std::uint8_t subindex,
                       std::span<const std::uint8_t> data, sdo::Transfer transfer);
 
+  // Sends an abort for index:subindex: a transfer the node still holds for
+  // a client that went away (killed mid-transfer) ends at once, not at the
+  // node's timeout. Harmless when none is in progress.
+  void abort(std::uint16_t index, std::uint8_t subindex, sdo::AbortCode code);
+
+  // Called as a transfer advances, with the bytes done so far.
+  void set_progress(std::function<void(std::uint32_t bytes)> progress) {
+    progress_ = std::move(progress);
+  }
+
   // "node 16, 0x1008:00: the node aborted the transfer: 0x06020000 (object
   // does not exist in the object dictionary)", for messages.
   std::string describe(std::uint16_t index, std::uint8_t subindex, const SdoOutcome& o) const;
@@ -51,6 +62,7 @@ class SdoChannel {
   std::uint8_t node_;
   std::uint32_t timeout_us_;
   std::uint8_t block_size_;
+  std::function<void(std::uint32_t)> progress_;
 };
 
 // The filter that gives a socket a node's SDO responses.

@@ -334,6 +334,8 @@ class Client {
   // toggle, CRC, size).
   bool aborted_by_server() const { return aborted_by_server_; }
   std::uint32_t uploaded_size() const { return offset_; }
+  // Bytes the server confirmed (download) or that arrived (upload) so far.
+  std::uint32_t transferred() const { return offset_; }
   std::uint16_t index() const { return index_; }
   std::uint8_t subindex() const { return subindex_; }
 

@@ -1,0 +1,227 @@
+// Flashing the controller over CAN on vcan (docs/flashing.md), with the real
+// programs: delta_boot supervising delta_fw against the emulated drives,
+// and host_id flash. Each test starts from a fresh state folder holding the
+// build's delta_fw.img.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "child_process.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+const std::string kIface = "vcan0";
+const std::string kBin = DELTA_BIN_DIR;
+const std::string kVersion = DELTA_VERSION_TEXT;
+const std::string kNextVersion = DELTA_NEXT_VERSION_TEXT;
+
+struct ToolRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+ToolRun host_id(std::vector<std::string> args) {
+  args.insert(args.begin(), kBin + "/host_id");
+  hil::Child c = hil::Child::spawn(args);
+  const int code = c.wait(300s).value_or(-1);
+  return {code, c.out(), c.err()};
+}
+
+std::string read_text(const std::string& object) {
+  const ToolRun r = host_id({"sdo", "read", object, "--node", "16", "--can", kIface});
+  return r.code == 0 ? r.out : "error: " + r.err;
+}
+
+std::vector<char> bytes_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const std::string& path, const std::vector<char>& bytes) {
+  std::ofstream(path, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// The emulator, and delta_boot running delta_fw (lock-step) from a fresh
+// state folder; `extra` goes to delta_boot, `program` to delta_fw.
+class Flashing : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/delta_flash_XXXXXX";
+    dir_ = mkdtemp(tmpl);
+    fs::create_directory(dir_ + "/state");
+  }
+  void TearDown() override {
+    if (boot_) boot_->terminate(60s);
+    if (emu_) emu_->terminate(30s);
+    fs::remove_all(dir_);
+  }
+  void start(const std::vector<std::string>& extra = {},
+             const std::vector<std::string>& program = {}) {
+    emu_.emplace(
+        hil::Child::spawn({kBin + "/delta_drive_emu", "--can", kIface, "--plant", "lumped"}));
+    ASSERT_TRUE(emu_->wait_for_output("ready on " + kIface, 30s)) << emu_->err();
+    std::vector<std::string> argv{kBin + "/delta_boot", "--state-dir", dir_ + "/state", "--install",
+                                  install_};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    argv.insert(argv.end(), {"--", "--can", kIface, "--lockstep"});
+    argv.insert(argv.end(), program.begin(), program.end());
+    boot_.emplace(hil::Child::spawn(argv));
+    ASSERT_TRUE(boot_->wait_for_output("delta_fw: ready", 60s)) << boot_->err();
+  }
+  // The log delta_boot and its program wrote so far.
+  const std::string& log() {
+    boot_->wait_for_output("\x01", 10ms);  // reads what is there
+    return boot_->err();
+  }
+  std::string path(const std::string& name) const { return dir_ + "/" + name; }
+
+  std::string dir_;
+  std::string install_ = kBin + "/delta_fw.img";
+  std::optional<hil::Child> emu_;
+  std::optional<hil::Child> boot_;
+};
+
+TEST_F(Flashing, ANewerBuildIsDownloadedStartedConfirmedAndReportsItsVersion) {
+  start();
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");
+  const ToolRun r = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  ASSERT_EQ(r.code, 0) << r.err << log();
+  EXPECT_NE(r.out.find("runs version " + kNextVersion + " (was " + kVersion + "), confirmed"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+  EXPECT_NE(log().find("delta_boot: confirmed slot 1 (version " + kNextVersion), std::string::npos)
+      << log();
+  // The transfer's cost, for the notes (the bus time is tests/bench's).
+  std::cout << "host_id flash: " << r.out;
+  // Flashing the older build back needs --allow-downgrade.
+  const ToolRun down = host_id({"flash", kBin + "/delta_fw.img", "--can", kIface});
+  EXPECT_EQ(down.code, 5) << down.err;
+  EXPECT_NE(down.err.find("older than the running " + kNextVersion), std::string::npos) << down.err;
+}
+
+TEST_F(Flashing, ACorruptedImageIsRefusedWithCrcErrorAndTheOldProgramRunsOn) {
+  start();
+  std::vector<char> image = bytes_of(kBin + "/delta_fw_next.img");
+  image[image.size() / 2] ^= 0x01;
+  write_bytes(path("corrupted.img"), image);
+  const ToolRun here = host_id({"flash", path("corrupted.img"), "--can", kIface});
+  EXPECT_EQ(here.code, 5) << here.err;
+  EXPECT_NE(here.err.find("program CRC-32 does not match"), std::string::npos) << here.err;
+  const ToolRun forced = host_id({"flash", path("corrupted.img"), "--can", kIface, "--force"});
+  EXPECT_EQ(forced.code, 3) << forced.err;
+  EXPECT_NE(forced.err.find("0x08000020"), std::string::npos) << forced.err;
+  EXPECT_NE(forced.err.find("flash status (0x1F57): data format error or CRC error"),
+            std::string::npos)
+      << forced.err;
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");
+}
+
+TEST_F(Flashing, AnImageForAnotherProductIsRefusedHereAndByTheController) {
+  start();
+  const ToolRun made = host_id({"image", "make", kBin + "/delta_fw_next", "-o", path("other.img"),
+                                "--version", kNextVersion, "--product", "0x17"});
+  ASSERT_EQ(made.code, 0) << made.err;
+  const ToolRun here = host_id({"flash", path("other.img"), "--can", kIface});
+  EXPECT_EQ(here.code, 5) << here.err;
+  EXPECT_NE(here.err.find("product 0x00000017; node 16 is vendor 0x0000DE17, product 0x00000016"),
+            std::string::npos)
+      << here.err;
+  EXPECT_EQ(log().find("staged"), std::string::npos) << "nothing was sent";
+  const ToolRun forced = host_id({"flash", path("other.img"), "--can", kIface, "--force"});
+  EXPECT_EQ(forced.code, 3) << forced.err;
+  EXPECT_NE(forced.err.find("another vendor or product"), std::string::npos) << forced.err;
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");
+}
+
+TEST_F(Flashing, ASignedControllerRefusesUnsignedAndWronglySignedImages) {
+  for (const char* who : {"ours", "theirs"}) {
+    ASSERT_EQ(host_id({"image", "keygen", "--secret", path(std::string(who) + ".key"), "--public",
+                       path(std::string(who) + ".pub")})
+                  .code,
+              0);
+  }
+  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw_next.img", "--key", path("theirs.key"),
+                     "-o", path("theirs.img")})
+                .code,
+            0);
+  // The installed program is signed with our key too.
+  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw.img", "--key", path("ours.key"), "-o",
+                     path("installed.img")})
+                .code,
+            0);
+  install_ = path("installed.img");
+  start({"--public-key", path("ours.pub")});
+  const ToolRun unsigned_run = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  EXPECT_EQ(unsigned_run.code, 3) << unsigned_run.err;
+  EXPECT_NE(unsigned_run.err.find("flash secured"), std::string::npos) << unsigned_run.err;
+  EXPECT_NE(unsigned_run.err.find("image is not signed"), std::string::npos) << unsigned_run.err;
+  const ToolRun theirs = host_id({"flash", path("theirs.img"), "--can", kIface});
+  EXPECT_EQ(theirs.code, 3) << theirs.err;
+  EXPECT_NE(theirs.err.find("signature"), std::string::npos) << theirs.err;
+  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw_next.img", "--key", path("ours.key"), "-o",
+                     path("ours.img")})
+                .code,
+            0);
+  const ToolRun ours = host_id({"flash", path("ours.img"), "--can", kIface});
+  EXPECT_EQ(ours.code, 0) << ours.err << log();
+  EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+}
+
+TEST_F(Flashing, AProgramThatNeverConfirmsIsRolledBackWithTheReason) {
+  start({"--trial-timeout", "3"});
+  {
+    std::ofstream script(path("hang.sh"));
+    script << "#!/bin/sh\nexec sleep 600\n";
+  }
+  const ToolRun made = host_id(
+      {"image", "make", path("hang.sh"), "-o", path("hang.img"), "--version", kNextVersion});
+  ASSERT_EQ(made.code, 0) << made.err;
+  const ToolRun r =
+      host_id({"flash", path("hang.img"), "--can", kIface, "--confirm-timeout", "60"});
+  EXPECT_EQ(r.code, 7) << r.err;
+  EXPECT_NE(r.err.find("rolled the new program back (reason 1"), std::string::npos) << r.err;
+  EXPECT_NE(log().find("did not confirm within 3000 ms"), std::string::npos) << log();
+  EXPECT_NE(log().find("rolled back from slot 1"), std::string::npos) << log();
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");
+  EXPECT_EQ(read_text("0x2F00:2"), "1 (0x01)\n") << "no confirmation in time";
+}
+
+TEST_F(Flashing, ADownloadWhileATrajectoryRunsIsRefusedWithTheDeviceStateAbort) {
+  start({}, {"--run", "path1"});
+  ASSERT_TRUE(boot_->wait_for_output("delta_fw: running", 60s)) << log();
+  const ToolRun r = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("0x08000022"), std::string::npos) << r.err;
+  EXPECT_EQ(log().find("delta_boot: staged"), std::string::npos);
+}
+
+TEST_F(Flashing, AFlashKilledPartWayLeavesTheOldProgramAndASecondAttemptSucceeds) {
+  start();
+  hil::Child flash =
+      hil::Child::spawn({kBin + "/host_id", "flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  ASSERT_TRUE(flash.wait_for_output(" kB/s", 120s)) << flash.err();
+  kill(flash.pid(), SIGKILL);
+  flash.wait(30s);
+  EXPECT_EQ(log().find("delta_boot: staged"), std::string::npos);
+  // The second attempt ends the transfer the node still holds (an SDO abort),
+  // then starts over.
+  const ToolRun again = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  EXPECT_EQ(again.code, 0) << again.err << log();
+  EXPECT_NE(again.out.find("(was " + kVersion + ")"), std::string::npos) << "the old one ran on";
+  EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+}
+
+}  // namespace
