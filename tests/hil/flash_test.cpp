@@ -6,8 +6,10 @@
 #include <signal.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <iterator>
 #include <string>
 #include <tuple>
@@ -104,8 +106,22 @@ TEST_F(Flashing, ANewerBuildIsDownloadedStartedConfirmedAndReportsItsVersion) {
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
   EXPECT_NE(log().find("delta_boot: confirmed slot 1 (version " + kNextVersion), std::string::npos)
       << log();
-  // The transfer's cost, for the notes (the bus time is tests/bench's).
-  std::cout << "host_id flash: " << r.out;
+  // The transfer's cost on a real 1 Mbit/s bus: an 8-byte standard frame
+  // is 111 bit times without stuffing (44 + 64 + 3 interframe), 1 us each;
+  // the node answers once per block of 127 segments.
+  unsigned long bytes = 0;
+  unsigned long frames = 0;
+  const auto at = r.out.find("confirmed; ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  ASSERT_EQ(std::sscanf(r.out.c_str() + at, "confirmed; %lu bytes in %*f s, %*f kB/s, %lu frames",
+                        &bytes, &frames),
+            2)
+      << r.out;
+  const double bus_s = static_cast<double>(frames + frames / 127) * 111e-6;
+  const double nominal_kB_s = static_cast<double>(bytes) / 1024.0 / bus_s;
+  std::cout << "host_id flash: " << r.out << "at 1 Mbit/s: " << frames << " frames take " << bus_s
+            << " s of bus time, " << nominal_kB_s << " kB/s\n";
+  EXPECT_GE(nominal_kB_s, 40.0) << "CiA 302-3 block download's usual 40-55 kB/s";
   // Flashing the older build back needs --allow-downgrade.
   const ToolRun down = host_id({"flash", kBin + "/delta_fw.img", "--can", kIface});
   EXPECT_EQ(down.code, 5) << down.err;
