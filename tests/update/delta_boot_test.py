@@ -1,0 +1,168 @@
+#!/usr/bin/env python3
+"""delta_boot as a process (docs/flashing.md), with shell-script programs
+in real images (host_id image make), so that each of its paths can be
+driven: a staged program confirmed, one that crashes on trial, a power loss
+during a trial (delta_boot and its program SIGKILLed, then delta_boot
+started again), a corrupt boot record, an empty state folder. The programs
+wait on a FIFO for the test's commands; the test waits on delta_boot's
+output lines, never on sleeps.
+
+Usage: delta_boot_test.py HOST_ID DELTA_BOOT
+"""
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+HOST_ID, DELTA_BOOT = sys.argv[1], sys.argv[2]
+failures = []
+
+# The installed program: says how it was started, then obeys the FIFO:
+# "stage IMAGE" copies IMAGE to the staging path and reports it, "start"
+# asks for the trial.
+V1 = r'''#!/bin/sh
+echo "v1 trial=$DELTA_BOOT_TRIAL reverted=$DELTA_BOOT_REVERTED" >> "$STATE_LOG"
+while read cmd arg < "$FIFO"; do
+  case "$cmd" in
+    stage) cp "$arg" "$DELTA_BOOT_STAGING"; echo staged > /proc/self/fd/$DELTA_BOOT_FD ;;
+    start) echo start > /proc/self/fd/$DELTA_BOOT_FD ;;
+  esac
+done
+'''
+CONFIRMS = '#!/bin/sh\necho "v2 trial=$DELTA_BOOT_TRIAL" >> "$STATE_LOG"\n' \
+           'echo confirm > /proc/self/fd/$DELTA_BOOT_FD\nexec sleep 600\n'
+CRASHES = '#!/bin/sh\nkill -SEGV $$\n'
+HANGS = '#!/bin/sh\nexec sleep 600\n'
+
+
+def check(ok, what):
+    if not ok:
+        failures.append(what)
+        print("FAIL:", what)
+
+
+def make_image(work, name, script, version):
+    path = os.path.join(work, name + ".sh")
+    with open(path, "w") as f:
+        f.write(script)
+    os.chmod(path, 0o755)
+    image = os.path.join(work, name + ".img")
+    subprocess.run([HOST_ID, "image", "make", path, "-o", image, "--version", version],
+                   check=True, capture_output=True)
+    return image
+
+
+class Boot:
+    """delta_boot with its stderr read line by line."""
+
+    def __init__(self, work, extra):
+        env = dict(os.environ, FIFO=os.path.join(work, "fifo"),
+                   STATE_LOG=os.path.join(work, "started.log"))
+        self.p = subprocess.Popen([DELTA_BOOT, "--state-dir", os.path.join(work, "state")] + extra,
+                                  stderr=subprocess.PIPE, env=env, start_new_session=True)
+        self.log = ""
+
+    def wait_for(self, needle, timeout=30.0):
+        end = time.monotonic() + timeout
+        while needle not in self.log:
+            left = end - time.monotonic()
+            if left <= 0:
+                return False
+            ready, _, _ = select.select([self.p.stderr], [], [], left)
+            if ready:
+                chunk = os.read(self.p.stderr.fileno(), 65536).decode()
+                if not chunk:
+                    return needle in self.log
+                self.log += chunk
+        return True
+
+    def stop(self):
+        if self.p.poll() is None:
+            self.p.terminate()
+        self.p.wait(30)
+        self.wait_for("\x00", 0.1)
+
+
+def command(work, text):
+    with open(os.path.join(work, "fifo"), "w") as f:
+        f.write(text + "\n")
+
+
+def started(work):
+    with open(os.path.join(work, "started.log")) as f:
+        return f.read().splitlines()
+
+
+def scenario(name, second, second_version, expect):
+    with tempfile.TemporaryDirectory() as work:
+        os.mkdir(os.path.join(work, "state"))
+        os.mkfifo(os.path.join(work, "fifo"))
+        v1 = make_image(work, "v1", V1, "1.0.0")
+        v2 = make_image(work, "v2", second, second_version)
+        boot = Boot(work, ["--install", v1, "--trial-timeout", "2"])
+        check(boot.wait_for("started slot 0 (version 1.0.0"), name + ": v1 starts\n" + boot.log)
+        command(work, "stage " + v2)
+        check(boot.wait_for("staged slot 1 (version " + second_version), name + ": staged\n" + boot.log)
+        command(work, "start")
+        expect(work, boot)
+        boot.stop()
+
+
+def confirmed(work, boot):
+    check(boot.wait_for("confirmed slot 1 (version 1.1.0"), "confirm\n" + boot.log)
+    with open(os.path.join(work, "state", "boot.record"), "rb") as f:
+        record = f.read()
+    check(record[:4] == b"DBR1" and record[4] == 1, "the record names slot 1 active: %r" % record[:8])
+    check(started(work) == ["v1 trial=0 reverted=0", "v2 trial=1"], "started: %s" % started(work))
+
+
+def crashed(work, boot):
+    check(boot.wait_for("rolled back from slot 1 (version 1.1.0"), "crash rolls back\n" + boot.log)
+    check("was killed by signal 11" in boot.log, "the signal is named\n" + boot.log)
+    check("the new program crashed before it confirmed" in boot.log, "reason\n" + boot.log)
+    check(wait_for_line(work, "v1 trial=0 reverted=3"), "v1 again, told reason 3: %s" % started(work))
+
+
+def wait_for_line(work, line, timeout=10.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if line in started(work):
+            return True
+        select.select([], [], [], 0.05)  # polls a file another process writes
+    return False
+
+
+def power_loss(work, boot):
+    check(boot.wait_for("on trial, pid"), "trial starts\n" + boot.log)
+    os.killpg(boot.p.pid, signal.SIGKILL)  # delta_boot and its program, as a power loss
+    boot.p.wait(30)
+    again = Boot(work, ["--trial-timeout", "2"])
+    check(again.wait_for("rolled back to slot 0 (version 1.0.0"), "power loss\n" + again.log)
+    check("the controller restarted during the trial" in again.log, "reason\n" + again.log)
+    check(wait_for_line(work, "v1 trial=0 reverted=4"), "v1 told reason 4: %s" % started(work))
+    again.stop()
+
+
+scenario("confirm", CONFIRMS, "1.1.0", confirmed)
+scenario("crash", CRASHES, "1.1.0", crashed)
+scenario("power loss", HANGS, "1.1.0", power_loss)
+
+with tempfile.TemporaryDirectory() as work:
+    os.mkdir(os.path.join(work, "state"))
+    p = subprocess.run([DELTA_BOOT, "--state-dir", os.path.join(work, "state")],
+                       capture_output=True, text=True)
+    check(p.returncode == 7 and "holds no program: give one with --install IMAGE" in p.stderr,
+          "empty folder: %d %s" % (p.returncode, p.stderr))
+    with open(os.path.join(work, "state", "boot.record"), "wb") as f:
+        f.write(b"DBR1" + bytes(32))
+    p = subprocess.run([DELTA_BOOT, "--state-dir", os.path.join(work, "state")],
+                       capture_output=True, text=True)
+    check(p.returncode == 7 and "boot.record: not a valid boot record" in p.stderr,
+          "corrupt record: %d %s" % (p.returncode, p.stderr))
+
+if failures:
+    sys.exit("%d check(s) failed" % len(failures))
+print("delta_boot: confirm, crash, power loss, empty folder and corrupt record behave as documented")
