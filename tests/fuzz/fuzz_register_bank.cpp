@@ -26,7 +26,7 @@ namespace mb = delta::modbus;
 // One server for the whole run, its replies going into a socket pair that
 // is drained after each request.
 struct Rig {
-  Rig() : bank(config(), panel) {
+  Rig() : bank(config(), panel, fw_linux::ProgramFacts{{1, 2, 3}, {}}) {
     if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0) std::abort();
     fcntl(fds[1], F_SETFL, O_NONBLOCK);
     ctx = modbus_new_tcp("127.0.0.1", 1502);
