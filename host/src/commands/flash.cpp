@@ -103,9 +103,11 @@ class ControllerSession {
   }
   FlashError failure(std::uint16_t index, std::uint8_t sub, const delta::can::SdoOutcome& o) {
     std::string message = channel_.describe(index, sub, o);
-    // After an abort mid-block the rest of the block's segments still reach
-    // the node, which answers them; the status read tries again past those.
-    for (int attempt = 0; attempt < 3 && o.by_server && index >= 0x1F50 && index <= 0x1F57;
+    // After an abort mid-block the rest of the block's segments (up to 126)
+    // still reach the node, which answers them as requests of their own; the
+    // status read tries again past those (each try ends at an answer or the
+    // SDO timeout).
+    for (int attempt = 0; attempt < 10 && o.by_server && index >= 0x1F50 && index <= 0x1F57;
          ++attempt) {
       std::vector<std::uint8_t> status;
       if (channel_.upload(0x1F57, 1, status, sdo::Transfer::kAuto, 4).ok() && status.size() == 4) {
