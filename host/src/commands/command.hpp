@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <iosfwd>
 #include <string>
 
@@ -35,6 +36,9 @@ CLI::Validator finite_range(double lo, double hi, bool open_above = false);
 extern const CLI::Validator kHostPort;
 // A file name ending in .svg.
 extern const CLI::Validator kSvgPath;
+
+// "0x0000DE17": a 32-bit identity, CRC or code as CANopen tools print it.
+std::string hex32(std::uint32_t v);
 
 void add_fit_command(CLI::App& app, CommandContext& context);
 void add_validate_command(CLI::App& app, CommandContext& context);

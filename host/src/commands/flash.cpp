@@ -45,12 +45,6 @@ struct FlashError {
   int exit_code;
 };
 
-std::string hex32(std::uint32_t v) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%08X", v);
-  return text;
-}
-
 // CiA 302-3's flash status (0x1F57) in words.
 std::string flash_status_text(std::uint32_t status) {
   static const char* const kCodes[] = {"no error",
@@ -72,7 +66,7 @@ std::string flash_status_text(std::uint32_t status) {
 
 class ControllerSession {
  public:
-  ControllerSession(const FlashOptions& o)
+  explicit ControllerSession(const FlashOptions& o)
       : node_(static_cast<std::uint8_t>(o.node)),
         socket_(delta::can::Socket::open(
             o.iface, {delta::can::sdo_response_filter(node_),

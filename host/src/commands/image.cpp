@@ -2,7 +2,6 @@
 #include <sys/stat.h>
 
 #include <charconv>
-#include <cstdio>
 #include <memory>
 #include <ostream>
 #include <string>
@@ -26,19 +25,13 @@ constexpr std::uint32_t kDeltaFwProductCode = 0x00000016;
 // Exit status of info for an image that fails its checks.
 constexpr int kExitInvalidImage = 5;
 
-std::string hex_text(std::uint32_t v) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%X", v);
-  return text;
-}
-
 struct MakeOptions {
   std::string program;
   std::string out;
   std::string version;
   std::string build_id;
-  std::string vendor{hex_text(delta::can::protocol::kControllerVendorId)};
-  std::string product{hex_text(delta::can::protocol::kControllerProductCode)};
+  std::string vendor{hex32(delta::can::protocol::kControllerVendorId)};
+  std::string product{hex32(delta::can::protocol::kControllerProductCode)};
   std::string revision;  // default: MAJOR << 16 | MINOR, as delta_fw reports it
 };
 
@@ -53,12 +46,6 @@ std::uint32_t parse_u32(const std::string& option, const std::string& text) {
                      "': expected a 32-bit number (decimal or 0x hexadecimal)");
   }
   return v;
-}
-
-std::string hex32(std::uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%08X", v);
-  return b;
 }
 
 void run_make(const MakeOptions& o, CommandContext& context) {
