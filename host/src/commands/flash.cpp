@@ -97,20 +97,14 @@ class ControllerSession {
   }
   FlashError failure(std::uint16_t index, std::uint8_t sub, const delta::can::SdoOutcome& o) {
     std::string message = channel_.describe(index, sub, o);
-    // After an abort mid-block the rest of the block's segments (up to 126)
-    // still reach the node, which answers them as requests of their own; the
-    // status read tries again past those (each try ends at an answer or the
-    // SDO timeout).
-    for (int attempt = 0; attempt < 10 && o.by_server && index >= 0x1F50 && index <= 0x1F57;
-         ++attempt) {
-      std::vector<std::uint8_t> status;
-      if (channel_.upload(0x1F57, 1, status, sdo::Transfer::kAuto, 4).ok() && status.size() == 4) {
-        message +=
-            "; flash status (0x1F57): " +
-            flash_status_text(std::uint32_t{status[0]} | std::uint32_t{status[1]} << 8 |
-                              std::uint32_t{status[2]} << 16 | std::uint32_t{status[3]} << 24);
-        break;
-      }
+    // The node discards the rest of a block it aborted (CiA 301 servers
+    // may not; ours does), so the status can be read at once.
+    std::vector<std::uint8_t> status;
+    if (o.by_server && index >= 0x1F50 && index <= 0x1F57 &&
+        channel_.upload(0x1F57, 1, status, sdo::Transfer::kAuto, 4).ok() && status.size() == 4) {
+      message += "; flash status (0x1F57): " +
+                 flash_status_text(std::uint32_t{status[0]} | std::uint32_t{status[1]} << 8 |
+                                   std::uint32_t{status[2]} << 16 | std::uint32_t{status[3]} << 24);
     }
     return {message, o.by_server ? kExitRefusedByController : kExitNoAnswer};
   }

@@ -80,6 +80,7 @@ class TestDictionary final : public ObjectDictionary {
                   std::span<const std::uint8_t> data, bool last) override {
     if (offset == 0) staged_.clear();
     EXPECT_EQ(offset, staged_.size()) << "pieces arrive in order";
+    if (offset >= refuse_from) return kAbortCannotStore;
     staged_.insert(staged_.end(), data.begin(), data.end());
     ++writes;
     if (!last) return kNoAbort;
@@ -105,6 +106,7 @@ class TestDictionary final : public ObjectDictionary {
 
   int writes{0};
   int abandoned{0};
+  std::uint32_t refuse_from{0xFFFFFFFF};  // a write at this offset or later is refused
 
  private:
   std::map<std::pair<std::uint16_t, std::uint8_t>, Entry> entries_;
@@ -265,6 +267,30 @@ TEST(SdoServerTest, ABlockDownloadWithAWrongCrcIsAbortedAndAbandoned) {
   EXPECT_EQ(ask(server, frame({0xD1, 0x12, 0x34})), Frames{"80 50 1F 01 04 00 04 05"});
   EXPECT_EQ(od.abandoned, 1);
   EXPECT_TRUE(od.value(0x1F50, 1).empty());
+}
+
+// The node refuses a block download mid-block (a firmware image for other
+// hardware, seen once its header is in): the client has sent the rest of
+// the block already. Those segments are the aborted transfer's, not
+// requests: no answers, no objects written from their bytes, and the
+// client's next request is answered as usual.
+TEST(SdoServerTest, TheRestOfAnAbortedBlockIsNotTakenForRequests) {
+  TestDictionary od;
+  od.refuse_from = 14;  // refused when segment 4 arrives, with segment 3 held
+  Server server(od);
+  ask(server, frame({0xC6, 0x50, 0x1F, 0x01, 0xD0, 0x07, 0x00, 0x00}));  // 2000 bytes
+  std::vector<std::string> answers;
+  for (int seq = 1; seq <= 127; ++seq) {
+    // Segment bytes chosen to look like requests: an expedited write of
+    // 0x1017 (heartbeat time) = 0.
+    for (const std::string& a : ask(server, frame({seq, 0x17, 0x10, 0x00, 0, 0, 0, 0}))) {
+      answers.push_back(a);
+    }
+  }
+  EXPECT_EQ(answers, Frames{"80 50 1F 01 20 00 00 08"}) << "the abort, once";
+  EXPECT_EQ(od.abandoned, 1);
+  EXPECT_EQ(od.value(0x1017, 0), (std::vector<std::uint8_t>{0xE8, 0x03})) << "not written";
+  EXPECT_EQ(ask(server, frame({0x40, 0x00, 0x10, 0x00})), Frames{"43 00 10 00 92 01 02 00"});
 }
 
 TEST(SdoServerTest, ASegmentOutOfSequenceIsAskedForAgain) {

@@ -56,10 +56,35 @@ void Server::abort(AbortCode code) {
   if (downloading()) dictionary_.download_abandoned(index_, subindex_);
   reply(abort_transfer(index_, subindex_, code));
   finish();
+  // Aborted on a block segment that did not end the block: the client sent
+  // the block's remaining segments before the abort reached it. They are
+  // the dead transfer's, not requests (their bytes could read as a write
+  // to some object): discard them, in sequence, until the block's end.
+  if (segment_seq_ != 0 && segment_seq_ < block_) {
+    state_ = State::kBlockDownloadDiscard;
+    discard_next_ = static_cast<std::uint8_t>(segment_seq_ + 1);
+    arm();
+  }
+}
+
+// After an abort mid-block: the block's next segment is discarded; anything
+// else is a request again.
+void Server::discard_segment(const Payload& r) {
+  const auto seq = static_cast<std::uint8_t>(r[0] & 0x7F);
+  if (seq != discard_next_) {
+    finish();
+    return on_idle_request(r);
+  }
+  if ((r[0] & 0x80) != 0 || seq == block_) return finish();
+  ++discard_next_;
+  arm();
 }
 
 void Server::tick(TimeUs now_us) {
   now_us_ = now_us;
+  if (state_ == State::kBlockDownloadDiscard && deadline_armed_ && now_us >= deadline_us_) {
+    return finish();  // the rest of the block never came: nothing to answer
+  }
   if (state_ != State::kIdle && deadline_armed_ && now_us >= deadline_us_) abort(kAbortTimeout);
 }
 
@@ -80,6 +105,8 @@ void Server::on_frame(const Payload& request, TimeUs now_us) {
       return ccs == 3 ? upload_segment(request) : abort(kAbortCommand);
     case State::kBlockDownload:
       return block_download_segment(request);  // every frame is a segment here
+    case State::kBlockDownloadDiscard:
+      return discard_segment(request);
     case State::kBlockDownloadEnd:
       return ccs == 6 && (request[0] & 1) == 1 ? end_block_download(request) : abort(kAbortCommand);
     case State::kBlockUploadStart:
@@ -233,6 +260,12 @@ void Server::initiate_block_download(const Payload& r) {
 void Server::block_download_segment(const Payload& r) {
   const auto seq = static_cast<std::uint8_t>(r[0] & 0x7F);
   const bool last = (r[0] & 0x80) != 0;
+  // While this segment is handled, an abort discards the block's rest.
+  segment_seq_ = last ? block_ : seq;
+  struct Clear {
+    std::uint8_t& seq;
+    ~Clear() { seq = 0; }
+  } clear{segment_seq_};
   if (seq == 0 || seq > block_) return abort(kAbortSequenceNumber);
   if (seq == ack_seq_ + 1 && !last_segment_seen_) {
     if (holding_) {

@@ -233,6 +233,7 @@ class Server {
     kUploadSegments,
     kBlockDownload,
     kBlockDownloadEnd,
+    kBlockDownloadDiscard,  // the rest of a block whose download was aborted
     kBlockUploadStart,
     kBlockUploadSending,
     kBlockUploadAck,
@@ -252,6 +253,7 @@ class Server {
   void initiate_block_download(const Payload& r);
   void block_download_segment(const Payload& r);
   void end_block_download(const Payload& r);
+  void discard_segment(const Payload& r);
   void initiate_block_upload(const Payload& r);
   void block_upload_client(const Payload& r);
   void block_acknowledged(std::uint8_t ack_seq, std::uint8_t next_block);
@@ -278,7 +280,9 @@ class Server {
   bool holding_{false};
   bool last_segment_seen_{false};
   std::uint8_t ack_seq_{0};
-  std::uint8_t block_{0};  // this block's size
+  std::uint8_t block_{0};         // this block's size
+  std::uint8_t segment_seq_{0};   // the block segment being handled (0: none)
+  std::uint8_t discard_next_{0};  // after an abort mid-block: the next to discard
   // Block upload: where this block starts, the next segment to send, the
   // sequence number of the segment that carried the last byte (0: not yet
   // sent in this block), and how far the CRC has covered.
