@@ -577,7 +577,19 @@ INSTANTIATE_TEST_SUITE_P(
                   3,
                   {"--realtime", "--set", "period_us=200000", "--set", "response_window_us=50000",
                    "--set", "controller_heartbeat_timeout_ms=500", "--max-cycles", "40"},
-                  "node 1: TPDO1 0x181 arrived after"}),
+                  "node 1: TPDO1 0x181 arrived after"},
+        // The same drive 210 ms late, with the SYNC counter (0x1019): the
+        // answers land 10 ms into the next cycle's 150 ms window, where
+        // without a counter they would count as that cycle's; TPDO3 says
+        // which SYNC they answer.
+        FaultCase{"stale_pdo",
+                  "delay-pdo:1:210",
+                  13,
+                  3,
+                  {"--realtime", "--set", "period_us=200000", "--set", "response_window_us=150000",
+                   "--set", "sync_counter_overflow=16", "--set",
+                   "controller_heartbeat_timeout_ms=500", "--max-cycles", "40"},
+                  "node 1: TPDO3 0x381 carries SYNC counter"}),
     [](const ::testing::TestParamInfo<FaultCase>& tp) { return std::string(tp.param.name); });
 
 }  // namespace

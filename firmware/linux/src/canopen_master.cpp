@@ -19,7 +19,7 @@ using delta::can::cia402::State;
 namespace {
 
 od::Object object_of(unsigned step, unsigned mapping_write) {
-  return step == kWritePdoMapping ? kPdoMapping[mapping_write].object : kBringUp[step].object;
+  return mapping_step(step) ? mapping_writes(step)[mapping_write].object : kBringUp[step].object;
 }
 
 std::string hex(std::uint32_t v, int digits) {
@@ -52,7 +52,6 @@ CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
   sdo_timeout_us_ = std::uint64_t{sdo_ms} * 1000;
   for (unsigned j = 0; j < 3; ++j) {
     drives_[j].node = config.joints[j].node;
-    drives_[j].config = config.joints[j];
     drives_[j].sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
   }
   const std::uint64_t timeout_us = std::uint64_t{config.heartbeat_timeout_ms} * 1000;
@@ -75,10 +74,8 @@ void CanopenMaster::fail(const std::string& why) {
 void CanopenMaster::restart() {
   for (Drive& d : drives_) {
     const std::uint8_t node = d.node;
-    const JointDrive config = d.config;
     d = Drive{};
     d.node = node;
-    d.config = config;
     d.sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
   }
   phase_ = Phase::kIdle;
@@ -93,6 +90,12 @@ std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) cons
     case kWriteMode:
       size = 1;
       return delta::can::cia402::kModeCyclicSynchronousTorque;
+    case kClearCyclePeriod:
+      size = 4;
+      return 0;
+    case kWriteSyncCounter:
+      size = 1;
+      return config_.sync_counter_overflow;
     case kWriteCyclePeriod:
       size = 4;
       return config_.period_us;
@@ -103,8 +106,9 @@ std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) cons
       // A timeout of 0 turns the drive's supervision off (CiA 301).
       size = 4;
       return od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms);
-    case kWritePdoMapping: {
-      const PdoMappingWrite& w = kPdoMapping[d.mapping_write];
+    case kWritePdoMapping:
+    case kWriteSyncPdoMapping: {
+      const PdoMappingWrite& w = mapping_writes(d.sdo_step)[d.mapping_write];
       size = w.size;
       return w.node_relative ? w.value + d.node : w.value;
     }
@@ -260,21 +264,22 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
       d.rated_torque_mNm = value;
       break;
     case kReadEncoderIncrements:
-      if (value != d.config.model.counts_per_rev) {
+      if (value != joint(d).model.counts_per_rev) {
         return fail(at + "the encoder has " + std::to_string(value) +
                     " counts per revolution; the configuration says " +
-                    std::to_string(d.config.model.counts_per_rev) + " (joint" +
+                    std::to_string(joint(d).model.counts_per_rev) + " (joint" +
                     std::to_string(&d - drives_.data() + 1) + ".counts_per_rev)");
       }
-      d.units = DriveUnits(d.config.model, d.rated_current_mA, d.rated_torque_mNm);
+      d.units = DriveUnits(joint(d).model, d.rated_current_mA, d.rated_torque_mNm);
       break;
     default:
       break;
   }
   d.sdo_attempts = 0;
-  if (d.sdo_step == kWritePdoMapping && ++d.mapping_write < kPdoMappingWrites) {
+  if (mapping_step(d.sdo_step) && ++d.mapping_write < mapping_writes(d.sdo_step).size()) {
     return send_sdo(d, now_us_);  // the mapping's next write
   }
+  d.mapping_write = 0;
   next_step(d);
   if (d.sdo_step < kBringUpStepCount) send_sdo(d, now_us_);
 }
@@ -282,11 +287,12 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
 // The vendor ID is always read (0x1018:1 is mandatory); the product code,
 // revision and serial number only when the configuration expects them.
 void CanopenMaster::next_step(Drive& d) const {
-  const DriveIdentity& id = d.config.identity;
+  const DriveIdentity& id = joint(d).identity;
   for (++d.sdo_step; d.sdo_step < kBringUpStepCount; ++d.sdo_step) {
     const bool skip = (d.sdo_step == kReadProductCode && !id.product_code) ||
                       (d.sdo_step == kReadRevisionNumber && !id.revision) ||
-                      (d.sdo_step == kReadSerialNumber && !id.serial);
+                      (d.sdo_step == kReadSerialNumber && !id.serial) ||
+                      (sync_counter_step(d.sdo_step) && !counted());
     if (!skip) return;
   }
 }
@@ -295,7 +301,7 @@ void CanopenMaster::next_step(Drive& d) const {
 // number exactly, the revision by its major part (CiA 301: the minor part
 // changes without changing the CANopen behaviour).
 bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::string& at) {
-  const DriveIdentity& id = d.config.identity;
+  const DriveIdentity& id = joint(d).identity;
   const std::optional<std::uint32_t> expected[] = {id.vendor_id, id.product_code, id.revision,
                                                    id.serial};
   const std::optional<std::uint32_t>& want = expected[d.sdo_step - kReadVendorId];
@@ -310,14 +316,19 @@ bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::s
   return false;
 }
 
-void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {
-  const std::uint8_t expected = second ? p::kTpdo2.dlc : p::kTpdo1.dlc;
+// A TPDO in the cycle's window: TPDO1 and TPDO2 are held; without a SYNC
+// counter they count at once, with one when TPDO3 confirms the cycle.
+void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, unsigned pdo) {
+  static constexpr const p::Message* kTpdos[] = {&p::kTpdo1, &p::kTpdo2, &p::kTpdo3};
+  const std::uint8_t expected = kTpdos[pdo - 1]->dlc;
+  const auto number = static_cast<std::uint8_t>(pdo);
   if (f.dlc != expected) {
     d.malformed = true;
-    (second ? d.got_tpdo2 : d.got_tpdo1) = true;  // answered, if badly
+    if (pdo == 1) d.got_tpdo1 = true;  // answered, if badly
+    if (pdo == 2) d.got_tpdo2 = true;
     record({.kind = CyclicProblem::Kind::kMalformedPdo,
             .node = d.node,
-            .second_pdo = second,
+            .pdo = number,
             .can_id = f.id,
             .dlc = f.dlc,
             .expected_dlc = expected});
@@ -326,22 +337,52 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, bool second) {
   if (!window_open_) {
     d.late = true;
     ++late_frames_;
-    record({.kind = CyclicProblem::Kind::kLatePdo,
-            .node = d.node,
-            .second_pdo = second,
-            .can_id = f.id});
+    record({.kind = CyclicProblem::Kind::kLatePdo, .node = d.node, .pdo = number, .can_id = f.id});
     return;
   }
-  if (second) {
-    d.velocity_counts_s = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2VelocityActual));
+  if (pdo == 3) return take_sync_echo(d, f);
+  if (pdo == 2) {
+    d.held.velocity_counts_s =
+        static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2VelocityActual));
+    d.held.tpdo2 = true;
+  } else {
+    d.held.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1Statusword));
+    d.held.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1PositionActual));
+    d.held.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1CurrentActual));
+    d.held.tpdo1 = true;
+  }
+  if (!counted()) take_held(d);
+}
+
+// TPDO3: the counter of the SYNC the drive's held TPDOs answer. Another
+// SYNC's counter means they are an earlier cycle's, late: dropped.
+void CanopenMaster::take_sync_echo(Drive& d, const Frame& f) {
+  const auto counter = static_cast<std::uint8_t>(p::unpack(f.data, p::kTpdo3SyncCounter));
+  if (counter == sync_counter_) return take_held(d);
+  d.held = {};
+  d.late = true;
+  ++late_frames_;
+  record({.kind = CyclicProblem::Kind::kStalePdo,
+          .node = d.node,
+          .pdo = 3,
+          .can_id = f.id,
+          .counter = counter,
+          .sync_counter = sync_counter_});
+}
+
+void CanopenMaster::take_held(Drive& d) {
+  if (d.held.tpdo1) {
+    d.statusword = d.held.statusword;
+    d.state = delta::can::cia402::decode_statusword(d.statusword);
+    d.position_counts = d.held.position_counts;
+    d.current_per_mille = d.held.current_per_mille;
+    d.got_tpdo1 = true;
+  }
+  if (d.held.tpdo2) {
+    d.velocity_counts_s = d.held.velocity_counts_s;
     d.got_tpdo2 = true;
-    return;
   }
-  d.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1Statusword));
-  d.state = delta::can::cia402::decode_statusword(d.statusword);
-  d.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1PositionActual));
-  d.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1CurrentActual));
-  d.got_tpdo1 = true;
+  d.held = {};
 }
 
 void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us) {
@@ -364,9 +405,11 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
   if (function == p::kSdoTx.base_id) {
     handle_sdo_response(*d, f);
   } else if (function == p::kTpdo1.base_id) {
-    if (cyclic()) handle_tpdo(*d, f, false);
+    if (cyclic()) handle_tpdo(*d, f, 1);
   } else if (function == p::kTpdo2.base_id) {
-    if (cyclic()) handle_tpdo(*d, f, true);
+    if (cyclic()) handle_tpdo(*d, f, 2);
+  } else if (function == p::kTpdo3.base_id) {
+    if (cyclic() && counted()) handle_tpdo(*d, f, 3);
   } else if (function == p::kEmcy.base_id) {
     const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcyErrorCode));
     if (code != od::kEmcyErrorReset) {
@@ -386,9 +429,21 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
 void CanopenMaster::begin_cycle(std::uint64_t now_us) {
   now_us_ = now_us;
   ++cycle_;
-  for (Drive& d : drives_) d.got_tpdo1 = d.got_tpdo2 = false;
+  for (Drive& d : drives_) {
+    d.got_tpdo1 = d.got_tpdo2 = false;
+    d.held = {};
+  }
   window_open_ = cyclic();
-  if (window_open_) bus_.send(frame(p::cob_id(p::kSync, 0), 0, {}));
+  if (!window_open_) return;
+  if (!counted()) {
+    bus_.send(frame(p::cob_id(p::kSync, 0), 0, {}));
+    return;
+  }
+  // CiA 301: 1, 2, ... up to the overflow value, then 1 again.
+  sync_counter_ = static_cast<std::uint8_t>(sync_counter_ % config_.sync_counter_overflow + 1);
+  std::array<std::uint8_t, 8> data{};
+  p::pack(data, p::kSyncCounter, sync_counter_);
+  bus_.send(frame(p::cob_id(p::kSync, 0), 1, data));
 }
 
 bool CanopenMaster::exchange_complete() const {
@@ -467,7 +522,7 @@ std::string CanopenMaster::last_problem() const {
   using Kind = CyclicProblem::Kind;
   const CyclicProblem& p = cyclic_problem_;
   const std::string node = "node " + std::to_string(p.node);
-  const std::string pdo = std::string(p.second_pdo ? "TPDO2 " : "TPDO1 ") + hex(p.can_id, 3);
+  const std::string pdo = "TPDO" + std::to_string(p.pdo) + " " + hex(p.can_id, 3);
   switch (p.kind) {
     case Kind::kNone:
       return bring_up_problem_;
@@ -476,6 +531,10 @@ std::string CanopenMaster::last_problem() const {
              std::to_string(p.expected_dlc);
     case Kind::kLatePdo:
       return node + ": " + pdo + " arrived after the cycle's deadline";
+    case Kind::kStalePdo:
+      return node + ": " + pdo + " carries SYNC counter " + std::to_string(p.counter) +
+             ", this cycle's SYNC " + std::to_string(p.sync_counter) +
+             ": its TPDOs answer an earlier SYNC (they arrived after their cycle's deadline)";
     case Kind::kBusError:
       return std::string("CAN bus error: ") + (p.bus_off ? "bus-off" : "error passive") +
              " (error frame class " + hex(p.error_class, 8) + ")";

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "delta/can/protocol.hpp"
 #include "delta/canopen/eds.hpp"
 #include "delta/custom_trajectory_block.hpp"
 #include "delta/dynamics.hpp"
@@ -96,6 +97,7 @@ delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& w
   }
   for (unsigned step = 0; step < kBringUpStepCount; ++step) {
     if (step == kReadSerialNumber) continue;  // only with jointN.serial; optional in CiA 301
+    if (sync_counter_step(step)) continue;    // sync_counter_gap() says what is missing
     const BringUpObject& b = kBringUp[step];
     const delta::canopen::EdsVariable* v = eds.find(b.object.index, b.object.subindex);
     const std::string name = object_text(b.object) + " (" + b.what + ")";
@@ -128,6 +130,27 @@ delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& w
     }
   }
   return eds;
+}
+
+// What an EDS lacks for a SYNC counter (sync_counter_overflow > 0): 0x1019
+// writable, TPDO3's communication and mapping writable, 0x2019 mappable;
+// "" if nothing.
+std::string sync_counter_gap(const delta::canopen::Eds& eds, const std::string& path) {
+  const auto missing = [&](delta::can::od::Object o, bool mappable) -> std::string {
+    const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
+    if (v == nullptr) return path + " has no object " + object_text(o);
+    if (mappable && !v->pdo_mappable) return path + ": " + object_text(o) + " is not PDO-mappable";
+    if (!mappable && !delta::canopen::writable(v->access)) {
+      return path + ":" + std::to_string(v->line) + ": " + object_text(o) + " is not writable";
+    }
+    return "";
+  };
+  std::string gap = missing(delta::can::od::kSyncCounterOverflow, false);
+  for (const PdoMappingWrite& w : kSyncPdoMapping) {
+    if (gap.empty()) gap = missing(w.object, false);
+  }
+  if (gap.empty()) gap = missing(delta::can::od::kSyncCounterOfSample, true);
+  return gap;
 }
 
 bool parse_bool(const std::string& v, const std::string& where, const std::string& key) {
@@ -175,6 +198,16 @@ std::map<std::string, Setter> make_setters() {
     } else {
       throw ConfigError(w + ": mode must be 'realtime' or 'lockstep', got '" + v + "'");
     }
+  };
+  s["sync_counter_overflow"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    const std::uint32_t n = parse_unsigned(v, w, "sync_counter_overflow", 0,
+                                           delta::can::protocol::kSyncCounterMaxOverflow);
+    if (n == 1) {
+      throw ConfigError(w + ": sync_counter_overflow must be 0 (no counter) or from 2 to " +
+                        std::to_string(delta::can::protocol::kSyncCounterMaxOverflow) +
+                        " (CiA 301, 0x1019), got '" + v + "'");
+    }
+    c.sync_counter_overflow = static_cast<std::uint8_t>(n);
   };
   s["velocity_pdo"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     c.velocity_pdo = parse_bool(v, w, "velocity_pdo");
@@ -309,6 +342,7 @@ std::map<std::string, Setter> make_setters() {
       id.product_code = eds.identity.product_code;
       id.revision = eds.identity.revision;
       id.source = p + "eds = " + v;
+      c.joints[j].sync_counter_gap = sync_counter_gap(eds, v);
     };
     s[p + "serial"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].identity.serial = parse_unsigned(v, w, p + "serial", 0, 0xFFFFFFFFu);
@@ -450,6 +484,11 @@ void validate(const PortConfig& c) {
     require(m.gearbox_efficiency > 0 && m.gearbox_efficiency <= 1,
             p + "gearbox_efficiency must be in (0, 1]");
     require_representable_torque_constant(p, m);
+    require(c.sync_counter_overflow == 0 || c.joints[j].sync_counter_gap.empty(),
+            "sync_counter_overflow = " + std::to_string(c.sync_counter_overflow) + ": " + p +
+                "eds: " + c.joints[j].sync_counter_gap +
+                ", which the SYNC counter's TPDO3 needs (docs/protocol.md); set "
+                "sync_counter_overflow = 0 for this drive");
     for (unsigned k = 0; k < j; ++k) {
       require(c.joints[k].node != c.joints[j].node,
               p + "node = " + std::to_string(c.joints[j].node) + " is also joint" +

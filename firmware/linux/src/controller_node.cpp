@@ -18,6 +18,8 @@ constexpr std::uint32_t log_cob_id(unsigned tpdo) {
   return tpdo == 0 ? p::kLogA.base_id : (tpdo == 1 ? p::kLogB.base_id : p::kLogC.base_id);
 }
 
+constexpr std::uint32_t kSyncProducer = 1u << 30;  // 0x1005 bit 30
+
 }  // namespace
 
 StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
@@ -37,6 +39,10 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1000, 0, 4, [](const Context&) { return 0u; }, nullptr},  // no standard profile
       {0x1001, 0, 1, [](const Context& c) { return c.node.fault_ == fw::Fault::kNone ? 0u : 1u; },
        nullptr},
+      // The SYNC producer (CiA 301), as configured: COB-ID (bit 30: this
+      // node produces it), cycle period, counter overflow value.
+      {0x1005, 0, 4, [](const Context&) { return kSyncProducer | p::kSync.base_id; }, nullptr},
+      {0x1006, 0, 4, [](const Context& c) { return c.node.period_us_; }, nullptr},
       {0x1017, 0, 2, [](const Context& c) { return std::uint32_t{c.node.heartbeat_ms_}; },
        [](Context& c, std::uint32_t v) {
          c.node.heartbeat_ms_ = static_cast<std::uint16_t>(v);
@@ -49,6 +55,8 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1018, 3, 4, [](const Context& c) { return controller_identity(c.node.version_).revision; },
        nullptr},
       {0x1018, 4, 4, [](const Context&) { return 0u; }, nullptr},
+      {0x1019, 0, 1, [](const Context& c) { return std::uint32_t{c.node.sync_counter_overflow_}; },
+       nullptr},
       {0x1800, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1800, 1, 4, [](const Context&) { return log_cob_id(0); }, nullptr},
       {0x1800, 2, 1, [](const Context&) { return 1u; }, nullptr},  // every SYNC
@@ -111,6 +119,7 @@ ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c,
       version_(version),
       program_(program),
       period_us_(c.period_us),
+      sync_counter_overflow_(c.sync_counter_overflow),
       configured_heartbeat_ms_(static_cast<std::uint16_t>(c.heartbeat_ms)),
       heartbeat_ms_(configured_heartbeat_ms_),
       table_(Context{*this}, scalars(), texts(), domains()) {

@@ -114,13 +114,14 @@ std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerCo
   return std::nullopt;
 }
 
-// What the drives send: TPDO1/2, SDO responses, EMCY and heartbeats (and
+// What the drives send: TPDO1-3, SDO responses, EMCY and heartbeats (and
 // error frames, which need no filter).
 delta::can::Socket open_drive_socket(const std::string& iface) {
   return delta::can::Socket::open(
       iface,
       {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
        {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
+       {p::kTpdo3.base_id, p::kFunctionCodeMask, false},
        {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
        {p::kEmcy.base_id, p::kFunctionCodeMask, false},
        {p::kHeartbeat.base_id, p::kFunctionCodeMask, false},

@@ -28,13 +28,13 @@ constexpr std::string_view kEmulatorSoftwareVersion = "delta_drive_emu " DELTA_V
 constexpr std::uint32_t kSupportedModesCst = 1u << 9;
 
 // The objects a PDO may carry (PDOMapping=1 in docs/eds/delta_drive_emu.eds).
-constexpr std::uint16_t kMappable[] = {0x1001, 0x6040, 0x6041, 0x6060, 0x6061,
+constexpr std::uint16_t kMappable[] = {0x1001, 0x2019, 0x6040, 0x6041, 0x6060, 0x6061,
                                        0x6064, 0x606C, 0x6071, 0x6078, 0x607A};
 
 }  // namespace
 
-// A PDO's COB-ID (0x1400:1, 0x1800:1, 0x1801:1) and mapping (0x1600,
-// 0x1A00, 0x1A01): PDO 0 is RPDO1, 1 TPDO1, 2 TPDO2.
+// A PDO's COB-ID (0x1400:1, 0x1800:1 to 0x1802:1) and mapping (0x1600,
+// 0x1A00 to 0x1A02): PDO 0 is RPDO1, 1 to 3 TPDO1 to TPDO3.
 template <unsigned Pdo>
 std::uint32_t Emulator::DriveObjects::cob_id_get(const DriveContext& c) {
   return c.e.pdo_cob_id(c.d, Pdo) | (c.d.pdos[Pdo].valid ? 0u : od::kPdoInvalid);
@@ -74,7 +74,7 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
        [](const DriveContext& c) { return c.d.state == cia::State::kFault ? 1u : 0u; }, nullptr},
       {0x1006, 0, 4, [](const DriveContext& c) { return c.d.cycle_us; },
        [](DriveContext& c, std::uint32_t v) {
-         if (v < 100 || v > 1000000) return sdo::kAbortValueRange;
+         if (v != 0 && (v < 100 || v > 1000000)) return sdo::kAbortValueRange;  // 0: not used
          c.d.cycle_us = v;
          return ok;
        }},
@@ -100,6 +100,14 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x1018, 2, 4, [](const DriveContext& c) { return c.e.product_.product_code; }, nullptr},
       {0x1018, 3, 4, [](const DriveContext& c) { return c.e.product_.revision; }, nullptr},
       {0x1018, 4, 4, [](const DriveContext& c) { return 0x00010000u + c.d.node; }, nullptr},
+      // CiA 301: 0 or 2..240, written only while 0x1006 is 0.
+      {0x1019, 0, 1, [](const DriveContext& c) { return std::uint32_t{c.d.sync_counter_overflow}; },
+       [](DriveContext& c, std::uint32_t v) {
+         if (c.d.cycle_us != 0) return sdo::kAbortDeviceState;
+         if (v == 1 || v > p::kSyncCounterMaxOverflow) return sdo::kAbortValueRange;
+         c.d.sync_counter_overflow = static_cast<std::uint8_t>(v);
+         return ok;
+       }},
       // The PDOs' communication: the predefined COB-IDs, bit 31 turns a PDO
       // off and on; synchronous (transmission type 1).
       {0x1400, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
@@ -111,6 +119,11 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x1801, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
       {0x1801, 1, 4, &cob_id_get<2>, &cob_id_set<2>},
       {0x1801, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
+      {0x1802, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
+      {0x1802, 1, 4, &cob_id_get<3>, &cob_id_set<3>},
+      {0x1802, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
+      {0x2019, 0, 1, [](const DriveContext& c) { return std::uint32_t{c.d.sync_counter}; },
+       nullptr},
       {0x6040, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.controlword}; },
        [](DriveContext& c, std::uint32_t v) {
          c.e.apply_controlword(c.d, static_cast<std::uint16_t>(v));
@@ -183,13 +196,14 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x608F, 2, 4, [](const DriveContext&) { return 1u; }, nullptr},
       {0x6502, 0, 4, [](const DriveContext&) { return kSupportedModesCst; }, nullptr},
   };
-  // The mapping objects of RPDO1, TPDO1, TPDO2: sub-index 0 the count,
+  // The mapping objects of RPDO1, TPDO1 to TPDO3: sub-index 0 the count,
   // 1 to 8 the entries.
   static const std::vector<DriveTable::Scalar> kObjects = [] {
     std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
     for (const auto& mapping : {mapping_objects<0>(0x1600, std::make_index_sequence<9>()),
                                 mapping_objects<1>(0x1A00, std::make_index_sequence<9>()),
-                                mapping_objects<2>(0x1A01, std::make_index_sequence<9>())}) {
+                                mapping_objects<2>(0x1A01, std::make_index_sequence<9>()),
+                                mapping_objects<3>(0x1A02, std::make_index_sequence<9>())}) {
       all.insert(all.end(), mapping.begin(), mapping.end());
     }
     for (DriveTable::Scalar& o : all) {
@@ -219,9 +233,9 @@ EmulatedProduct product_of(const delta::canopen::Eds& eds) {
     id.device_name = name->default_text;
   }
   // The PDOs' defaults; what the EDS leaves out keeps the built-in value.
-  const std::uint16_t communication[] = {0x1400, 0x1800, 0x1801};
-  const std::uint16_t mapping[] = {0x1600, 0x1A00, 0x1A01};
-  for (unsigned pdo = 0; pdo < 3; ++pdo) {
+  const std::uint16_t communication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802};
+  const std::uint16_t mapping[kPdoCount] = {0x1600, 0x1A00, 0x1A01, 0x1A02};
+  for (unsigned pdo = 0; pdo < kPdoCount; ++pdo) {
     PdoMapping& m = id.pdos[pdo];
     if (const auto* cob = eds.find(communication[pdo], 1)) {
       if (const auto v = cob->default_value(1)) m.valid = (*v & od::kPdoInvalid) == 0;

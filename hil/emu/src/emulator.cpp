@@ -234,7 +234,7 @@ void Emulator::handle_consumed_heartbeat(std::uint8_t node) {
 void Emulator::on_frame(const Frame& f) {
   if (f.extended || f.remote) return;
   if (f.id == p::cob_id(p::kNmt, 0)) return handle_nmt(f);
-  if (f.id == p::cob_id(p::kSync, 0)) return handle_sync();
+  if (f.id == p::cob_id(p::kSync, 0)) return handle_sync(f);
   if (p::function_code(f.id) == p::kHeartbeat.base_id && f.dlc == 1) {
     return handle_consumed_heartbeat(p::node_id(f.id));
   }
@@ -273,6 +273,7 @@ void Emulator::handle_nmt(const Frame& f) {
         d.heartbeat_ms = 0;
         d.consumer = 0;
         d.consumer_armed = false;
+        d.sync_counter_overflow = 0;
         d.pdos = product_.pdos;
         if (!d.silent) {
           std::array<std::uint8_t, 8> data{};
@@ -359,8 +360,9 @@ void Emulator::send_tpdo(unsigned j, unsigned pdo) {
 }
 
 std::uint32_t Emulator::pdo_cob_id(const Drive& d, unsigned pdo) const {
-  const p::Message& m = pdo == 0 ? p::kRpdo1 : (pdo == 1 ? p::kTpdo1 : p::kTpdo2);
-  return p::cob_id(m, d.node);
+  static constexpr const p::Message* kMessageOf[kPdoCount] = {&p::kRpdo1, &p::kTpdo1, &p::kTpdo2,
+                                                              &p::kTpdo3};
+  return p::cob_id(*kMessageOf[pdo], d.node);
 }
 
 // The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
@@ -516,8 +518,28 @@ void Emulator::advance(double dt_s) {
   }
 }
 
-void Emulator::handle_sync() {
+// CiA 301: a SYNC consumer whose 0x1019 is 0 expects SYNCs without data,
+// else with the counter's one byte; another length is reported by EMCY
+// 0x8240 (error register bit 4, communication), once until a SYNC of the
+// right length comes. In NMT stopped no EMCY is sent.
+void Emulator::check_sync_length(Drive& d, const Frame& f) {
+  const std::uint8_t expected = d.sync_counter_overflow != 0 ? 1 : 0;
+  d.sync_counter = f.dlc >= 1 ? f.data[0] : 0;
+  if (f.dlc == expected) {
+    d.sync_length_reported = false;
+    return;
+  }
+  if (d.sync_length_reported || d.silent || d.nmt == p::kNmtStateStopped) return;
+  d.sync_length_reported = true;
+  std::array<std::uint8_t, 8> data{};
+  p::pack(data, p::kEmcyErrorCode, od::kEmcySyncLength);
+  p::pack(data, p::kEmcyErrorRegister, 0x10);
+  send(p::cob_id(p::kEmcy, d.node), 8, data);
+}
+
+void Emulator::handle_sync(const Frame& f) {
   last_sync_wall_us_ = wall_us_;
+  for (Drive& d : drives_) check_sync_length(d, f);
   // Time runs from the first SYNC with operational drives.
   std::uint32_t cycle_us = 0;
   for (const Drive& d : drives_) cycle_us = d.cycle_us != 0 ? d.cycle_us : cycle_us;
@@ -545,6 +567,7 @@ void Emulator::handle_sync() {
     d.current_measured_pm = static_cast<std::int16_t>(std::max(-32768L, std::min(32767L, pm)));
     send_tpdo(j, 1);
     send_tpdo(j, 2);
+    send_tpdo(j, 3);  // last: it tells which SYNC the others answer
   }
 }
 

@@ -19,7 +19,7 @@ TEST(ProtocolTest, EveryCobIdOnTheBusIsUnique) {
       ++count;
     }
   }
-  EXPECT_EQ(count, 28u);
+  EXPECT_EQ(count, 31u);
   // The log frames are TPDO1..3 of the controller's node 16, its emergency
   // and heartbeat those of node 16 too.
   EXPECT_EQ(kLogA.base_id, 0x180 + kControllerNode);
@@ -109,6 +109,14 @@ TEST(ProtocolTest, BusLoadDecidesTheCycleRate) {
   EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true), 500, kMbit), 635u);
   EXPECT_GT(bus_load_per_mille(cycle_bits(true, true), 500, kMbit), 700u);
   EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true), 400, kMbit), 622u);
+  // The SYNC counter (docs/protocol.md): a byte in the SYNC and three
+  // 1-byte TPDO3s, 205 bits; 500 Hz no longer fits, 400 Hz does (59.0 %).
+  EXPECT_EQ(cycle_bits(false, true, true), 1475u);
+  EXPECT_EQ(cycle_bits(true, true, true), 1760u);
+  EXPECT_GT(bus_load_per_mille(cycle_bits(false, true, true), 500, kMbit), 700u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, true), 400, kMbit), 590u);
+  EXPECT_GT(bus_load_per_mille(cycle_bits(true, true, true), 400, kMbit), 700u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true, true), 250, kMbit), 440u);
 }
 
 }  // namespace

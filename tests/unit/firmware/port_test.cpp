@@ -10,6 +10,7 @@
 #include <deque>
 #include <fstream>
 #include <iterator>
+#include <tuple>
 
 #include "delta/can/protocol.hpp"
 #include "delta/modbus/register_map.hpp"
@@ -161,8 +162,8 @@ TEST(PortConfigTest, ADrivesEdsGivesTheIdentityToExpect) {
 TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
   // Malformed: the EDS's own file:line after the configuration's.
   std::string path = edited_eds(
-      "DataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1400]",
-      "DataType=0x0066\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1400]", "bad_type.eds");
+      "DataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]",
+      "DataType=0x0066\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]", "bad_type.eds");
   std::string e = config_error("joint1.eds = " + path + "\n");
   EXPECT_NE(e.find("port_test.conf:1:14: joint1.eds: " + path + ":"), std::string::npos) << e;
   EXPECT_NE(e.find("[1017] DataType=0x0066: not a CiA 301 basic data type"), std::string::npos)
@@ -183,6 +184,36 @@ TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
       << e;
   e = config_error("joint1.eds = /nonexistent/drive.eds\n");
   EXPECT_NE(e.find("joint1.eds: /nonexistent/drive.eds: cannot open"), std::string::npos) << e;
+}
+
+// sync_counter_overflow is CiA 301's 0x1019 (0 or 2..240), and a drive
+// whose EDS cannot map the counter into TPDO3 is refused at load time.
+TEST(PortConfigTest, ASyncCounterNeedsCiA301sRangeAndDrivesThatCanEchoIt) {
+  const std::string eds = DELTA_EDS_DIR "/delta_drive_emu.eds";
+  EXPECT_NE(config_error("sync_counter_overflow = 1\n")
+                .find(":1:25: sync_counter_overflow must be 0 (no counter) or from 2 to 240"),
+            std::string::npos);
+  EXPECT_NE(config_error("sync_counter_overflow = 241\n")
+                .find("sync_counter_overflow must be a whole number from 0 to 240, got '241'"),
+            std::string::npos);
+  EXPECT_EQ(read_port_config(write_temp("sync_counter_overflow = 240\njoint2.eds = " + eds + "\n"))
+                .sync_counter_overflow,
+            240);
+  const std::string unmapped = edited_eds(
+      "SYNC counter of the sample\nObjectType=0x7\n"
+      "DataType=0x0005\nAccessType=ro\nDefaultValue=0\n"
+      "PDOMapping=1",
+      "SYNC counter of the sample\nObjectType=0x7\n"
+      "DataType=0x0005\nAccessType=ro\nDefaultValue=0\n"
+      "PDOMapping=0",
+      "no_echo.eds");
+  const std::string e = config_error("joint3.eds = " + unmapped + "\nsync_counter_overflow = 16\n");
+  EXPECT_NE(e.find("sync_counter_overflow = 16: joint3.eds: " + unmapped +
+                   ": 0x2019:00 is not PDO-mappable, which the SYNC counter's TPDO3 needs"),
+            std::string::npos)
+      << e;
+  // Without the counter the same drive is fine.
+  EXPECT_EQ(config_error("joint3.eds = " + unmapped + "\n"), "");
 }
 
 // Values that parse but cannot be represented are refused at load time,
@@ -407,6 +438,98 @@ TEST(InProcessPortTest, AMissedSampleDoesNotDoubleTheVelocityFromPositions) {
   const double truth = rig.bus.emulator_.qd_rad_s()[0];
   EXPECT_NEAR(v, truth, 0.05 * std::fabs(truth)) << "velocity after a missed sample";
   EXPECT_EQ(rig.controller.state(), fw::State::kRunning);
+}
+
+// With a SYNC counter the SYNCs carry 1, 2, ... overflow, 1, ..., the
+// drives' TPDO3 echo it, and an excitation runs as without.
+TEST(InProcessPortTest, WithASyncCounterTheSyncsCountAndTheDrivesEchoThem) {
+  namespace p = delta::can::protocol;
+  PortConfig c = Rig::config();
+  c.sync_counter_overflow = 4;
+  Rig rig(c, {});
+  ASSERT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  ASSERT_TRUE(rig.controller.start(*named_trajectory("path1", c)).accepted);
+  std::vector<int> counters;
+  std::vector<int> echoes;
+  for (int i = 0; i < 600; ++i) {
+    rig.bus.sent_.clear();
+    rig.bus.deliver(rig.master);
+    rig.master.begin_cycle(0);
+    for (const auto& f : rig.bus.to_master_) {
+      if (f.id == p::cob_id(p::kTpdo3, 2)) echoes.push_back(f.data[0]);
+    }
+    rig.bus.deliver(rig.master, true);
+    rig.master.end_window();
+    rig.controller.step();
+    rig.master.send_commands();
+    for (const auto& f : rig.bus.sent_) {
+      if (f.id == p::cob_id(p::kSync, 0)) {
+        ASSERT_EQ(f.dlc, 1);
+        counters.push_back(f.data[0]);
+      }
+    }
+    ASSERT_NE(rig.controller.state(), fw::State::kFault) << rig.master.last_problem();
+    ASSERT_TRUE(rig.controller.feedback()[1].fresh) << i;
+  }
+  ASSERT_EQ(counters.size(), 600u);
+  for (std::size_t i = 1; i < counters.size(); ++i) {
+    EXPECT_EQ(counters[i], counters[i - 1] % 4 + 1) << i;
+  }
+  EXPECT_EQ(echoes, counters);
+  EXPECT_EQ(rig.master.late_frames(), 0u);
+}
+
+// A drive whose answers to one SYNC come during the next cycle's window
+// (and whose next answers are late too): without a counter the master
+// takes the old sample for the new cycle's; with one it refuses it,
+// saying which SYNC it answers.
+TEST(InProcessPortTest, ALateAnswerIsNeverTakenForTheNextCyclesWithASyncCounter) {
+  namespace p = delta::can::protocol;
+  const auto late_twice = [](std::uint8_t overflow) {
+    PortConfig c = Rig::config();
+    c.sync_counter_overflow = overflow;
+    Rig rig(c, {});
+    EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
+    for (int i = 0; i < 10; ++i) rig.cycle();
+    const auto node1 = [](const delta::can::Frame& f) {
+      return p::node_id(f.id) == 1 && (p::function_code(f.id) == p::kTpdo1.base_id ||
+                                       p::function_code(f.id) == p::kTpdo2.base_id ||
+                                       p::function_code(f.id) == p::kTpdo3.base_id);
+    };
+    std::deque<delta::can::Frame> held;  // node 1's answers to the last SYNC
+    int late_echo = -1;                  // the counter their TPDO3 carries
+    const auto cycle_holding_node1 = [&] {
+      rig.bus.deliver(rig.master);
+      rig.master.begin_cycle(0);
+      std::deque<delta::can::Frame> now;
+      std::deque<delta::can::Frame> this_cycle;
+      for (const auto& f : rig.bus.to_master_) (node1(f) ? this_cycle : now).push_back(f);
+      // The last cycle's answers of node 1 arrive first, in this window.
+      for (const auto& f : held) {
+        if (p::function_code(f.id) == p::kTpdo3.base_id) late_echo = f.data[0];
+      }
+      now.insert(now.begin(), held.begin(), held.end());
+      held = this_cycle;
+      rig.bus.to_master_ = now;
+      rig.bus.deliver(rig.master, true);
+      rig.master.end_window();
+      rig.controller.step();
+      rig.master.send_commands();
+    };
+    cycle_holding_node1();  // node 1's answers held: none this cycle
+    cycle_holding_node1();  // the first cycle's answers arrive, this one's held
+    return std::tuple{rig.controller.feedback()[0].fresh, rig.master.last_problem(), late_echo};
+  };
+  const auto [fresh_without, problem_without, no_echo] = late_twice(0);
+  EXPECT_TRUE(fresh_without) << "the limit this counter removes: " << problem_without;
+  EXPECT_EQ(no_echo, -1) << "no TPDO3 without a counter";
+  const auto [fresh_with, problem_with, echo] = late_twice(4);
+  EXPECT_FALSE(fresh_with);
+  ASSERT_GE(echo, 1);
+  EXPECT_NE(problem_with.find("node 1: TPDO3 0x381 carries SYNC counter " + std::to_string(echo) +
+                              ", this cycle's SYNC " + std::to_string(echo % 4 + 1)),
+            std::string::npos)
+      << problem_with;
 }
 
 // Feedback read twice in one cycle is the same feedback, not a division by

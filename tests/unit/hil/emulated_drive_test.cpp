@@ -271,6 +271,51 @@ TEST(EmulatedDriveTest, AShortRpdoIsRefusedWithTheLengthEmergency) {
   EXPECT_EQ(bus.read(0x6071, 0), 16u);
 }
 
+// The SYNC counter (CiA 301, 0x1019): written only while 0x1006 is 0 and
+// only 0 or 2..240; a SYNC of the other length draws EMCY 0x8240 once; TPDO3
+// (0x2019) carries the counter of the SYNC its sample answers.
+TEST(EmulatedDriveTest, TheSyncCounterIsConfiguredByCiA301sRulesAndEchoedInTpdo3) {
+  Bus bus;
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t v,
+                         std::uint8_t size) {
+    return bus.abort_code(sdo::download_request(index, sub, v, size));
+  };
+  EXPECT_EQ(write(0x1006, 0, 2000, 4), 0u);
+  EXPECT_EQ(write(0x1019, 0, 5, 1), sdo::kAbortDeviceState);  // 0x1006 is not 0
+  EXPECT_EQ(write(0x1006, 0, 0, 4), 0u);
+  EXPECT_EQ(write(0x1019, 0, 1, 1), sdo::kAbortValueRange);
+  EXPECT_EQ(write(0x1019, 0, 241, 1), sdo::kAbortValueRange);
+  EXPECT_EQ(write(0x1019, 0, 5, 1), 0u);
+  EXPECT_EQ(bus.read(0x1019, 0), 5u);
+  EXPECT_EQ(write(0x1006, 0, 2000, 4), 0u);
+  EXPECT_EQ(write(0x1802, 1, 0x00000381, 4), 0u);  // TPDO3 on
+  bus.nmt(p::kNmtStart, 1);
+  const auto sync = [&](std::uint8_t dlc, std::uint8_t counter) {
+    bus.out.clear();
+    bus.send(p::cob_id(p::kSync, 0), dlc, {counter});
+    std::map<std::uint32_t, std::vector<Frame>> by_id;
+    for (const Frame& f : bus.out) by_id[f.id].push_back(f);
+    return by_id;
+  };
+  auto frames = sync(1, 3);
+  ASSERT_EQ(frames[p::cob_id(p::kTpdo3, 1)].size(), 1u);
+  EXPECT_EQ(frames[p::cob_id(p::kTpdo3, 1)][0].dlc, 1);
+  EXPECT_EQ(frames[p::cob_id(p::kTpdo3, 1)][0].data[0], 3);
+  EXPECT_TRUE(frames[p::cob_id(p::kEmcy, 1)].empty());
+  EXPECT_EQ(bus.out.back().id, p::cob_id(p::kTpdo3, 1)) << "TPDO3 after TPDO1 and TPDO2";
+  // A SYNC without the counter: EMCY 0x8240 (error register: communication), once.
+  frames = sync(0, 0);
+  ASSERT_EQ(frames[p::cob_id(p::kEmcy, 1)].size(), 1u);
+  const Frame& emcy = frames[p::cob_id(p::kEmcy, 1)][0];
+  EXPECT_EQ(emcy.data[0] | emcy.data[1] << 8, 0x8240);
+  EXPECT_EQ(emcy.data[2], 0x10);
+  EXPECT_TRUE(sync(0, 0)[p::cob_id(p::kEmcy, 1)].empty());
+  EXPECT_TRUE(sync(1, 4)[p::cob_id(p::kEmcy, 1)].empty());
+  EXPECT_EQ(sync(0, 0)[p::cob_id(p::kEmcy, 1)].size(), 1u) << "again after a right one";
+  // Node 2 counts no SYNCs (0x1019 = 0): a SYNC with a byte is its error.
+  EXPECT_EQ(sync(1, 1)[p::cob_id(p::kEmcy, 2)].size(), 1u);
+}
+
 class EmulatedDriveEdsTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(EmulatedDriveEdsTest, AgreesWithItsEdsObjectByObject) {
@@ -346,19 +391,19 @@ TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
   EXPECT_EQ(
       bus.emulator.eds_mismatch(eds_text("DataType=0x0006\nAccessType=rw\nDefaultValue=3000",
                                          "DataType=0x0007\nAccessType=rw\nDefaultValue=3000")),
-      "x.eds:352: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
+      "x.eds:392: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
   EXPECT_EQ(bus.emulator.eds_mismatch(eds_text(
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=rw",
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=ro")),
-            "x.eds:352: 0x6073:00 (Max current) is writable in the emulated drive");
-  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=26\n", "SupportedObjects=21\n")),
-            "x.eds: the emulated drive has object 0x606C:00, which the EDS does not list");
-  EXPECT_EQ(
-      bus.emulator.eds_mismatch(eds_text("[ManufacturerObjects]\nSupportedObjects=0",
-                                         "[ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n"
-                                         "[2000]\nParameterName=Extra\nDataType=0x0007\n"
-                                         "AccessType=rw")),
-      "x.eds:662: 0x2000:00 (Extra) is not an object of the emulated drive");
+            "x.eds:392: 0x6073:00 (Max current) is writable in the emulated drive");
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=29\n", "SupportedObjects=28\n")),
+            "x.eds: the emulated drive has object 0x1A02:00, which the EDS does not list");
+  EXPECT_EQ(bus.emulator.eds_mismatch(
+                eds_text("[ManufacturerObjects]\nSupportedObjects=1\n1=0x2019\n",
+                         "[ManufacturerObjects]\nSupportedObjects=2\n1=0x2019\n2=0x2000\n"
+                         "[2000]\nParameterName=Extra\nDataType=0x0007\n"
+                         "AccessType=rw")),
+            "x.eds:780: 0x2000:00 (Extra) is not an object of the emulated drive");
 }
 
 }  // namespace

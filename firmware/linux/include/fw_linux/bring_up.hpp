@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 #include "delta/can/cia402.hpp"
 
@@ -19,13 +20,23 @@ enum BringUpStep : unsigned {
   kReadRatedTorque,
   kReadEncoderIncrements,
   kWriteMode,
+  // With sync_counter_overflow > 0 only (CiA 301: 0x1019 is written while
+  // 0x1006 is 0):
+  kClearCyclePeriod,
+  kWriteSyncCounter,
   kWriteCyclePeriod,
   kWriteHeartbeat,
   kWriteConsumerHeartbeat,
   kWritePdoMapping,  // the writes of kPdoMapping, one after the other
   kWriteTpdo2,
+  kWriteSyncPdoMapping,  // with sync_counter_overflow > 0 only: kSyncPdoMapping
   kBringUpStepCount,
 };
+
+// The steps that only a SYNC counter needs.
+constexpr bool sync_counter_step(unsigned step) {
+  return step == kClearCyclePeriod || step == kWriteSyncCounter || step == kWriteSyncPdoMapping;
+}
 
 struct BringUpObject {
   delta::can::od::Object object;
@@ -43,11 +54,14 @@ inline constexpr BringUpObject kBringUp[kBringUpStepCount] = {
     {delta::can::od::kMotorRatedTorque, false, "motor rated torque"},
     {delta::can::od::kEncoderIncrements, false, "encoder increments"},
     {delta::can::od::kModesOfOperation, true, "modes of operation"},
+    {delta::can::od::kCommunicationCycle, true, "communication cycle period (0 first)"},
+    {delta::can::od::kSyncCounterOverflow, true, "synchronous counter overflow value"},
     {delta::can::od::kCommunicationCycle, true, "communication cycle period"},
     {delta::can::od::kProducerHeartbeat, true, "producer heartbeat time"},
     {delta::can::od::kConsumerHeartbeat, true, "consumer heartbeat time"},
     {{0x1600, 0}, true, "PDO mapping"},  // see kPdoMapping
     {delta::can::od::kTpdo2CobId, true, "TPDO2 COB-ID"},
+    {{0x1A02, 0}, true, "TPDO3 mapping"},  // see kSyncPdoMapping
 };
 
 // The PDOs' mapping, written in CiA 301's order for each PDO: off (bit 31
@@ -82,6 +96,26 @@ inline constexpr PdoMappingWrite kPdoMapping[] = {
     {{0x1A01, 0}, 1, 1, false},
 };
 inline constexpr unsigned kPdoMappingWrites = sizeof kPdoMapping / sizeof kPdoMapping[0];
+
+// With a SYNC counter, TPDO3 carries the counter of the SYNC the drive's
+// sample answers (0x2019, the product's drive profile), after TPDO1 and
+// TPDO2: the master takes a cycle's TPDOs only when it matches.
+inline constexpr PdoMappingWrite kSyncPdoMapping[] = {
+    {{0x1802, 1}, 0x80000380, 4, true},  // TPDO3 off
+    {{0x1A02, 0}, 0, 1, false},
+    {{0x1A02, 1}, 0x20190008, 4, false},  // SYNC counter of the sample
+    {{0x1A02, 0}, 1, 1, false},
+    {{0x1802, 1}, 0x00000380, 4, true},  // TPDO3 on
+};
+
+// The mapping writes of a step (kWritePdoMapping, kWriteSyncPdoMapping).
+constexpr std::span<const PdoMappingWrite> mapping_writes(unsigned step) {
+  return step == kWriteSyncPdoMapping ? std::span<const PdoMappingWrite>(kSyncPdoMapping)
+                                      : std::span<const PdoMappingWrite>(kPdoMapping);
+}
+constexpr bool mapping_step(unsigned step) {
+  return step == kWritePdoMapping || step == kWriteSyncPdoMapping;
+}
 
 // The objects the fixed PDOs carry (docs/protocol.md): they must be
 // mappable in a drive's EDS.

@@ -73,11 +73,10 @@ class CanopenMaster {
   bool failure_reported_{false};  // kFailed was returned to the core
   struct Drive {
     std::uint8_t node{0};
-    JointDrive config{};
     DriveUnits units{};
     // bring-up
     unsigned sdo_step{0};
-    unsigned mapping_write{0};  // in kWritePdoMapping: which of kPdoMapping
+    unsigned mapping_write{0};  // in a mapping step: which of its writes (mapping_writes())
     delta::can::sdo::Client sdo{};
     std::array<std::uint8_t, 4> sdo_bytes{};  // the value written or read
     unsigned sdo_attempts{0};
@@ -86,6 +85,17 @@ class CanopenMaster {
     // cyclic
     bool got_tpdo1{false};
     bool got_tpdo2{false};
+    // With a SYNC counter, a cycle's TPDO1/TPDO2 are held until TPDO3 says
+    // they answer this cycle's SYNC.
+    struct Sample {
+      std::uint16_t statusword{0};
+      std::int32_t position_counts{0};
+      std::int16_t current_per_mille{0};
+      std::int32_t velocity_counts_s{0};
+      bool tpdo1{false};
+      bool tpdo2{false};
+    };
+    Sample held{};
     bool late{false};
     bool malformed{false};
     bool emergency{false};
@@ -110,9 +120,15 @@ class CanopenMaster {
   void next_step(Drive& d) const;
   bool identity_matches(Drive& d, std::uint32_t found, const std::string& at);
   void handle_sdo_response(Drive& d, const delta::can::Frame& f);
-  void handle_tpdo(Drive& d, const delta::can::Frame& f, bool second);
+  bool counted() const { return config_.sync_counter_overflow != 0; }
+  void handle_tpdo(Drive& d, const delta::can::Frame& f, unsigned pdo);
+  void take_sync_echo(Drive& d, const delta::can::Frame& f);
+  static void take_held(Drive& d);
   void fail(const std::string& why);
   Drive* drive_for(std::uint8_t node);
+  const JointDrive& joint(const Drive& d) const {
+    return config_.joints[static_cast<std::size_t>(&d - drives_.data())];
+  }
 
   PortConfig config_;
   fw::ControllerConfig core_;
@@ -123,6 +139,7 @@ class CanopenMaster {
   bool bus_error_{false};
   bool enable_{false};
   std::uint64_t cycle_{0};
+  std::uint8_t sync_counter_{0};  // of the last SYNC sent (with a counter)
   std::uint64_t now_us_{0};
   std::uint64_t late_frames_{0};
   std::uint64_t heartbeat_timeout_cycles_{1};
@@ -135,6 +152,7 @@ class CanopenMaster {
       kNone,
       kMalformedPdo,
       kLatePdo,
+      kStalePdo,  // TPDO3 carries another SYNC's counter
       kBusError,
       kEmergency,
       kRebooted,
@@ -145,8 +163,10 @@ class CanopenMaster {
     };
     Kind kind{Kind::kNone};
     std::uint8_t node{0};
-    bool second_pdo{false};        // kMalformedPdo, kLatePdo: TPDO2, else TPDO1
-    std::uint32_t can_id{0};       // kMalformedPdo, kLatePdo
+    std::uint8_t pdo{1};           // kMalformedPdo, kLatePdo, kStalePdo: TPDO 1, 2 or 3
+    std::uint32_t can_id{0};       // kMalformedPdo, kLatePdo, kStalePdo
+    std::uint8_t counter{0};       // kStalePdo: the counter it carries
+    std::uint8_t sync_counter{0};  // kStalePdo: this cycle's SYNC's
     std::uint8_t dlc{0};           // kMalformedPdo: received and expected
     std::uint8_t expected_dlc{0};  //
     bool bus_off{false};           // kBusError: bus-off, else error passive

@@ -45,6 +45,9 @@ struct JointDrive {
   double torque_offset_Nm{0.0};
   std::string eds_path;  // empty: the generic CiA 402 profile, any identity
   DriveIdentity identity;
+  // What the drive's EDS lacks for a SYNC counter (0x1019, TPDO3 with
+  // 0x2019), in words; empty: nothing (or no EDS: the generic profile).
+  std::string sync_counter_gap;
 };
 
 inline JointDrive joint_on_node(std::uint8_t node) {
@@ -84,7 +87,11 @@ struct PortConfig {
   std::uint32_t response_window_us{0};      // real time: wait for the TPDOs; 0 = half the period
   std::uint32_t lockstep_timeout_ms{1000};  // lock-step: give up on a response after this
   bool velocity_pdo{false};                 // map TPDO2 (velocity); else differences of position
-  std::uint16_t heartbeat_ms{50};           // written to the drives (0x1017)
+  // CiA 301's 0x1019: 0, SYNC without data; 2..240, SYNC carries a counter
+  // that wraps after this value, the drives' TPDO3 echoes it, and a cycle's
+  // TPDOs count only with this cycle's counter (docs/protocol.md).
+  std::uint8_t sync_counter_overflow{0};
+  std::uint16_t heartbeat_ms{50};  // written to the drives (0x1017)
   std::uint32_t heartbeat_timeout_ms{150};
   // How long a drive waits for the controller's heartbeat before it faults
   // (EMCY 0x8130) and disables: written to the drives' 0x1016:1; 0 = off.

@@ -77,6 +77,7 @@ class ControllerNode {
   delta::update::Version version_;
   ProgramDownload& program_;
   std::uint32_t period_us_;
+  std::uint8_t sync_counter_overflow_;
   std::uint16_t configured_heartbeat_ms_;
   std::uint16_t heartbeat_ms_;
   std::uint32_t since_heartbeat_us_{0};

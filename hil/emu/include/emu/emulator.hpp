@@ -74,23 +74,25 @@ struct PdoMapping {
   std::array<std::uint32_t, 8> entries{};
 };
 
-// RPDO1, TPDO1, TPDO2 as docs/protocol.md's table lays them out.
-inline constexpr std::array<PdoMapping, 3> kDefaultPdos{
+// RPDO1, TPDO1, TPDO2, TPDO3 as docs/protocol.md's table lays them out.
+inline constexpr unsigned kPdoCount = 4;
+inline constexpr std::array<PdoMapping, kPdoCount> kDefaultPdos{
     PdoMapping{true, 3, {0x60400010, 0x60710010, 0x607A0020}},
-    PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}}, PdoMapping{false, 1, {0x606C0020}}};
+    PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}}, PdoMapping{false, 1, {0x606C0020}},
+    PdoMapping{false, 1, {0x20190008}}};
 
 struct EmulatedProduct {
   std::uint32_t vendor_id{kEmulatorVendorId};
   std::uint32_t product_code{kEmulatorProductCode};
   std::uint32_t revision{kEmulatorRevision};
   std::string device_name{"Delta emulated CiA 402 drive"};
-  std::array<PdoMapping, 3> pdos{kDefaultPdos};  // RPDO1, TPDO1, TPDO2
+  std::array<PdoMapping, kPdoCount> pdos{kDefaultPdos};  // RPDO1, TPDO1, TPDO2, TPDO3
   // The serial number is 0x00010000 + the node ID.
 };
 
 // The product an EDS describes: [DeviceInfo], 0x1008's DefaultValue, the
-// default PDO validity (0x1400:1, 0x1800:1, 0x1801:1) and mapping (0x1600,
-// 0x1A00, 0x1A01).
+// default PDO validity (0x1400:1, 0x1800:1 to 0x1802:1) and mapping
+// (0x1600, 0x1A00 to 0x1A02).
 EmulatedProduct product_of(const delta::canopen::Eds& eds);
 
 struct EmulatorConfig {
@@ -161,7 +163,13 @@ class Emulator {
     std::int8_t mode{0};
     std::uint32_t cycle_us{0};
     std::uint16_t heartbeat_ms{0};
-    std::array<PdoMapping, 3> pdos{};     // RPDO1, TPDO1, TPDO2
+    std::array<PdoMapping, kPdoCount> pdos{};  // RPDO1, TPDO1, TPDO2, TPDO3
+    // The SYNC consumer (CiA 301): 0x1019, the counter of the last SYNC
+    // (0x2019, TPDO3 carries it), and whether a SYNC of the wrong length
+    // was reported (EMCY 0x8240, once until a SYNC of the right one).
+    std::uint8_t sync_counter_overflow{0};
+    std::uint8_t sync_counter{0};
+    bool sync_length_reported{false};
     std::int32_t target_position{0};      // 0x607A: mappable, not used (CST only)
     std::int16_t current_measured_pm{0};  // 0x6078, with the noise, per SYNC
     std::uint16_t max_current_pm{3000};
@@ -196,7 +204,8 @@ class Emulator {
   delta::can::sdo::AbortCode set_mapping(Drive& d, unsigned pdo, unsigned sub, std::uint32_t v);
   delta::can::sdo::AbortCode check_mapping_entry(const Drive& d, unsigned pdo,
                                                  std::uint32_t entry) const;
-  void handle_sync();
+  void handle_sync(const delta::can::Frame& f);
+  void check_sync_length(Drive& d, const delta::can::Frame& f);
   void handle_consumed_heartbeat(std::uint8_t node);
   // Faults the drives whose consumer timed out: elapsed since the last
   // heartbeat as measured by `elapsed_us`.

@@ -146,19 +146,25 @@ struct Object {
   std::uint8_t subindex;
 };
 
-inline constexpr Object kDeviceType{0x1000, 0};          // u32, 0x00020192 for a CiA 402 servo
-inline constexpr Object kErrorRegister{0x1001, 0};       // u8
-inline constexpr Object kCommunicationCycle{0x1006, 0};  // u32 us, the SYNC period
-inline constexpr Object kConsumerHeartbeat{0x1016, 1};   // u32: node << 16 | timeout ms, 0 = off
-inline constexpr Object kProducerHeartbeat{0x1017, 0};   // u16 ms, 0 = off
-inline constexpr Object kVendorId{0x1018, 1};            // u32
-inline constexpr Object kProductCode{0x1018, 2};         // u32
-inline constexpr Object kRevisionNumber{0x1018, 3};      // u32: major << 16 | minor
-inline constexpr Object kSerialNumber{0x1018, 4};        // u32
-inline constexpr Object kTpdo2CobId{0x1801, 1};          // u32, bit 31 set = PDO off
-inline constexpr Object kControlword{0x6040, 0};         // u16
-inline constexpr Object kStatusword{0x6041, 0};          // u16
-inline constexpr Object kModesOfOperation{0x6060, 0};    // i8
+inline constexpr Object kDeviceType{0x1000, 0};           // u32, 0x00020192 for a CiA 402 servo
+inline constexpr Object kErrorRegister{0x1001, 0};        // u8
+inline constexpr Object kCommunicationCycle{0x1006, 0};   // u32 us, the SYNC period
+inline constexpr Object kConsumerHeartbeat{0x1016, 1};    // u32: node << 16 | timeout ms, 0 = off
+inline constexpr Object kProducerHeartbeat{0x1017, 0};    // u16 ms, 0 = off
+inline constexpr Object kVendorId{0x1018, 1};             // u32
+inline constexpr Object kProductCode{0x1018, 2};          // u32
+inline constexpr Object kRevisionNumber{0x1018, 3};       // u32: major << 16 | minor
+inline constexpr Object kSerialNumber{0x1018, 4};         // u32
+inline constexpr Object kSyncCounterOverflow{0x1019, 0};  // u8: 0 no counter, else 2..240
+inline constexpr Object kTpdo2CobId{0x1801, 1};           // u32, bit 31 set = PDO off
+inline constexpr Object kTpdo3CobId{0x1802, 1};           // u32, bit 31 set = PDO off
+// Manufacturer-specific (the product's drive profile, docs/protocol.md):
+// the counter of the SYNC at which the drive took the sample its TPDOs of
+// this cycle carry, mapped into TPDO3.
+inline constexpr Object kSyncCounterOfSample{0x2019, 0};      // u8, read-only, PDO-mappable
+inline constexpr Object kControlword{0x6040, 0};              // u16
+inline constexpr Object kStatusword{0x6041, 0};               // u16
+inline constexpr Object kModesOfOperation{0x6060, 0};         // i8
 inline constexpr Object kModesOfOperationDisplay{0x6061, 0};  // i8
 inline constexpr Object kMaxCurrent{0x6073, 0};               // u16, per mille of rated current
 inline constexpr Object kMotorRatedCurrent{0x6075, 0};        // u32 mA
@@ -186,6 +192,7 @@ inline constexpr std::uint16_t kEmcyErrorReset = 0x0000;
 inline constexpr std::uint16_t kEmcyOvercurrent = 0x2310;  // continuous over-current
 inline constexpr std::uint16_t kEmcyHeartbeat = 0x8130;    // life guard / heartbeat error
 inline constexpr std::uint16_t kEmcyPdoLength = 0x8210;    // PDO not processed: length error
+inline constexpr std::uint16_t kEmcySyncLength = 0x8240;   // unexpected SYNC data length
 // The controller's faults: 0xFF00 + the firmware's fault code (docs/firmware.md).
 inline constexpr std::uint16_t kEmcyControllerFaultBase = 0xFF00;
 // The controller's: delta_boot rolled a new program back (the fault code

@@ -62,7 +62,7 @@ inline constexpr Scale kPerMille{1, 1000, 0};  // of the drive's rated value
 inline constexpr Scale kLogAngle{1, 1, -20};   // 2^-20 rad (9.5e-7 rad), +/- 8 rad
 inline constexpr Scale kLogTorque{1, 1, -16};  // 2^-16 N m (1.5e-5 N m), +/- 128 N m
 
-inline constexpr std::array<Message, 14> kMessages{{
+inline constexpr std::array<Message, 15> kMessages{{
     {"NMT",
      0x000,
      false,
@@ -82,7 +82,8 @@ inline constexpr std::array<Message, 14> kMessages{{
      Receiver::kDrives,
      0,
      {},
-     "starts a control cycle; drives answer with TPDOs"},
+     "starts a control cycle; drives answer with TPDOs. With sync_counter_overflow > 0 "
+     "(0x1019) it has 1 byte, the SYNC counter (kSyncCounter)"},
     {"EMCY",
      0x080,
      true,
@@ -226,6 +227,17 @@ inline constexpr std::array<Message, 14> kMessages{{
      1,
      {{{"nmt_state", 0, 8, false, kRaw, "", "5 operational"}}},
      "heartbeat of the controller (node 16)"},
+    {"TPDO3",
+     0x380,
+     true,
+     1,
+     Sender::kDrive,
+     Receiver::kController,
+     1,
+     {{{"sync_counter", 0, 8, false, kRaw, "",
+        "object 0x2019: the counter of the SYNC this cycle's TPDOs answer"}}},
+     "the cycle of the drive's sample, sent after its TPDO1 and TPDO2; only with "
+     "sync_counter_overflow > 0"},
 }};
 
 // The messages by name.
@@ -243,6 +255,7 @@ inline constexpr const Message& kLogB = kMessages[10];
 inline constexpr const Message& kLogC = kMessages[11];
 inline constexpr const Message& kControllerEmcy = kMessages[12];
 inline constexpr const Message& kControllerHeartbeat = kMessages[13];
+inline constexpr const Message& kTpdo3 = kMessages[14];
 
 // The signals by name: a wrong name does not compile.
 namespace detail {
@@ -265,6 +278,13 @@ inline constexpr const Signal& kTpdo1Statusword = signal_named(kTpdo1, "statuswo
 inline constexpr const Signal& kTpdo1PositionActual = signal_named(kTpdo1, "position_actual");
 inline constexpr const Signal& kTpdo1CurrentActual = signal_named(kTpdo1, "current_actual");
 inline constexpr const Signal& kTpdo2VelocityActual = signal_named(kTpdo2, "velocity_actual");
+inline constexpr const Signal& kTpdo3SyncCounter = signal_named(kTpdo3, "sync_counter");
+// The SYNC's one byte when the controller counts its SYNCs (CiA 301,
+// 0x1019 > 0): 1, 2, ... up to the overflow value, then 1 again. The SYNC
+// message above has none by default (0x1019 = 0), so it is not in the table.
+inline constexpr Signal kSyncCounter{
+    "counter", 0, 8, false, kRaw, "", "1 to sync_counter_overflow, then 1 again"};
+inline constexpr std::uint8_t kSyncCounterMaxOverflow = 240;  // CiA 301: 2..240
 inline constexpr const Signal& kRpdo1Controlword = signal_named(kRpdo1, "controlword");
 inline constexpr const Signal& kRpdo1TargetTorque = signal_named(kRpdo1, "target_torque");
 inline constexpr const Signal& kRpdo1TargetPosition = signal_named(kRpdo1, "target_position");
@@ -397,12 +417,14 @@ constexpr std::uint32_t worst_case_frame_bits(std::uint8_t dlc, bool extended = 
 }
 
 // The frames of one control cycle: SYNC, an RPDO1 and a TPDO1 per drive,
-// a TPDO2 per drive when velocity is mapped, and the three log frames.
-constexpr std::uint32_t cycle_bits(bool with_velocity_pdo, bool with_log) {
-  std::uint32_t bits = worst_case_frame_bits(kMessages[1].dlc);  // SYNC
-  bits += kDriveCount *
-          (worst_case_frame_bits(kMessages[5].dlc) + worst_case_frame_bits(kMessages[3].dlc));
-  if (with_velocity_pdo) bits += kDriveCount * worst_case_frame_bits(kMessages[4].dlc);
+// a TPDO2 per drive when velocity is mapped, and the three log frames; with
+// the SYNC counter, its byte in the SYNC and a TPDO3 per drive.
+constexpr std::uint32_t cycle_bits(bool with_velocity_pdo, bool with_log,
+                                   bool with_sync_counter = false) {
+  std::uint32_t bits = worst_case_frame_bits(with_sync_counter ? 1 : kSync.dlc);
+  bits += kDriveCount * (worst_case_frame_bits(kRpdo1.dlc) + worst_case_frame_bits(kTpdo1.dlc));
+  if (with_velocity_pdo) bits += kDriveCount * worst_case_frame_bits(kTpdo2.dlc);
+  if (with_sync_counter) bits += kDriveCount * worst_case_frame_bits(kTpdo3.dlc);
   if (with_log) bits += 3 * worst_case_frame_bits(8);
   return bits;
 }
