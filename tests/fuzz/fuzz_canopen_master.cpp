@@ -4,7 +4,8 @@
 // from a drive, to the drives as if from the controller, to node 16 as if
 // from a tool. Nothing may crash or touch memory it does not own (ASan,
 // UBSan), the controller's state and fault stay among the named ones, and
-// every problem the master records can be put into words.
+// every problem the master records can be put into words; with and without
+// the SYNC counter.
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -24,7 +25,12 @@ delta::can::Frame frame_from(const std::uint8_t* record) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  fw_linux::Rig rig;
+  // Bit 7 of the first byte: SYNCs with a counter (TPDO3 echoes it).
+  fw_linux::PortConfig config = fw_linux::Rig::config();
+  if (size > 0 && (data[0] & 0x80) != 0) {
+    config.sync_counter_overflow = static_cast<std::uint8_t>(2 + (data[0] >> 4 & 7));
+  }
+  fw_linux::Rig rig(config, {});
   // Records of 12 bytes: what to do, the 11-bit ID, the length, 8 data bytes.
   for (std::size_t at = 0; at + 12 <= size; at += 12) {
     const std::uint8_t* r = data + at;
