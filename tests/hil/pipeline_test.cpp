@@ -4,7 +4,11 @@
 // emulator's lumped plant, whose truth the lumped model contains exactly, so
 // the fit is checked tightly against known values; host_id excite runs the
 // multibody (MuJoCo) robot, which no model contains exactly.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -13,6 +17,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <tuple>
@@ -952,3 +957,187 @@ TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {
   EXPECT_EQ(fw.terminate(30s).value_or(-1), 3) << "it stays in fault: " << fw.err();
   emu.terminate(30s);
 }
+
+namespace {
+
+// --- Modbus clients that abuse the server: the control loop keeps its rate --
+
+// A Modbus TCP connection with raw sockets: the test's own client, so that
+// it can also misbehave (trickle bytes, connect and leave).
+class RawModbus {
+ public:
+  explicit RawModbus(int port) {
+    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<std::uint16_t>(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    connected_ = ::connect(fd_, reinterpret_cast<const sockaddr*>(&a), sizeof a) == 0;
+    timeval tv{2, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  }
+  ~RawModbus() { ::close(fd_); }
+  RawModbus(const RawModbus&) = delete;
+  RawModbus& operator=(const RawModbus&) = delete;
+  bool connected() const { return connected_; }
+  // Read input registers (function 4): a request, its whole answer.
+  std::array<std::uint8_t, 12> request(std::uint16_t address, std::uint16_t count) {
+    ++transaction_;
+    return {static_cast<std::uint8_t>(transaction_ >> 8),
+            static_cast<std::uint8_t>(transaction_),
+            0,
+            0,
+            0,
+            6,
+            1,
+            4,
+            static_cast<std::uint8_t>(address >> 8),
+            static_cast<std::uint8_t>(address),
+            static_cast<std::uint8_t>(count >> 8),
+            static_cast<std::uint8_t>(count)};
+  }
+  std::optional<std::vector<std::uint16_t>> read_input(std::uint16_t address, std::uint16_t count) {
+    const auto req = request(address, count);
+    if (::send(fd_, req.data(), req.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(req.size())) {
+      return std::nullopt;
+    }
+    return answer(count);
+  }
+  // The request's bytes one at a time, `gap` apart (a slow-loris client).
+  std::optional<std::vector<std::uint16_t>> trickle(std::uint16_t address, std::uint16_t count,
+                                                    std::chrono::milliseconds gap,
+                                                    const std::atomic<bool>& stop) {
+    const auto req = request(address, count);
+    for (const std::uint8_t b : req) {
+      if (stop.load() || ::send(fd_, &b, 1, MSG_NOSIGNAL) != 1) return std::nullopt;
+      std::this_thread::sleep_for(gap);  // the client's pace, not synchronisation
+    }
+    return answer(count);
+  }
+
+ private:
+  std::optional<std::vector<std::uint16_t>> answer(std::uint16_t count) {
+    std::vector<std::uint8_t> in(9 + 2 * std::size_t{count});
+    std::size_t got = 0;
+    while (got < in.size()) {
+      const ssize_t n = ::recv(fd_, in.data() + got, in.size() - got, 0);
+      if (n <= 0) return std::nullopt;
+      got += static_cast<std::size_t>(n);
+    }
+    if (in[7] != 4 || in[8] != 2 * count) return std::nullopt;
+    std::vector<std::uint16_t> registers(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      registers[i] = static_cast<std::uint16_t>(in[9 + 2 * i] << 8 | in[10 + 2 * i]);
+    }
+    return registers;
+  }
+  int fd_{-1};
+  bool connected_{false};
+  std::uint16_t transaction_{0};
+};
+
+// The fault matrix's Modbus row (docs/hil.md): three clients reading as
+// fast as they can, one trickling its requests a byte every 150 ms and one
+// connecting and leaving in a loop, for 4 s, while delta_fw runs in real
+// time at 100 Hz with SCHED_FIFO (an 8 ms response window: the VM's
+// emulated CPUs wake up to 4 ms late, which a 2 ms window at 250 Hz missed
+// now and then, with or without the clients). Its cycle counter (input registers 6-7) and the SYNCs
+// on the bus keep their rate, and a well-behaved client is answered quickly.
+TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
+  constexpr int kPort = 15041;
+  constexpr double kRateHz = 100.0;
+  BusObserver bus;
+  // As in a cell: the control loop at real-time priority (--rt-priority),
+  // the Modbus server's threads at normal priority; the emulated drives,
+  // which stand in for hardware that the host's load does not reach, below
+  // the loop but above the clients.
+  hil::Child emu = hil::Child::spawn({"/usr/bin/chrt", "-f", "40", kBin + "/delta_drive_emu",
+                                      "--can", kIface, "--plant", "lumped"});
+  ASSERT_TRUE(emu.wait_for_output("ready on " + kIface, 30s)) << emu.err();
+  hil::Child fw = hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--rt-priority", "50",
+                                     "--set", "period_us=10000", "--set", "response_window_us=8000",
+                                     "--set", "modbus.tcp=127.0.0.1:" + std::to_string(kPort)});
+  ASSERT_TRUE(fw.wait_for_output("delta_fw: ready", 60s)) << fw.err();
+  RawModbus probe(kPort);
+  ASSERT_TRUE(probe.connected());
+  const auto cycle_counter = [&probe]() -> std::optional<std::uint32_t> {
+    const auto r = probe.read_input(6, 2);
+    if (!r) return std::nullopt;
+    return std::uint32_t{(*r)[0]} << 16 | (*r)[1];
+  };
+
+  std::atomic<bool> stop{false};
+  std::atomic<std::uint64_t> flood_answers{0};
+  std::atomic<std::uint64_t> loris_answers{0};
+  std::atomic<std::uint64_t> churn_connections{0};
+  std::vector<std::thread> abusers;
+  for (int k = 0; k < 3; ++k) {
+    abusers.emplace_back([&] {
+      RawModbus c(kPort);
+      while (!stop.load() && c.read_input(0, 40)) ++flood_answers;
+    });
+  }
+  abusers.emplace_back([&] {
+    RawModbus c(kPort);
+    while (!stop.load() && c.trickle(6, 2, 150ms, stop)) ++loris_answers;
+  });
+  abusers.emplace_back([&] {
+    while (!stop.load()) {
+      RawModbus c(kPort);
+      churn_connections += c.connected() ? 1 : 0;
+    }
+  });
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::optional<std::uint32_t> c0 = cycle_counter();
+  std::chrono::nanoseconds worst_probe{0};
+  while (std::chrono::steady_clock::now() - t0 < 4s) {
+    const auto asked = std::chrono::steady_clock::now();
+    ASSERT_TRUE(cycle_counter().has_value()) << "the probe got no answer";
+    worst_probe = std::max(worst_probe, std::chrono::steady_clock::now() - asked);
+    std::this_thread::sleep_for(50ms);  // the probe's pace
+  }
+  const std::optional<std::uint32_t> c1 = cycle_counter();
+  const auto t1 = std::chrono::steady_clock::now();
+  stop.store(true);
+  for (std::thread& t : abusers) t.join();
+  ASSERT_TRUE(c0 && c1);
+
+  const double seconds = std::chrono::duration<double>(t1 - t0).count();
+  const double rate_hz = (*c1 - *c0) / seconds;
+  std::cout << "Modbus abuse: " << flood_answers.load() << " flood answers, "
+            << loris_answers.load() << " slow-loris answers, " << churn_connections.load()
+            << " short connections in " << seconds << " s; cycle counter rate " << rate_hz
+            << " Hz (nominal " << kRateHz << "); slowest probe answer "
+            << std::chrono::duration<double, std::milli>(worst_probe).count() << " ms\n";
+  EXPECT_GT(flood_answers.load(), 300u) << "the flood was served";
+  EXPECT_GE(loris_answers.load(), 1u) << "the slow client was served too";
+  EXPECT_GT(churn_connections.load(), 50u);
+  EXPECT_NEAR(rate_hz, kRateHz, 0.02 * kRateHz);
+  EXPECT_LT(worst_probe, 250ms);
+
+  EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
+  emu.terminate(30s);
+  const std::vector<Frame> all = bus.stop();
+  const auto& times = bus.kernel_times();
+  // The SYNCs of the abuse window, by kernel receive time: 250 Hz.
+  std::size_t syncs = 0;
+  std::chrono::nanoseconds first{0}, last{0};
+  const auto wall_offset = std::chrono::system_clock::now().time_since_epoch() -
+                           std::chrono::steady_clock::now().time_since_epoch();
+  const auto from = t0.time_since_epoch() + wall_offset;
+  const auto to = t1.time_since_epoch() + wall_offset;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (all[i].id != p::kSync.base_id || all[i].error_frame) continue;
+    if (times[i] < from || times[i] > to) continue;
+    if (syncs++ == 0) first = times[i];
+    last = times[i];
+  }
+  ASSERT_GT(syncs, 100u);
+  const double sync_hz =
+      static_cast<double>(syncs - 1) / std::chrono::duration<double>(last - first).count();
+  std::cout << "SYNCs on the bus during the abuse: " << sync_hz << " Hz\n";
+  EXPECT_NEAR(sync_hz, kRateHz, 0.02 * kRateHz);
+}
+
+}  // namespace
