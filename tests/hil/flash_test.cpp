@@ -16,13 +16,14 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "vcan_interface.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-const std::string kIface = "vcan0";
+const std::string kIface = hil::vcan_interface();
 const std::string kBin = DELTA_BIN_DIR;
 const std::string kVersion = DELTA_VERSION_TEXT;
 const std::string kNextVersion = DELTA_NEXT_VERSION_TEXT;

@@ -29,6 +29,7 @@
 #include "delta/dynamics.hpp"
 #include "delta/robot_description.hpp"
 #include "gpio_sim.hpp"
+#include "vcan_interface.hpp"
 
 namespace {
 
@@ -37,7 +38,7 @@ namespace cia = delta::can::cia402;
 using delta::can::Frame;
 using namespace std::chrono_literals;
 
-const std::string kIface = "vcan0";
+const std::string kIface = hil::vcan_interface();
 const std::string kBin = DELTA_BIN_DIR;
 const std::string kSource = DELTA_SOURCE_DIR;
 
@@ -831,6 +832,15 @@ hil::Child start_firmware_with_modbus(int port) {
   return fw;
 }
 
+// The controller's and the emulator's own words, once both are stopped: a
+// failed excite's report needs them beside host_id's (which drive faulted,
+// and why).
+std::string stopped_and_told(hil::Child& fw, hil::Child& emu) {
+  fw.terminate(30s);
+  emu.terminate(30s);
+  return "\n--- delta_fw:\n" + fw.err() + "\n--- delta_drive_emu:\n" + emu.err();
+}
+
 TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   const std::string dir = scratch_dir();
   hil::Child emu = start_emulator();
@@ -845,7 +855,8 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   hil::Child excite =
       hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus, "--trajectory", "path1",
                          "--can", kIface, "-o", dir + "/excite.csv"});
-  ASSERT_EQ(excite.wait(300s).value_or(-1), 0) << excite.out() << excite.err();
+  ASSERT_EQ(excite.wait(300s).value_or(-1), 0)
+      << excite.out() << excite.err() << stopped_and_told(fw, emu);
   std::cout << excite.out();
   const std::string said = excite.out() + excite.err();
   const std::uint64_t recorded = sum_of_numbers(said, " recorded of", false);
@@ -915,7 +926,8 @@ TEST(HostExcite, ADesignedTrajectoryFileIsUploadedRunAndFitted) {
   hil::Child excite = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", "127.0.0.1:15023",
                                          "--trajectory-file", dir + "/designed.json", "--can",
                                          kIface, "-o", dir + "/designed.csv"});
-  ASSERT_EQ(excite.wait(300s).value_or(-1), 0) << excite.out() << excite.err();
+  ASSERT_EQ(excite.wait(300s).value_or(-1), 0)
+      << excite.out() << excite.err() << stopped_and_told(fw, emu);
   std::cout << excite.out();
   const std::string said = excite.out() + excite.err();
   // At 500 Hz: 2 s approach, 1 s blend, two 5 s periods, 1 s blend, 0.4 s
@@ -940,7 +952,8 @@ TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {
   hil::Child excite =
       hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", "127.0.0.1:15022", "--trajectory",
                          "path1", "--can", kIface, "-o", dir + "/run.csv"});
-  ASSERT_EQ(excite.wait(300s).value_or(-1), 4) << excite.out() << excite.err();
+  ASSERT_EQ(excite.wait(300s).value_or(-1), 4)
+      << excite.out() << excite.err() << stopped_and_told(fw, emu);
   std::cout << excite.out() << excite.err();
   EXPECT_NE(excite.err().find("the controller faulted: fault 2 (drive fault)"), std::string::npos)
       << excite.err();

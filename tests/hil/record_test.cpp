@@ -15,11 +15,13 @@
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/recorder.hpp"
+#include "vcan_interface.hpp"
 
 namespace host_id {
 namespace {
 
 namespace p = delta::can::protocol;
+const std::string kIface = hil::vcan_interface();
 
 // One cycle's three log frames as the controller sends them (q and tau the
 // same for all joints), leaving out part `skip_part`.
@@ -86,13 +88,13 @@ class RecordHilTest : public ::testing::Test {
 
 TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   RecordOptions o;
-  o.iface = "vcan0";
+  o.iface = kIface;
   o.out_path = dir_ + "/run.csv";
   o.raw_path = dir_ + "/run.log";
   o.samples = 500;
   o.duration_s = 30;  // a bound in case frames never come
   o.sample_rate_hz = 500;
-  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  delta::can::Socket tx = delta::can::Socket::open(kIface);
   const Recording r = record_while(o, [&] {
     for (int k = 0; k < 500; ++k) {
       send_cycle(tx, static_cast<std::uint32_t>(32600 + k), 0.001 * k - 0.2, -0.5 + 0.0005 * k);
@@ -105,7 +107,7 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   const DeltaLog log = read_delta_log(o.out_path);
   ASSERT_EQ(log.size(), 500u);
   EXPECT_TRUE(log.gaps.empty());
-  EXPECT_EQ(log.metadata_value("can_interface").value_or(""), "vcan0");
+  EXPECT_EQ(log.metadata_value("can_interface").value_or(""), kIface);
   EXPECT_DOUBLE_EQ(*log.sample_rate_hz, 500.0);
   for (std::size_t k = 0; k < 500; ++k) {
     EXPECT_NEAR(log.t[k], static_cast<double>(k) / 500.0, 1e-12);  // through the 15-bit wrap
@@ -115,15 +117,16 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
   // The raw log is candump -L: one line per frame.
   const std::string raw = delta::read_whole_file(*o.raw_path);
   EXPECT_EQ(std::count(raw.begin(), raw.end(), '\n'), 1500);
-  // "(seconds.micros) vcan0 190#<16 hex digits>"
+  // "(seconds.micros) IFACE 190#<16 hex digits>"
   const std::string first = raw.substr(0, raw.find('\n'));
   const auto close = first.find(") ");
   ASSERT_NE(close, std::string::npos) << first;
   EXPECT_EQ(first[0], '(');
   const std::string stamp = first.substr(1, close - 1);
   ASSERT_EQ(stamp.find('.'), stamp.size() - 7) << first;  // six decimals
-  EXPECT_EQ(first.substr(close + 2, 10), "vcan0 190#") << first;
-  const std::string hex = first.substr(close + 12);
+  const std::string prefix = kIface + " 190#";
+  EXPECT_EQ(first.substr(close + 2, prefix.size()), prefix) << first;
+  const std::string hex = first.substr(close + 2 + prefix.size());
   EXPECT_EQ(hex.size(), 16u) << first;
   EXPECT_EQ(hex.find_first_not_of("0123456789ABCDEF"), std::string::npos) << first;
 }
@@ -132,11 +135,11 @@ TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {
 // well after record is listening (a slow bring-up) is recorded whole.
 TEST_F(RecordHilTest, IdleCountsFromTheFirstLogFrame) {
   RecordOptions o;
-  o.iface = "vcan0";
+  o.iface = kIface;
   o.out_path = dir_ + "/late.csv";
   o.idle_s = 0.3;
   o.duration_s = 30;
-  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  delta::can::Socket tx = delta::can::Socket::open(kIface);
   const auto t0 = std::chrono::steady_clock::now();
   const Recording r = record_while(o, [&] {
     // The controller's bring-up, longer than the idle time: the behaviour
@@ -151,11 +154,11 @@ TEST_F(RecordHilTest, IdleCountsFromTheFirstLogFrame) {
 
 TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   RecordOptions o;
-  o.iface = "vcan0";
+  o.iface = kIface;
   o.out_path = dir_ + "/gappy.csv";
   o.idle_s = 0.5;  // the run ends when frames stop
   o.duration_s = 30;
-  delta::can::Socket tx = delta::can::Socket::open("vcan0");
+  delta::can::Socket tx = delta::can::Socket::open(kIface);
   const Recording r = record_while(o, [&] {
     for (int k = 0; k < 300; ++k) {
       if (k >= 100 && k < 103) continue;  // three cycles lost
@@ -182,11 +185,12 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
 
 TEST_F(RecordHilTest, NothingArrivingWritesNothing) {
   RecordOptions o;
-  o.iface = "vcan0";
+  o.iface = kIface;
   o.out_path = dir_ + "/empty.csv";
   o.duration_s = 0.3;
   const Recording r = record_while(o, [] {});
-  EXPECT_NE(r.error.find("no complete log sample arrived on vcan0"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("no complete log sample arrived on " + kIface), std::string::npos)
+      << r.error;
   EXPECT_FALSE(std::filesystem::exists(o.out_path));
 }
 

@@ -1,5 +1,5 @@
 // The SocketCAN layer on a real vcan interface (run by hil/vcan-run, which
-// provides vcan0 natively or in a VM).
+// provides it natively or in a VM).
 #include "delta/can/socketcan.hpp"
 
 #include <gtest/gtest.h>
@@ -7,10 +7,13 @@
 #include <chrono>
 #include <thread>
 
+#include "vcan_interface.hpp"
+
 namespace delta::can {
 namespace {
 
 using namespace std::chrono_literals;
+const std::string kIface = hil::vcan_interface();
 
 Frame make(std::uint32_t id, std::initializer_list<std::uint8_t> bytes, bool extended = false) {
   Frame f;
@@ -28,8 +31,8 @@ std::optional<Received> next(Socket& s, std::chrono::milliseconds timeout = 1000
 }
 
 TEST(SocketCanHilTest, FramesTravelBetweenSocketsWithKernelTimestamps) {
-  Socket tx = Socket::open("vcan0");
-  Socket rx = Socket::open("vcan0");
+  Socket tx = Socket::open(kIface);
+  Socket rx = Socket::open(kIface);
   const auto before = std::chrono::system_clock::now().time_since_epoch();
   ASSERT_EQ(tx.send(make(0x181, {1, 2, 3, 4, 5, 6, 7, 8})), SendResult::kOk);
   ASSERT_EQ(tx.send(make(0x18FF50E5, {0xAA}, true)), SendResult::kOk);
@@ -65,9 +68,9 @@ TEST(SocketCanHilTest, FramesTravelBetweenSocketsWithKernelTimestamps) {
 }
 
 TEST(SocketCanHilTest, FiltersPassOnlyMatchingIds) {
-  Socket tx = Socket::open("vcan0");
+  Socket tx = Socket::open(kIface);
   // TPDO1 of nodes 1..3 (0x181..0x183) and nothing else.
-  Socket rx = Socket::open("vcan0", {{0x180, 0x7FC, false}});
+  Socket rx = Socket::open(kIface, {{0x180, 0x7FC, false}});
   for (std::uint32_t id : {0x080u, 0x181u, 0x201u, 0x183u, 0x701u, 0x184u}) {
     ASSERT_EQ(tx.send(make(id, {static_cast<std::uint8_t>(id)})), SendResult::kOk);
   }
@@ -77,7 +80,7 @@ TEST(SocketCanHilTest, FiltersPassOnlyMatchingIds) {
 }
 
 TEST(SocketCanHilTest, NonBlockingReceiveAndPollTimeout) {
-  Socket rx = Socket::open("vcan0");
+  Socket rx = Socket::open(kIface);
   EXPECT_FALSE(rx.receive().has_value());
   const auto t0 = std::chrono::steady_clock::now();
   EXPECT_FALSE(rx.wait_readable(50ms));
@@ -85,8 +88,8 @@ TEST(SocketCanHilTest, NonBlockingReceiveAndPollTimeout) {
 }
 
 TEST(SocketCanHilTest, ManyFramesArriveCompleteAndInOrderWhileTheReaderKeepsUp) {
-  Socket tx = Socket::open("vcan0");
-  Socket rx = Socket::open("vcan0");
+  Socket tx = Socket::open(kIface);
+  Socket rx = Socket::open(kIface);
   constexpr int kFrames = 2000;
   int sent = 0, received = 0;
   std::uint16_t expected = 0;
@@ -113,8 +116,8 @@ TEST(SocketCanHilTest, ManyFramesArriveCompleteAndInOrderWhileTheReaderKeepsUp) 
 TEST(SocketCanHilTest, AReaderThatFallsBehindSeesTheDropCount) {
   // vcan never blocks the sender: 2000 frames at once overflow the reader's
   // socket buffer, and the kernel counts what it dropped.
-  Socket tx = Socket::open("vcan0");
-  Socket rx = Socket::open("vcan0");
+  Socket tx = Socket::open(kIface);
+  Socket rx = Socket::open(kIface);
   for (int i = 0; i < 2000; ++i) ASSERT_EQ(tx.send(make(0x280, {1})), SendResult::kOk);
   std::uint32_t received = 0;
   while (next(rx, 200ms)) ++received;
