@@ -8,7 +8,10 @@
 #include <ostream>
 #include <sstream>
 
+#include "delta/can/cia402.hpp"
+#include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
+#include "delta/controller/vocabulary.hpp"
 #include "delta/input_error.hpp"
 #include "host_id/atomic_file.hpp"
 
@@ -173,6 +176,60 @@ std::optional<std::array<std::int16_t, 3>> DriveCurrentTracker::take(std::uint64
   return std::nullopt;
 }
 
+void EmergencyWatch::feed(const delta::can::Frame& f, std::optional<double> log_t_s) {
+  if (f.extended || f.remote || f.error_frame) return;
+  if (p::function_code(f.id) != p::kEmcy.base_id || p::node_id(f.id) == 0) return;  // 0x080: SYNC
+  if (seen_.size() >= kKept) {
+    ++not_kept_;
+    return;
+  }
+  SeenEmergency e;
+  e.node = p::node_id(f.id);
+  e.code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcyErrorCode));
+  e.error_register = static_cast<std::uint8_t>(p::unpack(f.data, p::kEmcyErrorRegister));
+  if (e.node == p::kControllerNode) {
+    e.fault_code = static_cast<std::uint16_t>(p::unpack(f.data, p::kControllerEmcyFaultCode));
+  }
+  e.after_log_t_s = log_t_s;
+  seen_.push_back(e);
+}
+
+std::string describe_emergency(const SeenEmergency& e) {
+  char code[48];
+  std::snprintf(code, sizeof code, "EMCY 0x%04X", e.code);
+  std::ostringstream m;
+  if (e.node == p::kControllerNode) {
+    m << "the controller (node " << int{e.node} << ") sent " << code;
+    if (e.code == delta::can::od::kEmcyErrorReset) {
+      m << " (error reset)";
+    } else {
+      m << ": fault " << e.fault_code << " ("
+        << delta::controller::fault_name(static_cast<delta::controller::Fault>(e.fault_code))
+        << ")";
+    }
+  } else {
+    m << "node " << int{e.node} << " sent " << code << " (" << delta::can::od::emcy_meaning(e.code)
+      << ")";
+  }
+  std::snprintf(code, sizeof code, "0x%02X", e.error_register);
+  m << ", error register " << code;
+  if (e.after_log_t_s) {
+    m << ", after the log's sample at t = " << *e.after_log_t_s << " s";
+  } else {
+    m << ", before the log's first sample";
+  }
+  return m.str();
+}
+
+void report_emergencies(std::ostream& err, const std::string& who, const RecordSummary& s) {
+  for (const SeenEmergency& e : s.emergencies) {
+    err << who << ": " << describe_emergency(e) << "\n";
+  }
+  if (s.emergencies_not_kept > 0) {
+    err << who << ": and " << s.emergencies_not_kept << " more EMCY frame(s)\n";
+  }
+}
+
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s) {
   for (const auto& [first, count] : s.gaps) {
     err << who << ": lost " << count << " sample(s) from seq " << first
@@ -196,13 +253,14 @@ namespace {
 delta::can::Socket open_socket(const RecordOptions& o) {
   try {
     // With --raw, every frame of the session (a candump of it); else only
-    // the log frames and the drives' currents.
+    // the log frames, the drives' currents and the emergencies.
     std::vector<delta::can::Filter> filters;
     if (!o.raw_path) {
       filters = {{kLogA.base_id, p::kStandardIdMask, false},
                  {kLogB.base_id, p::kStandardIdMask, false},
                  {kLogC.base_id, p::kStandardIdMask, false},
-                 {p::kTpdo1.base_id, p::kFunctionCodeMask, false}};
+                 {p::kTpdo1.base_id, p::kFunctionCodeMask, false},
+                 {p::kEmcy.base_id, p::kFunctionCodeMask, false}};
     }
     return delta::can::Socket::open(o.iface, filters,
                                     8 << 20);  // 8 MB: about 10 000 frames of burst
@@ -264,6 +322,8 @@ class Session {
     s.gaps = assembler_.gaps();
     s.stale = assembler_.stale_samples();
     s.stale_runs = assembler_.stale_runs();
+    s.emergencies = emergencies_.seen();
+    s.emergencies_not_kept = emergencies_.not_kept();
     return s;
   }
   const std::vector<LogSample>& samples() const { return samples_; }
@@ -292,8 +352,14 @@ class Session {
     summary_.socket_drops = r.socket_drops;
     if (o_.raw_path) append_candump_line(r, o_.iface, raw_);
     if (!r.error) currents_.feed(r.frame);
+    if (!r.error) emergencies_.feed(r.frame, log_time_s());
     if (!r.error && assembler_.feed(r.frame)) last_log_frame_ = std::chrono::steady_clock::now();
     collect();
+  }
+  // The t of the log's latest complete sample (the log starts at its first).
+  std::optional<double> log_time_s() const {
+    if (samples_.empty()) return std::nullopt;
+    return static_cast<double>(samples_.back().seq - samples_.front().seq) / o_.sample_rate_hz;
   }
   void collect() {
     for (auto& s : assembler_.take_complete()) {
@@ -307,6 +373,7 @@ class Session {
   std::optional<std::chrono::steady_clock::time_point> last_log_frame_;
   LogAssembler assembler_;
   DriveCurrentTracker currents_;
+  EmergencyWatch emergencies_;
   std::vector<LogSample> samples_;
   std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents_;
   std::string raw_;

@@ -569,7 +569,12 @@ INSTANTIATE_TEST_SUITE_P(
         FaultCase{"silent_drive", "silent:2", 3, 3, {}, "node 2: no TPDO1", 2},
         FaultCase{"error_frames", "error-frame", 12, 1, {}, "CAN bus error"},
         FaultCase{"corrupted_pdo", "corrupt-pdo:1", 11, 1, {}, "node 1: TPDO1 0x181 has 5 bytes"},
-        FaultCase{"overcurrent", "overcurrent:3", 2, 1, {}, "node 3: emergency 0x2310"},
+        FaultCase{"overcurrent",
+                  "overcurrent:3",
+                  2,
+                  1,
+                  {},
+                  "node 3: emergency 0x2310 (continuous over-current)"},
         // Real time, ready with the drives disabled, at 5 Hz: the answers
         // come 100 ms after the SYNC, past the 50 ms window and 100 ms
         // before the next SYNC. A TPDO carries no cycle number, so a late
@@ -741,7 +746,7 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
         emcy = times[i];
       }
     }
-    ASSERT_TRUE(emcy.has_value()) << "no EMCY 0x8130";
+    ASSERT_TRUE(emcy.has_value()) << "no EMCY 0x8130; the emulator said:\n" << emu.err();
     const auto after_ms =
         std::chrono::duration_cast<std::chrono::milliseconds>(*emcy - *last_heartbeat);
     std::cout << "node " << int{node} << ": EMCY 0x8130 " << after_ms.count()
@@ -958,6 +963,15 @@ TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {
   EXPECT_NE(excite.err().find("the controller faulted: fault 2 (drive fault)"), std::string::npos)
       << excite.err();
   EXPECT_NE(excite.err().find("the partial log is " + dir + "/run.partial.csv"), std::string::npos)
+      << excite.err();
+  // Which drive, and why, from the EMCYs on the bus; then the controller's.
+  EXPECT_NE(excite.err().find("host_id excite: node 2 sent EMCY 0x2310 (continuous over-current), "
+                              "error register 0x01, after the log's sample at t = "),
+            std::string::npos)
+      << excite.err();
+  EXPECT_NE(excite.err().find("host_id excite: the controller (node 16) sent EMCY 0xFF02: fault 2 "
+                              "(drive fault)"),
+            std::string::npos)
       << excite.err();
   EXPECT_NE(excite.out().find("NOT finished"), std::string::npos) << excite.out();
   EXPECT_FALSE(std::ifstream(dir + "/run.csv").good()) << "no complete-looking log";

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
 #include "fw/torque_from_current.hpp"
 #include "fw_linux/bring_up.hpp"
@@ -539,8 +540,8 @@ std::string CanopenMaster::last_problem() const {
       return std::string("CAN bus error: ") + (p.bus_off ? "bus-off" : "error passive") +
              " (error frame class " + hex(p.error_class, 8) + ")";
     case Kind::kEmergency:
-      return node + ": emergency " + hex(p.emcy_code, 4) +
-             (p.emcy_code == od::kEmcyOvercurrent ? " (over-current)" : "");
+      return node + ": emergency " + hex(p.emcy_code, 4) + " (" + od::emcy_meaning(p.emcy_code) +
+             ")";
     case Kind::kRebooted:
       return node + " restarted (boot-up message)";
     case Kind::kHeartbeatLost:

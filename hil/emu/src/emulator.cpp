@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
+#include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "drive_objects.hpp"
@@ -149,6 +151,11 @@ void Emulator::send(std::uint32_t id, std::uint8_t dlc, const std::array<std::ui
   f.id = id;
   f.dlc = dlc;
   f.data = data;
+  if (p::function_code(id) == p::kEmcy.base_id && emergencies_.size() < kEmergenciesKept) {
+    emergencies_.push_back({p::node_id(id),
+                            static_cast<std::uint16_t>(p::unpack(data, p::kEmcyErrorCode)),
+                            simulated_s()});
+  }
   out_(f, delay_us);
 }
 
@@ -538,6 +545,9 @@ void Emulator::check_sync_length(Drive& d, const Frame& f) {
 }
 
 void Emulator::handle_sync(const Frame& f) {
+  if (last_sync_wall_us_ != 0) {
+    longest_sync_gap_us_ = std::max(longest_sync_gap_us_, wall_us_ - last_sync_wall_us_);
+  }
   last_sync_wall_us_ = wall_us_;
   for (Drive& d : drives_) check_sync_length(d, f);
   // Time runs from the first SYNC with operational drives.
@@ -576,6 +586,11 @@ std::string Emulator::describe() const {
   for (const Drive& d : drives_) {
     s << "node " << int{d.node} << ": NMT " << int{d.nmt} << ", " << state_text(d.state)
       << (d.silent ? " (silent)" : "") << "\n";
+  }
+  for (const SentEmergency& e : emergencies_) {
+    s << "node " << int{e.node} << " sent EMCY 0x" << std::hex << std::uppercase << std::setw(4)
+      << std::setfill('0') << e.code << std::dec << " (" << od::emcy_meaning(e.code) << ") at "
+      << e.simulated_s << " s simulated\n";
   }
   return s.str();
 }

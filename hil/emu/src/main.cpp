@@ -210,7 +210,8 @@ int main(int argc, char** argv) {
       }
     }
     std::cerr << "delta_drive_emu: stopped after " << emulator.syncs() << " SYNCs, "
-              << emulator.simulated_s() << " s simulated; send failures " << send_failures << "\n"
+              << emulator.simulated_s() << " s simulated, the longest wait between SYNCs "
+              << emulator.longest_sync_gap_s() << " s; send failures " << send_failures << "\n"
               << emulator.describe();
     return reported_error.empty() ? 0 : 3;
   } catch (const delta::can::CanError& e) {

@@ -83,6 +83,36 @@ class DriveCurrentTracker {
   std::vector<std::pair<std::uint16_t, std::array<std::int16_t, 3>>> by_seq_;
 };
 
+// An emergency (EMCY) frame seen while recording, a drive's or the
+// controller's, and where in the log it came.
+struct SeenEmergency {
+  std::uint8_t node{0};
+  std::uint16_t code{0};
+  std::uint8_t error_register{0};
+  std::uint16_t fault_code{0};  // the controller's (node 16) fault; 0 for the drives
+  // The log time (its t column) of the latest complete sample when it came;
+  // none before the first.
+  std::optional<double> after_log_t_s;
+};
+
+// Keeps the EMCY frames (COB-ID 0x081..0x0FF) of a recording, the first
+// kKept of them (and counts the rest); other IDs are ignored.
+class EmergencyWatch {
+ public:
+  static constexpr std::size_t kKept = 16;
+  void feed(const delta::can::Frame& f, std::optional<double> log_t_s);
+  const std::vector<SeenEmergency>& seen() const { return seen_; }
+  std::uint64_t not_kept() const { return not_kept_; }
+
+ private:
+  std::vector<SeenEmergency> seen_;
+  std::uint64_t not_kept_{0};
+};
+
+// "node 2 sent EMCY 0x2310 (continuous over-current), error register 0x02,
+// after the log's sample at t = 6.642 s"; the controller's names its fault.
+std::string describe_emergency(const SeenEmergency& e);
+
 struct RecordOptions {
   std::string iface;
   std::string out_path;
@@ -109,12 +139,17 @@ struct RecordSummary {
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
   std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
+  std::vector<SeenEmergency> emergencies;     // in the order they came
+  std::uint64_t emergencies_not_kept{0};
   double seconds{0};
 };
 
 // One line per run of lost samples and per run of stale ones left out,
 // each starting with `who` ("host_id record").
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s);
+// One line per emergency seen (drives and controller), each starting with
+// `who`; nothing when none came.
+void report_emergencies(std::ostream& err, const std::string& who, const RecordSummary& s);
 
 // Records until a limit is reached. `ready` is called once the socket is
 // open (tests start sending then). Writes out_path (and raw_path) atomically.

@@ -233,6 +233,7 @@ int report(const ExciteArguments& a, const RunOutcome& run, const Recording& rec
       << "  log       " << path << "\n";
   if (!a.raw_path.empty()) out << "  raw       " << a.raw_path << "\n";
   report_left_out(err, "host_id excite", rec.summary);
+  report_emergencies(err, "host_id excite", rec.summary);
   if (!run.ending.empty()) {
     err << "host_id excite: " << run.ending << "; the partial log is " << path << "\n";
     return 4;

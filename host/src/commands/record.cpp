@@ -57,6 +57,7 @@ int run_record(const RecordArguments& a, std::ostream& out, std::ostream& err) {
       << " in " << s.seconds << " s -> " << r.out_path
       << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
   report_left_out(err, "host_id record", s);
+  report_emergencies(err, "host_id record", s);
   if (s.socket_drops)
     err << "host_id record: the kernel dropped " << s.socket_drops << " frames for this reader\n";
   if (s.samples_without_currents > 0) {

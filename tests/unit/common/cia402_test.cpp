@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "delta/can/emcy.hpp"
+
 namespace delta::can {
 namespace {
 
@@ -87,6 +89,29 @@ TEST(SdoTest, ExpeditedTransfersEncodeAndDecode) {
   sdo::Payload junk{};
   junk[0] = 0x21;  // a segmented transfer: not supported here
   EXPECT_EQ(sdo::parse_response(junk).kind, sdo::ResponseKind::kUnexpected);
+}
+
+// CiA 301's table: the specific communication codes, then the class of
+// a code no entry names; a code outside every class says so.
+TEST(EmcyMeaningTest, NamesTheMostSpecificEntryOfCia301sTable) {
+  EXPECT_STREQ(od::emcy_meaning(0x0000), "error reset or no error");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcyHeartbeat), "life guard or heartbeat error");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcySyncLength), "unexpected SYNC data length");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcyPdoLength), "PDO not processed due to length error");
+  EXPECT_STREQ(od::emcy_meaning(0x8212), "PDO not processed due to length error");  // PDO 2
+  EXPECT_STREQ(od::emcy_meaning(0x8251), "RPDO timeout");
+  EXPECT_STREQ(od::emcy_meaning(0x8160), "communication");
+  EXPECT_STREQ(od::emcy_meaning(0x8300), "monitoring");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcyOvercurrent), "continuous over-current");
+  EXPECT_STREQ(od::emcy_meaning(0x2311), "current, device output side");
+  EXPECT_STREQ(od::emcy_meaning(0x2400), "current");
+  EXPECT_STREQ(od::emcy_meaning(0x4210), "device temperature");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcyUpdateRolledBack), "user software");
+  EXPECT_STREQ(od::emcy_meaning(0x9001), "external error");
+  EXPECT_STREQ(od::emcy_meaning(od::kEmcyControllerFaultBase + 2), "device specific");
+  EXPECT_STREQ(od::emcy_meaning(0xF001), "additional functions");
+  EXPECT_STREQ(od::emcy_meaning(0xA000), "not a CiA 301 error code");
+  EXPECT_STREQ(od::emcy_meaning(0xF100), "not a CiA 301 error code");
 }
 
 }  // namespace

@@ -402,7 +402,7 @@ TEST(InProcessPortTest, ARunawayPlantFaultsTheDrivesInsteadOfReportingNonsense) 
   ASSERT_TRUE(rig.controller.start(*named_trajectory("path1", Rig::config())).accepted);
   for (int i = 0; i < 3000 && rig.controller.state() != fw::State::kFault; ++i) rig.cycle();
   EXPECT_EQ(rig.controller.fault(), fw::Fault::kDriveFault);
-  EXPECT_NE(rig.master.last_problem().find("emergency 0xFF01"), std::string::npos)
+  EXPECT_NE(rig.master.last_problem().find("emergency 0xFF01 (device specific)"), std::string::npos)
       << rig.master.last_problem();
   EXPECT_NE(rig.bus.emulator_.plant_error().find("the plant faulted at"), std::string::npos)
       << rig.bus.emulator_.plant_error();

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -190,6 +191,63 @@ TEST(DriveCurrentTrackerTest, ARecordGetsTheCurrentsOfItsOwnCycleOrNone) {
   ASSERT_TRUE(c9.has_value());
   EXPECT_EQ((*c9)[2], 3);
   EXPECT_FALSE(t.take(9).has_value()) << "taken out";
+}
+
+// An EMCY frame as a node sends it: error code, error register, then
+// manufacturer bytes (the controller's fault code at bytes 3-4).
+delta::can::Frame emcy(std::uint8_t node, std::uint16_t code, std::uint8_t error_register,
+                       std::uint16_t fault_code = 0) {
+  delta::can::Frame f;
+  f.id = p::cob_id(p::kEmcy, node);
+  f.dlc = 8;
+  p::pack(f.data, p::kEmcyErrorCode, code);
+  p::pack(f.data, p::kEmcyErrorRegister, error_register);
+  if (node == p::kControllerNode) p::pack(f.data, p::kControllerEmcyFaultCode, fault_code);
+  return f;
+}
+
+TEST(EmergencyWatchTest, KeepsDrivesAndControllersEmcysWithTheirPlaceInTheLog) {
+  EmergencyWatch w;
+  delta::can::Frame sync;
+  sync.id = p::cob_id(p::kSync, 0);  // 0x080: the EMCY function code, node 0
+  w.feed(sync, std::nullopt);
+  w.feed(log_frames(1, {}, {})[0], std::nullopt);
+  w.feed(emcy(2, 0x8130, 0x11), std::nullopt);
+  w.feed(emcy(3, 0x2310, 0x02), 6.642);
+  w.feed(emcy(p::kControllerNode, 0xFF02, 0x01, 2), 6.644);
+  w.feed(emcy(p::kControllerNode, 0x0000, 0x00), 9.0);
+  ASSERT_EQ(w.seen().size(), 4u);
+  EXPECT_EQ(describe_emergency(w.seen()[0]),
+            "node 2 sent EMCY 0x8130 (life guard or heartbeat error), error register 0x11, "
+            "before the log's first sample");
+  EXPECT_EQ(describe_emergency(w.seen()[1]),
+            "node 3 sent EMCY 0x2310 (continuous over-current), error register 0x02, after the "
+            "log's sample at t = 6.642 s");
+  EXPECT_EQ(describe_emergency(w.seen()[2]),
+            "the controller (node 16) sent EMCY 0xFF02: fault 2 (drive fault), error register "
+            "0x01, after the log's sample at t = 6.644 s");
+  EXPECT_EQ(describe_emergency(w.seen()[3]),
+            "the controller (node 16) sent EMCY 0x0000 (error reset), error register 0x00, after "
+            "the log's sample at t = 9 s");
+}
+
+TEST(EmergencyWatchTest, AStormIsCountedBeyondWhatItKeeps) {
+  EmergencyWatch w;
+  for (int i = 0; i < 100; ++i) w.feed(emcy(1, 0x8210, 0x10), 0.5);
+  EXPECT_EQ(w.seen().size(), EmergencyWatch::kKept);
+  EXPECT_EQ(w.not_kept(), 100 - EmergencyWatch::kKept);
+  RecordSummary s;
+  s.emergencies = w.seen();
+  s.emergencies_not_kept = w.not_kept();
+  std::ostringstream err;
+  report_emergencies(err, "host_id record", s);
+  const std::string text = err.str();
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 17);
+  EXPECT_NE(text.find("host_id record: node 1 sent EMCY 0x8210 (PDO not processed due to length "
+                      "error)"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("host_id record: and 84 more EMCY frame(s)\n"), std::string::npos) << text;
 }
 
 }  // namespace

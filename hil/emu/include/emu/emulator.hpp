@@ -134,6 +134,10 @@ class Emulator {
 
   double simulated_s() const { return static_cast<double>(sim_us_) * 1e-6; }
   std::uint64_t syncs() const { return syncs_; }
+  // The longest wall-clock wait from one SYNC to the next [s]: how far a
+  // starved machine stretched the run (the consumers' wall-clock grace
+  // must stay above it).
+  double longest_sync_gap_s() const { return static_cast<double>(longest_sync_gap_us_) * 1e-6; }
   delta::Joint3 q_rad() const { return plant_->state().q_rad; }
   delta::Joint3 qd_rad_s() const { return plant_->state().qd_rad_s; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
@@ -146,7 +150,8 @@ class Emulator {
   // Where an EDS and the emulated drive's objects disagree (an object one
   // has and the other not, a size, an access), in words; "" if they agree.
   std::string eds_mismatch(const delta::canopen::Eds& eds);
-  // A line per drive: node, NMT state, CiA 402 state.
+  // A line per drive: node, NMT state, CiA 402 state; then a line per EMCY
+  // the drives sent (the first kEmergenciesKept).
   std::string describe() const;
   // Set when the plant faulted (diverged, ran away, left the workspace, its
   // chains came apart): the drives are in fault and the run is broken.
@@ -233,6 +238,14 @@ class Emulator {
   std::uint64_t rng_{0};
   std::uint64_t wall_us_{0};
   std::uint64_t last_sync_wall_us_{0};
+  std::uint64_t longest_sync_gap_us_{0};
+  struct SentEmergency {
+    std::uint8_t node;
+    std::uint16_t code;
+    double simulated_s;
+  };
+  static constexpr std::size_t kEmergenciesKept = 32;
+  std::vector<SentEmergency> emergencies_;
 };
 
 }  // namespace emu
