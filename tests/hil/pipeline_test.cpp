@@ -715,6 +715,20 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   while (!all_drives_enabled(bus.snapshot())) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
   }
+  // CiA 301: a consumer watches from the first heartbeat it receives after
+  // 0x1016 was written; killed before one, the controller would leave the
+  // drives unwatched (and this test would wait for nothing).
+  const std::size_t enabled_at = bus.snapshot().size();
+  const auto heartbeat_since_enabled = [&] {
+    const std::vector<Frame> frames = bus.snapshot();
+    for (std::size_t i = enabled_at; i < frames.size(); ++i) {
+      if (frames[i].id == p::kControllerHeartbeat.base_id) return true;
+    }
+    return false;
+  };
+  while (!heartbeat_since_enabled()) {
+    ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms));
+  }
   kill(fw.pid(), SIGKILL);
   EXPECT_EQ(fw.wait(30s).value_or(-1), 128 + SIGKILL);
   const auto heartbeat_lost = [&bus] {
