@@ -10,9 +10,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -635,6 +637,82 @@ TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
     EXPECT_EQ((*last)[0] | ((*last)[1] << 8), 0) << "controlword";
     EXPECT_EQ((*last)[2] | ((*last)[3] << 8), 0) << "target torque";
   }
+}
+
+// The recorder killed mid-run and started again (the fault matrix's row):
+// the controller does not notice (its log frames go to the bus, not to a
+// reader), the killed recorder leaves no file at all (it writes at the end,
+// atomically), and the second one records every record that came after its
+// socket opened, without a gap.
+TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap) {
+  const std::string dir = scratch_dir();
+  BusObserver bus;
+  hil::Child emu = start_emulator({"--plant", "lumped"});
+  hil::Child first = hil::Child::spawn(
+      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/first.csv", "--idle", "3"});
+  ASSERT_TRUE(first.wait_for_output("listening on", 30s)) << first.err();
+  hil::Child fw = hil::Child::spawn(
+      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  const auto log_records = [&bus] {
+    const std::vector<Frame> frames = bus.snapshot();
+    return std::count_if(frames.begin(), frames.end(),
+                         [](const Frame& f) { return f.id == p::kLogA.base_id; });
+  };
+  while (log_records() < 1000) {
+    ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << "the run ended first";
+  }
+  kill(first.pid(), SIGKILL);
+  EXPECT_EQ(first.wait(30s).value_or(-1), 128 + SIGKILL);
+  const auto spawned = std::chrono::system_clock::now();
+  hil::Child second = hil::Child::spawn(
+      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/second.csv", "--idle", "3"});
+  ASSERT_TRUE(second.wait_for_output("listening on", 30s)) << second.err();
+  const auto listening = std::chrono::system_clock::now();
+  EXPECT_EQ(fw.wait(300s).value_or(-1), 0) << "the controller finished its run: " << fw.err();
+  EXPECT_EQ(second.wait(60s).value_or(-1), 0) << second.out() << second.err();
+  const std::vector<Frame> frames = bus.stop();
+  emu.terminate(30s);
+  // Only the second recorder's log is in the folder: no temporary, no part.
+  std::vector<std::string> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    files.push_back(e.path().filename());
+  EXPECT_EQ(files, std::vector<std::string>{"second.csv"});
+  // Its rows: every record sent after it listened, perhaps some sent while
+  // it opened its socket, none before it started; seq without a gap.
+  const auto& times = bus.kernel_times();
+  std::size_t sent_after_listening = 0;
+  std::size_t sent_after_spawn = 0;
+  const auto since_epoch = [](std::chrono::system_clock::time_point t) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch());
+  };
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i].id != p::kLogA.base_id) continue;
+    sent_after_listening += times[i] >= since_epoch(listening);
+    sent_after_spawn += times[i] >= since_epoch(spawned);
+  }
+  std::ifstream log(dir + "/second.csv");
+  std::string line;
+  while (std::getline(log, line) && line[0] == '#') {
+  }
+  ASSERT_NE(line.find("seq"), std::string::npos) << line;
+  std::size_t rows = 0;
+  std::uint64_t expected_seq = 0;
+  const auto seq_column = static_cast<std::size_t>(
+      std::count(line.begin(), line.begin() + static_cast<std::ptrdiff_t>(line.find("seq")), ','));
+  while (std::getline(log, line)) {
+    std::istringstream fields(line);
+    std::string field;
+    for (std::size_t k = 0; k <= seq_column; ++k) std::getline(fields, field, ',');
+    EXPECT_EQ(std::stoull(field), expected_seq++) << "row " << rows;
+    ++rows;
+  }
+  std::cout << "second recorder: " << rows << " rows; records sent after it listened "
+            << sent_after_listening << ", after it was started " << sent_after_spawn << "\n";
+  EXPECT_GE(rows, sent_after_listening);
+  EXPECT_LE(rows, sent_after_spawn);
+  EXPECT_GT(rows, 0u);
+  EXPECT_NE(second.out().find(" samples"), std::string::npos) << second.out();
+  EXPECT_EQ(second.err().find("lost"), std::string::npos) << second.err();
 }
 
 // Bring-up against the drive on the bus (real programs on vcan): the
