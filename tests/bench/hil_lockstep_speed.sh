@@ -15,7 +15,7 @@ set -euo pipefail
 
 bin=build/bin
 runs=3
-iface=vcan0
+iface=${DELTA_VCAN:-vcan0}
 plant=mujoco
 while [ $# -gt 0 ]; do
   case "$1" in
