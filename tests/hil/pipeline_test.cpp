@@ -31,6 +31,7 @@
 #include "delta/dynamics.hpp"
 #include "delta/robot_description.hpp"
 #include "gpio_sim.hpp"
+#include "raw_modbus.hpp"
 #include "vcan_interface.hpp"
 
 namespace {
@@ -120,6 +121,44 @@ hil::Child start_emulator(const std::vector<std::string>& extra = {}) {
     ADD_FAILURE() << "the emulator did not come up: " << emu.err();
   }
   return emu;
+}
+
+// host_id record on the bus, writing `csv` when the log frames stop for 3 s.
+hil::Child start_recorder(const std::string& csv) {
+  hil::Child rec =
+      hil::Child::spawn({kBin + "/host_id", "record", "--can", kIface, "-o", csv, "--idle", "3"});
+  if (!rec.wait_for_output("listening on", 30s)) {
+    ADD_FAILURE() << "the recorder did not start: " << rec.err();
+  }
+  return rec;
+}
+
+std::uint64_t count_frames(const std::vector<Frame>& frames, std::uint32_t id) {
+  return static_cast<std::uint64_t>(
+      std::count_if(frames.begin(), frames.end(), [id](const Frame& f) { return f.id == id; }));
+}
+
+// The `seq` column of a recorded delta-log CSV, row by row.
+std::vector<std::uint64_t> recorded_seqs(const std::string& csv) {
+  std::ifstream log(csv);
+  std::string line;
+  while (std::getline(log, line) && !line.empty() && line[0] == '#') {
+  }
+  std::vector<std::uint64_t> seqs;
+  const std::size_t at = line.find("seq");
+  if (at == std::string::npos) {
+    ADD_FAILURE() << csv << ": no seq column in '" << line << "'";
+    return seqs;
+  }
+  const auto column = static_cast<std::size_t>(
+      std::count(line.begin(), line.begin() + static_cast<std::ptrdiff_t>(at), ','));
+  while (std::getline(log, line)) {
+    std::istringstream fields(line);
+    std::string field;
+    for (std::size_t k = 0; k <= column; ++k) std::getline(fields, field, ',');
+    seqs.push_back(std::stoull(field));
+  }
+  return seqs;
 }
 
 // The sum of the whole numbers right after (or right before) every
@@ -483,69 +522,81 @@ struct FaultCase {
 
 class FaultInjection : public ::testing::TestWithParam<FaultCase> {};
 
-TEST_P(FaultInjection, TheFirmwareFaultsWithTheRightCodeInBoundedCyclesAndDisablesTheDrives) {
-  const FaultCase& c = GetParam();
-  const double inject_at_s = 3.0;
-  const bool realtime =
-      std::find(c.fw_args.begin(), c.fw_args.end(), "--realtime") != c.fw_args.end();
-  std::uint32_t period_us = 2000;
-  for (std::size_t i = 0; i + 1 < c.fw_args.size(); ++i) {
-    if (c.fw_args[i] == "--set" && c.fw_args[i + 1].rfind("period_us=", 0) == 0) {
-      period_us = static_cast<std::uint32_t>(std::stoul(c.fw_args[i + 1].substr(10)));
-    }
-  }
-  BusObserver bus;
-  hil::Child emu = start_emulator({"--inject", c.inject + "@3"});
-  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface};
-  if (!realtime) {
-    for (const char* a : {"--lockstep", "--run", "path1", "--exit-when-done"}) argv.push_back(a);
-  }
-  argv.insert(argv.end(), c.fw_args.begin(), c.fw_args.end());
-  hil::Child fw = hil::Child::spawn(argv);
-  const int fw_exit = fw.wait(300s).value_or(-1);
-  emu.terminate(30s);
-  const std::vector<Frame> frames = bus.stop();
-  std::cout << fw.err() << emu.err();
-  EXPECT_EQ(fw_exit, 3) << fw.err();
-  EXPECT_NE(fw.err().find("fault " + std::to_string(c.fault_code) + " ("), std::string::npos)
-      << fw.err();
-  EXPECT_NE(fw.err().find(c.message), std::string::npos) << fw.err();
+constexpr int kFaultModbusPort = 15030;
 
-  // Count SYNCs: the emulator injects at the SYNC where its simulated time
-  // reaches 3 s (SYNC number 3 s / period + 1); the controller's EMCY names
-  // the fault.
+// The controller's status registers (input registers 0-49, docs/modbus.md),
+// read over Modbus TCP until they report the fault state (5); nullopt if
+// that does not come within two minutes or delta_fw ends first.
+std::optional<std::vector<std::uint16_t>> status_once_faulted(int port, hil::Child& fw) {
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  std::optional<hil::RawModbus> client;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (!client || !client->connected()) client.emplace(port);
+    const auto registers = client->connected() ? client->read_input(0, 50) : std::nullopt;
+    if (!registers) client.reset();
+    if (registers && (*registers)[4] == 5) return registers;
+    // The poll's pace; it also notices a controller that has ended.
+    if (fw.wait_for_output("delta_fw: stopping", 50ms)) return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+// What the registers say after the fault (the fault matrix's "log / Modbus"
+// column): the state, the fault and its history, the enable line off, the
+// run faulted, and as many log records as the bus carried.
+void expect_registers_tell_the_fault(const std::vector<std::uint16_t>& r, int fault_code,
+                                     bool running, std::uint64_t log_records_on_bus) {
+  EXPECT_EQ(r[4], 5) << "state: fault";
+  EXPECT_EQ(r[5], fault_code) << "fault_code";
+  EXPECT_EQ(r[19], 1) << "fault_count";
+  EXPECT_EQ(r[20], fault_code) << "fault_history_0_code";
+  EXPECT_EQ(r[23], 0) << "fault_history_1_code";
+  EXPECT_EQ(r[10] & 0x2, 0) << "io: drive enable off";
+  EXPECT_LE(hil::u32_at(r, 21), hil::u32_at(r, 6)) << "the fault's cycle, not after the counter";
+  if (running) {
+    EXPECT_EQ(r[12], 4) << "run_result: faulted";
+  }
+  EXPECT_EQ(hil::u32_at(r, 17), log_records_on_bus) << "log_records";
+  std::cout << "Modbus: state " << r[4] << ", fault_code " << r[5] << " in cycle "
+            << hil::u32_at(r, 21) << ", run_result " << r[12] << ", log_records "
+            << hil::u32_at(r, 17) << "\n";
+}
+
+struct FaultOnTheBus {
+  std::size_t emcy_index;
+  int cycles_after_injection;
+};
+
+// The controller's EMCY for the fault, counted in SYNCs from the injection:
+// the emulator injects at the SYNC where its simulated time reaches
+// `inject_at_s` (SYNC number inject_at_s / period + 1).
+std::optional<FaultOnTheBus> find_fault(const std::vector<Frame>& frames, const FaultCase& c,
+                                        double inject_at_s, std::uint32_t period_us) {
   const auto inject_sync =
       static_cast<std::uint64_t>(std::llround(inject_at_s * 1e6 / period_us)) + 1;
   std::uint64_t syncs = 0;
-  std::uint64_t emcy_sync = 0;
-  int emcy_code = -1;
-  std::size_t emcy_index = frames.size();
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const Frame& f = frames[i];
     if (f.id == p::kSync.base_id && !f.error_frame) ++syncs;
-    if (f.id == p::kControllerEmcy.base_id && !f.error_frame && emcy_index == frames.size()) {
-      emcy_index = i;
-      emcy_sync = syncs;
-      emcy_code = f.data[3];
-      EXPECT_EQ(u16(f), 0xFF00 + c.fault_code);
-    }
+    if (f.id != p::kControllerEmcy.base_id || f.error_frame) continue;
+    EXPECT_EQ(u16(f), 0xFF00 + c.fault_code);
+    EXPECT_EQ(f.data[3], c.fault_code);
+    EXPECT_GE(syncs, inject_sync) << "the fault came before the injection";
+    return FaultOnTheBus{i, static_cast<int>(syncs) - static_cast<int>(inject_sync)};
   }
-  ASSERT_LT(emcy_index, frames.size()) << "no controller EMCY on the bus";
-  EXPECT_EQ(emcy_code, c.fault_code);
-  ASSERT_GE(emcy_sync, inject_sync) << "the fault came before the injection";
-  const auto latency = static_cast<int>(emcy_sync - inject_sync);
-  std::cout << c.name << ": fault " << emcy_code << " " << latency
-            << " cycle(s) after the injection (bound " << c.max_cycles << ")\n";
-  EXPECT_LE(latency, c.max_cycles);
+  return std::nullopt;
+}
 
-  // After the fault: every drive commanded to disable voltage, and every
-  // drive that still answers shows switch-on disabled or fault.
+// After the fault: every drive commanded to disable voltage, and every
+// drive that still answers shows switch-on disabled or fault.
+void expect_drives_disabled_after(const std::vector<Frame>& frames, std::size_t from,
+                                  std::uint8_t silent_node) {
   for (std::uint8_t node = 1; node <= 3; ++node) {
     SCOPED_TRACE("node " + std::to_string(node));
     int rpdos = 0;
     bool all_zero = true;
     std::optional<cia::State> last;
-    for (std::size_t i = emcy_index; i < frames.size(); ++i) {
+    for (std::size_t i = from; i < frames.size(); ++i) {
       const Frame& f = frames[i];
       if (f.id == p::cob_id(p::kRpdo1, node)) {
         ++rpdos;
@@ -555,12 +606,69 @@ TEST_P(FaultInjection, TheFirmwareFaultsWithTheRightCodeInBoundedCyclesAndDisabl
     }
     EXPECT_GT(rpdos, 0);
     EXPECT_TRUE(all_zero);
-    if (node != c.silent_node) {
+    if (node != silent_node) {
       ASSERT_TRUE(last.has_value());
       EXPECT_TRUE(*last == cia::State::kSwitchOnDisabled || *last == cia::State::kFault)
           << static_cast<int>(*last);
     }
   }
+}
+
+std::uint32_t period_us_of(const std::vector<std::string>& fw_args) {
+  for (std::size_t i = 0; i + 1 < fw_args.size(); ++i) {
+    if (fw_args[i] == "--set" && fw_args[i + 1].rfind("period_us=", 0) == 0) {
+      return static_cast<std::uint32_t>(std::stoul(fw_args[i + 1].substr(10)));
+    }
+  }
+  return 2000;
+}
+
+// Each row of the fault matrix's drive side: the controller faults with the
+// right code within its bound, disables the drives, says so on stderr, on
+// the bus and in its Modbus registers, and (in the lock-step runs, which log)
+// the recorder's CSV holds every record sent up to the fault.
+TEST_P(FaultInjection, TheFirmwareFaultsWithTheRightCodeInBoundedCyclesAndDisablesTheDrives) {
+  const FaultCase& c = GetParam();
+  const bool realtime =
+      std::find(c.fw_args.begin(), c.fw_args.end(), "--realtime") != c.fw_args.end();
+  const std::string dir = scratch_dir();
+  BusObserver bus;
+  hil::Child emu = start_emulator({"--inject", c.inject + "@3"});
+  std::optional<hil::Child> rec;
+  if (!realtime) rec.emplace(start_recorder(dir + "/fault.csv"));
+  // Without --exit-when-done: the controller stays in fault for Modbus.
+  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface, "--set",
+                                "modbus.tcp=127.0.0.1:" + std::to_string(kFaultModbusPort)};
+  if (!realtime) argv.insert(argv.end(), {"--lockstep", "--run", "path1"});
+  argv.insert(argv.end(), c.fw_args.begin(), c.fw_args.end());
+  hil::Child fw = hil::Child::spawn(argv);
+  const auto registers = status_once_faulted(kFaultModbusPort, fw);
+  EXPECT_EQ(fw.terminate(60s).value_or(-1), 3) << "it stays in fault: " << fw.err();
+  const int rec_exit = rec ? rec->wait(60s).value_or(-1) : 0;
+  emu.terminate(30s);
+  const std::vector<Frame> frames = bus.stop();
+  std::cout << fw.err() << emu.err();
+  ASSERT_TRUE(registers.has_value()) << "Modbus never said fault: " << fw.err();
+  EXPECT_NE(fw.err().find("fault " + std::to_string(c.fault_code) + " ("), std::string::npos)
+      << fw.err();
+  EXPECT_NE(fw.err().find(c.message), std::string::npos) << fw.err();
+
+  const auto fault = find_fault(frames, c, 3.0, period_us_of(c.fw_args));
+  ASSERT_TRUE(fault.has_value()) << "no controller EMCY on the bus";
+  std::cout << c.name << ": fault " << c.fault_code << " " << fault->cycles_after_injection
+            << " cycle(s) after the injection (bound " << c.max_cycles << ")\n";
+  EXPECT_LE(fault->cycles_after_injection, c.max_cycles);
+  expect_drives_disabled_after(frames, fault->emcy_index, c.silent_node);
+
+  const std::uint64_t records = count_frames(frames, p::kLogA.base_id);
+  expect_registers_tell_the_fault(*registers, c.fault_code, !realtime, records);
+  if (!rec) return;  // no run, no log: the controller logs only while running
+  ASSERT_EQ(rec_exit, 0) << rec->out() << rec->err();
+  const std::vector<std::uint64_t> seqs = recorded_seqs(dir + "/fault.csv");
+  std::cout << "recorded " << seqs.size() << " of " << records << " log records on the bus\n";
+  EXPECT_GT(seqs.size(), 1000u) << "3 s of the run before the fault";
+  expect_every_record_accounted_for(rec->out() + rec->err(), seqs.size(), records);
+  EXPECT_TRUE(std::is_sorted(seqs.begin(), seqs.end()));
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -589,20 +697,20 @@ INSTANTIATE_TEST_SUITE_P(
                   13,
                   3,
                   {"--realtime", "--set", "period_us=200000", "--set", "response_window_us=50000",
-                   "--set", "controller_heartbeat_timeout_ms=500", "--max-cycles", "40"},
+                   "--set", "controller_heartbeat_timeout_ms=500"},
                   "node 1: TPDO1 0x181 arrived after"},
         // The same drive 210 ms late, with the SYNC counter (0x1019): the
         // answers land 10 ms into the next cycle's 150 ms window, where
         // without a counter they would count as that cycle's; TPDO3 says
         // which SYNC they answer.
-        FaultCase{"stale_pdo",
-                  "delay-pdo:1:210",
-                  13,
-                  3,
-                  {"--realtime", "--set", "period_us=200000", "--set", "response_window_us=150000",
-                   "--set", "sync_counter_overflow=16", "--set",
-                   "controller_heartbeat_timeout_ms=500", "--max-cycles", "40"},
-                  "node 1: TPDO3 0x381 carries SYNC counter"}),
+        FaultCase{
+            "stale_pdo",
+            "delay-pdo:1:210",
+            13,
+            3,
+            {"--realtime", "--set", "period_us=200000", "--set", "response_window_us=150000",
+             "--set", "sync_counter_overflow=16", "--set", "controller_heartbeat_timeout_ms=500"},
+            "node 1: TPDO3 0x381 carries SYNC counter"}),
     [](const ::testing::TestParamInfo<FaultCase>& tp) { return std::string(tp.param.name); });
 
 }  // namespace
@@ -648,25 +756,16 @@ TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap)
   const std::string dir = scratch_dir();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
-  hil::Child first = hil::Child::spawn(
-      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/first.csv", "--idle", "3"});
-  ASSERT_TRUE(first.wait_for_output("listening on", 30s)) << first.err();
+  hil::Child first = start_recorder(dir + "/first.csv");
   hil::Child fw = hil::Child::spawn(
       {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
-  const auto log_records = [&bus] {
-    const std::vector<Frame> frames = bus.snapshot();
-    return std::count_if(frames.begin(), frames.end(),
-                         [](const Frame& f) { return f.id == p::kLogA.base_id; });
-  };
-  while (log_records() < 1000) {
+  while (count_frames(bus.snapshot(), p::kLogA.base_id) < 1000) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << "the run ended first";
   }
   kill(first.pid(), SIGKILL);
   EXPECT_EQ(first.wait(30s).value_or(-1), 128 + SIGKILL);
   const auto spawned = std::chrono::system_clock::now();
-  hil::Child second = hil::Child::spawn(
-      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/second.csv", "--idle", "3"});
-  ASSERT_TRUE(second.wait_for_output("listening on", 30s)) << second.err();
+  hil::Child second = start_recorder(dir + "/second.csv");
   const auto listening = std::chrono::system_clock::now();
   EXPECT_EQ(fw.wait(300s).value_or(-1), 0) << "the controller finished its run: " << fw.err();
   EXPECT_EQ(second.wait(60s).value_or(-1), 0) << second.out() << second.err();
@@ -690,22 +789,9 @@ TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap)
     sent_after_listening += times[i] >= since_epoch(listening);
     sent_after_spawn += times[i] >= since_epoch(spawned);
   }
-  std::ifstream log(dir + "/second.csv");
-  std::string line;
-  while (std::getline(log, line) && line[0] == '#') {
-  }
-  ASSERT_NE(line.find("seq"), std::string::npos) << line;
-  std::size_t rows = 0;
-  std::uint64_t expected_seq = 0;
-  const auto seq_column = static_cast<std::size_t>(
-      std::count(line.begin(), line.begin() + static_cast<std::ptrdiff_t>(line.find("seq")), ','));
-  while (std::getline(log, line)) {
-    std::istringstream fields(line);
-    std::string field;
-    for (std::size_t k = 0; k <= seq_column; ++k) std::getline(fields, field, ',');
-    EXPECT_EQ(std::stoull(field), expected_seq++) << "row " << rows;
-    ++rows;
-  }
+  const std::vector<std::uint64_t> seqs = recorded_seqs(dir + "/second.csv");
+  const std::size_t rows = seqs.size();
+  for (std::size_t k = 0; k < rows; ++k) EXPECT_EQ(seqs[k], k) << "row " << k;
   std::cout << "second recorder: " << rows << " rows; records sent after it listened "
             << sent_after_listening << ", after it was started " << sent_after_spawn << "\n";
   EXPECT_GE(rows, sent_after_listening);
@@ -785,8 +871,10 @@ TEST(SdoTool, ReadsAndWritesTheControllersAndADrivesObjects) {
 // lost) within its consumer timeout plus the emulator's wall-clock grace
 // for a starved lock-step controller (docs/hil.md), and drops its torque.
 TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
+  const std::string dir = scratch_dir();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
+  hil::Child rec = start_recorder(dir + "/killed.csv");
   hil::Child fw = hil::Child::spawn(
       {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
   ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
@@ -823,6 +911,13 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   }
   const std::vector<Frame> frames = bus.stop();
   emu.terminate(30s);
+  // The log up to the kill: every record the controller sent.
+  EXPECT_EQ(rec.wait(60s).value_or(-1), 0) << rec.out() << rec.err();
+  const std::size_t rows = recorded_seqs(dir + "/killed.csv").size();
+  std::cout << "recorded " << rows << " rows up to the kill\n";
+  EXPECT_GT(rows, 0u);
+  expect_every_record_accounted_for(rec.out() + rec.err(), rows,
+                                    count_frames(frames, p::kLogA.base_id));
   const auto& times = bus.kernel_times();
   std::optional<std::chrono::nanoseconds> last_heartbeat;
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -861,19 +956,13 @@ TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheL
   const std::string dir = scratch_dir();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
-  hil::Child rec = hil::Child::spawn(
-      {kBin + "/host_id", "record", "--can", kIface, "-o", dir + "/estop.csv", "--idle", "3"});
-  ASSERT_TRUE(rec.wait_for_output("listening on", 30s)) << rec.err();
+  hil::Child rec = start_recorder(dir + "/estop.csv");
   hil::Child fw = hil::Child::spawn(
       {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done",
        "--set", "gpio.chip=" + sim.chip(), "--set", "gpio.estop_debounce_ms=0"});
-  const auto count = [](const std::vector<Frame>& frames, std::uint32_t id) {
-    return static_cast<std::uint64_t>(
-        std::count_if(frames.begin(), frames.end(), [&](const Frame& f) { return f.id == id; }));
-  };
   // During motion: 1000 log records (2 s into the run) on the bus.
   const auto deadline = std::chrono::steady_clock::now() + 120s;
-  while (count(bus.snapshot(), p::kLogA.base_id) < 1000) {
+  while (count_frames(bus.snapshot(), p::kLogA.base_id) < 1000) {
     ASSERT_LT(std::chrono::steady_clock::now(), deadline) << fw.err();
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << fw.err();
   }
@@ -910,10 +999,10 @@ TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheL
   EXPECT_EQ(sim.value(1), 0) << "enable line";
   EXPECT_EQ(sim.value(2), 0) << "brake line (low: braked)";
   // The log up to the fault is whole: at least the 1000 records before it.
-  std::ifstream log(dir + "/estop.csv");
-  std::size_t rows = 0;
-  for (std::string line; std::getline(log, line);) rows += !line.empty() && line[0] != '#';
+  const std::size_t rows = recorded_seqs(dir + "/estop.csv").size();
   EXPECT_GE(rows, 1001u) << rec.out() << rec.err();
+  expect_every_record_accounted_for(rec.out() + rec.err(), rows,
+                                    count_frames(frames, p::kLogA.base_id));
 }
 
 }  // namespace
@@ -1081,80 +1170,6 @@ namespace {
 
 // --- Modbus clients that abuse the server: the control loop keeps its rate --
 
-// A Modbus TCP connection with raw sockets: the test's own client, so that
-// it can also misbehave (trickle bytes, connect and leave).
-class RawModbus {
- public:
-  explicit RawModbus(int port) {
-    fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(static_cast<std::uint16_t>(port));
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    connected_ = ::connect(fd_, reinterpret_cast<const sockaddr*>(&a), sizeof a) == 0;
-    timeval tv{2, 0};
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  }
-  ~RawModbus() { ::close(fd_); }
-  RawModbus(const RawModbus&) = delete;
-  RawModbus& operator=(const RawModbus&) = delete;
-  bool connected() const { return connected_; }
-  // Read input registers (function 4): a request, its whole answer.
-  std::array<std::uint8_t, 12> request(std::uint16_t address, std::uint16_t count) {
-    ++transaction_;
-    return {static_cast<std::uint8_t>(transaction_ >> 8),
-            static_cast<std::uint8_t>(transaction_),
-            0,
-            0,
-            0,
-            6,
-            1,
-            4,
-            static_cast<std::uint8_t>(address >> 8),
-            static_cast<std::uint8_t>(address),
-            static_cast<std::uint8_t>(count >> 8),
-            static_cast<std::uint8_t>(count)};
-  }
-  std::optional<std::vector<std::uint16_t>> read_input(std::uint16_t address, std::uint16_t count) {
-    const auto req = request(address, count);
-    if (::send(fd_, req.data(), req.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(req.size())) {
-      return std::nullopt;
-    }
-    return answer(count);
-  }
-  // The request's bytes one at a time, `gap` apart (a slow-loris client).
-  std::optional<std::vector<std::uint16_t>> trickle(std::uint16_t address, std::uint16_t count,
-                                                    std::chrono::milliseconds gap,
-                                                    const std::atomic<bool>& stop) {
-    const auto req = request(address, count);
-    for (const std::uint8_t b : req) {
-      if (stop.load() || ::send(fd_, &b, 1, MSG_NOSIGNAL) != 1) return std::nullopt;
-      std::this_thread::sleep_for(gap);  // the client's pace, not synchronisation
-    }
-    return answer(count);
-  }
-
- private:
-  std::optional<std::vector<std::uint16_t>> answer(std::uint16_t count) {
-    std::vector<std::uint8_t> in(9 + 2 * std::size_t{count});
-    std::size_t got = 0;
-    while (got < in.size()) {
-      const ssize_t n = ::recv(fd_, in.data() + got, in.size() - got, 0);
-      if (n <= 0) return std::nullopt;
-      got += static_cast<std::size_t>(n);
-    }
-    if (in[7] != 4 || in[8] != 2 * count) return std::nullopt;
-    std::vector<std::uint16_t> registers(count);
-    for (std::size_t i = 0; i < count; ++i) {
-      registers[i] = static_cast<std::uint16_t>(in[9 + 2 * i] << 8 | in[10 + 2 * i]);
-    }
-    return registers;
-  }
-  int fd_{-1};
-  bool connected_{false};
-  std::uint16_t transaction_{0};
-};
-
 // The fault matrix's Modbus row (docs/hil.md): three clients reading as
 // fast as they can, one trickling its requests a byte every 150 ms and one
 // connecting and leaving in a loop, for 4 s, while delta_fw runs in real
@@ -1177,7 +1192,7 @@ TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
                                      "--set", "period_us=10000", "--set", "response_window_us=8000",
                                      "--set", "modbus.tcp=127.0.0.1:" + std::to_string(kPort)});
   ASSERT_TRUE(fw.wait_for_output("delta_fw: ready", 60s)) << fw.err();
-  RawModbus probe(kPort);
+  hil::RawModbus probe(kPort);
   ASSERT_TRUE(probe.connected());
   const auto cycle_counter = [&probe]() -> std::optional<std::uint32_t> {
     const auto r = probe.read_input(6, 2);
@@ -1192,17 +1207,17 @@ TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
   std::vector<std::thread> abusers;
   for (int k = 0; k < 3; ++k) {
     abusers.emplace_back([&] {
-      RawModbus c(kPort);
+      hil::RawModbus c(kPort);
       while (!stop.load() && c.read_input(0, 40)) ++flood_answers;
     });
   }
   abusers.emplace_back([&] {
-    RawModbus c(kPort);
+    hil::RawModbus c(kPort);
     while (!stop.load() && c.trickle(6, 2, 150ms, stop)) ++loris_answers;
   });
   abusers.emplace_back([&] {
     while (!stop.load()) {
-      RawModbus c(kPort);
+      hil::RawModbus c(kPort);
       churn_connections += c.connected() ? 1 : 0;
     }
   });
