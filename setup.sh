@@ -19,6 +19,8 @@ packages=(
   libsodium-dev openssl
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # an independent Modbus master for the RTU interoperability test
+  mbpoll
   # the firmware core on Cortex-M4, run on qemu
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi qemu-system-arm
   # real vcan for the HIL tests (hil/vcan-run: a qemu VM where the kernel has no CAN)

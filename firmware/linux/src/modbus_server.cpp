@@ -16,6 +16,7 @@
 
 #include "delta/controller/vocabulary.hpp"
 #include "fw_linux/mbap_framer.hpp"
+#include "fw_linux/rtu_framer.hpp"
 #include "fw_linux/trajectories.hpp"
 
 namespace fw_linux {
@@ -30,19 +31,6 @@ constexpr std::uint8_t kWriteSingle = 0x06;
 constexpr std::uint8_t kWriteMultiple = 0x10;
 constexpr unsigned kMaxReadCount = 125;   // Modbus: registers per read
 constexpr unsigned kMaxWriteCount = 123;  // Modbus: registers per write
-
-// Modbus RTU's CRC-16 (polynomial 0xA001 reflected, initial 0xFFFF).
-std::uint16_t crc16(const std::uint8_t* p, std::size_t n) {
-  std::uint16_t crc = 0xFFFF;
-  for (std::size_t i = 0; i < n; ++i) {
-    crc ^= p[i];
-    for (int b = 0; b < 8; ++b) {
-      crc = (crc & 1u) != 0 ? static_cast<std::uint16_t>((crc >> 1) ^ 0xA001u)
-                            : static_cast<std::uint16_t>(crc >> 1);
-    }
-  }
-  return crc;
-}
 
 // An exception reply. libmodbus adds 0x80 to the request's function code in
 // an int and stores a byte, so a request with a code of 0x80 or more (no
@@ -68,7 +56,7 @@ void reply_exception(modbus_t* ctx, const std::uint8_t* request, std::uint8_t co
   reply[n++] = function;
   reply[n++] = code;
   if (h != 7) {
-    const std::uint16_t crc = crc16(reply, n);
+    const std::uint16_t crc = modbus_crc16(reply, n);
     reply[n++] = static_cast<std::uint8_t>(crc & 0xFF);
     reply[n++] = static_cast<std::uint8_t>(crc >> 8);
   }
@@ -380,9 +368,6 @@ ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel,
       rtu_ = nullptr;
       fail("modbus.rtu_device = " + config_.rtu_device + ": cannot open: " + why);
     }
-    const std::uint32_t us = config_.byte_timeout_ms * 1000u;
-    modbus_set_byte_timeout(rtu_, us / 1000000u, us % 1000000u);
-    modbus_set_indication_timeout(rtu_, us / 1000000u, us % 1000000u);
   }
   if (tcp_ != nullptr) tcp_thread_ = std::thread([this] { serve_tcp(); });
   if (rtu_ != nullptr) rtu_thread_ = std::thread([this] { serve_rtu(); });
@@ -559,17 +544,46 @@ void ModbusServer::accept_tcp_client(std::vector<TcpClient>& clients) {
   count(&ModbusStats::clients_accepted);
 }
 
+// The serial line: bytes as the device gives them, framed by RtuFramer (by
+// the function's length, or by the line's silence), frames for this unit
+// answered.
 void ModbusServer::serve_rtu() {
-  std::uint8_t request[MODBUS_RTU_MAX_ADU_LENGTH];
   const int fd = modbus_get_socket(rtu_);
+  const std::uint64_t gap_ns = std::uint64_t{rtu_frame_gap_us(config_.rtu_baud)} * 1000u;
+  const std::uint64_t byte_timeout_ns = std::uint64_t{config_.byte_timeout_ms} * 1000000u;
+  RtuFramer framer;
+  bool too_long = false;  // more bytes than an RTU frame has, until the silence
   for (;;) {
+    std::size_t length = 0;
+    const RtuFramer::Next next = framer.next(length);
+    if (next == RtuFramer::Next::kFrame && !too_long) {
+      answer_rtu_frame(framer.data(), length);
+      framer.consume(length);
+      continue;
+    }
+    // How long the line may stay quiet before the bytes so far end.
+    const std::uint64_t wait_ns = next == RtuFramer::Next::kNeedMore ? byte_timeout_ns : gap_ns;
+    const timespec wait{static_cast<time_t>(wait_ns / 1000000000u),
+                        static_cast<long>(wait_ns % 1000000000u)};
     pollfd fds[2] = {{wake_fd_, POLLIN, 0}, {fd, POLLIN, 0}};
-    if (poll(fds, 2, -1) < 0) {
+    const bool idle = next == RtuFramer::Next::kNothing && !too_long;
+    const int ready = ppoll(fds, 2, idle ? nullptr : &wait, nullptr);
+    if (ready < 0) {
       if (errno == EINTR) continue;
       std::cerr << "delta_fw: Modbus RTU: poll: " << std::strerror(errno) << "\n";
       break;
     }
     if (fds[0].revents != 0) break;
+    if (ready == 0) {  // the line went quiet: the bytes so far are a frame, or are dropped
+      if (next == RtuFramer::Next::kAtSilence && !too_long && framer.whole_at_silence(length)) {
+        answer_rtu_frame(framer.data(), length);
+      } else {
+        count(&ModbusStats::receive_errors);  // a bad CRC, a frame cut short or too long
+      }
+      framer.clear();
+      too_long = false;
+      continue;
+    }
     if ((fds[1].revents & POLLIN) == 0) {
       // The line hung up (a pseudo-terminal without its other side): wait
       // for it to come back, or for the end, without spinning.
@@ -577,16 +591,31 @@ void ModbusServer::serve_rtu() {
       if (poll(&wake, 1, 200) > 0) break;
       continue;
     }
-    const int rc = modbus_receive(rtu_, request);
-    if (rc > 0) {
-      count(&ModbusStats::requests);
-      if (bank_.answer(rtu_, request, rc) == RegisterBank::Outcome::kException) {
-        count(&ModbusStats::exceptions);
-      }
-    } else if (rc < 0) {
-      count(&ModbusStats::receive_errors);  // bad CRC, a frame cut short
-      modbus_flush(rtu_);
-    }
+    too_long = !read_rtu_bytes(fd, framer) || too_long;
+  }
+}
+
+// Reads what the line has into the framer; false when it had more than an
+// RTU frame can hold (those bytes are dropped).
+bool ModbusServer::read_rtu_bytes(int fd, RtuFramer& framer) {
+  if (framer.space_left() == 0) {
+    std::uint8_t discard[64];
+    (void)::read(fd, discard, sizeof discard);
+    return false;
+  }
+  const ssize_t n = ::read(fd, framer.space(), framer.space_left());
+  if (n > 0) framer.added(static_cast<std::size_t>(n));
+  return true;
+}
+
+// A whole frame with a good CRC: answered if it is for this unit (or a
+// broadcast); another unit's request or reply on a multi-drop line is let
+// pass.
+void ModbusServer::answer_rtu_frame(const std::uint8_t* frame, std::size_t length) {
+  if (frame[0] != config_.rtu_unit_id && frame[0] != 0) return;
+  count(&ModbusStats::requests);
+  if (bank_.answer(rtu_, frame, static_cast<int>(length)) == RegisterBank::Outcome::kException) {
+    count(&ModbusStats::exceptions);
   }
 }
 

@@ -23,6 +23,8 @@ struct _modbus_mapping_t;
 
 namespace fw_linux {
 
+class RtuFramer;
+
 // The server cannot start: the message names the address or device.
 class ModbusError : public std::runtime_error {
  public:
@@ -116,6 +118,8 @@ class ModbusServer {
   void close_timed_out_clients(std::vector<TcpClient>& clients);
   void accept_tcp_client(std::vector<TcpClient>& clients);
   void serve_rtu();
+  bool read_rtu_bytes(int fd, RtuFramer& framer);
+  void answer_rtu_frame(const std::uint8_t* frame, std::size_t length);
   void count(std::uint64_t ModbusStats::*field);
   void close_all();  // what the constructor opened
 
