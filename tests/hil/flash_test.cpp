@@ -75,8 +75,14 @@ class Flashing : public ::testing::Test {
     emu_.emplace(
         hil::Child::spawn({kBin + "/delta_drive_emu", "--can", kIface, "--plant", "lumped"}));
     ASSERT_TRUE(emu_->wait_for_output("ready on " + kIface, 30s)) << emu_->err();
-    std::vector<std::string> argv{kBin + "/delta_boot", "--state-dir", dir_ + "/state", "--install",
-                                  install_};
+    std::vector<std::string> with_install{"--install", install_};
+    with_install.insert(with_install.end(), extra.begin(), extra.end());
+    start_boot(with_install, program);
+  }
+  // delta_boot alone, on the state folder as it is.
+  void start_boot(const std::vector<std::string>& extra,
+                  const std::vector<std::string>& program = {}) {
+    std::vector<std::string> argv{kBin + "/delta_boot", "--state-dir", dir_ + "/state"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     argv.insert(argv.end(), {"--", "--can", kIface, "--lockstep"});
     argv.insert(argv.end(), program.begin(), program.end());
@@ -239,6 +245,40 @@ TEST_F(Flashing, AFlashKilledPartWayLeavesTheOldProgramAndASecondAttemptSucceeds
   EXPECT_EQ(again.code, 0) << again.err << log();
   EXPECT_NE(again.out.find("(was " + kVersion + ")"), std::string::npos) << "the old one ran on";
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+}
+
+// Power lost during the slot switch (the fault matrix's row): a staged
+// program that never confirms is on trial when delta_boot and that program
+// are killed (SIGKILL: no clean-up, as when the power goes). delta_boot
+// started again on the same state folder rolls back with reason 4, and the
+// old delta_fw runs and reports the reason over CAN (0x2F00:2).
+TEST_F(Flashing, PowerLostDuringTheTrialRollsBackOnRestartWithReasonFour) {
+  start({"--trial-timeout", "120"});
+  {
+    std::ofstream script(path("hang.sh"));
+    script << "#!/bin/sh\nexec sleep 600\n";
+  }
+  ASSERT_EQ(
+      host_id({"image", "make", path("hang.sh"), "-o", path("hang.img"), "--version", kNextVersion})
+          .code,
+      0);
+  hil::Child flash = hil::Child::spawn(
+      {kBin + "/host_id", "flash", path("hang.img"), "--can", kIface, "--confirm-timeout", "120"});
+  ASSERT_TRUE(boot_->wait_for_output("on trial, pid ", 120s)) << log() << flash.err();
+  const std::string said = log();
+  const int program_pid = std::stoi(said.substr(said.find("on trial, pid ") + 14));
+  kill(boot_->pid(), SIGKILL);
+  kill(program_pid, SIGKILL);
+  EXPECT_EQ(boot_->wait(30s).value_or(-1), 128 + SIGKILL);
+  start_boot({"--trial-timeout", "120"});
+  EXPECT_NE(log().find("the controller restarted during the trial"), std::string::npos) << log();
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");
+  EXPECT_EQ(read_text("0x2F00:2"), "4 (0x04)\n") << "the reason: power lost during the trial";
+  const int flash_exit = flash.wait(180s).value_or(-1);
+  std::cout << flash.out() << flash.err();
+  EXPECT_EQ(flash_exit, 7);
+  EXPECT_NE(flash.err().find("rolled the new program back (reason 4"), std::string::npos)
+      << flash.err();
 }
 
 }  // namespace
