@@ -35,15 +35,22 @@ const DeltaLog& log60() {
   return log;
 }
 
+// A file removed when the program ends. (An atexit handler registered
+// while the path's static was being built ran after that static was
+// destroyed, so the file stayed behind in /tmp.)
+struct TemporaryFile {
+  std::string path;
+  ~TemporaryFile() { std::remove(path.c_str()); }
+};
+
 // The log as a file (in the page cache after its first read).
 const std::string& log60_path() {
-  static const std::string path = [] {
+  static const TemporaryFile file = [] {
     const std::string p = "/tmp/bench_host_log60_" + std::to_string(::getpid()) + ".csv";
     std::ofstream(p, std::ios::binary) << format_delta_log(log60());
-    std::atexit([] { std::remove(log60_path().c_str()); });
-    return p;
+    return TemporaryFile{p};
   }();
-  return path;
+  return file.path;
 }
 
 void BM_Stage1_Read60s(benchmark::State& state) {
