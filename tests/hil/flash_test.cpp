@@ -247,6 +247,21 @@ TEST_F(Flashing, AFlashKilledPartWayLeavesTheOldProgramAndASecondAttemptSucceeds
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
 }
 
+// host_id flash killed at its last step, while it waits for the new
+// program's confirmation: the controller needs it no more; the new program
+// confirms itself and runs.
+TEST_F(Flashing, AFlashKilledWhileItWaitsForTheConfirmationStillEndsConfirmed) {
+  start();
+  hil::Child flash =
+      hil::Child::spawn({kBin + "/host_id", "flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  ASSERT_TRUE(flash.wait_for_output("waiting for it to confirm", 120s)) << flash.err() << log();
+  kill(flash.pid(), SIGKILL);
+  EXPECT_EQ(flash.wait(30s).value_or(-1), 128 + SIGKILL);
+  ASSERT_EQ(flash.out().find("confirmed"), std::string::npos) << "killed too late: " << flash.out();
+  EXPECT_TRUE(boot_->wait_for_output("delta_boot: confirmed slot 1", 120s)) << log();
+  EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+}
+
 // Power lost during the slot switch (the fault matrix's row): a staged
 // program that never confirms is on trial when delta_boot and that program
 // are killed (SIGKILL: no clean-up, as when the power goes). delta_boot
