@@ -123,6 +123,15 @@ hil::Child start_emulator(const std::vector<std::string>& extra = {}) {
   return emu;
 }
 
+// delta_fw in lock-step running path1 once and exiting when it is done;
+// `extra` are more of its options.
+hil::Child start_path1_firmware(const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1",
+                                "--exit-when-done"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return hil::Child::spawn(argv);
+}
+
 // host_id record on the bus, writing `csv` when the log frames stop for 3 s.
 hil::Child start_recorder(const std::string& csv) {
   hil::Child rec =
@@ -218,8 +227,7 @@ class ExcitationSession : public ::testing::Test {
         hil::Child::spawn({kBin + "/host_id", "record", "--can", kIface, "-o", s.dir + "/path1.csv",
                            "--idle", "3", "--raw", s.dir + "/session.log"});
     ASSERT_TRUE(rec.wait_for_output("listening on", 30s)) << rec.err();
-    hil::Child fw = hil::Child::spawn(
-        {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+    hil::Child fw = start_path1_firmware();
     s.fw_exit = fw.wait(300s).value_or(-1);
     s.fw_err = fw.err();
     s.record_exit = rec.wait(60s).value_or(-1);
@@ -720,8 +728,7 @@ namespace {
 TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
   BusObserver bus;
   hil::Child emu = start_emulator();
-  hil::Child fw = hil::Child::spawn(
-      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  hil::Child fw = start_path1_firmware();
   ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
   // The drives are enabled within a few cycles of the run's start: wait
   // for operation enabled on the bus before the signal.
@@ -757,8 +764,7 @@ TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap)
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child first = start_recorder(dir + "/first.csv");
-  hil::Child fw = hil::Child::spawn(
-      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  hil::Child fw = start_path1_firmware();
   while (count_frames(bus.snapshot(), p::kLogA.base_id) < 1000) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << "the run ended first";
   }
@@ -875,8 +881,7 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child rec = start_recorder(dir + "/killed.csv");
-  hil::Child fw = hil::Child::spawn(
-      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done"});
+  hil::Child fw = start_path1_firmware();
   ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
   while (!all_drives_enabled(bus.snapshot())) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
@@ -957,9 +962,8 @@ TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheL
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child rec = start_recorder(dir + "/estop.csv");
-  hil::Child fw = hil::Child::spawn(
-      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1", "--exit-when-done",
-       "--set", "gpio.chip=" + sim.chip(), "--set", "gpio.estop_debounce_ms=0"});
+  hil::Child fw = start_path1_firmware(
+      {"--set", "gpio.chip=" + sim.chip(), "--set", "gpio.estop_debounce_ms=0"});
   // During motion: 1000 log records (2 s into the run) on the bus.
   const auto deadline = std::chrono::steady_clock::now() + 120s;
   while (count_frames(bus.snapshot(), p::kLogA.base_id) < 1000) {

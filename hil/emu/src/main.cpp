@@ -20,6 +20,7 @@
 #include "delta/parameter_file.hpp"
 #include "delta/robot_description.hpp"
 #include "emu/emulator.hpp"
+#include "emu/frame_pump.hpp"
 
 namespace {
 
@@ -27,6 +28,9 @@ std::atomic<bool> g_stop{false};
 void on_signal(int) {
   g_stop.store(true);
 }
+
+// Frames handed to the emulator between two wall-clock checks.
+constexpr std::size_t kFramesPerPass = 64;
 
 std::uint64_t monotonic_us() {
   timespec ts{};
@@ -192,14 +196,11 @@ int main(int argc, char** argv) {
       }
       pollfd pfd{socket.fd(), POLLIN, 0};
       poll(&pfd, 1, timeout_ms);
-      // Frames first, stamped with the time now, then the clocks' checks: a
-      // heartbeat that waited in the socket while this process was not
-      // scheduled still counts.
-      emulator.set_wall_time(monotonic_us());
-      while (auto r = socket.receive()) {
-        if (!r->error) emulator.on_frame(r->frame);
-      }
-      emulator.on_wall_time(monotonic_us());
+      // Frames first, each stamped with the time it is read, then the
+      // clocks' checks: a heartbeat that waited in the socket while this
+      // process was not scheduled still counts.
+      emu::pump_frames(
+          emulator, [&socket] { return socket.receive(); }, monotonic_us, kFramesPerPass);
       while (!delayed.empty() && delayed.begin()->first <= monotonic_us()) {
         if (socket.send(delayed.begin()->second) != delta::can::SendResult::kOk) ++send_failures;
         delayed.erase(delayed.begin());

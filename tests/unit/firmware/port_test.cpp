@@ -16,6 +16,7 @@
 #include "delta/modbus/register_map.hpp"
 #include "delta/trajectory_file.hpp"
 #include "emu/emulator.hpp"
+#include "emu/frame_pump.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
@@ -386,6 +387,43 @@ TEST(InProcessPortTest, DrivesTimeTheControllersHeartbeatByWallClockWhenSyncsSto
       EXPECT_LE(wall_us - stopped_us, 5'151'000u);
       EXPECT_EQ(rig.bus.emulator_.drive_state(1), cia::State::kFault);
     }
+  }
+}
+
+// A bus that never goes quiet (lock-step: the next SYNC is queued before
+// the last frame is handled) for 6 s of wall time, with the controller's
+// heartbeat every 50 ms: the drives must not take it for lost. The loop
+// stamped a whole batch with the time it began, so at its end every
+// heartbeat looked 6 s old and the drives faulted with EMCY 0x8130 in the
+// middle of a run (seen in the HIL tests under load).
+TEST(InProcessPortTest, AHeartbeatInALongBatchOfFramesIsStampedWhenItIsRead) {
+  namespace p = delta::can::protocol;
+  Rig rig;
+  ASSERT_TRUE(bring_up(rig));
+  for (int i = 0; i < 100; ++i) rig.cycle();
+  ASSERT_EQ(rig.controller.state(), fw::State::kReady);
+  struct Queued {
+    delta::can::Frame frame;
+    std::optional<int> error;
+  };
+  std::uint64_t wall_us = 10'000'000;
+  int handed = 0;
+  const auto receive = [&]() -> std::optional<Queued> {
+    if (handed == 3000) return std::nullopt;  // 6 s of frames, 2 ms apart
+    wall_us += 2000;
+    Queued q;
+    q.frame.id = handed % 25 == 0 ? p::cob_id(p::kControllerHeartbeat, 0) : p::kSync.base_id;
+    q.frame.dlc = handed % 25 == 0 ? 1 : 0;
+    q.frame.data[0] = p::kNmtStateOperational;
+    ++handed;
+    return q;
+  };
+  const auto now_us = [&wall_us] { return wall_us; };
+  EXPECT_EQ(emu::pump_frames(rig.bus.emulator_, receive, now_us, 100000), 3000u);
+  for (unsigned j = 0; j < 3; ++j) {
+    const cia::State state = rig.bus.emulator_.drive_state(j);
+    EXPECT_TRUE(state != cia::State::kFault && state != cia::State::kFaultReactionActive)
+        << "drive " << j + 1 << " faulted";
   }
 }
 
