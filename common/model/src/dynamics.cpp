@@ -11,12 +11,27 @@ struct PoseKinematics {
   VelocityKinematics<double> vk{};
 };
 
-KinematicsStatus pose_kinematics(const Geometry& g, const Joint3& q, const Joint3& qd,
+// The joint angles' cosines and sines, computed once per sample for the
+// kinematics and the dynamics terms alike.
+struct JointTrig {
+  Joint3 cos_q{}, sin_q{};
+};
+
+JointTrig trig_of(const Joint3& q) {
+  JointTrig t;
+  for (unsigned i = 0; i < 3; ++i) {
+    t.cos_q[i] = std::cos(q[i]);
+    t.sin_q[i] = std::sin(q[i]);
+  }
+  return t;
+}
+
+KinematicsStatus pose_kinematics(const Geometry& g, const JointTrig& t, const Joint3& qd,
                                  PoseKinematics& out) {
-  const auto fk = forward_kinematics(g, q);
+  const auto fk = forward_kinematics(g, t.cos_q, t.sin_q);
   if (fk.status != KinematicsStatus::kOk) return fk.status;
   out.p = fk.position_m;
-  out.vk = velocity_kinematics(g, q, qd, out.p);
+  out.vk = velocity_kinematics(g, t.cos_q, t.sin_q, qd, out.p);
   return out.vk.status;
 }
 
@@ -30,14 +45,14 @@ Joint3 transpose_times(const Mat3<double>& J, const Vec3<double>& v) {
 // B_k = (R + a cos q) u_k - a sin q z moves with e_k = dB_k/dq_k =
 // -a (sin q u_k + cos q z), and accelerates at Bdd_k = e_k qdd_k + f_k qd_k^2
 // with f_k = de_k/dq_k = a (-cos q u_k + sin q z).
-Joint3 coupling_term(const Geometry& g, const JointState& s, const Mat3<double>& J,
-                     const Vec3<double>& pdd) {
+Joint3 coupling_term(const Geometry& g, const JointState& s, const JointTrig& t,
+                     const Mat3<double>& J, const Vec3<double>& pdd) {
   const double a = g.upper_arm_length_m;
   Vec3<double> e[3];
   Vec3<double> elbow_acceleration_sum{};
   for (unsigned k = 0; k < 3; ++k) {
-    const double c = std::cos(s.q_rad[k]);
-    const double sn = std::sin(s.q_rad[k]);
+    const double c = t.cos_q[k];
+    const double sn = t.sin_q[k];
     const Vec3<double> u{kChainCos[k], kChainSin[k], 0.0};
     e[k] = Vec3<double>{-a * sn * u.x, -a * sn * u.y, -a * c};
     const Vec3<double> f{-a * c * u.x, -a * c * u.y, a * sn};
@@ -53,8 +68,9 @@ Joint3 coupling_term(const Geometry& g, const JointState& s, const Mat3<double>&
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
                                 double coulomb_smoothing_rad_s, DynamicsBasis& out,
                                 double stribeck_velocity_rad_s) {
+  const JointTrig t = trig_of(s.q_rad);
   PoseKinematics pk;
-  const auto status = pose_kinematics(g, s.q_rad, s.qd_rad_s, pk);
+  const auto status = pose_kinematics(g, t, s.qd_rad_s, pk);
   if (status != KinematicsStatus::kOk) return status;
   const Vec3<double> qdd{s.qdd_rad_s2[0], s.qdd_rad_s2[1], s.qdd_rad_s2[2]};
   const Mat3<double>& J = pk.vk.jacobian;
@@ -62,12 +78,12 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
   // -g with g = (0, 0, -gravity).
   out.platform_inertial = transpose_times(J, pdd);
   out.platform_weight = transpose_times(J, Vec3<double>{0.0, 0.0, gravity_m_s2});
-  out.coupling = coupling_term(g, s, J, pdd);
+  out.coupling = coupling_term(g, s, t, J, pdd);
   for (unsigned i = 0; i < 3; ++i) {
     out.platform[i] = out.platform_inertial[i] + out.platform_weight[i];
     out.inertia[i] = s.qdd_rad_s2[i];
-    out.gravity[i] = -std::cos(s.q_rad[i]);
-    out.gravity_sin[i] = std::sin(s.q_rad[i]);
+    out.gravity[i] = -t.cos_q[i];
+    out.gravity_sin[i] = t.sin_q[i];
     out.viscous[i] = s.qd_rad_s[i];
     out.coulomb[i] = std::tanh(s.qd_rad_s[i] / coulomb_smoothing_rad_s);
     if (stribeck_velocity_rad_s > 0.0) {
@@ -150,7 +166,7 @@ KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, 
   if (status != KinematicsStatus::kOk) return status;
   const Joint3 bias = torque_from_basis(b, p);
   PoseKinematics pk;
-  pose_kinematics(g, q_rad, qd_rad_s, pk);
+  pose_kinematics(g, trig_of(q_rad), qd_rad_s, pk);
   const Mat3<double>& J = pk.vk.jacobian;
   Mat3<double> M{};
   for (unsigned r = 0; r < 3; ++r) {

@@ -56,14 +56,20 @@ constexpr T pi() {
 
 }  // namespace detail
 
+// Elbow position of chain i at a joint angle given by its cosine and sine.
+template <class T>
+Vec3<T> elbow_position(const BasicGeometry<T>& g, int chain, T cos_theta, T sin_theta) {
+  const Vec3<T> u = detail::unit_radial<T>(chain);
+  const T radial = g.base_radius_m + g.upper_arm_length_m * cos_theta;
+  return {radial * u.x, radial * u.y, -g.upper_arm_length_m * sin_theta};
+}
+
 // Elbow position of chain i at joint angle theta.
 template <class T>
 Vec3<T> elbow_position(const BasicGeometry<T>& g, int chain, T theta_rad) {
   using std::cos;
   using std::sin;
-  const Vec3<T> u = detail::unit_radial<T>(chain);
-  const T radial = g.base_radius_m + g.upper_arm_length_m * cos(theta_rad);
-  return {radial * u.x, radial * u.y, -g.upper_arm_length_m * sin(theta_rad)};
+  return elbow_position(g, chain, T(cos(theta_rad)), T(sin(theta_rad)));
 }
 
 // Joint angle of one chain for platform position p, on the working branch
@@ -118,14 +124,19 @@ InverseKinematicsResult<T> inverse_kinematics(const BasicGeometry<T>& g, const V
 
 // Platform position for joint angles q: the intersection of three spheres of
 // radius b centred at C_i = B_i - r u_i, taking the solution below (lower z).
+// The same from the joint angles' cosines and sines (a caller that has
+// them already need not compute them again).
 template <class T>
-ForwardKinematicsResult<T> forward_kinematics(const BasicGeometry<T>& g, const JointVector<T>& q) {
+ForwardKinematicsResult<T> forward_kinematics(const BasicGeometry<T>& g,
+                                              const JointVector<T>& cos_q,
+                                              const JointVector<T>& sin_q) {
   using std::sqrt;
   ForwardKinematicsResult<T> r;
   std::array<Vec3<T>, 3> c{};
   for (int i = 0; i < 3; ++i) {
     const auto k = static_cast<unsigned>(i);
-    c[k] = elbow_position(g, i, q[k]) - detail::unit_radial<T>(i) * g.platform_radius_m;
+    c[k] =
+        elbow_position(g, i, cos_q[k], sin_q[k]) - detail::unit_radial<T>(i) * g.platform_radius_m;
   }
   const Vec3<T> d21 = c[1] - c[0];
   const Vec3<T> d31 = c[2] - c[0];
@@ -159,18 +170,26 @@ ForwardKinematicsResult<T> forward_kinematics(const BasicGeometry<T>& g, const J
   return r;
 }
 
+template <class T>
+ForwardKinematicsResult<T> forward_kinematics(const BasicGeometry<T>& g, const JointVector<T>& q) {
+  using std::cos;
+  using std::sin;
+  return forward_kinematics(g, JointVector<T>{T(cos(q[0])), T(cos(q[1])), T(cos(q[2]))},
+                            JointVector<T>{T(sin(q[0])), T(sin(q[1])), T(sin(q[2]))});
+}
+
 // Jacobian and Jdot*qdot at (q, p), where p = FK(q).
 //   Forearm d_i = P_i - B_i, arm tangent e_i = dB_i/dtheta_i.
 //   Rigid forearm: d_i . pdot = (d_i . e_i) qdot_i  =>  J = A^-1 diag(d_i . e_i),
 //   with A the matrix of rows d_i^T. Differentiating once more:
 //   d_i . pddot = (d_i . e_i) qddot_i + (d_i . h_i) qdot_i^2 - |ddot_i|^2,
 //   h_i = de_i/dtheta_i, ddot_i = pdot - e_i qdot_i.
+// cos_q, sin_q: the joint angles' cosines and sines.
 template <class T>
-VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const JointVector<T>& q,
-                                          const JointVector<T>& qdot, const Vec3<T>& p) {
+VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const JointVector<T>& cos_q,
+                                          const JointVector<T>& sin_q, const JointVector<T>& qdot,
+                                          const Vec3<T>& p) {
   using std::abs;
-  using std::cos;
-  using std::sin;
   VelocityKinematics<T> r;
   Mat3<T> A{};
   std::array<Vec3<T>, 3> e{};
@@ -180,9 +199,9 @@ VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const Joint
   for (int i = 0; i < 3; ++i) {
     const auto k = static_cast<unsigned>(i);
     const Vec3<T> u = detail::unit_radial<T>(i);
-    const T s = sin(q[k]);
-    const T co = cos(q[k]);
-    const Vec3<T> elbow = elbow_position(g, i, q[k]);
+    const T s = sin_q[k];
+    const T co = cos_q[k];
+    const Vec3<T> elbow = elbow_position(g, i, co, s);
     A.row[k] = p + u * g.platform_radius_m - elbow;
     e[k] = Vec3<T>{-a * s * u.x, -a * s * u.y, -a * co};
     h[k] = Vec3<T>{-a * co * u.x, -a * co * u.y, a * s};
@@ -208,6 +227,15 @@ VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const Joint
   r.jacobian_dot_qdot = (adj * rhs) * inv_det;
   r.status = KinematicsStatus::kOk;
   return r;
+}
+
+template <class T>
+VelocityKinematics<T> velocity_kinematics(const BasicGeometry<T>& g, const JointVector<T>& q,
+                                          const JointVector<T>& qdot, const Vec3<T>& p) {
+  using std::cos;
+  using std::sin;
+  return velocity_kinematics(g, JointVector<T>{T(cos(q[0])), T(cos(q[1])), T(cos(q[2]))},
+                             JointVector<T>{T(sin(q[0])), T(sin(q[1])), T(sin(q[2]))}, qdot, p);
 }
 
 // Where a target lies with respect to the usable workspace.
