@@ -36,20 +36,21 @@ struct Box {
   Eigen::VectorXd lower, upper;
 };
 
-// PSO's box from physical priors and the data's scale, wide enough to hold
-// the bounded least-squares optimum: both solve the same bounded problem.
-Box pso_box(const Equations& reg, const std::vector<ParameterInfo>& parameters,
-            const FitOptions& options, const Eigen::VectorXd& ls_beta) {
-  const Eigen::Index p = reg.psi.cols();
-  const double tau_rms = std::sqrt(reg.tau.squaredNorm() / static_cast<double>(reg.tau.size()));
+// PSO's box from physical priors and the data's scale (the RMS of tau and
+// of each column, from the least-squares moments), wide enough to hold the
+// bounded least-squares optimum: both solve the same bounded problem.
+Box pso_box(const LeastSquaresResult& ls, std::size_t rows,
+            const std::vector<ParameterInfo>& parameters, const FitOptions& options) {
+  const Eigen::Index p = ls.beta.size();
+  const auto n = static_cast<double>(rows);
+  const double tau_rms = std::sqrt(ls.tau_t_tau / n);
   Box box{Eigen::VectorXd(p), Eigen::VectorXd(p)};
   for (Eigen::Index c = 0; c < p; ++c) {
-    const double col_rms =
-        std::sqrt(reg.psi.col(c).squaredNorm() / static_cast<double>(reg.psi.rows()));
+    const double col_rms = std::sqrt(ls.psi_t_psi(c, c) / n);
     const double bound = options.bound_factor * tau_rms / col_rms;
     const ParameterInfo& info = parameters[static_cast<unsigned>(c)];
-    box.upper(c) = std::max(bound, 2.0 * ls_beta(c));
-    box.lower(c) = info.nonnegative ? 0.0 : std::min(-bound, 2.0 * ls_beta(c));
+    box.upper(c) = std::max(bound, 2.0 * ls.beta(c));
+    box.lower(c) = info.nonnegative ? 0.0 : std::min(-bound, 2.0 * ls.beta(c));
   }
   return box;
 }
@@ -59,8 +60,8 @@ Box pso_box(const Equations& reg, const std::vector<ParameterInfo>& parameters,
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
                                const FitOptions& options, std::size_t lags,
                                const std::string& log_name, FitResult& r, Box& box) {
-  const LeastSquaresResult ls =
-      solve_least_squares(reg, parameters, options.solver, options.weights, log_name, lags);
+  const LeastSquaresResult ls = solve_least_squares(
+      reg, parameters, options.solver, options.weights, log_name, lags, options.threads);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
   r.std_dev_lags = ls.correlation_lags;
@@ -70,9 +71,10 @@ LeastSquaresResult estimate_on(const Equations& reg, const std::vector<Parameter
   const Regression weighted_reg =
       options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
   const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
-  box = pso_box(cost_reg, parameters, options, ls.beta);
+  box = pso_box(ls, cost_reg.rows(), parameters, options);
   if (options.method == Method::kPso) {
-    const QuadraticCost cost(cost_reg, ls.beta);
+    const QuadraticCost cost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
+                             ls.cost * static_cast<double>(cost_reg.rows()), cost_reg.rows());
     r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
                     options.pso);
     r.beta = r.pso->best;
@@ -234,9 +236,9 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.options = options;
   const auto model = make_model(options.model);
-  Preprocessed pre = preprocess(*model, log, options.prepare, options.threads);
+  // From here on the log is only its name and gaps.
+  Preprocessed pre = preprocess_releasing(*model, log, options.prepare, options.threads);
   Regression& all_rows = pre.regression;
-  release_samples(log);  // preprocessed: from here on only its name and gaps
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
   r.gaps = log.gaps;

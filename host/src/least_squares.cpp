@@ -4,9 +4,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <sstream>
 
 #include "delta/input_error.hpp"
+#include "host_id/parallel.hpp"
 
 namespace host_id {
 
@@ -27,77 +29,160 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w) {
 
 namespace {
 
-// h_k = sum over |l| <= L of (1 - |l|/(L+1)) g_(k+l), for k < n, with g
-// zero from n to n + L - 1: the triangle as two boxes of L + 1 samples,
-//   box_k = sum of g over [k - L, k],  h_k = sum of box over [k, k + L] / (L + 1),
-// each a difference of running sums. sums holds n + L + 1 values, box n + L.
-void bartlett_smooth(const double* g, Eigen::Index n, Eigen::Index l, double* sums, double* box,
-                     double* h) {
-  const Eigen::Index m = n + l;
-  sums[0] = 0.0;
-  for (Eigen::Index k = 0; k < m; ++k) sums[k + 1] = sums[k] + g[k];
-  for (Eigen::Index k = 0; k < m; ++k)
-    box[k] = sums[k + 1] - sums[std::max<Eigen::Index>(0, k - l)];
-  for (Eigen::Index k = 0; k < m; ++k) sums[k + 1] = sums[k] + box[k];
-  const double norm = 1.0 / static_cast<double>(l + 1);
-  for (Eigen::Index k = 0; k < n; ++k) h[k] = (sums[std::min(m, k + l + 1)] - sums[k]) * norm;
-}
+// The lagged score sum of one series of score rows g_k (k = 0 .. n-1, zero
+// outside), with Bartlett weights:
+//   S = sum over |l| <= L of (1 - |l|/(L+1)) sum_k g_k^T g_(k+l).
+// The Bartlett triangle is the autocorrelation of a box of L + 1 samples, so
+//   S = sum over m = 0 .. n+L-1 of box_m^T box_m / (L + 1),
+//   box_m = sum of g over [m - L, m]:
+// a Gram matrix of the running box sums (positive semi-definite by
+// construction), summed here without the 1 / (L + 1). The rows taken in
+// order go through a ring of the last L + 1; the box is re-summed from the
+// ring now and then, so that the running sum's rounding does not build up;
+// the boxes are multiplied a block at a time (upper triangle).
+class BartlettScoreSum {
+ public:
+  BartlettScoreSum(Eigen::Index p, Eigen::Index lags, Eigen::MatrixXd& s)
+      : p_(p),
+        width_(lags + 1),
+        ring_(static_cast<std::size_t>(width_ * p), 0.0),
+        box_(static_cast<std::size_t>(p), 0.0),
+        block_(p, kBlockRows),
+        s_(s) {}
+
+  // g: p values, or nullptr for a zero row. take_in() only moves the box
+  // on (the rows before a chunk); push() also adds the box to the sum.
+  void take_in(const double* g) {
+    double* old = &ring_[static_cast<std::size_t>((pushed_ % width_) * p_)];
+    for (Eigen::Index c = 0; c < p_; ++c) {
+      const double v = g ? g[c] : 0.0;
+      box_[static_cast<std::size_t>(c)] += v - old[c];
+      old[c] = v;
+    }
+    if (++pushed_ % kResumEvery == 0) resum();
+  }
+  void push(const double* g) {
+    take_in(g);
+    double* column = block_.col(in_block_).data();
+    for (Eigen::Index c = 0; c < p_; ++c) column[c] = box_[static_cast<std::size_t>(c)];
+    if (++in_block_ == kBlockRows) flush();
+  }
+  // The boxes pushed since the last flush into the sum (upper triangle).
+  void flush() {
+    s_.selfadjointView<Eigen::Upper>().rankUpdate(block_.leftCols(in_block_));
+    in_block_ = 0;
+  }
+
+ private:
+  static constexpr Eigen::Index kBlockRows = 256;
+  static constexpr Eigen::Index kResumEvery = 4096;
+  void resum() {
+    std::fill(box_.begin(), box_.end(), 0.0);
+    for (Eigen::Index i = 0; i < width_; ++i) {
+      for (Eigen::Index c = 0; c < p_; ++c) {
+        box_[static_cast<std::size_t>(c)] += ring_[static_cast<std::size_t>(i * p_ + c)];
+      }
+    }
+  }
+  Eigen::Index p_, width_;
+  std::vector<double> ring_, box_;
+  Eigen::MatrixXd block_;  // p x kBlockRows: box rows as columns
+  Eigen::Index in_block_{0}, pushed_{0};
+  Eigen::MatrixXd& s_;
+};
 
 // S of the covariance in the scaled coordinates (the columns of Psi divided
-// by col_norm), per joint: each joint's g = a e laid out by sample (zero
-// where the joint has no equation), then
-//   S += G^T H,  H = G smoothed by the Bartlett weights 1 - |l|/(L+1),
-// which is the sum over lags in one product. The triangle is two boxes of
-// L+1 samples, each a difference of running sums: O(n p) for H. Lags run
-// over the sample index, across a gap between segments too (a few pairs).
+// by col_norm), per joint: each joint's scores g_k = a e of its row at
+// sample k (zero where it has none), in sample order, through
+// BartlettScoreSum. Lags run over the sample index, across a gap between
+// segments too (a few pairs). The boxes m = 0 .. n+L-1 of each joint are
+// shared out in chunks of fixed length (each starts by taking in the L + 1
+// rows before it), and the chunks' sums are added in order: the same
+// result on any number of threads.
 Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorXd& col_norm,
-                                        const Eigen::VectorXd& e, std::size_t lags) {
+                                        const Eigen::VectorXd& e, std::size_t lags,
+                                        unsigned threads) {
   const Eigen::Index p = r.psi.cols();
   const auto n = static_cast<Eigen::Index>(r.samples());
   const auto l = std::min<Eigen::Index>(static_cast<Eigen::Index>(lags), n);
-  const Eigen::RowVectorXd inverse_norm = col_norm.cwiseInverse().transpose();
-  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
-  // L zero rows after the last sample, so that the boxes reaching past it
-  // are whole.
-  const Eigen::Index m = n + l;
-  Eigen::MatrixXd g(m, p);
-  Eigen::VectorXd sums(m + 1), box(m), h(m);
-  // Each joint's rows, listed once.
-  std::array<std::vector<std::uint32_t>, 3> rows_of;
+  const Eigen::VectorXd inverse_norm = col_norm.cwiseInverse();
+  // The row of each joint at each sample (-1: none).
+  std::vector<std::int32_t> row_at(3 * static_cast<std::size_t>(n), -1);
   for (std::size_t row = 0; row < r.rows(); ++row) {
-    rows_of[r.joint[row]].push_back(static_cast<std::uint32_t>(row));
+    row_at[r.joint[row] * static_cast<std::size_t>(n) + r.sample[row]] =
+        static_cast<std::int32_t>(row);
   }
-  for (unsigned char j = 0; j < 3; ++j) {
-    // Column by column: Psi is column-major, so each pass reads one column
-    // in order.
-    g.setZero();
-    for (Eigen::Index c = 0; c < p; ++c) {
-      const double* psi_c = r.psi.col(c).data();
-      double* g_c = g.col(c).data();
-      const double scale = inverse_norm(c);
-      for (const std::uint32_t row : rows_of[j]) {
-        g_c[r.sample[row]] = psi_c[row] * e(static_cast<Eigen::Index>(row)) * scale;
+  constexpr Eigen::Index kChunk = 16384;
+  const Eigen::Index boxes = n + l;
+  const Eigen::Index chunks = (boxes + kChunk - 1) / kChunk;
+  std::vector<Eigen::MatrixXd> partial(3 * static_cast<std::size_t>(chunks));
+  const auto chunk_sum = [&](std::size_t, std::size_t task) {
+    const auto j = static_cast<Eigen::Index>(task) / chunks;
+    const Eigen::Index first = (static_cast<Eigen::Index>(task) % chunks) * kChunk;
+    const Eigen::Index last = std::min(boxes, first + kChunk);
+    const std::int32_t* rows_of_joint = row_at.data() + j * n;
+    std::vector<double> g(static_cast<std::size_t>(p));
+    const auto score = [&](Eigen::Index m) -> const double* {
+      const std::int32_t row = m < n ? rows_of_joint[m] : -1;
+      if (row < 0) return nullptr;
+      for (Eigen::Index c = 0; c < p; ++c) {
+        g[static_cast<std::size_t>(c)] = r.psi(row, c) * inverse_norm(c) * e(row);
       }
+      return g.data();
+    };
+    Eigen::MatrixXd& s = partial[task];
+    s = Eigen::MatrixXd::Zero(p, p);
+    BartlettScoreSum sum(p, l, s);
+    for (Eigen::Index m = std::max<Eigen::Index>(0, first - l - 1); m < first; ++m) {
+      sum.take_in(score(m));
     }
-    if (l == 0) {
-      s.noalias() += g.transpose() * g;
-      continue;
-    }
-    // One smoothed column at a time: S's column c is G^T H_c.
-    for (Eigen::Index c = 0; c < p; ++c) {
-      bartlett_smooth(g.col(c).data(), n, l, sums.data(), box.data(), h.data());
-      s.col(c).noalias() += g.topRows(n).transpose() * h.head(n);
-    }
-  }
-  // Symmetric in exact arithmetic; make it so in floating point.
-  return 0.5 * (s + s.transpose());
+    for (Eigen::Index m = first; m < last; ++m) sum.push(score(m));
+    sum.flush();
+  };
+  run_tasks(partial.size(), workers_for(static_cast<std::size_t>(3 * n), threads, 30000),
+            chunk_sum);
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
+  for (const Eigen::MatrixXd& part : partial) s += part;
+  s /= static_cast<double>(l + 1);
+  return s.selfadjointView<Eigen::Upper>();
 }
 
-// The columns' norms, with 1 for a zero column (its scaled column stays
-// zero), and the zero columns.
-Eigen::VectorXd column_norms(const Equations& r, std::vector<std::size_t>& zero_columns) {
-  Eigen::VectorXd col_norm = r.psi.colwise().norm().transpose();
-  for (Eigen::Index c = 0; c < col_norm.size(); ++c) {
+// The upper triangle of the Gram matrix [Psi tau]^T [Psi tau], (p+1) x
+// (p+1), in one pass over the rows: chunks of fixed length on the threads
+// (blocks that stay in the cache for both products), their sums added in
+// order, so that any number of threads gives the same matrix.
+Eigen::MatrixXd augmented_gram(const Equations& reg, unsigned threads) {
+  const Eigen::Index p = reg.psi.cols();
+  const Eigen::Index m = reg.psi.rows();
+  constexpr Eigen::Index kChunkRows = 16384, kBlockRows = 2048;
+  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kChunkRows - 1) / kChunkRows);
+  std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
+  const auto chunk_gram = [&](std::size_t, std::size_t chunk) {
+    Eigen::MatrixXd& g = partial[chunk];
+    g = Eigen::MatrixXd::Zero(p + 1, p + 1);
+    const Eigen::Index end = std::min(m, static_cast<Eigen::Index>(chunk + 1) * kChunkRows);
+    for (Eigen::Index start = static_cast<Eigen::Index>(chunk) * kChunkRows; start < end;
+         start += kBlockRows) {
+      const Eigen::Index len = std::min(kBlockRows, end - start);
+      const auto a = reg.psi.middleRows(start, len);
+      const auto t = reg.tau.segment(start, len);
+      g.topLeftCorner(p, p).selfadjointView<Eigen::Upper>().rankUpdate(a.transpose());
+      g.topRightCorner(p, 1).noalias() += a.transpose() * t;
+      g(p, p) += t.squaredNorm();
+    }
+  };
+  run_tasks(partial.size(), workers_for(static_cast<std::size_t>(m), threads, 60000), chunk_gram);
+  Eigen::MatrixXd g = partial[0];
+  for (std::size_t c = 1; c < partial.size(); ++c) g += partial[c];
+  return g;
+}
+
+// The columns' norms (from the Gram matrix's diagonal), with 1 for a zero
+// column (its scaled column stays zero), and the zero columns.
+Eigen::VectorXd column_norms(const Eigen::MatrixXd& gram, std::vector<std::size_t>& zero_columns) {
+  const Eigen::Index p = gram.cols() - 1;
+  Eigen::VectorXd col_norm = gram.diagonal().head(p).cwiseSqrt();
+  for (Eigen::Index c = 0; c < p; ++c) {
     if (!(col_norm(c) > 0.0)) {
       zero_columns.push_back(static_cast<std::size_t>(c));
       col_norm(c) = 1.0;
@@ -198,16 +283,83 @@ TriangularFactor scaled_qr(const Equations& reg, const Eigen::VectorXd& col_norm
   return {top.leftCols(p), top.col(p)};
 }
 
+// R and Q^T tau of the scaled regressor A = Psi D^-1 from its Gram matrix:
+// R^T R = A^T A (Cholesky), Q^T tau = R^-T A^T tau. One pass over the rows
+// (augmented_gram) against Householder's one per column. Its rounding error
+// grows with the square of the condition number, so it is taken only below
+// kGramConditionLimit (at most about 1e3^2 * 1e-16 = 1e-10 of the estimate),
+// and one step of refinement (refine_from_residual) takes the error down to
+// Householder's; above the limit, and for rank deficiency, Householder
+// (scaled_qr).
+constexpr double kGramConditionLimit = 1e3;
+
+std::optional<TriangularFactor> factor_from_gram(const Eigen::MatrixXd& gram,
+                                                 const Eigen::VectorXd& col_norm) {
+  const Eigen::Index p = col_norm.size();
+  const Eigen::VectorXd inverse_norm = col_norm.cwiseInverse();
+  const Eigen::MatrixXd full = gram.topLeftCorner(p, p).selfadjointView<Eigen::Upper>();
+  const Eigen::MatrixXd scaled = inverse_norm.asDiagonal() * full * inverse_norm.asDiagonal();
+  const Eigen::LLT<Eigen::MatrixXd, Eigen::Upper> llt(scaled);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  TriangularFactor f{llt.matrixU(), Eigen::VectorXd()};
+  const Eigen::VectorXd sv = Eigen::JacobiSVD<Eigen::MatrixXd>(f.r).singularValues();
+  if (!(sv(p - 1) * kGramConditionLimit > sv(0))) return std::nullopt;
+  f.qt_tau = f.r.transpose().triangularView<Eigen::Lower>().solve(
+      gram.topRightCorner(p, 1).cwiseProduct(inverse_norm));
+  return f;
+}
+
+// One step of iterative refinement of the least-squares solution x = R^-1
+// Q^T tau (semi-normal equations): with the residual r = tau - A x,
+//   x += R^-1 R^-T A^T r,
+// in one pass over the rows (each block's residual and its product with
+// the block while the block is in the cache). Q^T tau becomes R x of the
+// refined x, so that every solve from R (bounded ones too) sees it.
+void refine_from_residual(const Equations& reg, const Eigen::VectorXd& col_norm,
+                          TriangularFactor& f) {
+  const Eigen::Index m = reg.psi.rows();
+  constexpr Eigen::Index kBlockRows = 2048;
+  const Eigen::VectorXd x = f.r.triangularView<Eigen::Upper>().solve(f.qt_tau);
+  const Eigen::VectorXd beta = x.cwiseQuotient(col_norm);
+  Eigen::VectorXd psi_t_r = Eigen::VectorXd::Zero(x.size());
+  Eigen::VectorXd r(kBlockRows);
+  for (Eigen::Index start = 0; start < m; start += kBlockRows) {
+    const Eigen::Index len = std::min(kBlockRows, m - start);
+    const auto a = reg.psi.middleRows(start, len);
+    r.head(len).noalias() = reg.tau.segment(start, len) - a * beta;
+    psi_t_r.noalias() += a.transpose() * r.head(len);
+  }
+  const Eigen::VectorXd y =
+      f.r.transpose().triangularView<Eigen::Lower>().solve(psi_t_r.cwiseQuotient(col_norm));
+  const Eigen::VectorXd step = f.r.triangularView<Eigen::Upper>().solve(y);
+  f.qt_tau = f.r * (x + step);
+}
+
+// R and Q^T tau of the scaled regressor: from the Gram matrix where the
+// columns are well conditioned, else by Householder QR.
+TriangularFactor scaled_factor(const Equations& reg, const Eigen::MatrixXd& gram,
+                               const Eigen::VectorXd& col_norm, bool any_zero_column) {
+  if (!any_zero_column) {
+    if (std::optional<TriangularFactor> f = factor_from_gram(gram, col_norm)) {
+      refine_from_residual(reg, col_norm, *f);
+      return *f;
+    }
+  }
+  return scaled_qr(reg, col_norm);
+}
+
 // The least-squares solution from R: everything after the QR is p x p. The
 // singular values and right singular vectors of R are those of the scaled
 // regressor (Q has orthonormal columns).
 LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<ParameterInfo>& parameters,
-                                  LsSolver solver, const std::string& log_name, std::size_t lags) {
+                                  LsSolver solver, const std::string& log_name, std::size_t lags,
+                                  unsigned threads) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
   std::vector<std::size_t> zero_columns;
-  const Eigen::VectorXd col_norm = column_norms(r, zero_columns);
-  const auto [rr, qt_tau] = scaled_qr(r, col_norm);
+  const Eigen::MatrixXd gram = augmented_gram(r, threads);
+  const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
+  const auto [rr, qt_tau] = scaled_factor(r, gram, col_norm, !zero_columns.empty());
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
   if (!zero_columns.empty() || sv(p - 1) <= 1e-10 * sv(0)) {
@@ -219,6 +371,9 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
       solver == LsSolver::kSvd ? Eigen::VectorXd(svd.solve(qt_tau))
                                : Eigen::VectorXd(rr.triangularView<Eigen::Upper>().solve(qt_tau));
   LeastSquaresResult out;
+  out.psi_t_psi = gram.topLeftCorner(p, p).selfadjointView<Eigen::Upper>();
+  out.psi_t_tau = gram.topRightCorner(p, 1);
+  out.tau_t_tau = gram(p, p);
   out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
   const Eigen::VectorXd e = r.tau - r.psi * out.unconstrained_beta;
   out.unconstrained_cost = e.squaredNorm() / static_cast<double>(rows);
@@ -243,7 +398,7 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
   const Eigen::MatrixXd inv_ata = vs * vs.transpose();
   const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
   const Eigen::MatrixXd cov_scaled =
-      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags) * inv_ata;
+      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags, threads) * inv_ata;
   out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
   out.correlation_lags = lags;
   out.condition_number_scaled = sv(0) / sv(p - 1);
@@ -338,33 +493,37 @@ std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
 
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags) {
-  return solve_least_squares(r, model.parameters(), solver, weights, log_name, correlation_lags);
+                                       std::size_t correlation_lags, unsigned threads) {
+  return solve_least_squares(r, model.parameters(), solver, weights, log_name, correlation_lags,
+                             threads);
 }
 
 double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
                                   const std::string& log_name) {
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
-  const Eigen::VectorXd col_norm = column_norms(r, zero_columns);
+  const Eigen::MatrixXd gram = augmented_gram(r, 1);
+  const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
   if (!zero_columns.empty()) {
     throw delta::InputError(log_name + ": this log does not excite" +
                             names(zero_columns, parameters) + " at all");
   }
-  const auto [rr, qt_tau] = scaled_qr(r, col_norm);
+  const auto [rr, qt_tau] = scaled_factor(r, gram, col_norm, false);
   std::vector<bool> nonnegative(static_cast<std::size_t>(p));
   for (std::size_t c = 0; c < nonnegative.size(); ++c) nonnegative[c] = parameters[c].nonnegative;
   const Eigen::VectorXd x = bounded_least_squares(rr, qt_tau, nonnegative);
   // |tau - Psi beta|^2 = |tau|^2 - |Q^T tau|^2 + |R x - Q^T tau|^2.
-  const double sum = r.tau.squaredNorm() - qt_tau.squaredNorm() + (rr * x - qt_tau).squaredNorm();
+  const double sum = gram(p, p) - qt_tau.squaredNorm() + (rr * x - qt_tau).squaredNorm();
   return std::max(0.0, sum) / static_cast<double>(r.rows());
 }
 
 LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
-                                       const std::string& log_name, std::size_t correlation_lags) {
-  LeastSquaresResult ols = solve_ordinary(r, parameters, solver, log_name, correlation_lags);
+                                       const std::string& log_name, std::size_t correlation_lags,
+                                       unsigned threads) {
+  LeastSquaresResult ols =
+      solve_ordinary(r, parameters, solver, log_name, correlation_lags, threads);
   if (weights == LsWeights::kNone) return ols;
   const std::array<double, 3> var = mean_square_per_joint(r, r.tau - r.psi * ols.beta);
   std::array<double, 3> w{};
@@ -373,7 +532,7 @@ LeastSquaresResult solve_least_squares(const Equations& r,
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
   LeastSquaresResult wls =
-      solve_ordinary(weighted(r, w), parameters, solver, log_name, correlation_lags);
+      solve_ordinary(weighted(r, w), parameters, solver, log_name, correlation_lags, threads);
   wls.joint_weights = w;
   return wls;
 }

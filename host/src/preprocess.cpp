@@ -4,10 +4,11 @@
 #include <atomic>
 #include <cmath>
 #include <sstream>
-#include <thread>
 #include <vector>
 
 #include "delta/input_error.hpp"
+#include "host_id/huge_pages.hpp"
+#include "host_id/parallel.hpp"
 #include "host_id/signal.hpp"
 
 namespace host_id {
@@ -42,10 +43,11 @@ struct States {
   std::size_t size() const { return states.size(); }
 };
 
-double median_step(const std::vector<double>& t) {
+// The median of the n - 1 steps between the n times t[0..n-1].
+double median_step(const double* t, std::size_t n) {
   std::vector<double> dt;
-  dt.reserve(t.size());
-  for (std::size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
+  dt.reserve(n);
+  for (std::size_t i = 1; i < n; ++i) dt.push_back(t[i] - t[i - 1]);
   if (dt.empty()) return 0.0;
   std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
   return dt[dt.size() / 2];
@@ -58,7 +60,7 @@ std::vector<double> slice(const std::vector<double>& v, std::size_t b, std::size
 
 FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   FilterDesign d;
-  const double h_median = median_step(log.t);
+  const double h_median = median_step(log.t.data(), log.t.size());
   const double fs =
       log.sample_rate_hz ? *log.sample_rate_hz : (h_median > 0 ? 1.0 / h_median : 0.0);
   d.sample_rate_hz = fs;
@@ -78,44 +80,65 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   return d;
 }
 
-// q, qd, qdd and tau of one segment [b, e) of the log, appended to out.
+// The buffers one joint's series is worked in, reused for every joint and
+// segment.
+struct SeriesScratch {
+  std::vector<double> q, qd, qdd;
+  FiltfiltBlock block{2, 0, 1};
+};
+
+// q, qd, qdd and tau of one segment [b, e) of the log, appended to out:
+// each joint's q filtered and differentiated in the scratch buffers, then
+// put into the segment's states.
 void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                    States& out) {
+                    States& out, SeriesScratch& scratch) {
   const std::size_t n = e - b;
-  out.segments.push_back({out.states.size(), out.states.size() + n, b});
-  const std::vector<double> t = slice(log.t, b, e);
-  std::array<std::vector<double>, 3> q, qd, qdd;
+  const std::size_t first = out.states.size();
+  out.segments.push_back({first, first + n, b});
+  out.states.resize(first + n);
+  const double* t = log.t.data() + b;
   bool uniform = true;
   double h = 0.0;
   if (!d.logged_derivatives) {
-    h = median_step(t);
+    h = median_step(t, n);
     double worst = 0.0;
     for (std::size_t i = 1; i < n; ++i) worst = std::max(worst, std::abs((t[i] - t[i - 1]) - h));
     uniform = worst <= 1e-6 * h;
     out.any_nonuniform = out.any_nonuniform || !uniform;
   }
+  static constexpr std::ptrdiff_t kOne[] = {0};
+  std::vector<double>& q = scratch.q;
   for (unsigned j = 0; j < 3; ++j) {
+    q.assign(log.q[j].begin() + static_cast<std::ptrdiff_t>(b),
+             log.q[j].begin() + static_cast<std::ptrdiff_t>(e));
+    const double* qd = nullptr;
+    const double* qdd = nullptr;
     if (d.logged_derivatives) {
-      q[j] = slice(log.q[j], b, e);
-      qd[j] = slice(log.qd[j], b, e);
-      qdd[j] = slice(log.qdd[j], b, e);
+      qd = log.qd[j].data() + b;
+      qdd = log.qdd[j].data() + b;
     } else {
-      q[j] = filtfilt(d.filter, slice(log.q[j], b, e), d.pad);
+      filtfilt_lanes(
+          d.filter, n, 1, d.pad,
+          [&](std::size_t k) {
+            return LaneRef{&q[k], kOne};
+          },
+          scratch.block);
       if (uniform) {
-        differentiate_uniform(q[j], h, qd[j], qdd[j]);
+        differentiate_uniform(q, h, scratch.qd, scratch.qdd);
       } else {
-        differentiate_nonuniform(t, q[j], qd[j], qdd[j]);
+        differentiate_nonuniform(slice(log.t, b, e), q, scratch.qd, scratch.qdd);
       }
+      qd = scratch.qd.data();
+      qdd = scratch.qdd.data();
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      delta::JointState& st = out.states[first + i];
+      st.q_rad[j] = q[i];
+      st.qd_rad_s[j] = qd[i];
+      st.qdd_rad_s2[j] = qdd[i];
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
-    delta::JointState st;
-    for (unsigned j = 0; j < 3; ++j) {
-      st.q_rad[j] = q[j][i];
-      st.qd_rad_s[j] = qd[j][i];
-      st.qdd_rad_s2[j] = qdd[j][i];
-    }
-    out.states.push_back(st);
     // tau stays raw here: it is filtered with the regressor's columns.
     out.tau_Nm.push_back({log.tau[0][b + i], log.tau[1][b + i], log.tau[2][b + i]});
     out.t_s.push_back(t[i]);
@@ -124,6 +147,11 @@ void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, s
 
 States joint_states(const DeltaLog& log, const FilterDesign& d) {
   States out;
+  out.states.reserve(log.size());
+  advise_huge_pages(out.states.data(), out.states.capacity() * sizeof(delta::JointState));
+  out.tau_Nm.reserve(log.size());
+  out.t_s.reserve(log.size());
+  SeriesScratch scratch;
   std::vector<std::size_t> bounds{0};
   for (const SampleGap& g : log.gaps) bounds.push_back(g.index);
   bounds.push_back(log.size());
@@ -132,7 +160,7 @@ States joint_states(const DeltaLog& log, const FilterDesign& d) {
       ++out.segments_dropped;
       continue;
     }
-    append_segment(log, d, bounds[s], bounds[s + 1], out);
+    append_segment(log, d, bounds[s], bounds[s + 1], out, scratch);
   }
   if (out.states.empty()) {
     std::ostringstream s;
@@ -159,12 +187,8 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   return text.str();
 }
 
-// How many threads for n samples: below ~20k samples a second thread does
-// not pay for its start-up.
-std::size_t workers_for(std::size_t n, unsigned threads) {
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  return std::min<std::size_t>(threads, std::max<std::size_t>(1, n / 20000));
-}
+// Samples per thread that pay for its start-up.
+constexpr std::size_t kSamplesPerThread = 20000;
 
 // Where each sample's three rows go. The samples kept after trimming go
 // straight into the regression (rows 3i..3i+2 of kept sample i); the few
@@ -212,32 +236,29 @@ struct RowStore {
   double& tau_at(bool on_side, std::size_t row) {
     return on_side ? side_tau[row] : tau(static_cast<Eigen::Index>(row));
   }
-  // Columns first.. of a row, as lanes: psi's are a column apart, the side
-  // rows' next to each other.
-  LaneRef lanes(bool on_side, std::size_t row, std::size_t first) {
-    return on_side ? LaneRef{&side_rows[row * p + first], 1}
-                   : LaneRef{&psi(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(first)),
-                             psi.outerStride()};
-  }
-  // tau of a sample's three rows (joints 1..3), as lanes.
-  LaneRef tau_lanes(bool on_side, std::size_t row) {
-    return on_side ? LaneRef{&side_tau[row], 1} : LaneRef{&tau(static_cast<Eigen::Index>(row)), 1};
-  }
+  // The start of a row: its columns are offsets psi_offset (column-major
+  // psi) or side_offset (the side rows, row-major) away.
+  double* row_start(bool on_side, std::size_t row) { return &at(on_side, row, 0); }
+  double* tau_start(bool on_side, std::size_t row) { return &tau_at(on_side, row); }
 };
 
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
 // their places, on `threads` threads; and tau alike.
-// The kept samples' unfiltered rows also go into `measured`.
+// The kept samples' unfiltered rows also go into `measured`; nonzero[j p + c]
+// says whether column c of joint j is anywhere other than zero.
 void fill_rows(const Model& model, const DeltaLog& log, const States& s, const RowLayout& layout,
-               RowStore& store, MeasuredMoments& measured, unsigned threads) {
+               RowStore& store, MeasuredMoments& measured, std::vector<unsigned char>& nonzero,
+               unsigned threads) {
   const std::size_t n = s.size();
   const std::size_t p = model.size();
-  const std::size_t workers = workers_for(n, threads);
+  const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
   std::atomic<std::size_t> first_bad{n};
   std::vector<MeasuredMoments> moments(workers);
   for (MeasuredMoments& m : moments) m.reset(p);
+  std::vector<std::vector<unsigned char>> nonzero_of(workers, std::vector<unsigned char>(3 * p));
   const auto work = [&](std::size_t w) {
     std::vector<double> rows(3 * p);
+    unsigned char* nz = nonzero_of[w].data();
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
       const Segment& seg = s.segments[si];
       const std::size_t len = seg.end - seg.begin;
@@ -254,17 +275,24 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         bool side = false;
         const std::size_t i = layout.place(si, k - seg.begin, len, side);
         for (unsigned j = 0; j < 3; ++j) {
-          for (std::size_t c = 0; c < p; ++c) store.at(side, 3 * i + j, c) = rows[j * p + c];
+          for (std::size_t c = 0; c < p; ++c) {
+            const double v = rows[j * p + c];
+            store.at(side, 3 * i + j, c) = v;
+            nz[j * p + c] |= v != 0.0;
+          }
           store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
           if (!side) moments[w].add(j, &rows[j * p], s.tau_Nm[k][j]);
         }
       }
     }
   };
-  std::vector<std::thread> pool;
-  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work, w);
-  work(0);
-  for (auto& t : pool) t.join();
+  // One task per worker: its share of the samples, in its own moments.
+  run_tasks(workers, workers, [&](std::size_t, std::size_t w) { work(w); });
+  for (MeasuredMoments& m : moments) m.flush();
+  nonzero.assign(3 * p, 0);
+  for (const auto& nz : nonzero_of) {
+    for (std::size_t k = 0; k < nz.size(); ++k) nonzero[k] |= nz[k];
+  }
   measured = std::move(moments[0]);
   for (std::size_t w = 1; w < workers; ++w) measured.merge(moments[w]);
   if (const std::size_t k = first_bad.load(); k < n) {
@@ -281,44 +309,58 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
 // filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
-// The series are independent: blocks of up to four columns of one joint
-// (and tau's three joints) are shared out over the threads.
+// The series are independent: blocks of up to four of one joint's columns
+// that are not zero throughout (a joint's row is zero in the other joints'
+// friction columns; nonzero from fill_rows), and tau's three joints, are
+// shared out over the threads.
 void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
-                    const RowLayout& layout, RowStore& store, std::size_t samples,
+                    const RowLayout& layout, RowStore& store,
+                    const std::vector<unsigned char>& nonzero, std::size_t samples,
                     unsigned threads) {
+  constexpr std::size_t kLanes = FiltfiltBlock::kMaxLanes;
   struct Task {
     std::size_t segment;
-    unsigned joint;     // 3: tau's three joints
-    std::size_t first;  // column
-    std::size_t lanes;
+    unsigned joint;  // 3: tau's three joints
+    std::size_t lanes{0};
+    std::array<std::ptrdiff_t, kLanes> psi_offset{}, side_offset{};  // of each lane's column
   };
+  static constexpr std::array<std::ptrdiff_t, kLanes> kNext{0, 1, 2, 3};
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < segments.size(); ++si) {
     for (unsigned j = 0; j < 3; ++j) {
-      for (std::size_t c = 0; c < store.p; c += FiltfiltBlock::kMaxLanes) {
-        tasks.push_back({si, j, c, std::min(FiltfiltBlock::kMaxLanes, store.p - c)});
+      Task t{si, j};
+      for (std::size_t c = 0; c < store.p; ++c) {
+        if (!nonzero[j * store.p + c]) continue;
+        t.psi_offset[t.lanes] = static_cast<std::ptrdiff_t>(c) * store.psi.outerStride();
+        t.side_offset[t.lanes] = static_cast<std::ptrdiff_t>(c);
+        if (++t.lanes == kLanes) {
+          tasks.push_back(t);
+          t.lanes = 0;
+        }
       }
+      if (t.lanes > 0) tasks.push_back(t);
     }
-    tasks.push_back({si, 3, 0, 3});
+    tasks.push_back({si, 3, 3, kNext, kNext});
   }
-  const auto run = [&](const Task& t) {
+  const auto run = [&](const Task& t, FiltfiltBlock& block) {
     const std::size_t si = t.segment;
     const std::size_t len = segments[si].end - segments[si].begin;
-    filtfilt_lanes(d.filter, len, t.lanes, d.pad, [&](std::size_t q) {
-      bool side = false;
-      const std::size_t i = layout.place(si, q, len, side);
-      return t.joint == 3 ? store.tau_lanes(side, 3 * i)
-                          : store.lanes(side, 3 * i + t.joint, t.first);
-    });
+    filtfilt_lanes(
+        d.filter, len, t.lanes, d.pad,
+        [&](std::size_t q) {
+          bool side = false;
+          const std::size_t i = layout.place(si, q, len, side);
+          if (t.joint == 3) return LaneRef{store.tau_start(side, 3 * i), kNext.data()};
+          return LaneRef{store.row_start(side, 3 * i + t.joint),
+                         side ? t.side_offset.data() : t.psi_offset.data()};
+        },
+        block);
   };
-  std::atomic<std::size_t> next{0};
-  const auto work = [&] {
-    for (std::size_t k = next++; k < tasks.size(); k = next++) run(tasks[k]);
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t w = 1; w < workers_for(samples, threads); ++w) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  const std::size_t workers = workers_for(samples, threads, kSamplesPerThread);
+  // One buffer per thread, grown to the longest segment.
+  std::vector<FiltfiltBlock> blocks(workers, FiltfiltBlock(2, 0));
+  run_tasks(tasks.size(), workers,
+            [&](std::size_t worker, std::size_t k) { run(tasks[k], blocks[worker]); });
 }
 
 // The rows' joints, speeds, samples and times.
@@ -350,14 +392,16 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   Regression r;
   r.psi.resize(static_cast<Eigen::Index>(3 * layout.kept()), static_cast<Eigen::Index>(p));
   r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
+  advise_huge_pages(r.psi.data(), static_cast<std::size_t>(r.psi.size()) * sizeof(double));
   RowStore store{r.psi, r.tau, std::vector<double>(3 * layout.trimmed() * p),
                  std::vector<double>(3 * layout.trimmed()), p};
-  fill_rows(model, log, s, layout, store, r.measured, threads);
+  std::vector<unsigned char> nonzero;
+  fill_rows(model, log, s, layout, store, r.measured, nonzero, threads);
   label_rows(s, layout, d.trim, r);
   const std::vector<Segment> segments = s.segments;
   const std::size_t samples = s.size();
   s = States{};
-  if (!d.logged_derivatives) filter_columns(d, segments, layout, store, samples, threads);
+  if (!d.logged_derivatives) filter_columns(d, segments, layout, store, nonzero, samples, threads);
   return r;
 }
 
@@ -381,18 +425,37 @@ PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options
   return out;
 }
 
-Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
-                        unsigned threads) {
+namespace {
+
+// The joint states of the log, then after_states() (which may free the
+// log's samples: only its name, geometry and gravity are used after it),
+// then the regression.
+template <class AfterStates>
+Preprocessed preprocess_with(const Model& model, const DeltaLog& log, const PrepareOptions& options,
+                             unsigned threads, AfterStates after_states) {
   const FilterDesign design = design_filter(log, options);
   Preprocessed out;
   States states = joint_states(log, design);
   out.report.segments_used = states.segments.size();
   out.report.segments_dropped = states.segments_dropped;
   out.report.derivatives = describe(design, options, states);
-  out.regression = regression_of(model, log, std::move(states), design, threads);
   out.report.samples_in_log = log.size();
   out.report.sample_rate_hz = design.sample_rate_hz;
+  after_states();
+  out.regression = regression_of(model, log, std::move(states), design, threads);
   return out;
+}
+
+}  // namespace
+
+Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
+                        unsigned threads) {
+  return preprocess_with(model, log, options, threads, [] {});
+}
+
+Preprocessed preprocess_releasing(const Model& model, DeltaLog& log, const PrepareOptions& options,
+                                  unsigned threads) {
+  return preprocess_with(model, log, options, threads, [&log] { release_samples(log); });
 }
 
 }  // namespace host_id

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "delta/input_error.hpp"
@@ -35,44 +36,47 @@ std::array<std::size_t, 3> Equations::rows_per_joint() const {
 
 namespace {
 
-// Applies a permutation of rows (row i takes old row from[i]) to v in place.
+// Moves the elements whose `fast` flag is set to the front of v[0..n), in
+// order, and the others after them, in order: one pass, with a buffer only
+// for the others (a few percent of the rows).
 template <class T>
-void permute(std::vector<T>& v, const std::vector<std::size_t>& from, std::vector<T>& buffer) {
-  buffer.resize(from.size());
-  for (std::size_t i = 0; i < from.size(); ++i) buffer[i] = v[from[i]];
-  std::swap(v, buffer);
+void stable_partition(T* v, std::size_t n, const std::vector<unsigned char>& fast,
+                      std::vector<T>& slow) {
+  slow.clear();
+  std::size_t out = 0;
+  for (std::size_t row = 0; row < n; ++row) {
+    if (fast[row]) {
+      v[out++] = v[row];
+    } else {
+      slow.push_back(v[row]);
+    }
+  }
+  std::copy(slow.begin(), slow.end(), v + out);
 }
 
 }  // namespace
 
 std::size_t fast_rows_first(Regression& r, double min_speed_rad_s) {
-  std::vector<std::size_t> from;
-  from.reserve(r.rows());
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    if (std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s) from.push_back(row);
+  const std::size_t rows = r.rows();
+  std::vector<unsigned char> fast(rows);
+  std::size_t count = 0;
+  for (std::size_t row = 0; row < rows; ++row) {
+    fast[row] = std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s;
+    count += fast[row];
   }
-  const std::size_t fast = from.size();
-  if (fast == r.rows()) return fast;
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    if (std::abs(r.velocity_rad_s[row]) < min_speed_rad_s) from.push_back(row);
-  }
-  std::vector<double> column;
+  if (count == rows) return count;
+  std::vector<double> slow;
+  slow.reserve(rows - count);
   for (Eigen::Index c = 0; c < r.psi.cols(); ++c) {
-    column.assign(r.psi.col(c).data(), r.psi.col(c).data() + r.psi.rows());
-    for (std::size_t i = 0; i < from.size(); ++i) {
-      r.psi(static_cast<Eigen::Index>(i), c) = column[from[i]];
-    }
+    stable_partition(r.psi.col(c).data(), rows, fast, slow);
   }
-  column.assign(r.tau.data(), r.tau.data() + r.tau.size());
-  for (std::size_t i = 0; i < from.size(); ++i)
-    r.tau(static_cast<Eigen::Index>(i)) = column[from[i]];
-  std::vector<double> speed_buffer;
-  permute(r.velocity_rad_s, from, speed_buffer);
-  std::vector<unsigned char> joint_buffer;
-  permute(r.joint, from, joint_buffer);
-  std::vector<std::size_t> sample_buffer;
-  permute(r.sample, from, sample_buffer);
-  return fast;
+  stable_partition(r.tau.data(), rows, fast, slow);
+  stable_partition(r.velocity_rad_s.data(), rows, fast, slow);
+  std::vector<unsigned char> slow_joint;
+  stable_partition(r.joint.data(), rows, fast, slow_joint);
+  std::vector<std::size_t> slow_sample;
+  stable_partition(r.sample.data(), rows, fast, slow_sample);
+  return count;
 }
 
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
@@ -80,20 +84,84 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
 }
 
 QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
-    : beta0_(beta0),
-      rows_(static_cast<double>(r.tau.size())),
-      d_(beta0.size()),
-      g_d_(beta0.size()) {
+    : rows_(static_cast<double>(r.tau.size())) {
   const Eigen::VectorXd r0 = r.tau - r.psi * beta0;
-  psi_t_psi_ = r.psi.transpose() * r.psi;
-  psi_t_r0_ = r.psi.transpose() * r0;
+  set(r.psi.transpose() * r.psi, r.psi.transpose() * r0, beta0);
   r0_t_r0_ = r0.squaredNorm();
 }
 
+QuadraticCost::QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_tau,
+                             const Eigen::VectorXd& beta0, double r0_t_r0, std::size_t rows)
+    : r0_t_r0_(r0_t_r0), rows_(static_cast<double>(rows)) {
+  set(psi_t_psi, psi_t_tau - psi_t_psi * beta0, beta0);
+}
+
+namespace {
+
+// d^T (G d - 2 b) for a symmetric p x p matrix G: G d as a sum of G's
+// columns (independent lanes, which the compiler vectorises; a row-by-row
+// dot product is a chain of dependent additions it may not reorder), then
+// the outer sum in two halves.
+template <std::size_t P>
+double quadratic_form_of(const double* g, const double* b, const double* d) {
+  double g_d[P] = {};
+  for (std::size_t j = 0; j < P; ++j) {
+    const double* column = g + j * P;
+    const double dj = d[j];
+    for (std::size_t i = 0; i < P; ++i) g_d[i] += column[i] * dj;
+  }
+  double sum[2] = {0.0, 0.0};
+  for (std::size_t i = 0; i < P; ++i) sum[i % 2] += d[i] * (g_d[i] - 2.0 * b[i]);
+  return sum[0] + sum[1];
+}
+
+// The same for any p (a model with more parameters than the unrolled ones).
+double quadratic_form(const double* g, const double* b, const double* d, std::size_t p) {
+  double quadratic = 0.0;
+  for (std::size_t i = 0; i < p; ++i) {
+    const double* row = g + i * p;
+    double g_d = 0.0;
+    for (std::size_t j = 0; j < p; ++j) g_d += row[j] * d[j];
+    quadratic += d[i] * (g_d - 2.0 * b[i]);
+  }
+  return quadratic;
+}
+
+template <std::size_t P>
+double quadratic_form_of(const double* g, const double* b, const double* d, std::size_t) {
+  return quadratic_form_of<P>(g, b, d);
+}
+
+template <std::size_t... P>
+auto form_for(std::size_t p, std::index_sequence<P...>) {
+  double (*form)(const double*, const double*, const double*, std::size_t) = quadratic_form;
+  ((p == P ? (form = quadratic_form_of<P>, 0) : 0), ...);
+  return form;
+}
+
+}  // namespace
+
+void QuadraticCost::set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
+                        const Eigen::VectorXd& beta0) {
+  const auto p = static_cast<std::size_t>(beta0.size());
+  beta0_.assign(beta0.data(), beta0.data() + p);
+  psi_t_r0_.assign(psi_t_r0.data(), psi_t_r0.data() + p);
+  psi_t_psi_.resize(p * p);
+  for (std::size_t i = 0; i < p; ++i) {
+    for (std::size_t j = 0; j < p; ++j) {
+      psi_t_psi_[i * p + j] = psi_t_psi(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+    }
+  }
+  d_.resize(p);
+  form_ = form_for(p, std::index_sequence<9, 12, 14, 15, 18>());  // the models' usual sizes
+}
+
 double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
-  d_.noalias() = beta - beta0_;
-  g_d_.noalias() = psi_t_psi_.selfadjointView<Eigen::Upper>() * d_;
-  return std::max(0.0, (r0_t_r0_ - 2.0 * d_.dot(psi_t_r0_) + d_.dot(g_d_)) / rows_);
+  const std::size_t p = d_.size();
+  const double* b = beta.data();
+  for (std::size_t i = 0; i < p; ++i) d_[i] = b[i] - beta0_[i];
+  const double form = form_(psi_t_psi_.data(), psi_t_r0_.data(), d_.data(), p);
+  return std::max(0.0, (r0_t_r0_ + form) / rows_);
 }
 
 std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e) {
@@ -118,20 +186,34 @@ void MeasuredMoments::reset(std::size_t parameters) {
     psi_t_tau[j] = Eigen::VectorXd::Zero(p);
     tau_sq[j] = 0.0;
     rows[j] = 0;
+    block_[j].resize(p, kBlockRows);
+    block_tau_[j].resize(kBlockRows);
+    in_block_[j] = 0;
   }
 }
 
 void MeasuredMoments::add(unsigned joint, const double* row, double tau) {
-  Eigen::MatrixXd& g = psi_t_psi[joint];
-  Eigen::VectorXd& h = psi_t_tau[joint];
-  const Eigen::Index p = h.size();
-  for (Eigen::Index a = 0; a < p; ++a) {
-    if (row[a] == 0.0) continue;  // a joint's row is zero in the other joints' columns
-    h(a) += row[a] * tau;
-    for (Eigen::Index b = a; b < p; ++b) g(a, b) += row[a] * row[b];
-  }
-  tau_sq[joint] += tau * tau;
-  ++rows[joint];
+  const Eigen::Index k = in_block_[joint]++;
+  double* column = block_[joint].col(k).data();
+  for (Eigen::Index c = 0; c < block_[joint].rows(); ++c) column[c] = row[c];
+  block_tau_[joint](k) = tau;
+  if (in_block_[joint] == kBlockRows) flush(joint);
+}
+
+void MeasuredMoments::flush(unsigned joint) {
+  const Eigen::Index k = in_block_[joint];
+  if (k == 0) return;
+  const auto rows_in = block_[joint].leftCols(k);
+  const auto tau_in = block_tau_[joint].head(k);
+  psi_t_psi[joint].selfadjointView<Eigen::Upper>().rankUpdate(rows_in);
+  psi_t_tau[joint].noalias() += rows_in * tau_in;
+  tau_sq[joint] += tau_in.squaredNorm();
+  rows[joint] += static_cast<std::size_t>(k);
+  in_block_[joint] = 0;
+}
+
+void MeasuredMoments::flush() {
+  for (unsigned j = 0; j < 3; ++j) flush(j);
 }
 
 void MeasuredMoments::merge(const MeasuredMoments& other) {

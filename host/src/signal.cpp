@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <utility>
 
 namespace host_id {
@@ -104,8 +105,15 @@ double line_end_value(const double* x, std::size_t stride, std::size_t first, st
 
 }  // namespace
 
-FiltfiltBlock::FiltfiltBlock(std::size_t n, std::size_t pad) : n_(n), pad_(std::min(pad, n - 1)) {
-  ext_.resize((n_ + 2 * pad_) * kMaxLanes);
+FiltfiltBlock::FiltfiltBlock(std::size_t n, std::size_t pad, std::size_t max_lanes)
+    : n_(0), pad_(0), max_lanes_(std::min(max_lanes, kMaxLanes)) {
+  resize(n, pad);
+}
+
+void FiltfiltBlock::resize(std::size_t n, std::size_t pad) {
+  n_ = n;
+  pad_ = std::min(pad, n - 1);
+  if (ext_.size() < (n_ + 2 * pad_) * max_lanes_) ext_.resize((n_ + 2 * pad_) * max_lanes_);
 }
 
 void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) {
@@ -128,8 +136,10 @@ void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) 
 
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
                     std::size_t lanes, std::size_t stride, std::size_t pad) {
-  filtfilt_lanes(filter, n, lanes, pad, [=](std::size_t k) {
-    return LaneRef{data + k * stride, 1};
+  std::vector<std::ptrdiff_t> offset(lanes);
+  for (std::size_t l = 0; l < lanes; ++l) offset[l] = static_cast<std::ptrdiff_t>(l);
+  filtfilt_lanes(filter, n, lanes, pad, [&](std::size_t k) {
+    return LaneRef{data + k * stride, offset.data()};
   });
 }
 

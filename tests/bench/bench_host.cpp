@@ -133,7 +133,8 @@ void BM_Stage6_Pso60s(benchmark::State& state) {
   const auto model = make_model({});
   const auto ls = solve_least_squares(r, *model, LsSolver::kQr, LsWeights::kNone, "bench", 0);
   const QuadraticCost cost(r, ls.beta);
-  const Eigen::VectorXd upper = 10.0 * ls.beta.cwiseAbs() + Eigen::VectorXd::Constant(9, 1e-3);
+  const Eigen::VectorXd upper =
+      10.0 * ls.beta.cwiseAbs() + Eigen::VectorXd::Constant(ls.beta.size(), 1e-3);
   const Eigen::VectorXd lower = -upper;
   for (auto _ : state) {
     const PsoResult p =

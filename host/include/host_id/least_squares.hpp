@@ -56,6 +56,11 @@ struct LeastSquaresResult {
   double condition_number{0};              // of Psi, raw units
   double condition_number_scaled{0};       // of Psi with unit-norm columns
   std::array<double, 3> joint_weights{1, 1, 1};
+  // The moments of the (weighted) rows solved, for a cost in O(p^2)
+  // (QuadraticCost) without another pass over them.
+  Eigen::MatrixXd psi_t_psi;  // full
+  Eigen::VectorXd psi_t_tau;
+  double tau_t_tau{0};
 };
 
 // Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
@@ -75,15 +80,17 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w);
 //   g_k = psi_k e_k.
 // Filtered residuals are correlated over about fs / f_cutoff samples, and
 // the white-noise formula (L = 0) then understates the spread several times.
+// The passes over the rows run on `threads` threads (0: one per core) for
+// long regressions, with the same result on any number of them.
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags = 0);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1);
 // The same for columns described by `parameters` (names and bounds).
 LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name,
-                                       std::size_t correlation_lags = 0);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1);
 
 // The cost (mean squared error) of the bounded optimum alone: no
 // covariance, for a search that solves many problems (variable projection).

@@ -61,5 +61,11 @@ PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options
 // The regressor is built on `threads` threads (0: all cores).
 Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
                         unsigned threads = 0);
+// The same, freeing the log's samples (release_samples) as soon as the
+// joint states are taken from them, so that the log's columns and the
+// regressor are never in memory together (a fit's peak); the log keeps its
+// name, geometry and gaps.
+Preprocessed preprocess_releasing(const Model& model, DeltaLog& log, const PrepareOptions& options,
+                                  unsigned threads = 0);
 
 }  // namespace host_id

@@ -28,10 +28,20 @@ struct MeasuredMoments {
   std::array<double, 3> tau_sq{};
   std::array<std::size_t, 3> rows{};
   void reset(std::size_t parameters);
+  // Rows are gathered a block at a time and taken into the sums by one
+  // rank update per block; flush() takes the rest (before merge or rmse).
   void add(unsigned joint, const double* row, double tau);
+  void flush();
   void merge(const MeasuredMoments& other);
   // The RMSE per joint against the measured torque (0 for a joint without rows).
   std::array<double, 3> rmse(const Eigen::VectorXd& beta) const;
+
+ private:
+  static constexpr Eigen::Index kBlockRows = 128;
+  void flush(unsigned joint);
+  std::array<Eigen::MatrixXd, 3> block_;  // p x kBlockRows: rows as columns
+  std::array<Eigen::VectorXd, 3> block_tau_;
+  std::array<Eigen::Index, 3> in_block_{};
 };
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
@@ -85,21 +95,34 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
 // whose large terms cancel to about 5e-9 relative near the optimum: here
 // r0^T r0 is the cost at beta0 itself, and the other terms are small near
 // it (Psi^T r0 is zero at the exact optimum, and is kept for the rest).
+// The terms come from the rows (two passes over them), or from moments the
+// least-squares solve has already formed (Psi^T Psi, Psi^T tau, and the
+// cost at beta0 computed directly): then Psi^T r0 = Psi^T tau - Psi^T Psi
+// beta0, which is small near the optimum and enters only multiplied by d.
 // An evaluation allocates nothing (PSO makes a hundred thousand of them):
-// it works in two scratch vectors, so one object serves one thread.
+// plain loops over a dense copy of Psi^T Psi and one scratch vector, so one
+// object serves one thread.
 class QuadraticCost {
  public:
   QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0);
+  // psi_t_psi full (both triangles); r0_t_r0 = |tau - Psi beta0|^2.
+  QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_tau,
+                const Eigen::VectorXd& beta0, double r0_t_r0, std::size_t rows);
   double operator()(const Eigen::VectorXd& beta) const;
-  Eigen::Index parameters() const { return beta0_.size(); }
+  Eigen::Index parameters() const { return static_cast<Eigen::Index>(beta0_.size()); }
 
  private:
-  Eigen::VectorXd beta0_;
-  Eigen::MatrixXd psi_t_psi_;
-  Eigen::VectorXd psi_t_r0_;
+  void set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
+           const Eigen::VectorXd& beta0);
+  std::vector<double> beta0_;
+  std::vector<double> psi_t_psi_;  // p x p, row by row
+  std::vector<double> psi_t_r0_;
   double r0_t_r0_{0};
   double rows_{1};
-  mutable Eigen::VectorXd d_, g_d_;  // beta - beta0 and Psi^T Psi (beta - beta0)
+  mutable std::vector<double> d_;  // beta - beta0
+  // The form d^T (Psi^T Psi d - 2 Psi^T r0) for this p: unrolled for the
+  // models' usual sizes, a loop otherwise.
+  double (*form_)(const double* g, const double* b, const double* d, std::size_t p){nullptr};
 };
 
 // The mean of e^2 over each joint's rows (0 for a joint without rows).

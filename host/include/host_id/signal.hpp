@@ -38,7 +38,11 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size
 class FiltfiltBlock {
  public:
   static constexpr std::size_t kMaxLanes = 4;
-  FiltfiltBlock(std::size_t n, std::size_t pad);  // n >= 2
+  // n >= 2; room for up to max_lanes lanes.
+  FiltfiltBlock(std::size_t n, std::size_t pad, std::size_t max_lanes = kMaxLanes);
+  // Makes the block serve series of n samples, keeping its buffer (one
+  // block serves many series without allocating again).
+  void resize(std::size_t n, std::size_t pad);
   // Sample k of lane l of the block being filled (lanes: as given to run()).
   double& sample(std::size_t k, std::size_t l, std::size_t lanes) {
     return ext_[(pad_ + k) * lanes + l];
@@ -48,37 +52,52 @@ class FiltfiltBlock {
   double filtered(std::size_t k, std::size_t l) const { return ext_[(pad_ + k) * lanes_ + l]; }
 
  private:
-  std::size_t n_, pad_, lanes_{0};
+  std::size_t n_, pad_, lanes_{0}, max_lanes_;
   std::vector<double> ext_;
 };
 
-// Where sample k of a set of lanes lives: lane l at at[l * stride].
+// Where sample k of a set of lanes lives: lane l at at[offset[l]].
 struct LaneRef {
   double* at;
-  std::ptrdiff_t stride;
-  double& operator[](std::size_t l) const { return at[static_cast<std::ptrdiff_t>(l) * stride]; }
+  const std::ptrdiff_t* offset;
+  double& operator[](std::size_t l) const { return at[offset[l]]; }
 };
 
 // filtfilt_lanes where the caller says where each sample lives: at(k) is
 // sample k of every lane (lanes 0..lanes-1), each read once and written
-// once with its filtered value.
+// once with its filtered value, in `block`'s buffer. A group of lanes that
+// is zero throughout is left as it is (its filtered value is zero).
 template <class At>
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
-                    std::size_t pad, At at) {
+                    std::size_t pad, At at, FiltfiltBlock& block) {
   if (n < 2 || lanes == 0) return;
-  FiltfiltBlock block(n, pad);
+  block.resize(n, pad);
   for (std::size_t first = 0; first < lanes; first += FiltfiltBlock::kMaxLanes) {
     const std::size_t w = std::min(FiltfiltBlock::kMaxLanes, lanes - first);
+    bool any = false;
     for (std::size_t k = 0; k < n; ++k) {
       const LaneRef x = at(k);
-      for (std::size_t l = 0; l < w; ++l) block.sample(k, l, w) = x[first + l];
+      for (std::size_t l = 0; l < w; ++l) {
+        const double v = x[first + l];
+        block.sample(k, l, w) = v;
+        any = any || v != 0.0;
+      }
     }
+    if (!any) continue;
     block.run(filter, w);
     for (std::size_t k = 0; k < n; ++k) {
       const LaneRef x = at(k);
       for (std::size_t l = 0; l < w; ++l) x[first + l] = block.filtered(k, l);
     }
   }
+}
+
+template <class At>
+void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
+                    std::size_t pad, At at) {
+  if (n < 2 || lanes == 0) return;
+  FiltfiltBlock block(n, pad, std::min(lanes, FiltfiltBlock::kMaxLanes));
+  filtfilt_lanes(filter, n, lanes, pad, at, block);
 }
 
 // First and second derivatives of uniformly sampled x with spacing h: the

@@ -144,7 +144,8 @@ void add_estimator_options(CLI::App& c, FitArguments& a) {
       ->check(CLI::IsMember({"none", "joint"}))
       ->capture_default_str()
       ->group(g);
-  c.add_option("--threads", a.fit.threads, "threads for building the regressor (0: all cores)")
+  c.add_option("--threads", a.fit.threads,
+               "threads for building the regressor and for least squares (0: all cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str()
       ->group(g);

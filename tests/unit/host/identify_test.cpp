@@ -333,6 +333,21 @@ TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
       EXPECT_NEAR(fast(beta), direct, 1e-12 * direct) << "relative step " << scale;
     }
   }
+  // From the moments the solve formed (what the fit uses: no pass over the
+  // rows), the same.
+  const QuadraticCost from_moments(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
+                                   ls.cost * static_cast<double>(reg.rows()), reg.rows());
+  EXPECT_NEAR(from_moments(ls.beta), direct_cost(reg, ls.beta), 1e-12 * direct_cost(reg, ls.beta));
+  for (const double scale : {1e-9, 1e-6, 1e-3, 1e-1}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::VectorXd beta = ls.beta;
+      for (Eigen::Index i = 0; i < beta.size(); ++i) {
+        beta(i) *= 1.0 - scale * std::cos(2.3 * static_cast<double>(trial * 7 + i));
+      }
+      const double direct = direct_cost(reg, beta);
+      EXPECT_NEAR(from_moments(beta), direct, 1e-12 * direct) << "relative step " << scale;
+    }
+  }
   // Far from it (and about any point) too.
   const QuadraticCost about_zero(reg, Eigen::VectorXd::Zero(ls.beta.size()));
   Eigen::VectorXd beta = Eigen::VectorXd::Zero(ls.beta.size());
@@ -344,6 +359,41 @@ TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
     EXPECT_NEAR(fast(beta), direct, 1e-12 * direct);
     EXPECT_NEAR(about_zero(beta), direct, 1e-10 * direct);
   }
+}
+
+// The solve factors a well-conditioned regressor through its Gram matrix
+// (one pass) and refines once; it must give what Householder QR of the
+// whole regressor gives. A regressor conditioned beyond the Gram limit
+// (two columns nearly alike: scaled condition number about 2e5, where the
+// Gram matrix alone would lose about 1e-6) takes Householder: the same
+// agreement.
+TEST(IdentifyTest, LeastSquaresEqualsHouseholderQrWhateverTheConditioning) {
+  const DeltaLog log = simulated(2, 0.015, 17, false);
+  const auto model = make_model({});
+  Regression reg = preprocess(*model, log, PrepareOptions{}).regression;
+  const auto reference = [](const Regression& r) {
+    return Eigen::VectorXd(r.psi.householderQr().solve(r.tau));
+  };
+  const auto expect_same = [](const Eigen::VectorXd& got, const Eigen::VectorXd& want,
+                              double tolerance) {
+    for (Eigen::Index c = 0; c < want.size(); ++c) {
+      EXPECT_NEAR(got(c), want(c), tolerance * want.cwiseAbs().maxCoeff()) << c;
+    }
+  };
+  const LeastSquaresResult well =
+      solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 0);
+  ASSERT_LT(well.condition_number_scaled, 1e3);
+  expect_same(well.unconstrained_beta, reference(reg), 1e-12);
+
+  // Column 2 (arm_gravity_sin) becomes column 1 plus a trace of itself.
+  const Eigen::VectorXd sin_column = reg.psi.col(2);
+  reg.psi.col(2) = reg.psi.col(1) + 2e-5 * sin_column;
+  std::vector<ParameterInfo> free_parameters = model->parameters();
+  for (ParameterInfo& info : free_parameters) info.nonnegative = false;
+  const LeastSquaresResult ill =
+      solve_least_squares(reg, free_parameters, LsSolver::kQr, LsWeights::kNone, log.name, 0);
+  ASSERT_GT(ill.condition_number_scaled, 1e4);
+  expect_same(ill.unconstrained_beta, reference(reg), 1e-9);
 }
 
 TEST(IdentifyTest, PsoReachesTheLeastSquaresCostWhenTheOptimumIsInsideTheBounds) {
@@ -544,6 +594,34 @@ TEST(IdentifyTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
   EXPECT_TRUE(one.psi == three.psi);
   EXPECT_TRUE(one.tau == three.tau);
   EXPECT_EQ(one.velocity_rad_s, three.velocity_rad_s);
+  // So is the solve (135 003 rows: the Gram matrix and the covariance on two
+  // threads), to the last bit.
+  const LeastSquaresResult ls1 =
+      solve_least_squares(one, *model, LsSolver::kQr, LsWeights::kNone, log.name, 100, 1);
+  const LeastSquaresResult ls3 =
+      solve_least_squares(one, *model, LsSolver::kQr, LsWeights::kNone, log.name, 100, 3);
+  EXPECT_TRUE(ls1.beta == ls3.beta);
+  EXPECT_TRUE(ls1.std_dev == ls3.std_dev);
+  EXPECT_TRUE(ls1.psi_t_psi == ls3.psi_t_psi);
+}
+
+// What a fit uses: the same regression, with the log's samples freed on the
+// way (the log keeps its name, geometry and gaps).
+TEST(IdentifyTest, PreprocessingThatReleasesTheLogGivesTheSameRegression) {
+  DeltaLog log = simulated(3, 0.01, 17, false, "fourier", 5.0);
+  log.gaps.push_back({2000, 7, "a test gap"});
+  const auto model = make_model({});
+  const Preprocessed kept = preprocess(*model, log, PrepareOptions{});
+  const Preprocessed released = preprocess_releasing(*model, log, PrepareOptions{});
+  EXPECT_TRUE(kept.regression.psi == released.regression.psi);
+  EXPECT_TRUE(kept.regression.tau == released.regression.tau);
+  EXPECT_EQ(kept.regression.t_s, released.regression.t_s);
+  EXPECT_EQ(kept.report.samples_in_log, released.report.samples_in_log);
+  EXPECT_EQ(released.report.samples_in_log, 5001u);
+  EXPECT_EQ(log.size(), 0u);
+  EXPECT_TRUE(log.tau[0].empty());
+  EXPECT_EQ(log.gaps.size(), 1u);
+  EXPECT_FALSE(log.name.empty());
 }
 
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
@@ -597,9 +675,12 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
 // The covariance with correlated residuals against the textbook double sum
 //   S = sum over rows a, b of the same joint with |k_a - k_b| <= L of
 //       (1 - |k_a - k_b| / (L + 1)) psi_a e_a e_b psi_b^T,
-// with some equations left out; L = 0 is the same code's other branch.
+// with some equations left out; L = 0 is the same code's other branch. The
+// log is long enough (20 001 samples) for the running box sums to be
+// re-summed on the way, and for each joint's boxes to come in two chunks
+// (16 384 each: the second starts from the rows before it).
 TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
-  const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 3.0);
+  const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 20.0);
   const auto model = make_model({});
   Regression all = preprocess(*model, log, PrepareOptions{}).regression;
   const Equations reg(all, fast_rows_first(all, 0.1));
@@ -611,7 +692,10 @@ TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
     const LeastSquaresResult ls =
         solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, lags);
     EXPECT_EQ(ls.correlation_lags, lags);
-    const Eigen::VectorXd e = reg.tau - reg.psi * ls.beta;
+    // The covariance is the least-squares estimator's: residuals at the
+    // unconstrained optimum (on this log a bound is active).
+    EXPECT_FALSE(ls.active_bounds.empty());
+    const Eigen::VectorXd e = reg.tau - reg.psi * ls.unconstrained_beta;
     Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(p, p);
     const auto window = static_cast<Eigen::Index>(3 * (lags + 1));  // rows are in sample order
     for (Eigen::Index a = 0; a < rows; ++a) {
