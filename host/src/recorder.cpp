@@ -141,6 +141,16 @@ std::vector<LogSample> LogAssembler::take_complete() {
 
 void LogAssembler::finish() {
   if (!next_to_emit_) return;
+  // Cycles after the last complete one were cut off by the end of the
+  // recording; the log has no gap for them.
+  std::uint64_t end = *next_to_emit_;
+  for (const Pending& x : pending_) {
+    if (x.parts == 7) end = std::max(end, x.seq + 1);
+  }
+  if (*last_seq_ >= end) {
+    cut_off_ = {end, *last_seq_ - end + 1};
+    std::erase_if(pending_, [end](const Pending& x) { return x.seq >= end; });
+  }
   emit_up_to(UINT64_MAX);  // gives up on every cycle still pending: each is lost
 }
 
@@ -239,6 +249,10 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
     err << who << ": left out " << count << " sample(s) from seq " << first
         << ": the controller marked them stale (a drive's feedback missed the cycle)\n";
   }
+  if (const auto [first, count] = s.cut_off; count > 0) {
+    err << who << ": the recording ended inside " << count << " sample(s) from seq " << first
+        << " (their log frames were incomplete): not written, no gap in the log\n";
+  }
 }
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
@@ -308,6 +322,7 @@ class Session {
     }
     assembler_.finish();
     collect();
+    limit_reached_ = o_.samples > 0 && samples_.size() >= o_.samples;
     if (o_.samples > 0 && samples_.size() > o_.samples) {
       samples_.resize(o_.samples);
       sample_currents_.resize(o_.samples);
@@ -322,6 +337,8 @@ class Session {
     s.gaps = assembler_.gaps();
     s.stale = assembler_.stale_samples();
     s.stale_runs = assembler_.stale_runs();
+    // Stopped at --samples, what came after the limit is not the log's.
+    if (!limit_reached_) s.cut_off = assembler_.cut_off();
     s.emergencies = emergencies_.seen();
     s.emergencies_not_kept = emergencies_.not_kept();
     return s;
@@ -378,6 +395,7 @@ class Session {
   std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents_;
   std::string raw_;
   RecordSummary summary_;
+  bool limit_reached_{false};
 };
 
 // The session's samples as a delta-log/1 log; i1..i3 only when every sample

@@ -160,10 +160,11 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   o.duration_s = 30;
   delta::can::Socket tx = delta::can::Socket::open(kIface);
   const Recording r = record_while(o, [&] {
-    for (int k = 0; k < 300; ++k) {
+    for (int k = 0; k < 301; ++k) {
       if (k >= 100 && k < 103) continue;  // three cycles lost
-      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2, k == 200 ? 1 : -1,  // one frame lost
-                 k == 250);  // and one record the controller marked stale
+      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2,
+                 k == 200 ? 1 : (k == 300 ? 2 : -1),  // one frame lost; the last cycle cut off
+                 k == 250);                           // and one record the controller marked stale
     }
   });
   ASSERT_EQ(r.error, "");
@@ -175,8 +176,11 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   EXPECT_EQ(r.summary.stale, 1u);
   using Run = std::pair<std::uint64_t, std::uint64_t>;
   EXPECT_EQ(r.summary.stale_runs, (std::vector<Run>{{250, 1}}));
+  // The recording ended inside the last cycle: cut off, not lost, no gap.
+  EXPECT_EQ(r.summary.cut_off, (Run{300, 1}));
   // Any reader sees the gaps: the seq column jumps there.
   const DeltaLog log = read_delta_log(o.out_path);
+  ASSERT_EQ(log.size(), 295u);
   ASSERT_EQ(log.gaps.size(), 3u);
   EXPECT_EQ(log.gaps[0].what, "seq jumps from 99 to 103 (3 samples lost)");
   EXPECT_EQ(log.gaps[2].what, "seq jumps from 249 to 251 (1 samples lost)");

@@ -3,7 +3,10 @@
 // sequence counter, unwrapped to 64 bits; a cycle with a missing frame is a
 // lost sample, reported and never bridged (the log keeps its seq column).
 // A cycle the controller marked stale (a drive's feedback missed it) is left
-// out the same way, and reported apart from the lost ones.
+// out the same way, and reported apart from the lost ones. Cycles still
+// incomplete after the last complete one when the recording ends (the
+// controller stopped or was killed inside a cycle's frames) are cut off:
+// reported, not written, and no gap in the log.
 #pragma once
 
 #include <cstdint>
@@ -33,7 +36,8 @@ class LogAssembler {
   bool feed(const delta::can::Frame& f);
   // Samples completed so far, in sequence order (taken out).
   std::vector<LogSample> take_complete();
-  // Flushes what is pending at the end: incomplete cycles count as lost.
+  // Flushes what is pending at the end: incomplete cycles before the last
+  // complete one count as lost, those after it as cut off.
   void finish();
   std::uint64_t lost_samples() const { return lost_; }
   // (first lost seq, count) for each run of lost samples.
@@ -43,6 +47,9 @@ class LogAssembler {
   const std::vector<std::pair<std::uint64_t, std::uint64_t>>& stale_runs() const {
     return stale_runs_;
   }
+  // The cycles after the last complete one that finish() found incomplete:
+  // (first seq, count); count 0 when the recording ended between cycles.
+  std::pair<std::uint64_t, std::uint64_t> cut_off() const { return cut_off_; }
 
  private:
   struct Pending {
@@ -61,6 +68,7 @@ class LogAssembler {
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps_;
   std::uint64_t stale_{0};
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs_;
+  std::pair<std::uint64_t, std::uint64_t> cut_off_{0, 0};
 };
 
 // The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
@@ -135,6 +143,9 @@ struct RecordSummary {
   std::vector<std::pair<std::uint64_t, std::uint64_t>> gaps;
   std::uint64_t stale{0};  // cycles the controller marked stale, left out (not lost)
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs;
+  // Cycles the recording ended inside (first seq, count): not written, not a
+  // gap; 0 when it stopped at --samples.
+  std::pair<std::uint64_t, std::uint64_t> cut_off{0, 0};
   std::uint64_t frames{0};
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
@@ -144,8 +155,8 @@ struct RecordSummary {
   double seconds{0};
 };
 
-// One line per run of lost samples and per run of stale ones left out,
-// each starting with `who` ("host_id record").
+// One line per run of lost samples, per run of stale ones left out and for
+// the cycles cut off at the end, each starting with `who` ("host_id record").
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s);
 // One line per emergency seen (drives and controller), each starting with
 // `who`; nothing when none came.

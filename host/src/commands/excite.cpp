@@ -238,9 +238,14 @@ int report(const ExciteArguments& a, const RunOutcome& run, const Recording& rec
     err << "host_id excite: " << run.ending << "; the partial log is " << path << "\n";
     return 4;
   }
-  if (rec.summary.lost > 0 ||
-      (sent != UINT64_MAX && rec.summary.samples + rec.summary.stale < sent)) {
+  if (rec.summary.lost > 0) {
     err << "host_id excite: samples were lost; the log keeps them as gaps in seq\n";
+    return 3;
+  }
+  const std::uint64_t accounted = rec.summary.samples + rec.summary.stale;
+  if (sent != UINT64_MAX && accounted < sent) {
+    err << "host_id excite: the log ends " << sent - accounted << " record(s) short of the " << sent
+        << " the controller sent\n";
     return 3;
   }
   return 0;

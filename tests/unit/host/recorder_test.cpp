@@ -63,13 +63,13 @@ TEST(LogAssemblerTest, TheFifteenBitCounterWrapsWithoutAGap) {
   EXPECT_EQ(a.lost_samples(), 0u);
 }
 
-TEST(LogAssemblerTest, AdjacentLossesAreOneRunAndAnIncompleteLastCycleIsLost) {
+TEST(LogAssemblerTest, AdjacentLossesAreOneRunAndAnIncompleteCycleBeforeTheLastIsLost) {
   LogAssembler a;
   for (std::uint32_t k = 0; k < 100; ++k) {
     const auto f = log_frames(k, {}, {});
     if (k == 30 || k == 31) continue;  // two whole cycles lost
     for (unsigned i = 0; i < 3; ++i) {
-      if ((k == 32 || k == 99) && i == 2) continue;  // then an incomplete one; the last too
+      if ((k == 32 || k == 98) && i == 2) continue;  // then an incomplete one, and another
       a.feed(f[i]);
     }
   }
@@ -77,7 +77,35 @@ TEST(LogAssemblerTest, AdjacentLossesAreOneRunAndAnIncompleteLastCycleIsLost) {
   EXPECT_EQ(a.take_complete().size(), 96u);
   EXPECT_EQ(a.lost_samples(), 4u);
   using Run = std::pair<std::uint64_t, std::uint64_t>;
-  EXPECT_EQ(a.gaps(), (std::vector<Run>{{30, 3}, {99, 1}}));
+  EXPECT_EQ(a.gaps(), (std::vector<Run>{{30, 3}, {98, 1}}));
+  EXPECT_EQ(a.cut_off().second, 0u);
+}
+
+// The controller stopped (or was killed) inside a cycle's frames: the cycles
+// after the last complete one are cut off, not lost; the log has no gap.
+TEST(LogAssemblerTest, CyclesTheRecordingEndedInsideAreCutOffNotLost) {
+  LogAssembler a;
+  for (std::uint32_t k = 0; k < 100; ++k) {
+    const auto f = log_frames(k, {}, {});
+    if (k == 97) continue;
+    for (unsigned i = 0; i < 3; ++i) {
+      if (k >= 98 && i > 0) continue;  // 97 never came; only LOG_A of 98 and 99
+      a.feed(f[i]);
+    }
+  }
+  a.finish();
+  EXPECT_EQ(a.take_complete().size(), 97u);
+  EXPECT_EQ(a.lost_samples(), 0u);
+  EXPECT_TRUE(a.gaps().empty());
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(a.cut_off(), (Run{97, 3}));
+  // Ended between cycles: nothing cut off.
+  LogAssembler whole;
+  for (std::uint32_t k = 0; k < 3; ++k)
+    for (const auto& f : log_frames(k, {}, {})) whole.feed(f);
+  whole.finish();
+  EXPECT_EQ(whole.cut_off(), (Run{0, 0}));
+  EXPECT_EQ(whole.take_complete().size(), 3u);
 }
 
 TEST(LogAssemblerTest, ARecordMarkedStaleIsLeftOutAndReportedButNotLost) {
@@ -104,12 +132,15 @@ TEST(LogAssemblerTest, StaleAndLostAreReportedEachByName) {
   RecordSummary s;
   s.gaps = {{10, 3}};
   s.stale_runs = {{40, 2}};
+  s.cut_off = {71, 1};
   std::ostringstream err;
   report_left_out(err, "host_id record", s);
   EXPECT_EQ(err.str(),
             "host_id record: lost 3 sample(s) from seq 10 (log frames missing)\n"
             "host_id record: left out 2 sample(s) from seq 40: the controller marked them stale "
-            "(a drive's feedback missed the cycle)\n");
+            "(a drive's feedback missed the cycle)\n"
+            "host_id record: the recording ended inside 1 sample(s) from seq 71 (their log "
+            "frames were incomplete): not written, no gap in the log\n");
 }
 
 TEST(LogAssemblerTest, PartsArrivingOutOfOrderStillPair) {
@@ -148,14 +179,15 @@ TEST(LogAssemblerTest, AMissingFrameOrCycleIsALostSampleNeverBridged) {
   for (std::size_t i = 1; i < s.size(); ++i) EXPECT_GT(s[i].seq, s[i - 1].seq);
 }
 
-TEST(LogAssemblerTest, AnIncompleteLastCycleCountsAsLostAtTheEnd) {
+TEST(LogAssemblerTest, AnIncompleteOnlyCycleIsCutOffAtTheEnd) {
   LogAssembler a;
   const auto f = log_frames(3, {}, {});
   a.feed(f[0]);
   a.feed(f[1]);
   EXPECT_TRUE(a.take_complete().empty());
   a.finish();
-  EXPECT_EQ(a.lost_samples(), 1u);
+  EXPECT_EQ(a.lost_samples(), 0u);
+  EXPECT_EQ(a.cut_off(), (std::pair<std::uint64_t, std::uint64_t>{3, 1}));
 }
 
 // A drive's TPDO1 with this current (per mille of the rated current).
