@@ -1,6 +1,7 @@
 // The simulated robot's cost: one 500 Hz control cycle of the emulator on
-// each plant, in the emulator's sub-steps (lumped: 8 of 0.25 ms; MuJoCo: 4
-// of 0.5 ms), and `host_id simulate --plant mujoco` throughput. Ratios in one run: the multibody
+// each plant, in the emulator's sub-steps (lumped: 8 of 0.25 ms; MuJoCo: 2
+// of 1 ms, and the plant's own 4 of 0.5 ms), and `host_id simulate --plant
+// mujoco` throughput. Ratios in one run: the multibody
 // plant against the lumped one it replaced as the emulator's default.
 #include <benchmark/benchmark.h>
 
@@ -45,12 +46,23 @@ void BM_PlantCycle_Lumped(benchmark::State& state) {
 }
 BENCHMARK(BM_PlantCycle_Lumped)->Unit(benchmark::kMicrosecond);
 
+// The plant's own default (host_id simulate): 4 steps of 0.5 ms.
 void BM_PlantCycle_MujocoEuler(benchmark::State& state) {
   run_cycles(state, 4, [](const delta::Joint3& q0) {
     return std::make_unique<delta::MujocoPlant>(delta::default_robot_description(), q0);
   });
 }
 BENCHMARK(BM_PlantCycle_MujocoEuler)->Unit(benchmark::kMicrosecond);
+
+// The emulator's: 2 steps of kMujocoCoarsestStep_s (1 ms).
+void BM_PlantCycle_MujocoEulerEmulator(benchmark::State& state) {
+  run_cycles(state, 2, [](const delta::Joint3& q0) {
+    return std::make_unique<delta::MujocoPlant>(
+        delta::default_robot_description(), q0,
+        delta::MujocoSettings{delta::MujocoIntegrator::kEuler, delta::kMujocoCoarsestStep_s});
+  });
+}
+BENCHMARK(BM_PlantCycle_MujocoEulerEmulator)->Unit(benchmark::kMicrosecond);
 
 // The first choice, before the HIL VM's cost: RK4 at 1/8 ms.
 void BM_PlantCycle_MujocoRk4EighthMs(benchmark::State& state) {

@@ -111,7 +111,9 @@ namespace {
 
 std::unique_ptr<delta::Plant> make_plant(const EmulatorConfig& c) {
   if (c.plant == PlantKind::kMujoco) {
-    return std::make_unique<delta::MujocoPlant>(c.robot, c.initial_q_rad);
+    return std::make_unique<delta::MujocoPlant>(
+        c.robot, c.initial_q_rad,
+        delta::MujocoSettings{delta::MujocoIntegrator::kEuler, delta::kMujocoCoarsestStep_s});
   }
   return std::make_unique<delta::LumpedPlant>(c.geometry, c.truth, c.initial_q_rad);
 }
@@ -488,7 +490,7 @@ void Emulator::advance(double dt_s) {
   for (const Drive& d : drives_)
     all_enabled = all_enabled && d.state == cia::State::kOperationEnabled;
   const int n =
-      config_.substeps > 0 ? config_.substeps : (config_.plant == PlantKind::kMujoco ? 4 : 8);
+      config_.substeps > 0 ? config_.substeps : (config_.plant == PlantKind::kMujoco ? 2 : 8);
   const double h = dt_s / n;
   const double decay = std::exp(-h / config_.current_time_constant_s);
   // The mean of the first-order response over a sub-step, as a fraction of

@@ -106,8 +106,8 @@ struct EmulatorConfig {
   double current_time_constant_s{0.0003};  // current loop
   double current_noise_A{0.005};           // standard deviation
   // Plant steps per cycle, each with the current loop's mean torque over
-  // it; 0: the plant's own (lumped 8, RK4; mujoco 4, MuJoCo's 0.5 ms steps
-  // at the default 500 Hz).
+  // it; 0: the plant's own (lumped 8, RK4; mujoco 2, MuJoCo steps of at
+  // most delta::kMujocoCoarsestStep_s: 1 ms at the default 500 Hz).
   int substeps{0};
   std::uint64_t seed{1};
   std::vector<FaultInjection> faults;
