@@ -278,7 +278,12 @@ void Emulator::handle_nmt(const Frame& f) {
         break;
       case p::kNmtResetNode:
       case p::kNmtResetCommunication: {
+        // CiA 301: both set the communication parameters (0x1000..0x1FFF)
+        // to their power-on values; reset node the application's too, and
+        // the drive restarts (power stage off).
+        if (command == p::kNmtResetNode) reset_application(d);
         d.nmt = p::kNmtStatePreOperational;
+        d.cycle_us = 0;
         d.heartbeat_ms = 0;
         d.consumer = 0;
         d.consumer_armed = false;
@@ -294,6 +299,17 @@ void Emulator::handle_nmt(const Frame& f) {
         break;
     }
   }
+}
+
+// The application's parameters (0x6000..0x9FFF) at power-on, and the
+// CiA 402 state machine after its self-test.
+void Emulator::reset_application(Drive& d) {
+  d.state = cia::drive_transition(cia::State::kNotReadyToSwitchOn, 0, 0);
+  d.controlword = 0;
+  d.target_torque_pm = 0;
+  d.target_position = 0;
+  d.mode = 0;
+  d.max_current_pm = Drive{}.max_current_pm;
 }
 
 // CiA 301: in NMT stopped a node answers NMT and error control only. A

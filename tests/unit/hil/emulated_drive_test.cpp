@@ -148,6 +148,55 @@ TEST(EmulatedDriveTest, TheControlwordEnablesTheDriveBySdo) {
   EXPECT_EQ(bus.read(0x6041, 0) & 0x6F, 0x27u);
 }
 
+// CiA 301: reset communication sets the communication parameters back to
+// their power-on values and keeps the application's; reset node sets both
+// back and restarts the drive (power stage off). Each sends the boot-up.
+TEST(EmulatedDriveTest, ResetCommunicationAndResetNodeRestoreTheirParameters) {
+  Bus bus;
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t v,
+                         std::uint8_t size) {
+    return bus.abort_code(sdo::download_request(index, sub, v, size));
+  };
+  const auto configure = [&] {
+    EXPECT_EQ(write(0x1019, 0, 5, 1), 0u);
+    EXPECT_EQ(write(0x1006, 0, 2000, 4), 0u);
+    EXPECT_EQ(write(0x1017, 0, 100, 2), 0u);
+    EXPECT_EQ(write(0x1016, 1, 0x00100096, 4), 0u);
+    EXPECT_EQ(write(0x6060, 0, 10, 1), 0u);
+    EXPECT_EQ(write(0x6073, 0, 1500, 2), 0u);
+    for (const std::uint16_t cw :
+         {std::uint16_t{0x0006}, std::uint16_t{0x0007}, std::uint16_t{0x000F}}) {
+      EXPECT_EQ(write(0x6040, 0, cw, 2), 0u);
+    }
+  };
+  const auto boot_ups = [&] {
+    int n = 0;
+    for (const Frame& f : bus.out) n += f.id == p::cob_id(p::kHeartbeat, 1) && f.data[0] == 0;
+    return n;
+  };
+  configure();
+  bus.out.clear();
+  bus.nmt(p::kNmtResetCommunication, 1);
+  EXPECT_EQ(boot_ups(), 1);
+  EXPECT_EQ(bus.read(0x1006, 0), 0u);
+  EXPECT_EQ(bus.read(0x1019, 0), 0u);
+  EXPECT_EQ(bus.read(0x1017, 0), 0u);
+  EXPECT_EQ(bus.read(0x1016, 1), 0u);
+  EXPECT_EQ(bus.read(0x6060, 0), 10u) << "the application's parameters stay";
+  EXPECT_EQ(bus.read(0x6073, 0), 1500u);
+  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kOperationEnabled);
+
+  configure();
+  bus.out.clear();
+  bus.nmt(p::kNmtResetNode, 0);
+  EXPECT_EQ(boot_ups(), 1);
+  EXPECT_EQ(bus.read(0x1006, 0), 0u);
+  EXPECT_EQ(bus.read(0x1017, 0), 0u);
+  EXPECT_EQ(bus.read(0x6060, 0), 0u);
+  EXPECT_EQ(bus.read(0x6073, 0), 3000u);
+  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kSwitchOnDisabled);
+}
+
 // CiA 301: in NMT stopped only NMT and error control; no SDO, no EMCY.
 TEST(EmulatedDriveTest, AStoppedNodeAnswersNoSdoAndSendsNoEmcy) {
   EmulatorConfig config;

@@ -201,6 +201,7 @@ class Emulator {
   void handle_nmt(const delta::can::Frame& f);
   void handle_sdo(unsigned j, const delta::can::Frame& f);
   void flush_sdo(unsigned j);
+  void reset_application(Drive& d);
   void apply_controlword(Drive& d, std::uint16_t controlword);
   void handle_rpdo(unsigned j, const delta::can::Frame& f);
   void send_tpdo(unsigned j, unsigned pdo);
