@@ -18,10 +18,6 @@ namespace {
 
 namespace up = delta::update;
 
-// The controller's identity (0x1018 of node 16, docs/protocol.md).
-constexpr std::uint32_t kDeltaFwVendorId = 0x0000DE17;
-constexpr std::uint32_t kDeltaFwProductCode = 0x00000016;
-
 // Exit status of info for an image that fails its checks.
 constexpr int kExitInvalidImage = 5;
 

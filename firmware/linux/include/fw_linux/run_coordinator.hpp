@@ -55,7 +55,6 @@ class RunCoordinator {
   int cycles_to_exit_{-1};
   std::optional<int> exit_code_;
   fw::State last_state_{fw::State::kBoot};
-  fw::Fault last_fault_{fw::Fault::kNone};
   // The current or last run, whoever started it.
   std::uint16_t run_id_{0};
   delta::modbus::RunResult run_result_{delta::modbus::RunResult::kNone};

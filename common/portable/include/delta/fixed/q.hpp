@@ -109,9 +109,11 @@ class Q {
   }
   // A compile-time constant from a floating-point literal, rounded to
   // nearest (ties upwards, like every rounding here); out of range does not
-  // compile.
-  static consteval Q from(long double v) {
-    const long double scaled = v * static_cast<long double>(std::int64_t{1} << FracBits) + 0.5L;
+  // compile. Computed in long double, whatever the literal's type.
+  template <class Real>
+  static consteval Q from(Real v) {
+    const long double scaled =
+        static_cast<long double>(v) * static_cast<long double>(std::int64_t{1} << FracBits) + 0.5L;
     if (scaled >= 2147483648.0L || scaled < -2147483648.0L) {
       detail::fixed_point_constant_out_of_range();
     }
