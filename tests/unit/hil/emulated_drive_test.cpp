@@ -174,27 +174,28 @@ TEST(EmulatedDriveTest, ResetCommunicationAndResetNodeRestoreTheirParameters) {
     for (const Frame& f : bus.out) n += f.id == p::cob_id(p::kHeartbeat, 1) && f.data[0] == 0;
     return n;
   };
-  configure();
-  bus.out.clear();
-  bus.nmt(p::kNmtResetCommunication, 1);
-  EXPECT_EQ(boot_ups(), 1);
-  EXPECT_EQ(bus.read(0x1006, 0), 0u);
-  EXPECT_EQ(bus.read(0x1019, 0), 0u);
-  EXPECT_EQ(bus.read(0x1017, 0), 0u);
-  EXPECT_EQ(bus.read(0x1016, 1), 0u);
-  EXPECT_EQ(bus.read(0x6060, 0), 10u) << "the application's parameters stay";
-  EXPECT_EQ(bus.read(0x6073, 0), 1500u);
-  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kOperationEnabled);
-
-  configure();
-  bus.out.clear();
-  bus.nmt(p::kNmtResetNode, 0);
-  EXPECT_EQ(boot_ups(), 1);
-  EXPECT_EQ(bus.read(0x1006, 0), 0u);
-  EXPECT_EQ(bus.read(0x1017, 0), 0u);
-  EXPECT_EQ(bus.read(0x6060, 0), 0u);
-  EXPECT_EQ(bus.read(0x6073, 0), 3000u);
-  EXPECT_EQ(bus.emulator.drive_state(0), delta::can::cia402::State::kSwitchOnDisabled);
+  // After each reset: one boot-up, the communication parameters at their
+  // power-on values, and the application's as given.
+  using delta::can::cia402::State;
+  const auto expect_after = [&](std::uint8_t command, std::uint8_t target, std::uint32_t mode,
+                                std::uint32_t max_current_pm, State state) {
+    configure();
+    bus.out.clear();
+    bus.nmt(command, target);
+    EXPECT_EQ(boot_ups(), 1);
+    for (const auto& [index, sub] : {std::pair<std::uint16_t, std::uint8_t>{0x1006, 0},
+                                     {0x1019, 0},
+                                     {0x1017, 0},
+                                     {0x1016, 1}}) {
+      EXPECT_EQ(bus.read(index, sub), 0u) << std::hex << index << ":" << int{sub};
+    }
+    EXPECT_EQ(bus.read(0x6060, 0), mode);
+    EXPECT_EQ(bus.read(0x6073, 0), max_current_pm);
+    EXPECT_EQ(bus.emulator.drive_state(0), state);
+  };
+  // Reset communication keeps the application's parameters; reset node not.
+  expect_after(p::kNmtResetCommunication, 1, 10, 1500, State::kOperationEnabled);
+  expect_after(p::kNmtResetNode, 0, 0, 3000, State::kSwitchOnDisabled);
 }
 
 // CiA 301: in NMT stopped only NMT and error control; no SDO, no EMCY.
