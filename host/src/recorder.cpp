@@ -110,16 +110,13 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
     if (x.seq != *next_to_emit_) {
       // A seq is missing entirely; wait unless it is out of the window.
       if (*next_to_emit_ >= give_up_below) break;
-      const std::uint64_t missing = x.seq - *next_to_emit_;
-      append_run(gaps_, *next_to_emit_, missing);
-      lost_ += missing;
+      give_up(*next_to_emit_, x.seq - *next_to_emit_);
       next_to_emit_ = x.seq;
       continue;
     }
     if (!complete) {
       if (x.seq >= give_up_below) break;
-      append_run(gaps_, x.seq, 1);
-      ++lost_;
+      give_up(x.seq, 1);
     } else if (x.sample.stale) {
       // Not a sample: the controller said a drive's feedback missed it.
       append_run(stale_runs_, x.seq, 1);
@@ -127,10 +124,23 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
     } else {
       complete_.push_back(x.sample);
     }
+    emitted_any_ = emitted_any_ || complete;
     next_to_emit_ = x.seq + 1;
     ++i;
   }
   pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(i));
+}
+
+// Cycles given up on: lost, or, before the first complete one, cycles the
+// recording began inside (the log starts after them, so no gap).
+void LogAssembler::give_up(std::uint64_t first_seq, std::uint64_t count) {
+  if (emitted_any_) {
+    append_run(gaps_, first_seq, count);
+    lost_ += count;
+    return;
+  }
+  if (started_inside_.second == 0) started_inside_.first = first_seq;
+  started_inside_.second += count;
 }
 
 std::vector<LogSample> LogAssembler::take_complete() {
@@ -249,6 +259,10 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
     err << who << ": left out " << count << " sample(s) from seq " << first
         << ": the controller marked them stale (a drive's feedback missed the cycle)\n";
   }
+  if (const auto [first, count] = s.started_inside; count > 0) {
+    err << who << ": the recording began inside " << count << " sample(s) from seq " << first
+        << " (their first log frames came before it listened): not written, no gap in the log\n";
+  }
   if (const auto [first, count] = s.cut_off; count > 0) {
     err << who << ": the recording ended inside " << count << " sample(s) from seq " << first
         << " (their log frames were incomplete): not written, no gap in the log\n";
@@ -339,6 +353,7 @@ class Session {
     s.stale_runs = assembler_.stale_runs();
     // Stopped at --samples, what came after the limit is not the log's.
     if (!limit_reached_) s.cut_off = assembler_.cut_off();
+    s.started_inside = assembler_.started_inside();
     s.emergencies = emergencies_.seen();
     s.emergencies_not_kept = emergencies_.not_kept();
     return s;

@@ -162,13 +162,14 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   const Recording r = record_while(o, [&] {
     for (int k = 0; k < 301; ++k) {
       if (k >= 100 && k < 103) continue;  // three cycles lost
-      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2,
-                 k == 200 ? 1 : (k == 300 ? 2 : -1),  // one frame lost; the last cycle cut off
-                 k == 250);                           // and one record the controller marked stale
+      // One frame lost; the first and the last cycle cut off.
+      const int dropped = k == 200 ? 1 : (k == 0 ? 0 : (k == 300 ? 2 : -1));
+      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2, dropped,
+                 k == 250);  // and one record the controller marked stale
     }
   });
   ASSERT_EQ(r.error, "");
-  EXPECT_EQ(r.summary.samples, 295u);
+  EXPECT_EQ(r.summary.samples, 294u);
   EXPECT_EQ(r.summary.lost, 4u);
   ASSERT_EQ(r.summary.gaps.size(), 2u);
   EXPECT_EQ(r.summary.gaps[0].first, 100u);
@@ -176,14 +177,17 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   EXPECT_EQ(r.summary.stale, 1u);
   using Run = std::pair<std::uint64_t, std::uint64_t>;
   EXPECT_EQ(r.summary.stale_runs, (std::vector<Run>{{250, 1}}));
-  // The recording ended inside the last cycle: cut off, not lost, no gap.
+  // The recording began inside the first cycle and ended inside the last:
+  // cut off, not lost, no gap.
   EXPECT_EQ(r.summary.cut_off, (Run{300, 1}));
+  EXPECT_EQ(r.summary.started_inside, (Run{0, 1}));
   // Any reader sees the gaps: the seq column jumps there.
   const DeltaLog log = read_delta_log(o.out_path);
-  ASSERT_EQ(log.size(), 295u);
+  ASSERT_EQ(log.size(), 294u);
   ASSERT_EQ(log.gaps.size(), 3u);
-  EXPECT_EQ(log.gaps[0].what, "seq jumps from 99 to 103 (3 samples lost)");
-  EXPECT_EQ(log.gaps[2].what, "seq jumps from 249 to 251 (1 samples lost)");
+  // (The log's seq counts from its first row, the bus's seq 1.)
+  EXPECT_EQ(log.gaps[0].what, "seq jumps from 98 to 102 (3 samples lost)");
+  EXPECT_EQ(log.gaps[2].what, "seq jumps from 248 to 250 (1 samples lost)");
   EXPECT_EQ(log.metadata_value("stale_samples").value_or(""), "1");
 }
 

@@ -5,8 +5,9 @@
 // A cycle the controller marked stale (a drive's feedback missed it) is left
 // out the same way, and reported apart from the lost ones. Cycles still
 // incomplete after the last complete one when the recording ends (the
-// controller stopped or was killed inside a cycle's frames) are cut off:
-// reported, not written, and no gap in the log.
+// controller stopped or was killed inside a cycle's frames), or before the
+// first complete one (the recording began inside a cycle's frames), are cut
+// off: reported, not written, and no gap in the log.
 #pragma once
 
 #include <cstdint>
@@ -50,6 +51,9 @@ class LogAssembler {
   // The cycles after the last complete one that finish() found incomplete:
   // (first seq, count); count 0 when the recording ended between cycles.
   std::pair<std::uint64_t, std::uint64_t> cut_off() const { return cut_off_; }
+  // The same at the start: incomplete cycles before the first complete one
+  // (their first frames came before the recording listened).
+  std::pair<std::uint64_t, std::uint64_t> started_inside() const { return started_inside_; }
 
  private:
   struct Pending {
@@ -59,6 +63,7 @@ class LogAssembler {
   };
   std::uint64_t unwrap(std::uint32_t seq15);
   void emit_up_to(std::uint64_t seq);
+  void give_up(std::uint64_t first_seq, std::uint64_t count);
 
   std::vector<Pending> pending_;
   std::vector<LogSample> complete_;
@@ -69,6 +74,8 @@ class LogAssembler {
   std::uint64_t stale_{0};
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs_;
   std::pair<std::uint64_t, std::uint64_t> cut_off_{0, 0};
+  std::pair<std::uint64_t, std::uint64_t> started_inside_{0, 0};
+  bool emitted_any_{false};  // a complete cycle (sample or stale) was emitted
 };
 
 // The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
@@ -144,8 +151,9 @@ struct RecordSummary {
   std::uint64_t stale{0};  // cycles the controller marked stale, left out (not lost)
   std::vector<std::pair<std::uint64_t, std::uint64_t>> stale_runs;
   // Cycles the recording ended inside (first seq, count): not written, not a
-  // gap; 0 when it stopped at --samples.
+  // gap; 0 when it stopped at --samples. And those it began inside.
   std::pair<std::uint64_t, std::uint64_t> cut_off{0, 0};
+  std::pair<std::uint64_t, std::uint64_t> started_inside{0, 0};
   std::uint64_t frames{0};
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)

@@ -16,9 +16,9 @@ constexpr const char* kRecordDescription =
     "sample has them. Samples are paired by their sequence counter; a lost sample is reported "
     "and the log keeps its seq column, so no gap is ever bridged. A cycle the controller marked "
     "stale (a drive's feedback missed it) is left out the same way and reported, but is not "
-    "lost. A cycle the recording ended inside (still incomplete after the last complete one) "
-    "is cut off and reported, and is not a gap. Exit status 3 when samples were lost (unless "
-    "--allow-gaps).";
+    "lost. A cycle the recording began or ended inside (incomplete before the first or after "
+    "the last complete one) is cut off and reported, and is not a gap. Exit status 3 when "
+    "samples were lost (unless --allow-gaps).";
 
 struct RecordArguments {
   RecordOptions record;

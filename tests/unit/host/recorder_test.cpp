@@ -132,6 +132,7 @@ TEST(LogAssemblerTest, StaleAndLostAreReportedEachByName) {
   RecordSummary s;
   s.gaps = {{10, 3}};
   s.stale_runs = {{40, 2}};
+  s.started_inside = {5, 1};
   s.cut_off = {71, 1};
   std::ostringstream err;
   report_left_out(err, "host_id record", s);
@@ -139,6 +140,8 @@ TEST(LogAssemblerTest, StaleAndLostAreReportedEachByName) {
             "host_id record: lost 3 sample(s) from seq 10 (log frames missing)\n"
             "host_id record: left out 2 sample(s) from seq 40: the controller marked them stale "
             "(a drive's feedback missed the cycle)\n"
+            "host_id record: the recording began inside 1 sample(s) from seq 5 (their first log "
+            "frames came before it listened): not written, no gap in the log\n"
             "host_id record: the recording ended inside 1 sample(s) from seq 71 (their log "
             "frames were incomplete): not written, no gap in the log\n");
 }
@@ -177,6 +180,30 @@ TEST(LogAssemblerTest, AMissingFrameOrCycleIsALostSampleNeverBridged) {
   EXPECT_EQ(a.gaps()[0], (std::pair<std::uint64_t, std::uint64_t>{50, 1}));
   EXPECT_EQ(a.gaps()[1], (std::pair<std::uint64_t, std::uint64_t>{120, 1}));
   for (std::size_t i = 1; i < s.size(); ++i) EXPECT_GT(s[i].seq, s[i - 1].seq);
+}
+
+// The recording began inside a cycle's frames (LOG_A went out before it
+// listened), and a frame of the next was dropped: both come before the
+// first complete cycle, where the log starts, so they are not lost. A cycle
+// dropped after it is.
+TEST(LogAssemblerTest, CyclesBeforeTheFirstCompleteOneAreStartedInsideNotLost) {
+  LogAssembler a;
+  for (std::uint32_t k = 40; k < 100; ++k) {
+    const auto f = log_frames(k, {}, {});
+    for (unsigned i = 0; i < 3; ++i) {
+      if ((k == 40 && i == 0) || (k == 41 && i == 1) || (k == 70 && i == 2)) continue;
+      a.feed(f[i]);
+    }
+  }
+  a.finish();
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 57u);
+  EXPECT_EQ(s.front().seq, 42u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(a.started_inside(), (Run{40, 2}));
+  EXPECT_EQ(a.lost_samples(), 1u);
+  EXPECT_EQ(a.gaps(), (std::vector<Run>{{70, 1}}));
+  EXPECT_EQ(a.cut_off(), (Run{0, 0}));
 }
 
 TEST(LogAssemblerTest, AnIncompleteOnlyCycleIsCutOffAtTheEnd) {
