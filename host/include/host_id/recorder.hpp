@@ -37,8 +37,9 @@ class LogAssembler {
   bool feed(const delta::can::Frame& f);
   // Samples completed so far, in sequence order (taken out).
   std::vector<LogSample> take_complete();
-  // Flushes what is pending at the end: incomplete cycles before the last
-  // complete one count as lost, those after it as cut off.
+  // Flushes what is pending at the end: incomplete cycles between complete
+  // ones count as lost, those after the last as cut off (cut_off()), those
+  // before the first as started inside (started_inside()).
   void finish();
   std::uint64_t lost_samples() const { return lost_; }
   // (first lost seq, count) for each run of lost samples.
