@@ -21,6 +21,14 @@ class Random {
   }
   // Uniform in [0, 1).
   double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  // count pairs of uniforms, the first of each pair into first[k], the
+  // second into second[k], in the order uniform() would give them.
+  void fill_pairs(double* first, double* second, std::size_t count) {
+    for (std::size_t k = 0; k < count; ++k) {
+      first[k] = uniform();
+      second[k] = uniform();
+    }
+  }
 
  private:
   std::uint64_t state_;
@@ -30,117 +38,199 @@ constexpr double kChi = 0.72984378812835757;  // Clerc's constriction for phi = 
 constexpr double kC = 2.05;
 constexpr double kMaxSpeed = 0.5;  // of the normalised box per iteration
 
+// The swarm in normalised coordinates, particle by particle in flat arrays
+// (particle i's coordinates at [i * dim, (i + 1) * dim)), so that a move is
+// one loop over contiguous coordinates that the compiler vectorises.
+struct Swarm {
+  Swarm(std::size_t particles, std::size_t dimensions)
+      : n(particles),
+        dim(dimensions),
+        x(n * dim),
+        v(n * dim),
+        pbest(n * dim),
+        pbest_cost(n, std::numeric_limits<double>::infinity()),
+        gbest(dim, 0.5),
+        randoms(2 * dim) {}
+  double* x_of(std::size_t i) { return x.data() + i * dim; }
+  double* v_of(std::size_t i) { return v.data() + i * dim; }
+  double* pbest_of(std::size_t i) { return pbest.data() + i * dim; }
+
+  std::size_t n, dim;
+  std::vector<double> x, v, pbest, pbest_cost, gbest;
+  double gbest_cost{std::numeric_limits<double>::infinity()};
+  std::vector<double> randoms;  // one move's r1 for every coordinate, then its r2
+};
+
+// Moves particle i towards its own best and its guide g. A coordinate that
+// leaves [0, 1] is put on the bound it crossed, its velocity reversed and
+// halved. Draws r1, r2 per coordinate, in that order.
+void move(Swarm& s, std::size_t i, const double* g, Random& rng) {
+  double* x = s.x_of(i);
+  double* v = s.v_of(i);
+  const double* p = s.pbest_of(i);
+  double* r1 = s.randoms.data();
+  double* r2 = r1 + s.dim;
+  rng.fill_pairs(r1, r2, s.dim);
+  for (std::size_t d = 0; d < s.dim; ++d) {
+    double vel = kChi * (v[d] + kC * r1[d] * (p[d] - x[d]) + kC * r2[d] * (g[d] - x[d]));
+    vel = std::clamp(vel, -kMaxSpeed, kMaxSpeed);
+    const double pos = x[d] + vel;
+    x[d] = std::clamp(pos, 0.0, 1.0);
+    v[d] = x[d] == pos ? vel : -0.5 * vel;
+  }
+}
+
+// Records particle i's cost c: its own best and the swarm's.
+void record(Swarm& s, std::size_t i, double c) {
+  if (!(c < s.pbest_cost[i])) return;
+  s.pbest_cost[i] = c;
+  std::copy_n(s.x_of(i), s.dim, s.pbest_of(i));
+  if (c < s.gbest_cost) {
+    s.gbest_cost = c;
+    std::copy_n(s.x_of(i), s.dim, s.gbest.data());
+  }
+}
+
+// The best of particle i's neighbours on the ring and itself.
+std::size_t ring_guide(const Swarm& s, std::size_t i) {
+  const std::size_t l = (i + s.n - 1) % s.n, r = (i + 1) % s.n;
+  std::size_t b = i;
+  if (s.pbest_cost[l] < s.pbest_cost[b]) b = l;
+  if (s.pbest_cost[r] < s.pbest_cost[b]) b = r;
+  return b;
+}
+
+}  // namespace
+
+namespace {
+
+class SwarmRun {
+ public:
+  SwarmRun(const CostFunction& cost, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+           const PsoOptions& options)
+      : cost_(cost),
+        lower_(lower),
+        span_(upper - lower),
+        options_(options),
+        rng_(options.seed),
+        swarm_(std::max<std::size_t>(options.particles, 2), static_cast<std::size_t>(lower.size())),
+        beta_(lower.size()),
+        guide_(swarm_.n) {}
+
+  PsoResult run();
+
+ private:
+  // The cost at normalised point u, through one buffer: no allocation per call.
+  double evaluate(const double* u) {
+    ++result_.evaluations;
+    const Eigen::Map<const Eigen::VectorXd> point(u, beta_.size());
+    beta_.noalias() = lower_ + point.cwiseProduct(span_);
+    return cost_(beta_);
+  }
+  void scatter(bool keep_best);
+  void iterate();
+  bool stalled(std::size_t it);
+
+  const CostFunction& cost_;
+  const Eigen::VectorXd& lower_;
+  const Eigen::VectorXd span_;
+  const PsoOptions& options_;
+  Random rng_;
+  Swarm swarm_;
+  Eigen::VectorXd beta_;
+  std::vector<std::size_t> guide_;
+  PsoResult result_;
+  double checkpoint_cost_{0};
+  std::size_t checkpoint_it_{0};
+};
+
+// Every particle at a random point with a random velocity; on a restart
+// (keep_best) the first particle starts at the swarm's best point.
+void SwarmRun::scatter(bool keep_best) {
+  Swarm& s = swarm_;
+  for (std::size_t i = 0; i < s.n; ++i) {
+    double* x = s.x_of(i);
+    double* v = s.v_of(i);
+    for (std::size_t d = 0; d < s.dim; ++d) {
+      x[d] = rng_.uniform();
+      v[d] = (rng_.uniform() - x[d]) * 0.5;
+    }
+    if (keep_best && i == 0) std::copy_n(s.gbest.data(), s.dim, x);
+    const double c = evaluate(x);
+    std::copy_n(x, s.dim, s.pbest_of(i));
+    s.pbest_cost[i] = c;
+    if (c < s.gbest_cost) {
+      s.gbest_cost = c;
+      std::copy_n(x, s.dim, s.gbest.data());
+    }
+  }
+}
+
+// One iteration: each particle's guide from the bests at its start, then
+// each particle moved and evaluated in turn (the swarm's best follows at once).
+void SwarmRun::iterate() {
+  Swarm& s = swarm_;
+  const bool ring = options_.topology == PsoTopology::kRing;
+  if (ring) {
+    for (std::size_t i = 0; i < s.n; ++i) guide_[i] = ring_guide(s, i);
+  }
+  for (std::size_t i = 0; i < s.n; ++i) {
+    move(s, i, ring ? s.pbest_of(guide_[i]) : s.gbest.data(), rng_);
+    record(s, i, evaluate(s.x_of(i)));
+  }
+}
+
+// Whether the search stops at iteration it: no relative gain above the
+// tolerance for stall_iterations, and no restart left.
+bool SwarmRun::stalled(std::size_t it) {
+  if (swarm_.gbest_cost < checkpoint_cost_ * (1.0 - options_.stall_tolerance)) {
+    checkpoint_cost_ = swarm_.gbest_cost;
+    checkpoint_it_ = it;
+    return false;
+  }
+  if (it - checkpoint_it_ < options_.stall_iterations) return false;
+  if (result_.restarts_done == options_.restarts) return true;
+  ++result_.restarts_done;
+  scatter(true);
+  checkpoint_it_ = it;
+  return false;
+}
+
+PsoResult SwarmRun::run() {
+  scatter(false);
+  checkpoint_cost_ = swarm_.gbest_cost;
+  std::size_t it = 0;
+  result_.stop_reason = "iterations";
+  for (; it < options_.iterations; ++it) {
+    iterate();
+    if (stalled(it)) {
+      result_.stop_reason = "stall";
+      ++it;
+      break;
+    }
+    if (options_.progress && (it + 1) % options_.progress_every == 0) {
+      options_.progress(it + 1, options_.iterations, swarm_.gbest_cost);
+    }
+  }
+  if (options_.progress) options_.progress(it, options_.iterations, swarm_.gbest_cost);
+  result_.iterations = it;
+  const Eigen::Map<const Eigen::VectorXd> best(swarm_.gbest.data(), lower_.size());
+  result_.best = lower_ + best.cwiseProduct(span_);
+  result_.best_cost = swarm_.gbest_cost;
+  for (std::size_t i = 0; i < swarm_.n; ++i) {
+    const double* x = swarm_.x_of(i);
+    if (std::any_of(x, x + swarm_.dim, [](double c) { return c <= 0.0 || c >= 1.0; })) {
+      ++result_.particles_on_bound;
+    }
+  }
+  return result_;
+}
+
 }  // namespace
 
 PsoResult run_pso(const CostFunction& cost, const Eigen::VectorXd& lower,
                   const Eigen::VectorXd& upper, const PsoOptions& options) {
-  const Eigen::Index dim = lower.size();
-  const std::size_t n = std::max<std::size_t>(options.particles, 2);
-  const Eigen::VectorXd span = upper - lower;
-  Random rng(options.seed);
-  PsoResult result;
-
-  std::vector<Eigen::VectorXd> x(n, Eigen::VectorXd(dim)), v(n, Eigen::VectorXd(dim));
-  std::vector<Eigen::VectorXd> pbest(n);
-  std::vector<double> pbest_cost(n, std::numeric_limits<double>::infinity());
-  Eigen::VectorXd gbest_u = Eigen::VectorXd::Constant(dim, 0.5);
-  double gbest_cost = std::numeric_limits<double>::infinity();
-
-  Eigen::VectorXd beta(dim);  // the point evaluated, in one buffer: no allocation per call
-  const auto evaluate = [&](const Eigen::VectorXd& u) {
-    ++result.evaluations;
-    beta.noalias() = lower + u.cwiseProduct(span);
-    return cost(beta);
-  };
-  const auto scatter = [&](bool keep_best) {
-    for (std::size_t i = 0; i < n; ++i) {
-      for (Eigen::Index d = 0; d < dim; ++d) {
-        x[i](d) = rng.uniform();
-        v[i](d) = (rng.uniform() - x[i](d)) * 0.5;
-      }
-      if (keep_best && i == 0) x[i] = gbest_u;
-      const double c = evaluate(x[i]);
-      pbest[i] = x[i];
-      pbest_cost[i] = c;
-      if (c < gbest_cost) {
-        gbest_cost = c;
-        gbest_u = x[i];
-      }
-    }
-  };
-  scatter(false);
-
-  double checkpoint_cost = gbest_cost;
-  std::size_t checkpoint_it = 0;
-  std::size_t it = 0;
-  result.stop_reason = "iterations";
-  std::vector<std::size_t> guide(n);
-  for (; it < options.iterations; ++it) {
-    // Each particle's guide: the best of its neighbourhood.
-    for (std::size_t i = 0; i < n; ++i) {
-      if (options.topology == PsoTopology::kGlobal) {
-        guide[i] = n;  // sentinel: global best
-      } else {
-        const std::size_t l = (i + n - 1) % n, r = (i + 1) % n;
-        std::size_t b = i;
-        if (pbest_cost[l] < pbest_cost[b]) b = l;
-        if (pbest_cost[r] < pbest_cost[b]) b = r;
-        guide[i] = b;
-      }
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::VectorXd& g = guide[i] == n ? gbest_u : pbest[guide[i]];
-      for (Eigen::Index d = 0; d < dim; ++d) {
-        double vel = kChi * (v[i](d) + kC * rng.uniform() * (pbest[i](d) - x[i](d)) +
-                             kC * rng.uniform() * (g(d) - x[i](d)));
-        vel = std::clamp(vel, -kMaxSpeed, kMaxSpeed);
-        double pos = x[i](d) + vel;
-        if (pos < 0.0) {
-          pos = 0.0;
-          vel = -0.5 * vel;
-        } else if (pos > 1.0) {
-          pos = 1.0;
-          vel = -0.5 * vel;
-        }
-        x[i](d) = pos;
-        v[i](d) = vel;
-      }
-      const double c = evaluate(x[i]);
-      if (c < pbest_cost[i]) {
-        pbest_cost[i] = c;
-        pbest[i] = x[i];
-        if (c < gbest_cost) {
-          gbest_cost = c;
-          gbest_u = x[i];
-        }
-      }
-    }
-    if (gbest_cost < checkpoint_cost * (1.0 - options.stall_tolerance)) {
-      checkpoint_cost = gbest_cost;
-      checkpoint_it = it;
-    } else if (it - checkpoint_it >= options.stall_iterations) {
-      if (result.restarts_done < options.restarts) {
-        ++result.restarts_done;
-        scatter(true);
-        checkpoint_it = it;
-      } else {
-        result.stop_reason = "stall";
-        ++it;
-        break;
-      }
-    }
-    if (options.progress && (it + 1) % options.progress_every == 0) {
-      options.progress(it + 1, options.iterations, gbest_cost);
-    }
-  }
-  if (options.progress) options.progress(it, options.iterations, gbest_cost);
-  result.iterations = it;
-  result.best = lower + gbest_u.cwiseProduct(span);
-  result.best_cost = gbest_cost;
-  for (std::size_t i = 0; i < n; ++i) {
-    if ((x[i].array() <= 0.0).any() || (x[i].array() >= 1.0).any()) ++result.particles_on_bound;
-  }
-  return result;
+  return SwarmRun(cost, lower, upper, options).run();
 }
 
 }  // namespace host_id
