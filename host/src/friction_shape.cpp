@@ -33,7 +33,7 @@ ShapeRegression regression_for(const DeltaLog& log, const FitOptions& options,
   Preprocessed pre = preprocess(*s.model, log, options.prepare, options.threads);
   s.sample_rate_hz = pre.report.sample_rate_hz;
   s.all = std::move(pre.regression);
-  s.fast_rows = fast_rows_first(s.all, min_speed_for(options));
+  s.fast_rows = fast_rows_first(s.all, min_speed_for(options), options.threads);
   return s;
 }
 

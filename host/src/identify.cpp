@@ -245,7 +245,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.segments_used = pre.report.segments_used;
   r.segments_dropped = pre.report.segments_dropped;
   r.min_speed_rad_s = min_speed_for(options);
-  const Equations reg(all_rows, fast_rows_first(all_rows, r.min_speed_rad_s));
+  const Equations reg(all_rows, fast_rows_first(all_rows, r.min_speed_rad_s, options.threads));
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name);
 

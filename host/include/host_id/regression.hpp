@@ -81,8 +81,9 @@ struct Equations {
 // milliseconds, faster than the filtered velocity can place it, and the
 // residual it leaves there biases the viscous estimate, so a fit uses only
 // the fast ones (docs/identification.md). In place: one column at a time
-// passes through a buffer.
-std::size_t fast_rows_first(Regression& r, double min_speed_rad_s);
+// passes through a buffer, the columns shared out over `threads` threads
+// (0: one per core).
+std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned threads = 1);
 
 // Direct evaluation: one pass over all rows.
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta);

@@ -624,6 +624,47 @@ TEST(IdentifyTest, PreprocessingThatReleasesTheLogGivesTheSameRegression) {
   EXPECT_FALSE(log.name.empty());
 }
 
+// A regression long enough that fast_rows_first shares its columns out
+// over two threads: the same rows as on one thread, fast ones first in their
+// order, slow ones after them in theirs, every column moved alike.
+TEST(IdentifyTest, FastRowsFirstOnTwoThreadsMovesEveryColumnAsOnOne) {
+  constexpr std::size_t kSamples = 50000;  // 150 000 rows: two workers
+  Regression r;
+  r.psi.resize(3 * kSamples, 5);
+  r.tau.resize(3 * kSamples);
+  for (std::size_t row = 0; row < 3 * kSamples; ++row) {
+    const auto i = static_cast<Eigen::Index>(row);
+    for (Eigen::Index c = 0; c < 5; ++c)
+      r.psi(i, c) = static_cast<double>(row) + 0.1 * static_cast<double>(c);
+    r.tau(i) = -static_cast<double>(row);
+    r.joint.push_back(static_cast<unsigned char>(row % 3));
+    r.sample.push_back(row / 3);
+    r.velocity_rad_s.push_back(std::sin(1e-3 * static_cast<double>(row)));
+  }
+  r.t_s.resize(kSamples);
+  Regression one = r;
+  const std::size_t fast_on_one = fast_rows_first(one, 0.3, 1);
+  const std::size_t fast_on_two = fast_rows_first(r, 0.3, 2);
+  ASSERT_EQ(fast_on_one, fast_on_two);
+  EXPECT_GT(fast_on_two, r.rows() / 2);
+  EXPECT_LT(fast_on_two, r.rows());
+  EXPECT_EQ(r.psi, one.psi);
+  EXPECT_EQ(r.tau, one.tau);
+  EXPECT_EQ(r.joint, one.joint);
+  EXPECT_EQ(r.sample, one.sample);
+  EXPECT_EQ(r.velocity_rad_s, one.velocity_rad_s);
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    const auto i = static_cast<Eigen::Index>(row);
+    const double original = -r.tau(i);  // each row's index before the move
+    ASSERT_EQ(original, static_cast<double>(3 * r.sample[row] + r.joint[row])) << row;
+    ASSERT_EQ(r.psi(i, 4), original + 0.4) << row;
+    ASSERT_EQ(std::abs(r.velocity_rad_s[row]) >= 0.3, row < fast_on_two) << row;
+    if (row > 0 && (row < fast_on_two) == (row - 1 < fast_on_two)) {
+      ASSERT_LT(-r.tau(i - 1), original) << row;
+    }
+  }
+}
+
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const DeltaLog log = simulated(2, 0.01, 17, false);
   const auto model = make_model({});
