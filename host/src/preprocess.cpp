@@ -242,12 +242,23 @@ struct RowStore {
   double* tau_start(bool on_side, std::size_t row) { return &tau_at(on_side, row); }
 };
 
+// A kept sample's labels: its time, and its rows' joints, speeds and sample.
+void label_kept(const States& s, std::size_t k, std::size_t i, Regression& r) {
+  r.t_s[i] = s.t_s[k];
+  for (unsigned j = 0; j < 3; ++j) {
+    r.joint[3 * i + j] = static_cast<unsigned char>(j);
+    r.velocity_rad_s[3 * i + j] = s.states[k].qd_rad_s[j];
+    r.sample[3 * i + j] = i;
+  }
+}
+
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
-// their places, on `threads` threads; and tau alike.
-// The kept samples' unfiltered rows also go into `measured`; nonzero[j p + c]
-// says whether column c of joint j is anywhere other than zero.
+// their places, on `threads` threads; and tau alike. The kept samples'
+// labels go into r (sized for them), their unfiltered rows into r.measured;
+// nonzero[j p + c] says whether column c of joint j is anywhere other than
+// zero.
 void fill_rows(const Model& model, const DeltaLog& log, const States& s, const RowLayout& layout,
-               RowStore& store, MeasuredMoments& measured, std::vector<unsigned char>& nonzero,
+               RowStore& store, Regression& r, std::vector<unsigned char>& nonzero,
                unsigned threads) {
   const std::size_t n = s.size();
   const std::size_t p = model.size();
@@ -274,6 +285,7 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         }
         bool side = false;
         const std::size_t i = layout.place(si, k - seg.begin, len, side);
+        if (!side) label_kept(s, k, i, r);
         for (unsigned j = 0; j < 3; ++j) {
           for (std::size_t c = 0; c < p; ++c) {
             const double v = rows[j * p + c];
@@ -293,8 +305,8 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   for (const auto& nz : nonzero_of) {
     for (std::size_t k = 0; k < nz.size(); ++k) nonzero[k] |= nz[k];
   }
-  measured = std::move(moments[0]);
-  for (std::size_t w = 1; w < workers; ++w) measured.merge(moments[w]);
+  r.measured = std::move(moments[0]);
+  for (std::size_t w = 1; w < workers; ++w) r.measured.merge(moments[w]);
   if (const std::size_t k = first_bad.load(); k < n) {
     const auto& q = s.states[k].q_rad;
     std::ostringstream m;
@@ -363,25 +375,6 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
             [&](std::size_t worker, std::size_t k) { run(tasks[k], blocks[worker]); });
 }
 
-// The rows' joints, speeds, samples and times.
-void label_rows(const States& s, const RowLayout& layout, std::size_t trim, Regression& r) {
-  r.t_s.reserve(layout.kept());
-  r.joint.reserve(3 * layout.kept());
-  r.velocity_rad_s.reserve(3 * layout.kept());
-  r.sample.reserve(3 * layout.kept());
-  for (const Segment& seg : s.segments) {
-    for (std::size_t k = seg.begin + trim; k + trim < seg.end; ++k) {
-      const std::size_t i = r.t_s.size();
-      r.t_s.push_back(s.t_s[k]);
-      for (unsigned j = 0; j < 3; ++j) {
-        r.joint.push_back(static_cast<unsigned char>(j));
-        r.velocity_rad_s.push_back(s.states[k].qd_rad_s[j]);
-        r.sample.push_back(i);
-      }
-    }
-  }
-}
-
 // The regression of the states: built in place, labelled, filtered,
 // trimmed. The states are freed once the rows are built, before filtering
 // needs its buffers.
@@ -395,9 +388,12 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   advise_huge_pages(r.psi.data(), static_cast<std::size_t>(r.psi.size()) * sizeof(double));
   RowStore store{r.psi, r.tau, std::vector<double>(3 * layout.trimmed() * p),
                  std::vector<double>(3 * layout.trimmed()), p};
+  r.t_s.resize(layout.kept());
+  r.joint.resize(3 * layout.kept());
+  r.velocity_rad_s.resize(3 * layout.kept());
+  r.sample.resize(3 * layout.kept());
   std::vector<unsigned char> nonzero;
-  fill_rows(model, log, s, layout, store, r.measured, nonzero, threads);
-  label_rows(s, layout, d.trim, r);
+  fill_rows(model, log, s, layout, store, r, nonzero, threads);
   const std::vector<Segment> segments = s.segments;
   const std::size_t samples = s.size();
   s = States{};
