@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <span>
 #include <sstream>
 #include <vector>
 
@@ -53,11 +54,6 @@ double median_step(const double* t, std::size_t n) {
   return dt[dt.size() / 2];
 }
 
-std::vector<double> slice(const std::vector<double>& v, std::size_t b, std::size_t e) {
-  return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(b),
-                             v.begin() + static_cast<std::ptrdiff_t>(e));
-}
-
 FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   FilterDesign d;
   const double h_median = median_step(log.t.data(), log.t.size());
@@ -80,68 +76,77 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   return d;
 }
 
-// The buffers one joint's series is worked in, reused for every joint and
-// segment.
+// The buffers a segment's series are worked in, reused for every segment:
+// the three joints' q one after the other, and one joint's derivatives.
 struct SeriesScratch {
   std::vector<double> q, qd, qdd;
-  FiltfiltBlock block{2, 0, 1};
+  FiltfiltBlock block{2, 0, 3};
 };
 
+// Whether the times t[0..n) are evenly spaced, and their step h (their
+// median step, for a log that carries no derivatives).
+bool uniform_steps(const double* t, std::size_t n, double& h) {
+  h = median_step(t, n);
+  double worst = 0.0;
+  for (std::size_t i = 1; i < n; ++i) worst = std::max(worst, std::abs((t[i] - t[i - 1]) - h));
+  return worst <= 1e-6 * h;
+}
+
 // q, qd, qdd and tau of one segment [b, e) of the log, appended to out:
-// each joint's q filtered and differentiated in the scratch buffers, then
-// put into the segment's states.
+// the three joints' q filtered as three lanes of one pass, then each
+// differentiated in the scratch buffers and put into the segment's states.
 void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
                     States& out, SeriesScratch& scratch) {
   const std::size_t n = e - b;
   const std::size_t first = out.states.size();
   out.segments.push_back({first, first + n, b});
   out.states.resize(first + n);
-  const double* t = log.t.data() + b;
-  bool uniform = true;
+  out.tau_Nm.resize(first + n);
+  out.t_s.insert(out.t_s.end(), log.t.begin() + static_cast<std::ptrdiff_t>(b),
+                 log.t.begin() + static_cast<std::ptrdiff_t>(e));
   double h = 0.0;
-  if (!d.logged_derivatives) {
-    h = median_step(t, n);
-    double worst = 0.0;
-    for (std::size_t i = 1; i < n; ++i) worst = std::max(worst, std::abs((t[i] - t[i - 1]) - h));
-    uniform = worst <= 1e-6 * h;
-    out.any_nonuniform = out.any_nonuniform || !uniform;
-  }
-  static constexpr std::ptrdiff_t kOne[] = {0};
+  const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
+  out.any_nonuniform = out.any_nonuniform || !uniform;
   std::vector<double>& q = scratch.q;
+  q.resize(3 * n);
   for (unsigned j = 0; j < 3; ++j) {
-    q.assign(log.q[j].begin() + static_cast<std::ptrdiff_t>(b),
-             log.q[j].begin() + static_cast<std::ptrdiff_t>(e));
+    std::copy_n(log.q[j].begin() + static_cast<std::ptrdiff_t>(b), n,
+                q.begin() + static_cast<std::ptrdiff_t>(j * n));
+  }
+  if (!d.logged_derivatives) {
+    const std::array<std::ptrdiff_t, 3> joint_lane{0, static_cast<std::ptrdiff_t>(n),
+                                                   static_cast<std::ptrdiff_t>(2 * n)};
+    filtfilt_lanes(
+        d.filter, n, 3, d.pad,
+        [&](std::size_t k) {
+          return LaneRef{&q[k], joint_lane.data()};
+        },
+        scratch.block);
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::span<const double> qj(q.data() + j * n, n);
     const double* qd = nullptr;
     const double* qdd = nullptr;
     if (d.logged_derivatives) {
       qd = log.qd[j].data() + b;
       qdd = log.qdd[j].data() + b;
     } else {
-      filtfilt_lanes(
-          d.filter, n, 1, d.pad,
-          [&](std::size_t k) {
-            return LaneRef{&q[k], kOne};
-          },
-          scratch.block);
       if (uniform) {
-        differentiate_uniform(q, h, scratch.qd, scratch.qdd);
+        differentiate_uniform(qj, h, scratch.qd, scratch.qdd);
       } else {
-        differentiate_nonuniform(slice(log.t, b, e), q, scratch.qd, scratch.qdd);
+        differentiate_nonuniform(std::span(log.t).subspan(b, n), qj, scratch.qd, scratch.qdd);
       }
       qd = scratch.qd.data();
       qdd = scratch.qdd.data();
     }
     for (std::size_t i = 0; i < n; ++i) {
       delta::JointState& st = out.states[first + i];
-      st.q_rad[j] = q[i];
+      st.q_rad[j] = qj[i];
       st.qd_rad_s[j] = qd[i];
       st.qdd_rad_s2[j] = qdd[i];
+      // tau stays raw here: it is filtered with the regressor's columns.
+      out.tau_Nm[first + i][j] = log.tau[j][b + i];
     }
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    // tau stays raw here: it is filtered with the regressor's columns.
-    out.tau_Nm.push_back({log.tau[0][b + i], log.tau[1][b + i], log.tau[2][b + i]});
-    out.t_s.push_back(t[i]);
   }
 }
 

@@ -150,7 +150,7 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vec
   return y;
 }
 
-void differentiate_uniform(const std::vector<double>& x, double h, std::vector<double>& dx,
+void differentiate_uniform(std::span<const double> x, double h, std::vector<double>& dx,
                            std::vector<double>& ddx) {
   const std::size_t n = x.size();
   dx.assign(n, 0.0);
@@ -178,7 +178,7 @@ void differentiate_uniform(const std::vector<double>& x, double h, std::vector<d
   ddx[n - 1] = ddx[n - 2];
 }
 
-void differentiate_nonuniform(const std::vector<double>& t, const std::vector<double>& x,
+void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
                               std::vector<double>& dx, std::vector<double>& ddx) {
   const std::size_t n = x.size();
   dx.assign(n, 0.0);

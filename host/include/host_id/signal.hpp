@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 namespace host_id {
@@ -103,11 +104,11 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
 // First and second derivatives of uniformly sampled x with spacing h: the
 // five-point central stencils (error O(h^4)) inside, three-point and
 // one-sided stencils at the two samples of each end.
-void differentiate_uniform(const std::vector<double>& x, double h, std::vector<double>& dx,
+void differentiate_uniform(std::span<const double> x, double h, std::vector<double>& dx,
                            std::vector<double>& ddx);
 
 // The same on non-uniform times t: three-point stencils (error O(h^2)).
-void differentiate_nonuniform(const std::vector<double>& t, const std::vector<double>& x,
+void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
                               std::vector<double>& dx, std::vector<double>& ddx);
 
 }  // namespace host_id
