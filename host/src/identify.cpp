@@ -55,31 +55,44 @@ Box pso_box(const LeastSquaresResult& ls, std::size_t rows,
   return box;
 }
 
+// PSO on the least-squares cost of `ls` within its box: r.pso, r.beta and
+// r.cost_Nm2, the cost summed directly over the (weighted) rows.
+void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
+               const std::vector<ParameterInfo>& parameters, const FitOptions& options,
+               FitResult& r, Box& box) {
+  const Regression weighted_reg =
+      options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
+  const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
+  box = pso_box(ls, cost_reg.rows(), parameters, options);
+  const QuadraticCost cost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
+                           ls.cost * static_cast<double>(cost_reg.rows()), cost_reg.rows());
+  r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
+                  options.pso);
+  r.beta = r.pso->best;
+  r.cost_Nm2 = direct_cost(cost_reg, r.beta);
+}
+
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
-// the conditioning and the box.
+// the conditioning and the box. The swarm needs the estimate but not its
+// covariance, so it runs while that is computed.
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
                                const FitOptions& options, std::size_t lags,
                                const std::string& log_name, FitResult& r, Box& box) {
+  const bool pso = options.method == Method::kPso;
   const LeastSquaresResult ls = solve_least_squares(
-      reg, parameters, options.solver, options.weights, log_name, lags, options.threads);
+      reg, parameters, options.solver, options.weights, log_name, lags, options.threads,
+      pso ? Alongside([&](const LeastSquaresResult& estimate) {
+        run_swarm(reg, estimate, parameters, options, r, box);
+      })
+          : nullptr);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
   r.std_dev_lags = ls.correlation_lags;
   r.condition_number_scaled = ls.condition_number_scaled;
   r.ls_cost_Nm2 = ls.cost;
   for (const std::size_t c : ls.active_bounds) r.active_bounds.push_back(parameters[c].name);
-  const Regression weighted_reg =
-      options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
-  const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
-  box = pso_box(ls, cost_reg.rows(), parameters, options);
-  if (options.method == Method::kPso) {
-    const QuadraticCost cost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
-                             ls.cost * static_cast<double>(cost_reg.rows()), cost_reg.rows());
-    r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
-                    options.pso);
-    r.beta = r.pso->best;
-    r.cost_Nm2 = direct_cost(cost_reg, r.beta);
-  } else {
+  if (!pso) {
+    box = pso_box(ls, reg.rows(), parameters, options);
     r.beta = ls.beta;
     r.cost_Nm2 = ls.cost;
   }

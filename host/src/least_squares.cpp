@@ -4,8 +4,10 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "delta/input_error.hpp"
 #include "host_id/parallel.hpp"
@@ -348,14 +350,94 @@ TriangularFactor scaled_factor(const Equations& reg, const Eigen::MatrixXd& gram
   return scaled_qr(reg, col_norm);
 }
 
-// The least-squares solution from R: everything after the QR is p x p. The
-// singular values and right singular vectors of R are those of the scaled
-// regressor (Q has orthonormal columns).
-LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<ParameterInfo>& parameters,
-                                  LsSolver solver, const std::string& log_name, std::size_t lags,
-                                  unsigned threads) {
+// Runs alongside(estimate) on a thread of its own while covariance(t) runs
+// on this one with t one thread fewer; one after the other where only one
+// thread is allowed. An exception from either is rethrown here.
+template <class Covariance>
+void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimate, unsigned threads,
+                   const Covariance& covariance) {
+  const unsigned allowed =
+      threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : threads;
+  if (!alongside || allowed < 2) {
+    covariance(allowed);
+    if (alongside) alongside(estimate);
+    return;
+  }
+  std::exception_ptr failed;
+  std::thread side([&] {
+    try {
+      alongside(estimate);
+    } catch (...) {
+      failed = std::current_exception();
+    }
+  });
+  try {
+    covariance(allowed - 1);
+  } catch (...) {
+    side.join();
+    throw;
+  }
+  side.join();
+  if (failed) std::rethrow_exception(failed);
+}
+
+// The parameters' standard deviations (Newey-West over `lags`) and the
+// conditioning, from the SVD of the scaled factor and the residual e at the
+// unconstrained optimum: one pass over the rows on `threads` threads.
+void add_covariance(const Equations& r, const Eigen::JacobiSVD<Eigen::MatrixXd>& svd,
+                    const Eigen::MatrixXd& rr, const Eigen::VectorXd& col_norm,
+                    const Eigen::VectorXd& e, std::size_t lags, unsigned threads,
+                    LeastSquaresResult& out) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
+  const Eigen::VectorXd sv = svd.singularValues();
+  // (A^T A)^-1 = V Sigma^-2 V^T for the scaled regressor A = U Sigma V^T.
+  const Eigen::MatrixXd vs = svd.matrixV() * sv.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd inv_ata = vs * vs.transpose();
+  const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
+  const Eigen::MatrixXd cov_scaled =
+      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags, threads) * inv_ata;
+  out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
+  out.correlation_lags = lags;
+  out.condition_number_scaled = sv(0) / sv(p - 1);
+  // Psi = Q R D: its singular values are those of R D.
+  const Eigen::VectorXd raw_sv = (rr * col_norm.asDiagonal()).jacobiSvd().singularValues();
+  out.condition_number = raw_sv(0) / raw_sv(p - 1);
+}
+
+// The bounded optimum from the unconstrained one (scaled), its active
+// bounds and cost.
+void bound(const Equations& r, const std::vector<ParameterInfo>& parameters,
+           const Eigen::MatrixXd& rr, const Eigen::VectorXd& qt_tau,
+           const Eigen::VectorXd& beta_scaled, const Eigen::VectorXd& col_norm,
+           LeastSquaresResult& out) {
+  const Eigen::Index p = r.psi.cols();
+  // Scaling by the positive column norms keeps every bound at 0.
+  std::vector<bool> nonnegative(static_cast<std::size_t>(p));
+  bool inside = true;
+  for (Eigen::Index c = 0; c < p; ++c) {
+    nonnegative[static_cast<std::size_t>(c)] = parameters[static_cast<std::size_t>(c)].nonnegative;
+    inside = inside && !(nonnegative[static_cast<std::size_t>(c)] && beta_scaled(c) < 0.0);
+  }
+  const Eigen::VectorXd x = inside ? beta_scaled : bounded_least_squares(rr, qt_tau, nonnegative);
+  out.beta = x.cwiseQuotient(col_norm);
+  for (Eigen::Index c = 0; c < p; ++c) {
+    if (nonnegative[static_cast<std::size_t>(c)] && x(c) == 0.0) {
+      out.active_bounds.push_back(static_cast<std::size_t>(c));
+    }
+  }
+  out.cost = inside ? out.unconstrained_cost
+                    : (r.tau - r.psi * out.beta).squaredNorm() / static_cast<double>(r.rows());
+}
+
+// The least-squares solution from R: everything after the QR is p x p. The
+// singular values and right singular vectors of R are those of the scaled
+// regressor (Q has orthonormal columns). `alongside` runs with the estimate
+// while the covariance is computed.
+LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<ParameterInfo>& parameters,
+                                  LsSolver solver, const std::string& log_name, std::size_t lags,
+                                  unsigned threads, const Alongside& alongside) {
+  const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
   const Eigen::MatrixXd gram = augmented_gram(r, threads);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
@@ -376,35 +458,10 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
   out.tau_t_tau = gram(p, p);
   out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
   const Eigen::VectorXd e = r.tau - r.psi * out.unconstrained_beta;
-  out.unconstrained_cost = e.squaredNorm() / static_cast<double>(rows);
-  // Scaling by the positive column norms keeps every bound at 0.
-  std::vector<bool> nonnegative(static_cast<std::size_t>(p));
-  bool inside = true;
-  for (Eigen::Index c = 0; c < p; ++c) {
-    nonnegative[static_cast<std::size_t>(c)] = parameters[static_cast<std::size_t>(c)].nonnegative;
-    inside = inside && !(nonnegative[static_cast<std::size_t>(c)] && beta_scaled(c) < 0.0);
-  }
-  const Eigen::VectorXd x = inside ? beta_scaled : bounded_least_squares(rr, qt_tau, nonnegative);
-  out.beta = x.cwiseQuotient(col_norm);
-  for (Eigen::Index c = 0; c < p; ++c) {
-    if (nonnegative[static_cast<std::size_t>(c)] && x(c) == 0.0) {
-      out.active_bounds.push_back(static_cast<std::size_t>(c));
-    }
-  }
-  out.cost = inside ? out.unconstrained_cost
-                    : (r.tau - r.psi * out.beta).squaredNorm() / static_cast<double>(rows);
-  // (A^T A)^-1 = V Sigma^-2 V^T for the scaled regressor A = U Sigma V^T.
-  const Eigen::MatrixXd vs = svd.matrixV() * sv.cwiseInverse().asDiagonal();
-  const Eigen::MatrixXd inv_ata = vs * vs.transpose();
-  const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
-  const Eigen::MatrixXd cov_scaled =
-      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags, threads) * inv_ata;
-  out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
-  out.correlation_lags = lags;
-  out.condition_number_scaled = sv(0) / sv(p - 1);
-  // Psi = Q R D: its singular values are those of R D.
-  const Eigen::VectorXd raw_sv = (rr * col_norm.asDiagonal()).jacobiSvd().singularValues();
-  out.condition_number = raw_sv(0) / raw_sv(p - 1);
+  out.unconstrained_cost = e.squaredNorm() / static_cast<double>(r.rows());
+  bound(r, parameters, rr, qt_tau, beta_scaled, col_norm, out);
+  run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads,
+                [&](unsigned t) { add_covariance(r, svd, rr, col_norm, e, lags, t, out); });
   return out;
 }
 
@@ -493,9 +550,10 @@ std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
 
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags, unsigned threads) {
+                                       std::size_t correlation_lags, unsigned threads,
+                                       const Alongside& alongside) {
   return solve_least_squares(r, model.parameters(), solver, weights, log_name, correlation_lags,
-                             threads);
+                             threads, alongside);
 }
 
 double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
@@ -521,9 +579,10 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name, std::size_t correlation_lags,
-                                       unsigned threads) {
+                                       unsigned threads, const Alongside& alongside) {
   LeastSquaresResult ols =
-      solve_ordinary(r, parameters, solver, log_name, correlation_lags, threads);
+      solve_ordinary(r, parameters, solver, log_name, correlation_lags, threads,
+                     weights == LsWeights::kNone ? alongside : nullptr);
   if (weights == LsWeights::kNone) return ols;
   const std::array<double, 3> var = mean_square_per_joint(r, r.tau - r.psi * ols.beta);
   std::array<double, 3> w{};
@@ -531,8 +590,15 @@ LeastSquaresResult solve_least_squares(const Equations& r,
   // Normalise so the weights average to one over the joints.
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
-  LeastSquaresResult wls =
-      solve_ordinary(weighted(r, w), parameters, solver, log_name, correlation_lags, threads);
+  const Alongside weighted_alongside = alongside
+                                           ? Alongside([&](const LeastSquaresResult& estimate) {
+                                               LeastSquaresResult with_weights = estimate;
+                                               with_weights.joint_weights = w;
+                                               alongside(with_weights);
+                                             })
+                                           : nullptr;
+  LeastSquaresResult wls = solve_ordinary(weighted(r, w), parameters, solver, log_name,
+                                          correlation_lags, threads, weighted_alongside);
   wls.joint_weights = w;
   return wls;
 }

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,9 @@ struct LeastSquaresResult {
   double tau_t_tau{0};
 };
 
+// Work run with a least-squares estimate while its covariance is computed.
+using Alongside = std::function<void(const LeastSquaresResult& estimate)>;
+
 // Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
 Regression weighted(const Equations& r, const std::array<double, 3>& w);
 
@@ -82,15 +86,23 @@ Regression weighted(const Equations& r, const std::array<double, 3>& w);
 // the white-noise formula (L = 0) then understates the spread several times.
 // The passes over the rows run on `threads` threads (0: one per core) for
 // long regressions, with the same result on any number of them.
+//
+// alongside, when given, is called once with the estimate (beta, the costs,
+// the moments and the joint weights; not yet the standard deviations or the
+// conditioning) on a thread of its own while the covariance is computed on
+// the others (after it, where threads allows only one): work that needs the
+// estimate but not its spread, such as a swarm on the same cost.
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags = 0, unsigned threads = 1);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1,
+                                       const Alongside& alongside = nullptr);
 // The same for columns described by `parameters` (names and bounds).
 LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name,
-                                       std::size_t correlation_lags = 0, unsigned threads = 1);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1,
+                                       const Alongside& alongside = nullptr);
 
 // The cost (mean squared error) of the bounded optimum alone: no
 // covariance, for a search that solves many problems (variable projection).
