@@ -76,10 +76,14 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   return d;
 }
 
+// Samples per thread that pay for its start-up.
+constexpr std::size_t kSamplesPerThread = 20000;
+
 // The buffers a segment's series are worked in, reused for every segment:
-// the three joints' q one after the other, and one joint's derivatives.
+// joint j's q, qd and qdd at [j n, (j + 1) n) of q, qd and qdd.
 struct SeriesScratch {
   std::vector<double> q, qd, qdd;
+  std::vector<double> one_qd, one_qdd;  // one joint's, as differentiated
   FiltfiltBlock block{2, 0, 3};
 };
 
@@ -92,65 +96,92 @@ bool uniform_steps(const double* t, std::size_t n, double& h) {
   return worst <= 1e-6 * h;
 }
 
-// q, qd, qdd and tau of one segment [b, e) of the log, appended to out:
-// the three joints' q filtered as three lanes of one pass, then each
-// differentiated in the scratch buffers and put into the segment's states.
-void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                    States& out, SeriesScratch& scratch) {
+// The three joints' q of segment [b, e) of the log into the scratch buffers,
+// filtered as three lanes of one pass and differentiated (step h where the
+// times are uniform); only copied where the log carries qd and qdd.
+void derive_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
+                   bool uniform, double h, SeriesScratch& scratch) {
   const std::size_t n = e - b;
-  const std::size_t first = out.states.size();
-  out.segments.push_back({first, first + n, b});
-  out.states.resize(first + n);
-  out.tau_Nm.resize(first + n);
-  out.t_s.insert(out.t_s.end(), log.t.begin() + static_cast<std::ptrdiff_t>(b),
-                 log.t.begin() + static_cast<std::ptrdiff_t>(e));
-  double h = 0.0;
-  const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
-  out.any_nonuniform = out.any_nonuniform || !uniform;
   std::vector<double>& q = scratch.q;
   q.resize(3 * n);
   for (unsigned j = 0; j < 3; ++j) {
     std::copy_n(log.q[j].begin() + static_cast<std::ptrdiff_t>(b), n,
                 q.begin() + static_cast<std::ptrdiff_t>(j * n));
   }
-  if (!d.logged_derivatives) {
-    const std::array<std::ptrdiff_t, 3> joint_lane{0, static_cast<std::ptrdiff_t>(n),
-                                                   static_cast<std::ptrdiff_t>(2 * n)};
-    filtfilt_lanes(
-        d.filter, n, 3, d.pad,
-        [&](std::size_t k) {
-          return LaneRef{&q[k], joint_lane.data()};
-        },
-        scratch.block);
-  }
+  if (d.logged_derivatives) return;
+  const std::array<std::ptrdiff_t, 3> joint_lane{0, static_cast<std::ptrdiff_t>(n),
+                                                 static_cast<std::ptrdiff_t>(2 * n)};
+  filtfilt_lanes(
+      d.filter, n, 3, d.pad,
+      [&](std::size_t k) {
+        return LaneRef{&q[k], joint_lane.data()};
+      },
+      scratch.block);
+  scratch.qd.resize(3 * n);
+  scratch.qdd.resize(3 * n);
   for (unsigned j = 0; j < 3; ++j) {
     const std::span<const double> qj(q.data() + j * n, n);
-    const double* qd = nullptr;
-    const double* qdd = nullptr;
-    if (d.logged_derivatives) {
-      qd = log.qd[j].data() + b;
-      qdd = log.qdd[j].data() + b;
+    if (uniform) {
+      differentiate_uniform(qj, h, scratch.one_qd, scratch.one_qdd);
     } else {
-      if (uniform) {
-        differentiate_uniform(qj, h, scratch.qd, scratch.qdd);
-      } else {
-        differentiate_nonuniform(std::span(log.t).subspan(b, n), qj, scratch.qd, scratch.qdd);
-      }
-      qd = scratch.qd.data();
-      qdd = scratch.qdd.data();
+      differentiate_nonuniform(std::span(log.t).subspan(b, n), qj, scratch.one_qd, scratch.one_qdd);
     }
-    for (std::size_t i = 0; i < n; ++i) {
-      delta::JointState& st = out.states[first + i];
-      st.q_rad[j] = qj[i];
-      st.qd_rad_s[j] = qd[i];
-      st.qdd_rad_s2[j] = qdd[i];
-      // tau stays raw here: it is filtered with the regressor's columns.
-      out.tau_Nm[first + i][j] = log.tau[j][b + i];
-    }
+    std::copy(scratch.one_qd.begin(), scratch.one_qd.end(), scratch.qd.data() + j * n);
+    std::copy(scratch.one_qdd.begin(), scratch.one_qdd.end(), scratch.qdd.data() + j * n);
   }
 }
 
-States joint_states(const DeltaLog& log, const FilterDesign& d) {
+// Room for segment [b, e)'s states at the end of out, and its raw torques
+// (filtered later with the regressor's columns) and times.
+void place_raw(const DeltaLog& log, std::size_t b, std::size_t e, States& out) {
+  const std::size_t first = out.states.size();
+  const std::size_t n = e - b;
+  out.states.resize(first + n);
+  out.tau_Nm.resize(first + n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (unsigned j = 0; j < 3; ++j) out.tau_Nm[first + i][j] = log.tau[j][b + i];
+  }
+  out.t_s.insert(out.t_s.end(), log.t.begin() + static_cast<std::ptrdiff_t>(b),
+                 log.t.begin() + static_cast<std::ptrdiff_t>(e));
+}
+
+// q, qd, qdd and tau of one segment [b, e) of the log, appended to out. The
+// joints' series are derived on one thread while the states' memory is
+// laid out on another, then put into the states on all of them.
+void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
+                    unsigned threads, States& out, SeriesScratch& scratch) {
+  const std::size_t n = e - b;
+  const std::size_t first = out.states.size();
+  out.segments.push_back({first, first + n, b});
+  double h = 0.0;
+  const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
+  out.any_nonuniform = out.any_nonuniform || !uniform;
+  const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
+  run_tasks(2, workers, [&](std::size_t, std::size_t task) {
+    if (task == 0) {
+      derive_joints(log, d, b, e, uniform, h, scratch);
+    } else {
+      place_raw(log, b, e, out);
+    }
+  });
+  std::array<const double*, 3> qd{}, qdd{};
+  for (unsigned j = 0; j < 3; ++j) {
+    qd[j] = d.logged_derivatives ? log.qd[j].data() + b : scratch.qd.data() + j * n;
+    qdd[j] = d.logged_derivatives ? log.qdd[j].data() + b : scratch.qdd.data() + j * n;
+  }
+  run_tasks(workers, workers, [&](std::size_t, std::size_t w) {
+    for (std::size_t i = n * w / workers; i < n * (w + 1) / workers; ++i) {
+      delta::JointState& st = out.states[first + i];
+      for (unsigned j = 0; j < 3; ++j) {
+        st.q_rad[j] = scratch.q[j * n + i];
+        st.qd_rad_s[j] = qd[j][i];
+        st.qdd_rad_s2[j] = qdd[j][i];
+      }
+    }
+  });
+}
+
+States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads) {
   States out;
   out.states.reserve(log.size());
   advise_huge_pages(out.states.data(), out.states.capacity() * sizeof(delta::JointState));
@@ -165,7 +196,7 @@ States joint_states(const DeltaLog& log, const FilterDesign& d) {
       ++out.segments_dropped;
       continue;
     }
-    append_segment(log, d, bounds[s], bounds[s + 1], out, scratch);
+    append_segment(log, d, bounds[s], bounds[s + 1], threads, out, scratch);
   }
   if (out.states.empty()) {
     std::ostringstream s;
@@ -191,9 +222,6 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   }
   return text.str();
 }
-
-// Samples per thread that pay for its start-up.
-constexpr std::size_t kSamplesPerThread = 20000;
 
 // Where each sample's three rows go. The samples kept after trimming go
 // straight into the regression (rows 3i..3i+2 of kept sample i); the few
@@ -410,7 +438,7 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
 
 PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options) {
   const FilterDesign design = design_filter(log, options);
-  const States s = joint_states(log, design);
+  const States s = joint_states(log, design, 1);
   PreparedStates out;
   out.report.segments_used = s.segments.size();
   out.report.segments_dropped = s.segments_dropped;
@@ -436,7 +464,7 @@ Preprocessed preprocess_with(const Model& model, const DeltaLog& log, const Prep
                              unsigned threads, AfterStates after_states) {
   const FilterDesign design = design_filter(log, options);
   Preprocessed out;
-  States states = joint_states(log, design);
+  States states = joint_states(log, design, threads);
   out.report.segments_used = states.segments.size();
   out.report.segments_dropped = states.segments_dropped;
   out.report.derivatives = describe(design, options, states);
