@@ -320,6 +320,19 @@ void append_candump_line(const delta::can::Received& r, const std::string& iface
   raw += '\n';
 }
 
+// Keeps the runs (first seq, count) that lie before seq `end`, clipped to
+// it; returns how many seqs they hold.
+std::uint64_t keep_runs_before(std::vector<std::pair<std::uint64_t, std::uint64_t>>& runs,
+                               std::uint64_t end) {
+  std::erase_if(runs, [end](const auto& run) { return run.first >= end; });
+  std::uint64_t total = 0;
+  for (auto& [first, count] : runs) {
+    count = std::min(count, end - first);
+    total += count;
+  }
+  return total;
+}
+
 // The frames of one recording session, put together into samples.
 class Session {
  public:
@@ -351,8 +364,15 @@ class Session {
     s.gaps = assembler_.gaps();
     s.stale = assembler_.stale_samples();
     s.stale_runs = assembler_.stale_runs();
-    // Stopped at --samples, what came after the limit is not the log's.
-    if (!limit_reached_) s.cut_off = assembler_.cut_off();
+    // Stopped at --samples, what came after the limit is not the log's:
+    // neither the cycles cut off nor those lost or stale past its last sample
+    // (read while an earlier gap held the samples back).
+    if (!limit_reached_) {
+      s.cut_off = assembler_.cut_off();
+    } else if (!samples_.empty()) {
+      s.lost = keep_runs_before(s.gaps, samples_.back().seq);
+      s.stale = keep_runs_before(s.stale_runs, samples_.back().seq);
+    }
     s.started_inside = assembler_.started_inside();
     s.emergencies = emergencies_.seen();
     s.emergencies_not_kept = emergencies_.not_kept();

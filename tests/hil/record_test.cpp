@@ -191,6 +191,37 @@ TEST_F(RecordHilTest, LostFramesAreReportedAndKeptAsGapsInSeq) {
   EXPECT_EQ(log.metadata_value("stale_samples").value_or(""), "1");
 }
 
+// Stopped at --samples, the summary is of the log written: a cycle lost
+// before the limit is counted; one lost or marked stale after it, read while
+// the earlier gap held the samples back for the reordering window, is not.
+TEST_F(RecordHilTest, StoppedAtTheSampleLimitOnlyTheLogsLossesCount) {
+  RecordOptions o;
+  o.iface = kIface;
+  o.out_path = dir_ + "/limited.csv";
+  o.samples = 100;
+  o.duration_s = 30;  // a bound in case frames never come
+  delta::can::Socket tx = delta::can::Socket::open(kIface);
+  const Recording r = record_while(o, [&] {
+    for (int k = 0; k < 300; ++k) {
+      if (k == 50) continue;  // lost before the limit (the log's 100th sample is seq 100)
+      send_cycle(tx, static_cast<std::uint32_t>(k), 0.1, 0.2, k == 105 ? 1 : -1, k == 104);
+    }
+  });
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.summary.samples, 100u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(r.summary.lost, 1u);
+  EXPECT_EQ(r.summary.gaps, (std::vector<Run>{{50, 1}}));
+  EXPECT_EQ(r.summary.stale, 0u);
+  EXPECT_TRUE(r.summary.stale_runs.empty());
+  EXPECT_EQ(r.summary.cut_off, (Run{0, 0}));
+  const DeltaLog log = read_delta_log(o.out_path);
+  ASSERT_EQ(log.size(), 100u);
+  ASSERT_EQ(log.gaps.size(), 1u);
+  EXPECT_EQ(log.gaps[0].what, "seq jumps from 49 to 51 (1 samples lost)");
+  EXPECT_FALSE(log.metadata_value("stale_samples").has_value());
+}
+
 TEST_F(RecordHilTest, NothingArrivingWritesNothing) {
   RecordOptions o;
   o.iface = kIface;
