@@ -55,21 +55,18 @@ Box pso_box(const LeastSquaresResult& ls, std::size_t rows,
   return box;
 }
 
-// PSO on the least-squares cost of `ls` within its box: r.pso, r.beta and
-// r.cost_Nm2, the cost summed directly over the (weighted) rows.
+// PSO on the least-squares cost of `ls` (weighted as it was) within its
+// box: r.pso, r.beta and r.cost_Nm2, the cost summed directly over the rows.
 void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
                const std::vector<ParameterInfo>& parameters, const FitOptions& options,
                FitResult& r, Box& box) {
-  const Regression weighted_reg =
-      options.weights == LsWeights::kNone ? Regression{} : weighted(reg, ls.joint_weights);
-  const Equations cost_reg = options.weights == LsWeights::kNone ? reg : Equations(weighted_reg);
-  box = pso_box(ls, cost_reg.rows(), parameters, options);
+  box = pso_box(ls, reg.rows(), parameters, options);
   const QuadraticCost cost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
-                           ls.cost * static_cast<double>(cost_reg.rows()), cost_reg.rows());
+                           ls.cost * static_cast<double>(reg.rows()), reg.rows());
   r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
                   options.pso);
   r.beta = r.pso->best;
-  r.cost_Nm2 = direct_cost(cost_reg, r.beta);
+  r.cost_Nm2 = direct_cost(reg, r.beta, ls.joint_weights);
 }
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,

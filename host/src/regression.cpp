@@ -95,6 +95,17 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
   return (r.tau - r.psi * beta).squaredNorm() / static_cast<double>(r.tau.size());
 }
 
+double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
+                   const std::array<double, 3>& joint_weights) {
+  const Eigen::VectorXd e = r.tau - r.psi * beta;
+  double sum = 0.0;
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    sum += joint_weights[r.joint[row]] * e(static_cast<Eigen::Index>(row)) *
+           e(static_cast<Eigen::Index>(row));
+  }
+  return sum / static_cast<double>(r.tau.size());
+}
+
 QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
     : rows_(static_cast<double>(r.tau.size())) {
   const Eigen::VectorXd r0 = r.tau - r.psi * beta0;

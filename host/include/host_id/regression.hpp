@@ -87,6 +87,10 @@ std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned thre
 
 // Direct evaluation: one pass over all rows.
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
+// The same with joint j's rows weighted by joint_weights[j]: the cost of the
+// weighted problem (weighted()) without a weighted copy of the rows.
+double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
+                   const std::array<double, 3>& joint_weights);
 
 // The cost in O(p^2), expanded about a reference point beta0 (the
 // least-squares solution), with d = beta - beta0 and r0 = tau - Psi beta0:

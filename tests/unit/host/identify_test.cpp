@@ -605,6 +605,24 @@ TEST(IdentifyTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
   EXPECT_TRUE(ls1.psi_t_psi == ls3.psi_t_psi);
 }
 
+// The weighted cost without a weighted copy of the rows: the cost of the
+// rows scaled by the square roots of the weights.
+TEST(IdentifyTest, WeightedDirectCostIsTheCostOfTheWeightedRows) {
+  const DeltaLog log = simulated(2, 0.01, 17, false);
+  const auto model = make_model({});
+  const Regression reg = preprocess(*model, log, PrepareOptions{}).regression;
+  const LeastSquaresResult ls =
+      solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name);
+  const std::array<double, 3> w{0.5, 1.75, 0.75};
+  const Regression scaled = weighted(reg, w);
+  const Eigen::VectorXd beta = 1.1 * ls.beta;
+  const double expected = direct_cost(scaled, beta);
+  EXPECT_NEAR(direct_cost(reg, beta, w), expected, 1e-13 * expected);
+  EXPECT_GT(std::abs(direct_cost(reg, beta) - expected), 1e-3 * expected);
+  EXPECT_NEAR(direct_cost(reg, beta, {1.0, 1.0, 1.0}), direct_cost(reg, beta),
+              1e-14 * direct_cost(reg, beta));
+}
+
 // Work given to solve_least_squares runs once, with the estimate that the
 // solve returns, before its covariance is known: on a thread of its own
 // while the covariance is computed, or after it on one thread. It leaves the
