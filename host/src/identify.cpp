@@ -66,7 +66,8 @@ void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
   r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
                   options.pso);
   r.beta = r.pso->best;
-  r.cost_Nm2 = direct_cost(reg, r.beta, ls.joint_weights);
+  r.cost_Nm2 = options.weights == LsWeights::kNone ? direct_cost(reg, r.beta)
+                                                   : direct_cost(reg, r.beta, ls.joint_weights);
 }
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
