@@ -3,17 +3,71 @@
 #include <sys/mman.h>
 
 #include <cstdint>
+#include <new>
 
 namespace host_id {
 
+namespace {
+
+constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kPlainNew = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kPlainNew = true;
+#else
+constexpr bool kPlainNew = false;
+#endif
+#else
+constexpr bool kPlainNew = false;
+#endif
+
+bool from_kernel(std::size_t bytes) {
+  return !kPlainNew && bytes >= kHugePageBufferBytes;
+}
+
+std::size_t whole_blocks(std::size_t bytes) {
+  return (bytes + kHuge - 1) & ~(kHuge - 1);
+}
+
+}  // namespace
+
 void advise_huge_pages(void* data, std::size_t bytes) {
-  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
   const auto begin = reinterpret_cast<std::uintptr_t>(data);
   const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
   const std::uintptr_t last = (begin + bytes) & ~(kHuge - 1);
   if (last <= first) return;
   // Advice only: an error (no THP in this kernel) leaves the buffer as it was.
   (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+}
+
+void* allocate_buffer(std::size_t bytes) {
+  if (!from_kernel(bytes)) return ::operator new(bytes);
+  const std::size_t length = whole_blocks(bytes);
+  // One block more than needed, so that an aligned run of blocks lies inside;
+  // the unaligned head and the tail go back at once.
+  void* mapped =
+      mmap(nullptr, length + kHuge, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (mapped == MAP_FAILED) throw std::bad_alloc();
+  const auto begin = reinterpret_cast<std::uintptr_t>(mapped);
+  const std::uintptr_t aligned = (begin + kHuge - 1) & ~(kHuge - 1);
+  if (aligned > begin) munmap(mapped, aligned - begin);
+  if (const std::uintptr_t tail = begin + length + kHuge - (aligned + length); tail > 0) {
+    munmap(reinterpret_cast<void*>(aligned + length), tail);
+  }
+  void* out = reinterpret_cast<void*>(aligned);
+  (void)madvise(out, length, MADV_HUGEPAGE);  // advice only, as above
+  return out;
+}
+
+void free_buffer(void* p, std::size_t bytes) noexcept {
+  if (p == nullptr) return;
+  if (!from_kernel(bytes)) {
+    ::operator delete(p);
+    return;
+  }
+  munmap(p, whole_blocks(bytes));
 }
 
 }  // namespace host_id

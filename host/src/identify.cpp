@@ -207,7 +207,7 @@ Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
                          const std::string& log_name) {
   Prediction out;
   out.log = log_name;
-  out.t_s = reg.t_s;
+  out.t_s.assign(reg.t_s.begin(), reg.t_s.end());
   const Eigen::VectorXd yhat = reg.psi * beta;
   const std::size_t n = reg.samples();
   for (unsigned j = 0; j < 3; ++j) {

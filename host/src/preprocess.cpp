@@ -35,9 +35,9 @@ struct FilterDesign {
 // Joint states and torques of every sample of every segment long enough to
 // use, with q filtered and differentiated unless the log carries qd, qdd.
 struct States {
-  std::vector<delta::JointState> states;
-  std::vector<delta::Joint3> tau_Nm;
-  std::vector<double> t_s;
+  SeriesVector<delta::JointState> states;
+  SeriesVector<delta::Joint3> tau_Nm;
+  SeriesVector<double> t_s;
   std::vector<Segment> segments;
   bool any_nonuniform{false};
   std::size_t segments_dropped{0};
@@ -82,7 +82,7 @@ constexpr std::size_t kSamplesPerThread = 20000;
 // The buffers a segment's series are worked in, reused for every segment:
 // joint j's q, qd and qdd at [j n, (j + 1) n) of q, qd and qdd.
 struct SeriesScratch {
-  std::vector<double> q, qd, qdd;
+  SeriesVector<double> q, qd, qdd;
   std::vector<double> one_qd, one_qdd;  // one joint's, as differentiated
   FiltfiltBlock block{2, 0, 3};
 };
@@ -102,7 +102,7 @@ bool uniform_steps(const double* t, std::size_t n, double& h) {
 void derive_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
                    bool uniform, double h, SeriesScratch& scratch) {
   const std::size_t n = e - b;
-  std::vector<double>& q = scratch.q;
+  SeriesVector<double>& q = scratch.q;
   q.resize(3 * n);
   for (unsigned j = 0; j < 3; ++j) {
     std::copy_n(log.q[j].begin() + static_cast<std::ptrdiff_t>(b), n,
@@ -184,7 +184,6 @@ void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, s
 States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads) {
   States out;
   out.states.reserve(log.size());
-  advise_huge_pages(out.states.data(), out.states.capacity() * sizeof(delta::JointState));
   out.tau_Nm.reserve(log.size());
   out.t_s.reserve(log.size());
   SeriesScratch scratch;

@@ -1,7 +1,10 @@
-// Advice to the kernel about large buffers.
+// Advice to the kernel about large buffers, and an allocator that places
+// them where that advice works.
 #pragma once
 
 #include <cstddef>
+#include <new>
+#include <vector>
 
 namespace host_id {
 
@@ -12,5 +15,34 @@ namespace host_id {
 // advice: where the kernel has no huge pages to give (or none configured)
 // nothing changes.
 void advise_huge_pages(void* data, std::size_t bytes);
+
+// Memory for a buffer of `bytes`: from kHugePageBufferBytes on, whole 2 MiB
+// blocks from the kernel, aligned to 2 MiB and advised as huge pages (a
+// buffer of a few MiB from malloc holds few whole aligned blocks, and its
+// first writes fault 4 KiB at a time); below that, operator new. Under
+// AddressSanitizer always operator new, so that its checks see the buffer.
+// Throws std::bad_alloc when there is no memory.
+inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
+void* allocate_buffer(std::size_t bytes);
+void free_buffer(void* p, std::size_t bytes) noexcept;
+
+// A standard allocator on allocate_buffer, for the fit's long series.
+template <class T>
+struct HugePageAllocator {
+  using value_type = T;
+  HugePageAllocator() = default;
+  template <class U>
+  HugePageAllocator(const HugePageAllocator<U>&) noexcept {}
+  T* allocate(std::size_t n) {
+    if (n > static_cast<std::size_t>(-1) / sizeof(T)) throw std::bad_array_new_length();
+    return static_cast<T*>(allocate_buffer(n * sizeof(T)));
+  }
+  void deallocate(T* p, std::size_t n) noexcept { free_buffer(p, n * sizeof(T)); }
+  friend bool operator==(const HugePageAllocator&, const HugePageAllocator&) { return true; }
+};
+
+// A vector of a long series (a sample or a row of the regression per element).
+template <class T>
+using SeriesVector = std::vector<T, HugePageAllocator<T>>;
 
 }  // namespace host_id

@@ -10,6 +10,7 @@
 #include <span>
 #include <vector>
 
+#include "host_id/huge_pages.hpp"
 #include "host_id/model.hpp"
 
 namespace host_id {
@@ -48,13 +49,13 @@ struct MeasuredMoments {
 // sample k, joints 1..3; fast_rows_first() reorders them, so code that
 // needs a row's joint or sample reads joint[row] and sample[row].
 struct Regression {
-  Eigen::MatrixXd psi;                 // N m per unit of each parameter
-  Eigen::VectorXd tau;                 // N m
-  std::vector<double> t_s;             // time of sample k
-  std::vector<unsigned char> joint;    // the joint of each row, 0..2
-  std::vector<double> velocity_rad_s;  // qd of that joint at that row's sample
-  std::vector<std::size_t> sample;     // the index into t_s of each row's sample
-  MeasuredMoments measured;            // the kept samples' rows before filtering
+  Eigen::MatrixXd psi;                  // N m per unit of each parameter
+  Eigen::VectorXd tau;                  // N m
+  SeriesVector<double> t_s;             // time of sample k
+  SeriesVector<unsigned char> joint;    // the joint of each row, 0..2
+  SeriesVector<double> velocity_rad_s;  // qd of that joint at that row's sample
+  SeriesVector<std::size_t> sample;     // the index into t_s of each row's sample
+  MeasuredMoments measured;             // the kept samples' rows before filtering
   std::size_t samples() const { return t_s.size(); }
   std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
   std::array<std::size_t, 3> rows_per_joint() const;

@@ -8,6 +8,8 @@
 #include <span>
 #include <vector>
 
+#include "host_id/huge_pages.hpp"
+
 namespace host_id {
 
 // One second-order section, direct form II transposed:
@@ -54,7 +56,7 @@ class FiltfiltBlock {
 
  private:
   std::size_t n_, pad_, lanes_{0}, max_lanes_;
-  std::vector<double> ext_;
+  SeriesVector<double> ext_;  // the lanes, interleaved, with their reflected ends
 };
 
 // Where sample k of a set of lanes lives: lane l at at[offset[l]].

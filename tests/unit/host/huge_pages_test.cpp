@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace host_id {
 namespace {
@@ -65,6 +66,56 @@ TEST(HugePagesTest, SmallAndUnalignedRangesAreAcceptedAsTheyAre) {
   advise_huge_pages(small.data(), small.size() * sizeof(double));
   advise_huge_pages(small.data() + 1, 0);
   EXPECT_DOUBLE_EQ(small[999], 2.0);
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
+// A series of 3 MiB starts on a 2 MiB boundary, is backed by huge pages
+// where the kernel offers them on advice, and grows, shrinks and is freed
+// as any vector; a small one comes from operator new.
+TEST(HugePagesTest, ALongSeriesLiesOnWholeHugePages) {
+  const std::string setting = first_line("/sys/kernel/mm/transparent_hugepage/enabled");
+  SeriesVector<double> series(3 * (std::size_t{1} << 17), 1.5);  // 3 MiB
+  const auto at = reinterpret_cast<std::uintptr_t>(series.data());
+  if (!kAddressSanitizer) {
+    EXPECT_EQ(at % (std::uintptr_t{2} << 20), 0u);
+    const long huge_kib = huge_kib_of_mapping_holding(series.data());
+    if (setting.empty() || setting.find("[never]") != std::string::npos) {
+      EXPECT_EQ(huge_kib, 0) << setting;
+    } else {
+      EXPECT_GE(huge_kib, 2048) << "transparent_hugepage: " << setting;
+    }
+  }
+  for (int k = 0; k < 100000; ++k) series.push_back(2.5);  // a reallocation
+  EXPECT_DOUBLE_EQ(series.front(), 1.5);
+  EXPECT_DOUBLE_EQ(series.back(), 2.5);
+  EXPECT_EQ(series.size(), 3 * (std::size_t{1} << 17) + 100000);
+  series.resize(10);
+  series.shrink_to_fit();  // below the threshold: operator new
+  EXPECT_DOUBLE_EQ(series[9], 1.5);
+  SeriesVector<unsigned char> bytes(100, 7);
+  EXPECT_EQ(bytes[99], 7);
+}
+
+// What cannot be had is std::bad_alloc (or bad_array_new_length for a size
+// whose bytes do not fit in size_t), as from operator new.
+TEST(HugePagesTest, AnImpossibleSeriesThrowsBadAlloc) {
+  HugePageAllocator<double> allocator;
+  EXPECT_THROW((void)allocator.allocate(std::size_t{1} << 62), std::bad_array_new_length);
+  // (AddressSanitizer's operator new reports a size this large and stops.)
+  if (!kAddressSanitizer) {
+    EXPECT_THROW((void)allocator.allocate(std::size_t{1} << 58), std::bad_alloc);
+  }
 }
 
 }  // namespace
