@@ -9,6 +9,7 @@ output lines, never on sleeps.
 
 Usage: delta_boot_test.py HOST_ID DELTA_BOOT
 """
+import errno
 import os
 import select
 import signal
@@ -23,9 +24,13 @@ failures = []
 # The installed program: says how it was started, then obeys the FIFO:
 # "stage IMAGE" copies IMAGE to the staging path and reports it, "start"
 # asks for the trial.
+# Each read opens the FIFO again; one that opens it while the test still
+# holds its last command's write end open reads nothing once that closes,
+# and opens it again.
 V1 = r'''#!/bin/sh
 echo "v1 trial=$DELTA_BOOT_TRIAL reverted=$DELTA_BOOT_REVERTED" >> "$STATE_LOG"
-while read cmd arg < "$FIFO"; do
+while true; do
+  read cmd arg < "$FIFO" || continue
   case "$cmd" in
     stage) cp "$arg" "$DELTA_BOOT_STAGING"; echo staged > /proc/self/fd/$DELTA_BOOT_FD ;;
     start) echo start > /proc/self/fd/$DELTA_BOOT_FD ;;
@@ -86,9 +91,25 @@ class Boot:
         self.wait_for("\x00", 0.1)
 
 
-def command(work, text):
-    with open(os.path.join(work, "fifo"), "w") as f:
-        f.write(text + "\n")
+def command(work, text, timeout=30.0):
+    """Writes one command line to the program's FIFO once the program has it
+    open for reading; a program that never opens it (it died) fails the
+    check instead of blocking the test."""
+    end = time.monotonic() + timeout
+    while True:
+        try:
+            fd = os.open(os.path.join(work, "fifo"), os.O_WRONLY | os.O_NONBLOCK)
+            break
+        except OSError as e:
+            if e.errno != errno.ENXIO or time.monotonic() > end:
+                check(False, "no program reads the FIFO for %r: %s" % (text, e))
+                return
+            select.select([], [], [], 0.02)  # polls for a reader another process opens
+    try:
+        os.set_blocking(fd, True)
+        os.write(fd, (text + "\n").encode())
+    finally:
+        os.close(fd)
 
 
 def started(work):
