@@ -102,7 +102,7 @@ class BartlettScoreSum {
 // rows before it), and the chunks' sums are added in order: the same
 // result on any number of threads.
 Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorXd& col_norm,
-                                        const Eigen::VectorXd& e, std::size_t lags,
+                                        Eigen::Ref<const Eigen::VectorXd> e, std::size_t lags,
                                         unsigned threads) {
   const Eigen::Index p = r.psi.cols();
   const auto n = static_cast<Eigen::Index>(r.samples());
@@ -386,7 +386,7 @@ void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimat
 // unconstrained optimum: one pass over the rows on `threads` threads.
 void add_covariance(const Equations& r, const Eigen::JacobiSVD<Eigen::MatrixXd>& svd,
                     const Eigen::MatrixXd& rr, const Eigen::VectorXd& col_norm,
-                    const Eigen::VectorXd& e, std::size_t lags, unsigned threads,
+                    Eigen::Ref<const Eigen::VectorXd> e, std::size_t lags, unsigned threads,
                     LeastSquaresResult& out) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
@@ -457,7 +457,10 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
   out.psi_t_tau = gram.topRightCorner(p, 1);
   out.tau_t_tau = gram(p, p);
   out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
-  const Eigen::VectorXd e = r.tau - r.psi * out.unconstrained_beta;
+  // The residual, a long series: on huge pages like the rows it comes from.
+  SeriesVector<double> e_store(r.rows());
+  Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
+  e.noalias() = r.tau - r.psi * out.unconstrained_beta;
   out.unconstrained_cost = e.squaredNorm() / static_cast<double>(r.rows());
   bound(r, parameters, rr, qt_tau, beta_scaled, col_norm, out);
   run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads,

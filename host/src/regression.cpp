@@ -187,7 +187,8 @@ double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
   return std::max(0.0, (r0_t_r0_ + form) / rows_);
 }
 
-std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e) {
+std::array<double, 3> mean_square_per_joint(const Equations& r,
+                                            Eigen::Ref<const Eigen::VectorXd> e) {
   std::array<double, 3> sum{};
   for (std::size_t row = 0; row < r.rows(); ++row)
     sum[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
@@ -197,7 +198,10 @@ std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::Vec
 }
 
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta) {
-  std::array<double, 3> ms = mean_square_per_joint(r, r.tau - r.psi * beta);
+  SeriesVector<double> e_store(r.rows());  // a long series: on huge pages
+  Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
+  e.noalias() = r.tau - r.psi * beta;
+  std::array<double, 3> ms = mean_square_per_joint(r, e);
   for (double& m : ms) m = std::sqrt(m);
   return ms;
 }

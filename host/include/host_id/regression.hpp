@@ -132,7 +132,8 @@ class QuadraticCost {
 };
 
 // The mean of e^2 over each joint's rows (0 for a joint without rows).
-std::array<double, 3> mean_square_per_joint(const Equations& r, const Eigen::VectorXd& e);
+std::array<double, 3> mean_square_per_joint(const Equations& r,
+                                            Eigen::Ref<const Eigen::VectorXd> e);
 
 // Root mean square error per joint of the prediction Psi beta.
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta);
