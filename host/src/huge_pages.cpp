@@ -11,20 +11,8 @@ namespace {
 
 constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kPlainNew = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kPlainNew = true;
-#else
-constexpr bool kPlainNew = false;
-#endif
-#else
-constexpr bool kPlainNew = false;
-#endif
-
 bool from_kernel(std::size_t bytes) {
-  return !kPlainNew && bytes >= kHugePageBufferBytes;
+  return !kBuffersFromOperatorNew && bytes >= kHugePageBufferBytes;
 }
 
 std::size_t whole_blocks(std::size_t bytes) {

@@ -23,6 +23,17 @@ void advise_huge_pages(void* data, std::size_t bytes);
 // AddressSanitizer always operator new, so that its checks see the buffer.
 // Throws std::bad_alloc when there is no memory.
 inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kBuffersFromOperatorNew = true;  // GCC's AddressSanitizer
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kBuffersFromOperatorNew = true;  // Clang's
+#else
+inline constexpr bool kBuffersFromOperatorNew = false;
+#endif
+#else
+inline constexpr bool kBuffersFromOperatorNew = false;
+#endif
 void* allocate_buffer(std::size_t bytes);
 void free_buffer(void* p, std::size_t bytes) noexcept;
 

@@ -68,18 +68,6 @@ TEST(HugePagesTest, SmallAndUnalignedRangesAreAcceptedAsTheyAre) {
   EXPECT_DOUBLE_EQ(small[999], 2.0);
 }
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-
 // A series of 3 MiB starts on a 2 MiB boundary, is backed by huge pages
 // where the kernel offers them on advice, and grows, shrinks and is freed
 // as any vector; a small one comes from operator new.
@@ -87,7 +75,7 @@ TEST(HugePagesTest, ALongSeriesLiesOnWholeHugePages) {
   const std::string setting = first_line("/sys/kernel/mm/transparent_hugepage/enabled");
   SeriesVector<double> series(3 * (std::size_t{1} << 17), 1.5);  // 3 MiB
   const auto at = reinterpret_cast<std::uintptr_t>(series.data());
-  if (!kAddressSanitizer) {
+  if (!kBuffersFromOperatorNew) {
     EXPECT_EQ(at % (std::uintptr_t{2} << 20), 0u);
     const long huge_kib = huge_kib_of_mapping_holding(series.data());
     if (setting.empty() || setting.find("[never]") != std::string::npos) {
@@ -113,7 +101,7 @@ TEST(HugePagesTest, AnImpossibleSeriesThrowsBadAlloc) {
   HugePageAllocator<double> allocator;
   EXPECT_THROW((void)allocator.allocate(std::size_t{1} << 62), std::bad_array_new_length);
   // (AddressSanitizer's operator new reports a size this large and stops.)
-  if (!kAddressSanitizer) {
+  if (!kBuffersFromOperatorNew) {
     EXPECT_THROW((void)allocator.allocate(std::size_t{1} << 58), std::bad_alloc);
   }
 }
