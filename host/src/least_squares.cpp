@@ -463,8 +463,9 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
   e.noalias() = r.tau - r.psi * out.unconstrained_beta;
   out.unconstrained_cost = e.squaredNorm() / static_cast<double>(r.rows());
   bound(r, parameters, rr, qt_tau, beta_scaled, col_norm, out);
+  const Eigen::MatrixXd& factor = rr;  // (a lambda may not capture a structured binding in C++20)
   run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads,
-                [&](unsigned t) { add_covariance(r, svd, rr, col_norm, e, lags, t, out); });
+                [&](unsigned t) { add_covariance(r, svd, factor, col_norm, e, lags, t, out); });
   return out;
 }
 
