@@ -61,10 +61,11 @@ void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
                const std::vector<ParameterInfo>& parameters, const FitOptions& options,
                FitResult& r, Box& box) {
   box = pso_box(ls, reg.rows(), parameters, options);
-  const QuadraticCost cost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
-                           ls.cost * static_cast<double>(reg.rows()), reg.rows());
-  r.pso = run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, box.lower, box.upper,
-                  options.pso);
+  const QuadraticCost cost = QuadraticCost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
+                                           ls.cost * static_cast<double>(reg.rows()), reg.rows())
+                                 .over_box(box.lower, box.upper);
+  r.pso = run_pso_normalized([&cost](const double* u) { return cost.at(u); }, box.lower, box.upper,
+                             options.pso);
   r.beta = r.pso->best;
   r.cost_Nm2 = options.weights == LsWeights::kNone ? direct_cost(reg, r.beta)
                                                    : direct_cost(reg, r.beta, ls.joint_weights);

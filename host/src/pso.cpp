@@ -106,7 +106,7 @@ namespace {
 
 class SwarmRun {
  public:
-  SwarmRun(const CostFunction& cost, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+  SwarmRun(const NormalizedCost& cost, const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
            const PsoOptions& options)
       : cost_(cost),
         lower_(lower),
@@ -114,30 +114,26 @@ class SwarmRun {
         options_(options),
         rng_(options.seed),
         swarm_(std::max<std::size_t>(options.particles, 2), static_cast<std::size_t>(lower.size())),
-        beta_(lower.size()),
         guide_(swarm_.n) {}
 
   PsoResult run();
 
  private:
-  // The cost at normalised point u, through one buffer: no allocation per call.
+  // The cost at normalised point u.
   double evaluate(const double* u) {
     ++result_.evaluations;
-    const Eigen::Map<const Eigen::VectorXd> point(u, beta_.size());
-    beta_.noalias() = lower_ + point.cwiseProduct(span_);
-    return cost_(beta_);
+    return cost_(u);
   }
   void scatter(bool keep_best);
   void iterate();
   bool stalled(std::size_t it);
 
-  const CostFunction& cost_;
+  const NormalizedCost& cost_;
   const Eigen::VectorXd& lower_;
   const Eigen::VectorXd span_;
   const PsoOptions& options_;
   Random rng_;
   Swarm swarm_;
-  Eigen::VectorXd beta_;
   std::vector<std::size_t> guide_;
   PsoResult result_;
   double checkpoint_cost_{0};
@@ -228,9 +224,22 @@ PsoResult SwarmRun::run() {
 
 }  // namespace
 
+PsoResult run_pso_normalized(const NormalizedCost& cost, const Eigen::VectorXd& lower,
+                             const Eigen::VectorXd& upper, const PsoOptions& options) {
+  return SwarmRun(cost, lower, upper, options).run();
+}
+
 PsoResult run_pso(const CostFunction& cost, const Eigen::VectorXd& lower,
                   const Eigen::VectorXd& upper, const PsoOptions& options) {
-  return SwarmRun(cost, lower, upper, options).run();
+  // beta through one buffer: no allocation per evaluation.
+  const Eigen::VectorXd span = upper - lower;
+  Eigen::VectorXd beta(lower.size());
+  const NormalizedCost at_beta = [&](const double* u) {
+    const Eigen::Map<const Eigen::VectorXd> point(u, beta.size());
+    beta.noalias() = lower + point.cwiseProduct(span);
+    return cost(beta);
+  };
+  return run_pso_normalized(at_beta, lower, upper, options);
 }
 
 }  // namespace host_id

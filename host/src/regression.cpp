@@ -121,38 +121,49 @@ QuadraticCost::QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::Vect
 
 namespace {
 
-// d^T (G d - 2 b) for a symmetric p x p matrix G: G d as a sum of G's
-// columns (independent lanes, which the compiler vectorises; a row-by-row
-// dot product is a chain of dependent additions it may not reorder), then
-// the outer sum in two halves.
+// Rounded up to even: the length of a column of QuadraticCost's triangle.
+constexpr std::size_t even_above(std::size_t n) {
+  return (n + 1) & ~std::size_t{1};
+}
+
+// d^T (G d - 2 b) for a symmetric p x p matrix G, from `half`: G's upper
+// triangle with half its diagonal, H (columns of length even_above(p)), so
+// that G d = (H + H^T) d and d^T G d = 2 d^T H d. H d as a sum of H's
+// columns, each over its rows down to the diagonal taken in pairs
+// (independent lanes, which the compiler vectorises; a row-by-row dot
+// product is a chain of dependent additions it may not reorder), then the
+// outer sum in two halves.
 template <std::size_t P>
-double quadratic_form_of(const double* g, const double* b, const double* d) {
-  double g_d[P] = {};
+double quadratic_form_of(const double* half, const double* b, const double* d) {
+  constexpr std::size_t kStride = even_above(P);
+  double h_d[kStride] = {};
+#pragma GCC unroll 32
   for (std::size_t j = 0; j < P; ++j) {
-    const double* column = g + j * P;
+    const double* column = half + j * kStride;
     const double dj = d[j];
-    for (std::size_t i = 0; i < P; ++i) g_d[i] += column[i] * dj;
+    for (std::size_t i = 0; i < even_above(j + 1); ++i) h_d[i] += column[i] * dj;
   }
   double sum[2] = {0.0, 0.0};
-  for (std::size_t i = 0; i < P; ++i) sum[i % 2] += d[i] * (g_d[i] - 2.0 * b[i]);
-  return sum[0] + sum[1];
+  for (std::size_t i = 0; i < P; ++i) sum[i % 2] += d[i] * (h_d[i] - b[i]);
+  return 2.0 * (sum[0] + sum[1]);
 }
 
-// The same for any p (a model with more parameters than the unrolled ones).
-double quadratic_form(const double* g, const double* b, const double* d, std::size_t p) {
+// The same for any p (a model with more parameters than the unrolled
+// ones), row by row: (H d)_i = sum over j >= i of H_ij d_j.
+double quadratic_form(const double* half, const double* b, const double* d, std::size_t p) {
+  const std::size_t stride = even_above(p);
   double quadratic = 0.0;
   for (std::size_t i = 0; i < p; ++i) {
-    const double* row = g + i * p;
-    double g_d = 0.0;
-    for (std::size_t j = 0; j < p; ++j) g_d += row[j] * d[j];
-    quadratic += d[i] * (g_d - 2.0 * b[i]);
+    double h_d = 0.0;
+    for (std::size_t j = i; j < p; ++j) h_d += half[j * stride + i] * d[j];
+    quadratic += d[i] * (h_d - b[i]);
   }
-  return quadratic;
+  return 2.0 * quadratic;
 }
 
 template <std::size_t P>
-double quadratic_form_of(const double* g, const double* b, const double* d, std::size_t) {
-  return quadratic_form_of<P>(g, b, d);
+double quadratic_form_of(const double* half, const double* b, const double* d, std::size_t) {
+  return quadratic_form_of<P>(half, b, d);
 }
 
 template <std::size_t... P>
@@ -167,24 +178,46 @@ auto form_for(std::size_t p, std::index_sequence<P...>) {
 void QuadraticCost::set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
                         const Eigen::VectorXd& beta0) {
   const auto p = static_cast<std::size_t>(beta0.size());
+  const std::size_t stride = even_above(p);
   beta0_.assign(beta0.data(), beta0.data() + p);
   psi_t_r0_.assign(psi_t_r0.data(), psi_t_r0.data() + p);
-  psi_t_psi_.resize(p * p);
-  for (std::size_t i = 0; i < p; ++i) {
-    for (std::size_t j = 0; j < p; ++j) {
-      psi_t_psi_[i * p + j] = psi_t_psi(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+  half_.assign(p * stride, 0.0);
+  for (std::size_t j = 0; j < p; ++j) {
+    for (std::size_t i = 0; i <= j; ++i) {
+      const double g = psi_t_psi(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+      half_[j * stride + i] = i == j ? 0.5 * g : g;
     }
   }
   d_.resize(p);
   form_ = form_for(p, std::index_sequence<9, 12, 14, 15, 18>());  // the models' usual sizes
 }
 
-double QuadraticCost::operator()(const Eigen::VectorXd& beta) const {
+double QuadraticCost::at(const double* beta) const {
   const std::size_t p = d_.size();
-  const double* b = beta.data();
-  for (std::size_t i = 0; i < p; ++i) d_[i] = b[i] - beta0_[i];
-  const double form = form_(psi_t_psi_.data(), psi_t_r0_.data(), d_.data(), p);
+  for (std::size_t i = 0; i < p; ++i) d_[i] = beta[i] - beta0_[i];
+  const double form = form_(half_.data(), psi_t_r0_.data(), d_.data(), p);
   return std::max(0.0, (r0_t_r0_ + form) / rows_);
+}
+
+// With beta = lower + S u (S the spans on the diagonal): d = S (u - u0)
+// for u0 = S^-1 (beta0 - lower), so the triangle becomes S H S and
+// Psi^T r0 becomes S Psi^T r0.
+QuadraticCost QuadraticCost::over_box(const Eigen::VectorXd& lower,
+                                      const Eigen::VectorXd& upper) const {
+  const std::size_t p = beta0_.size();
+  const std::size_t stride = this->stride();
+  QuadraticCost u = *this;
+  for (std::size_t i = 0; i < p; ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    const double span = upper(k) - lower(k);
+    u.beta0_[i] = (beta0_[i] - lower(k)) / span;
+    u.psi_t_r0_[i] *= span;
+    for (std::size_t j = 0; j < p; ++j) {
+      u.half_[j * stride + i] *= span;
+      u.half_[i * stride + j] *= span;
+    }
+  }
+  return u;
 }
 
 std::array<double, 3> mean_square_per_joint(const Equations& r,

@@ -132,13 +132,13 @@ void BM_Stage6_Pso60s(benchmark::State& state) {
   const Regression& r = regression60();
   const auto model = make_model({});
   const auto ls = solve_least_squares(r, *model, LsSolver::kQr, LsWeights::kNone, "bench", 0);
-  const QuadraticCost cost(r, ls.beta);
   const Eigen::VectorXd upper =
       10.0 * ls.beta.cwiseAbs() + Eigen::VectorXd::Constant(ls.beta.size(), 1e-3);
   const Eigen::VectorXd lower = -upper;
+  const QuadraticCost cost = QuadraticCost(r, ls.beta).over_box(lower, upper);  // as the fit does
   for (auto _ : state) {
-    const PsoResult p =
-        run_pso([&cost](const Eigen::VectorXd& b) { return cost(b); }, lower, upper, PsoOptions{});
+    const PsoResult p = run_pso_normalized([&cost](const double* u) { return cost.at(u); }, lower,
+                                           upper, PsoOptions{});
     benchmark::DoNotOptimize(p.best.data());
     state.counters["iterations"] = static_cast<double>(p.iterations);
   }

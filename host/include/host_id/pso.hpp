@@ -47,4 +47,14 @@ using CostFunction = std::function<double(const Eigen::VectorXd&)>;
 PsoResult run_pso(const CostFunction& cost, const Eigen::VectorXd& lower,
                   const Eigen::VectorXd& upper, const PsoOptions& options);
 
+// A cost over the box's normalised coordinates: the n values from u on, each
+// in [0, 1], stand for beta = lower + u (upper - lower). For a cost that is
+// cheaper to evaluate there than at beta (QuadraticCost::over_box).
+using NormalizedCost = std::function<double(const double* u)>;
+
+// As run_pso, with the cost given over normalised coordinates: the same
+// swarm, without mapping each point to beta. The result is in beta.
+PsoResult run_pso_normalized(const NormalizedCost& cost, const Eigen::VectorXd& lower,
+                             const Eigen::VectorXd& upper, const PsoOptions& options);
+
 }  // namespace host_id

@@ -105,30 +105,41 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
 // least-squares solve has already formed (Psi^T Psi, Psi^T tau, and the
 // cost at beta0 computed directly): then Psi^T r0 = Psi^T tau - Psi^T Psi
 // beta0, which is small near the optimum and enters only multiplied by d.
-// An evaluation allocates nothing (PSO makes a hundred thousand of them):
-// plain loops over a dense copy of Psi^T Psi and one scratch vector, so one
-// object serves one thread.
+// The symmetric Psi^T Psi enters through its upper triangle: half the
+// products of the full matrix. An evaluation allocates nothing (PSO makes
+// hundreds of thousands of them): plain loops over the triangle and one
+// scratch vector, so one object serves one thread.
 class QuadraticCost {
  public:
   QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0);
   // psi_t_psi full (both triangles); r0_t_r0 = |tau - Psi beta0|^2.
   QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_tau,
                 const Eigen::VectorXd& beta0, double r0_t_r0, std::size_t rows);
-  double operator()(const Eigen::VectorXd& beta) const;
+  double operator()(const Eigen::VectorXd& beta) const { return at(beta.data()); }
+  // The cost at the p values from `beta` on.
+  double at(const double* beta) const;
   Eigen::Index parameters() const { return static_cast<Eigen::Index>(beta0_.size()); }
+  // The same cost over a box's normalised coordinates u, beta = lower + u
+  // (upper - lower) (every lower < upper): what PSO searches, so that it
+  // evaluates u without mapping it to beta first.
+  QuadraticCost over_box(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) const;
 
  private:
   void set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
            const Eigen::VectorXd& beta0);
+  std::size_t stride() const { return half_.size() / beta0_.size(); }
   std::vector<double> beta0_;
-  std::vector<double> psi_t_psi_;  // p x p, row by row
+  // Psi^T Psi's upper triangle with half its diagonal, column by column,
+  // each column `stride()` long (p rounded up to even) and zero below the
+  // diagonal: so that a column's products go in pairs.
+  std::vector<double> half_;
   std::vector<double> psi_t_r0_;
   double r0_t_r0_{0};
   double rows_{1};
   mutable std::vector<double> d_;  // beta - beta0
   // The form d^T (Psi^T Psi d - 2 Psi^T r0) for this p: unrolled for the
   // models' usual sizes, a loop otherwise.
-  double (*form_)(const double* g, const double* b, const double* d, std::size_t p){nullptr};
+  double (*form_)(const double* half, const double* b, const double* d, std::size_t p){nullptr};
 };
 
 // The mean of e^2 over each joint's rows (0 for a joint without rows).

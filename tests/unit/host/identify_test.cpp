@@ -348,6 +348,23 @@ TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
       EXPECT_NEAR(from_moments(beta), direct, 1e-12 * direct) << "relative step " << scale;
     }
   }
+  // Over a box's normalised coordinates (what PSO evaluates), the same at
+  // the point u that stands for beta.
+  const Eigen::VectorXd upper =
+      10.0 * ls.beta.cwiseAbs() + Eigen::VectorXd::Constant(ls.beta.size(), 1e-3);
+  const Eigen::VectorXd lower = -0.5 * upper;
+  const QuadraticCost in_box = from_moments.over_box(lower, upper);
+  for (const double scale : {0.0, 1e-9, 1e-6, 1e-3, 1e-1}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::VectorXd beta = ls.beta;
+      for (Eigen::Index i = 0; i < beta.size(); ++i) {
+        beta(i) *= 1.0 + scale * std::sin(0.9 * static_cast<double>(trial * 11 + i));
+      }
+      const Eigen::VectorXd u = (beta - lower).cwiseQuotient(upper - lower);
+      const double direct = direct_cost(reg, lower + u.cwiseProduct(upper - lower));
+      EXPECT_NEAR(in_box.at(u.data()), direct, 1e-12 * direct) << "relative step " << scale;
+    }
+  }
   // Far from it (and about any point) too.
   const QuadraticCost about_zero(reg, Eigen::VectorXd::Zero(ls.beta.size()));
   Eigen::VectorXd beta = Eigen::VectorXd::Zero(ls.beta.size());
@@ -358,6 +375,33 @@ TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
     const double direct = direct_cost(reg, beta);
     EXPECT_NEAR(fast(beta), direct, 1e-12 * direct);
     EXPECT_NEAR(about_zero(beta), direct, 1e-10 * direct);
+  }
+}
+
+// The quadratic form is unrolled for the models' usual sizes and a loop
+// otherwise, and pairs a column's products: odd and even sizes of both
+// kinds (a random regressor, about a point off its optimum) give the direct
+// sum, and so does the same cost over a box.
+TEST(IdentifyTest, QuadraticCostOfEverySizeEqualsTheDirectSum) {
+  for (const Eigen::Index p : {1, 2, 5, 9, 12, 13, 14, 15, 18, 21}) {
+    Regression reg;
+    const Eigen::Index rows = 3 * (40 + p);
+    reg.psi = Eigen::MatrixXd::Random(rows, p);
+    reg.tau = Eigen::VectorXd::Random(rows);
+    reg.joint.assign(static_cast<std::size_t>(rows), 0);
+    reg.sample.assign(static_cast<std::size_t>(rows), 0);
+    const Eigen::VectorXd beta0 = 0.3 * Eigen::VectorXd::Random(p);
+    const QuadraticCost cost(reg, beta0);
+    const Eigen::VectorXd lower = Eigen::VectorXd::Constant(p, -2.0);
+    const Eigen::VectorXd upper = Eigen::VectorXd::LinSpaced(p, 1.0, 3.0);
+    const QuadraticCost in_box = cost.over_box(lower, upper);
+    for (int trial = 0; trial < 5; ++trial) {
+      const Eigen::VectorXd beta = Eigen::VectorXd::Random(p);
+      const double direct = direct_cost(reg, beta);
+      EXPECT_NEAR(cost(beta), direct, 1e-12 * direct) << "p = " << p;
+      const Eigen::VectorXd u = (beta - lower).cwiseQuotient(upper - lower);
+      EXPECT_NEAR(in_box.at(u.data()), direct, 1e-12 * direct) << "p = " << p;
+    }
   }
 }
 

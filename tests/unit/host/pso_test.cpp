@@ -24,6 +24,29 @@ TEST(PsoTest, FindsTheMinimumOfAnIllConditionedQuadratic) {
   EXPECT_EQ(r.evaluations, o.particles * (r.iterations + 1) + o.particles * r.restarts_done);
 }
 
+// A cost given over the normalised coordinates is the same search: the
+// same seed gives the same swarm, point for point, as the cost at beta.
+TEST(PsoTest, ACostOverNormalisedCoordinatesGivesTheSameSwarm) {
+  const Eigen::VectorXd lower = Eigen::Vector3d(-1.0, 0.0, 2.0);
+  const Eigen::VectorXd upper = Eigen::Vector3d(1.0, 4.0, 2.5);
+  const auto at_beta = [](const Eigen::VectorXd& b) {
+    return std::pow(b(0) - 0.2, 2) + 3.0 * std::pow(b(1) - 1.0, 2) + std::pow(b(2) - 2.1, 4);
+  };
+  const auto at_u = [&](const double* u) {
+    const Eigen::Map<const Eigen::Vector3d> point(u);
+    return at_beta(lower + point.cwiseProduct(upper - lower));
+  };
+  PsoOptions o;
+  o.iterations = 300;
+  const PsoResult a = run_pso(at_beta, lower, upper, o);
+  const PsoResult b = run_pso_normalized(at_u, lower, upper, o);
+  EXPECT_EQ(a.best, b.best);
+  EXPECT_EQ(a.best_cost, b.best_cost);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_NEAR(b.best(0), 0.2, 1e-4);
+  EXPECT_NEAR(b.best(1), 1.0, 1e-4);
+}
+
 TEST(PsoTest, AnOptimumOutsideTheBoxEndsOnTheBound) {
   // min (x + 1)^2 + (y - 2)^2 over [0, 1]^2 is at (0, 1).
   const auto cost = [](const Eigen::VectorXd& x) {
