@@ -318,14 +318,19 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         bool side = false;
         const std::size_t i = layout.place(si, k - seg.begin, len, side);
         if (!side) label_kept(s, k, i, r);
+        // A row's columns are `stride` apart: psi is column-major, the side
+        // rows row-major.
+        const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
         for (unsigned j = 0; j < 3; ++j) {
+          const double* row = rows.data() + j * p;
+          double* out = store.row_start(side, 3 * i + j);
+          unsigned char* nz_j = nz + j * p;
           for (std::size_t c = 0; c < p; ++c) {
-            const double v = rows[j * p + c];
-            store.at(side, 3 * i + j, c) = v;
-            nz[j * p + c] |= v != 0.0;
+            out[c * stride] = row[c];
+            nz_j[c] |= row[c] != 0.0;
           }
           store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
-          if (!side) moments[w].add(j, &rows[j * p], s.tau_Nm[k][j]);
+          if (!side) moments[w].add(j, row, s.tau_Nm[k][j]);
         }
       }
     }
