@@ -7,6 +7,7 @@
 #include "delta/input_error.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "delta/path_follower.hpp"
+#include "delta/splitmix.hpp"
 #include "delta/trajectory.hpp"
 #include "host_id/atomic_file.hpp"
 
@@ -17,21 +18,15 @@ namespace {
 // SplitMix64 with Box-Muller normals: the same noise for a seed everywhere.
 class Noise {
  public:
-  explicit Noise(std::uint64_t seed) : state_(seed ^ 0x5DEECE66Dull) {}
+  explicit Noise(std::uint64_t seed) : rng_(seed ^ 0x5DEECE66Dull) {}
   double normal() {
-    const double u1 = (static_cast<double>(next() >> 11) + 0.5) * 0x1.0p-53;
-    const double u2 = static_cast<double>(next() >> 11) * 0x1.0p-53;
+    const double u1 = (static_cast<double>(rng_.next() >> 11) + 0.5) * 0x1.0p-53;
+    const double u2 = rng_.uniform();
     return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.28318530717958647692 * u2);
   }
 
  private:
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  std::uint64_t state_;
+  delta::SplitMix64 rng_;
 };
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string_view>
 
+#include "delta/splitmix.hpp"
+
 namespace delta {
 
 namespace {
@@ -69,14 +71,8 @@ bool make_fourier_excitation(const Geometry& g, const Vec3<double>& centre_m, un
   const auto ik = inverse_kinematics(g, centre_m);
   if (ik.status != KinematicsStatus::kOk || harmonics == 0) return false;
   // SplitMix64 for coefficients in [-1, 1].
-  unsigned long long state = seed;
-  const auto uniform = [&state]() {
-    unsigned long long z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return static_cast<double>(z >> 11) * 0x1.0p-53 * 2.0 - 1.0;
-  };
+  SplitMix64 rng(seed);
+  const auto uniform = [&rng]() { return rng.uniform() * 2.0 - 1.0; };
   const double w = kTwoPi * base_frequency_hz;
   FourierTrajectory base;
   base.base_frequency_hz = base_frequency_hz;

@@ -136,14 +136,8 @@ Emulator::~Emulator() = default;
 
 double Emulator::noise() {
   // SplitMix64 and Box-Muller: reproducible for a seed.
-  auto next = [this]() {
-    std::uint64_t z = (rng_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
-  };
-  const double u1 = next() + 0x1.0p-54;
-  const double u2 = next();
+  const double u1 = rng_.uniform() + 0x1.0p-54;
+  const double u2 = rng_.uniform();
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
 }
 

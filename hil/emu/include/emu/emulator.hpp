@@ -29,6 +29,7 @@
 #include "delta/dynamics.hpp"
 #include "delta/plant.hpp"
 #include "delta/robot_description.hpp"
+#include "delta/splitmix.hpp"
 
 namespace emu {
 
@@ -236,7 +237,7 @@ class Emulator {
   std::unique_ptr<delta::Plant> plant_;
   std::uint64_t sim_us_{0};
   std::uint64_t syncs_{0};
-  std::uint64_t rng_{0};
+  delta::SplitMix64 rng_;
   std::uint64_t wall_us_{0};
   std::uint64_t last_sync_wall_us_{0};
   std::uint64_t longest_sync_gap_us_{0};

@@ -1,0 +1,35 @@
+// SplitMix64 (Steele, Lea and Flood): a small, fully specified generator, so
+// that a seed gives the same numbers on every platform and standard library
+// (PSO's swarm, simulated and emulated noise, random excitations).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace delta {
+
+class SplitMix64 {
+ public:
+  explicit SplitMix64(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [0, 1): the output's top 53 bits.
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  // count pairs of uniforms, the first of each pair into first[k], the
+  // second into second[k], in the order uniform() would give them.
+  void fill_pairs(double* first, double* second, std::size_t count) {
+    for (std::size_t k = 0; k < count; ++k) {
+      first[k] = uniform();
+      second[k] = uniform();
+    }
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+}  // namespace delta
