@@ -17,8 +17,9 @@ packages=(
   libinih-dev
   # firmware image signatures (Ed25519); openssl checks them in the tests
   libsodium-dev openssl
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks (python3 runs three tests and the fit's speed
+  # bench; numpy and scipy the least-squares comparison, tests/bench/fit_numpy.py)
+  libgtest-dev libgmock-dev libbenchmark-dev python3 python3-numpy python3-scipy
   # an independent Modbus master for the RTU interoperability test
   mbpoll
   # the firmware core on Cortex-M4, run on qemu
