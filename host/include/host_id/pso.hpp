@@ -1,8 +1,9 @@
 // Particle swarm optimisation with Clerc's constriction coefficients
 // (chi = 0.7298, c1 = c2 = 2.05), global-best or ring topology, in
-// coordinates normalised to the bounds. A particle that leaves the box is put
-// back on the bound it crossed, with that velocity component set to zero
-// ("absorbing walls").
+// coordinates normalised to the bounds. A coordinate that leaves the box is
+// put back on the bound it crossed, and its velocity reversed and halved
+// (docs/identification.md: absorbing walls, velocity zeroed, let the swarm
+// collapse onto a wall).
 #pragma once
 
 #include <Eigen/Dense>
