@@ -205,7 +205,7 @@ double QuadraticCost::at(const double* beta) const {
 QuadraticCost QuadraticCost::over_box(const Eigen::VectorXd& lower,
                                       const Eigen::VectorXd& upper) const {
   const std::size_t p = beta0_.size();
-  const std::size_t stride = this->stride();
+  const std::size_t stride = even_above(p);
   QuadraticCost u = *this;
   for (std::size_t i = 0; i < p; ++i) {
     const auto k = static_cast<Eigen::Index>(i);

@@ -127,11 +127,10 @@ class QuadraticCost {
  private:
   void set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
            const Eigen::VectorXd& beta0);
-  std::size_t stride() const { return half_.size() / beta0_.size(); }
   std::vector<double> beta0_;
-  // Psi^T Psi's upper triangle with half its diagonal, column by column,
-  // each column `stride()` long (p rounded up to even) and zero below the
-  // diagonal: so that a column's products go in pairs.
+  // Psi^T Psi's upper triangle with half its diagonal, column by column:
+  // each column's length is p rounded up to even, zero below the diagonal,
+  // so that a column's products go in pairs.
   std::vector<double> half_;
   std::vector<double> psi_t_r0_;
   double r0_t_r0_{0};
