@@ -25,8 +25,10 @@ struct PsoOptions {
   std::size_t stall_iterations{1000};
   double stall_tolerance{1e-12};
   // On a stall, restart the swarm around the best point this many times
-  // before stopping.
-  std::size_t restarts{2};
+  // before stopping. None by default: the fit's cost is a convex quadratic
+  // over a box, so a stall is at its one minimum, and no restart has yet
+  // improved it (docs/identification.md).
+  std::size_t restarts{0};
   // Called every progress_every iterations (and at the end) when set.
   std::function<void(std::size_t iteration, std::size_t max_iterations, double best_cost)> progress;
   std::size_t progress_every{100};

@@ -128,7 +128,8 @@ void add_estimator_options(CLI::App& c, FitArguments& a) {
       ->check(CLI::Range(1, 100000000))
       ->capture_default_str()
       ->group(g);
-  c.add_option("--restarts", p.restarts, "restarts on stall before stopping")
+  c.add_option("--restarts", p.restarts,
+               "restarts on stall before stopping (the cost is convex: none by default)")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str()
       ->group(g);

@@ -456,6 +456,28 @@ TEST(IdentifyTest, PsoReachesTheLeastSquaresCostWhenTheOptimumIsInsideTheBounds)
   }
 }
 
+// The default swarm stops at its first stall: the cost is a convex
+// quadratic over a box, so the stall is at its one minimum. Restarting from
+// there gains nothing above the stall tolerance, and costs every restart's
+// stall window in iterations.
+TEST(IdentifyTest, TheDefaultSwarmNeedsNoRestartOnTheConvexCost) {
+  const DeltaLog log = simulated(2, 0.015, 17, false);
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    FitOptions f;
+    f.pso.seed = seed;
+    const FitResult once = fit_log(log, f);
+    ASSERT_TRUE(once.pso.has_value());
+    EXPECT_EQ(once.pso->restarts_done, 0u);
+    EXPECT_EQ(once.pso->stop_reason, "stall");
+    EXPECT_LT(std::abs(once.cost_Nm2 / once.ls_cost_Nm2 - 1.0), 1e-12) << "seed " << seed;
+    f.pso.restarts = 2;
+    const FitResult twice = fit_log(log, f);
+    EXPECT_EQ(twice.pso->restarts_done, 2u);
+    EXPECT_EQ(twice.pso->iterations, once.pso->iterations + 2 * f.pso.stall_iterations);
+    EXPECT_GT(twice.cost_Nm2, once.cost_Nm2 * (1.0 - 1e-12)) << "seed " << seed;
+  }
+}
+
 // The bounded optimum by the active-set method against every choice of
 // active set (the convex problem's optimum is the feasible one with the
 // least cost), and its KKT conditions, on random full-rank problems.
