@@ -56,7 +56,7 @@ Box pso_box(const LeastSquaresResult& ls, std::size_t rows,
 }
 
 // PSO on the least-squares cost of `ls` (weighted as it was) within its
-// box: r.pso, r.beta and r.cost_Nm2, the cost summed directly over the rows.
+// box: r.pso and r.beta (fit_log sums the cost at it directly over the rows).
 void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
                const std::vector<ParameterInfo>& parameters, const FitOptions& options,
                FitResult& r, Box& box) {
@@ -67,8 +67,6 @@ void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
   r.pso = run_pso_normalized([&cost](const double* u) { return cost.at(u); }, box.lower, box.upper,
                              options.pso);
   r.beta = r.pso->best;
-  r.cost_Nm2 = options.weights == LsWeights::kNone ? direct_cost(reg, r.beta)
-                                                   : direct_cost(reg, r.beta, ls.joint_weights);
 }
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
@@ -216,13 +214,15 @@ Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
     out.predicted_Nm[j].resize(n);
     out.velocity_rad_s[j].resize(n);
   }
+  ResidualSquares squares;
   for (std::size_t row = 0; row < reg.rows(); ++row) {
     const auto i = static_cast<Eigen::Index>(row);
     out.measured_Nm[reg.joint[row]][reg.sample[row]] = reg.tau(i);
     out.predicted_Nm[reg.joint[row]][reg.sample[row]] = yhat(i);
     out.velocity_rad_s[reg.joint[row]][reg.sample[row]] = reg.velocity_rad_s[row];
+    squares.all[reg.joint[row]] += (reg.tau(i) - yhat(i)) * (reg.tau(i) - yhat(i));
   }
-  out.rmse_filtered_Nm = rmse_per_joint(reg, beta);
+  out.rmse_filtered_Nm = rmse_per_joint(reg, squares);
   out.rmse_measured_Nm = reg.measured.rmse(beta);
   return out;
 }
@@ -270,7 +270,9 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();
-  r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, r.beta);
+  const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, options.threads);
+  if (r.pso) r.cost_Nm2 = squares.cost(r.joint_weights, reg.rows());
+  r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
   r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
   if (keep_predictions) r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
   for (const DeltaLog* v : validation) {

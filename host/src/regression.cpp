@@ -91,19 +91,67 @@ std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned thre
   return count;
 }
 
+namespace {
+
+// residual_squares() over rows [start, end): the residuals of a block of rows
+// at a time, Psi's columns each read once per block.
+void add_residual_squares(const Equations& r, std::size_t start, std::size_t end,
+                          std::size_t first_rows, const Eigen::VectorXd& beta, ResidualSquares& s) {
+  constexpr std::size_t kBlockRows = 512;
+  std::array<double, kBlockRows> predicted;
+  for (std::size_t block = start; block < end; block += kBlockRows) {
+    const std::size_t n = std::min(kBlockRows, end - block);
+    std::fill_n(predicted.data(), n, 0.0);
+    for (Eigen::Index c = 0; c < r.psi.cols(); ++c) {
+      const double* column = r.psi.col(c).data() + block;
+      const double b = beta(c);
+      for (std::size_t k = 0; k < n; ++k) predicted[k] += column[k] * b;
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t row = block + k;
+      const double e = r.tau(static_cast<Eigen::Index>(row)) - predicted[k];
+      s.all[r.joint[row]] += e * e;
+      if (row < first_rows) s.first[r.joint[row]] += e * e;
+    }
+  }
+}
+
+}  // namespace
+
+ResidualSquares residual_squares(const Equations& r, std::size_t first_rows,
+                                 const Eigen::VectorXd& beta, unsigned threads) {
+  constexpr std::size_t kChunkRows = 16384;
+  const std::size_t rows = r.rows();
+  const std::size_t chunks = std::max<std::size_t>(1, (rows + kChunkRows - 1) / kChunkRows);
+  std::vector<ResidualSquares> partial(chunks);
+  run_tasks(chunks, workers_for(chunks, threads, 2), [&](std::size_t, std::size_t chunk) {
+    add_residual_squares(r, chunk * kChunkRows, std::min(rows, (chunk + 1) * kChunkRows),
+                         first_rows, beta, partial[chunk]);
+  });
+  ResidualSquares total;
+  for (const ResidualSquares& s : partial) {
+    for (unsigned j = 0; j < 3; ++j) {
+      total.first[j] += s.first[j];
+      total.all[j] += s.all[j];
+    }
+  }
+  return total;
+}
+
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta) {
-  return (r.tau - r.psi * beta).squaredNorm() / static_cast<double>(r.tau.size());
+  return direct_cost(r, beta, {1.0, 1.0, 1.0});
 }
 
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
                    const std::array<double, 3>& joint_weights) {
-  const Eigen::VectorXd e = r.tau - r.psi * beta;
+  return residual_squares(r, r.rows(), beta).cost(joint_weights, r.rows());
+}
+
+double ResidualSquares::cost(const std::array<double, 3>& joint_weights,
+                             std::size_t first_rows) const {
   double sum = 0.0;
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    sum += joint_weights[r.joint[row]] * e(static_cast<Eigen::Index>(row)) *
-           e(static_cast<Eigen::Index>(row));
-  }
-  return sum / static_cast<double>(r.tau.size());
+  for (unsigned j = 0; j < 3; ++j) sum += joint_weights[j] * first[j];
+  return sum / static_cast<double>(first_rows);
 }
 
 QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
@@ -231,12 +279,16 @@ std::array<double, 3> mean_square_per_joint(const Equations& r,
 }
 
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta) {
-  SeriesVector<double> e_store(r.rows());  // a long series: on huge pages
-  Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
-  e.noalias() = r.tau - r.psi * beta;
-  std::array<double, 3> ms = mean_square_per_joint(r, e);
-  for (double& m : ms) m = std::sqrt(m);
-  return ms;
+  return rmse_per_joint(r, residual_squares(r, r.rows(), beta));
+}
+
+std::array<double, 3> rmse_per_joint(const Equations& r, const ResidualSquares& squares) {
+  const std::array<std::size_t, 3> n = r.rows_per_joint();
+  std::array<double, 3> rms{};
+  for (unsigned j = 0; j < 3; ++j) {
+    rms[j] = n[j] > 0 ? std::sqrt(squares.all[j] / static_cast<double>(n[j])) : 0.0;
+  }
+  return rms;
 }
 
 void MeasuredMoments::reset(std::size_t parameters) {

@@ -86,6 +86,22 @@ struct Equations {
 // (0: one per core).
 std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned threads = 1);
 
+// The squared residuals e = tau - Psi beta summed per joint, over the first
+// `first_rows` rows (the equations an estimate used, after
+// fast_rows_first()) and over every row: the cost of an estimate and its
+// RMSE, from one pass over the rows with no residual vector. The rows go in
+// chunks of fixed length to `threads` threads (0: one per core), the
+// chunks' sums added in order: the same sums on any number of threads.
+struct ResidualSquares {
+  std::array<double, 3> first{};  // rows [0, first_rows)
+  std::array<double, 3> all{};    // every row
+  // The mean over the first rows with joint j's squares weighted by
+  // joint_weights[j]: the cost of an estimate weighted as it was.
+  double cost(const std::array<double, 3>& joint_weights, std::size_t first_rows) const;
+};
+ResidualSquares residual_squares(const Equations& r, std::size_t first_rows,
+                                 const Eigen::VectorXd& beta, unsigned threads = 1);
+
 // Direct evaluation: one pass over all rows.
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
 // The same with joint j's rows weighted by joint_weights[j]: the cost of the
@@ -147,5 +163,8 @@ std::array<double, 3> mean_square_per_joint(const Equations& r,
 
 // Root mean square error per joint of the prediction Psi beta.
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta);
+// The same from residual_squares(): sqrt(all[j] / rows of joint j), 0 for a
+// joint without rows.
+std::array<double, 3> rmse_per_joint(const Equations& r, const ResidualSquares& squares);
 
 }  // namespace host_id

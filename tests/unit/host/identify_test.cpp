@@ -689,6 +689,46 @@ TEST(IdentifyTest, WeightedDirectCostIsTheCostOfTheWeightedRows) {
               1e-14 * direct_cost(reg, beta));
 }
 
+// The squared residuals per joint, over the first rows and over all, from
+// one pass in chunks: against a row-by-row sum, and the same bits on one
+// thread or two (the 8 s log's 24 003 rows are two chunks).
+TEST(IdentifyTest, ResidualSquaresPerJointEqualTheRowByRowSums) {
+  const DeltaLog log = simulated(2, 0.01, 17, false);
+  const auto model = make_model({});
+  const Regression reg = preprocess(*model, log, PrepareOptions{}).regression;
+  ASSERT_GT(reg.rows(), 16384u);
+  const LeastSquaresResult ls =
+      solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name);
+  const Eigen::VectorXd beta = 1.1 * ls.beta;
+  const std::size_t first_rows = reg.rows() / 3 + 7;
+  std::array<double, 3> first{}, all{};
+  for (std::size_t row = 0; row < reg.rows(); ++row) {
+    const auto i = static_cast<Eigen::Index>(row);
+    const double e = reg.tau(i) - reg.psi.row(i).dot(beta);
+    all[reg.joint[row]] += e * e;
+    if (row < first_rows) first[reg.joint[row]] += e * e;
+  }
+  const ResidualSquares one = residual_squares(reg, first_rows, beta, 1);
+  const ResidualSquares two = residual_squares(reg, first_rows, beta, 2);
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_NEAR(one.first[j], first[j], 1e-12 * first[j]) << j;
+    EXPECT_NEAR(one.all[j], all[j], 1e-12 * all[j]) << j;
+    EXPECT_LT(one.first[j], 0.5 * one.all[j]) << j;
+    EXPECT_EQ(one.first[j], two.first[j]) << j;
+    EXPECT_EQ(one.all[j], two.all[j]) << j;
+  }
+  const std::array<double, 3> w{0.5, 1.75, 0.75};
+  EXPECT_NEAR(
+      one.cost(w, first_rows),
+      (w[0] * first[0] + w[1] * first[1] + w[2] * first[2]) / static_cast<double>(first_rows),
+      1e-12 * one.cost(w, first_rows));
+  const std::array<std::size_t, 3> n = reg.rows_per_joint();
+  const std::array<double, 3> rmse = rmse_per_joint(reg, one);
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_NEAR(rmse[j], std::sqrt(all[j] / static_cast<double>(n[j])), 1e-12 * rmse[j]) << j;
+  }
+}
+
 // Work given to solve_least_squares runs once, with the estimate that the
 // solve returns, before its covariance is known: on a thread of its own
 // while the covariance is computed, or after it on one thread. It leaves the
