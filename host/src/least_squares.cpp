@@ -14,22 +14,21 @@
 
 namespace host_id {
 
-Regression weighted(const Equations& r, const std::array<double, 3>& w) {
-  Regression out;
-  out.psi = r.psi;
-  out.tau = r.tau;
-  out.t_s.assign(r.t_s.begin(), r.t_s.end());
-  out.joint.assign(r.joint.begin(), r.joint.end());
-  out.sample.assign(r.sample.begin(), r.sample.end());
-  for (Eigen::Index row = 0; row < out.tau.size(); ++row) {
-    const double s = std::sqrt(w[out.joint[static_cast<std::size_t>(row)]]);
-    out.psi.row(row) *= s;
-    out.tau(row) *= s;
-  }
-  return out;
-}
-
 namespace {
+
+// Each joint's rows scaled by the square root of its weight as they are
+// read: the weighted problem solved as an ordinary one, without a weighted
+// copy of the rows. Unweighted, every scale is 1 and every product with it
+// exact.
+struct RowScale {
+  std::array<double, 3> by_joint{1.0, 1.0, 1.0};
+  bool any() const { return by_joint != std::array<double, 3>{1.0, 1.0, 1.0}; }
+  double of(const Equations& r, std::size_t row) const { return by_joint[r.joint[row]]; }
+  // The weights themselves, the squares of the scales.
+  std::array<double, 3> weights() const {
+    return {by_joint[0] * by_joint[0], by_joint[1] * by_joint[1], by_joint[2] * by_joint[2]};
+  }
+};
 
 // The lagged score sum of one series of score rows g_k (k = 0 .. n-1, zero
 // outside), with Bartlett weights:
@@ -101,7 +100,8 @@ class BartlettScoreSum {
 // shared out in chunks of fixed length (each starts by taking in the L + 1
 // rows before it), and the chunks' sums are added in order: the same
 // result on any number of threads.
-Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorXd& col_norm,
+Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scale,
+                                        const Eigen::VectorXd& col_norm,
                                         Eigen::Ref<const Eigen::VectorXd> e, std::size_t lags,
                                         unsigned threads) {
   const Eigen::Index p = r.psi.cols();
@@ -127,8 +127,9 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
     const auto score = [&](Eigen::Index m) -> const double* {
       const std::int32_t row = m < n ? rows_of_joint[m] : -1;
       if (row < 0) return nullptr;
+      const double scaled_e = e(row) * scale.of(r, static_cast<std::size_t>(row));
       for (Eigen::Index c = 0; c < p; ++c) {
-        g[static_cast<std::size_t>(c)] = r.psi(row, c) * inverse_norm(c) * e(row);
+        g[static_cast<std::size_t>(c)] = r.psi(row, c) * inverse_norm(c) * scaled_e;
       }
       return g.data();
     };
@@ -153,7 +154,28 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const Eigen::VectorX
 // (p+1), in one pass over the rows: chunks of fixed length on the threads
 // (blocks that stay in the cache for both products), their sums added in
 // order, so that any number of threads gives the same matrix.
-Eigen::MatrixXd augmented_gram(const Equations& reg, unsigned threads) {
+// A block's rows scaled (the weighted problem's rows) into a buffer.
+void scale_rows(const Equations& reg, const RowScale& scale, Eigen::Index start, Eigen::Index len,
+                Eigen::MatrixXd& a, Eigen::VectorXd& t) {
+  a = reg.psi.middleRows(start, len);
+  t = reg.tau.segment(start, len);
+  for (Eigen::Index k = 0; k < len; ++k) {
+    const double s = scale.of(reg, static_cast<std::size_t>(start + k));
+    a.row(k) *= s;
+    t(k) *= s;
+  }
+}
+
+// The products of one block of rows added to g.
+template <class Rows, class Tau>
+void add_block(const Rows& a, const Tau& t, Eigen::MatrixXd& g) {
+  const Eigen::Index p = a.cols();
+  g.topLeftCorner(p, p).selfadjointView<Eigen::Upper>().rankUpdate(a.transpose());
+  g.topRightCorner(p, 1).noalias() += a.transpose() * t;
+  g(p, p) += t.squaredNorm();
+}
+
+Eigen::MatrixXd augmented_gram(const Equations& reg, const RowScale& scale, unsigned threads) {
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kChunkRows = 16384, kBlockRows = 2048;
@@ -162,15 +184,18 @@ Eigen::MatrixXd augmented_gram(const Equations& reg, unsigned threads) {
   const auto chunk_gram = [&](std::size_t, std::size_t chunk) {
     Eigen::MatrixXd& g = partial[chunk];
     g = Eigen::MatrixXd::Zero(p + 1, p + 1);
+    Eigen::MatrixXd scaled_a;
+    Eigen::VectorXd scaled_t;
     const Eigen::Index end = std::min(m, static_cast<Eigen::Index>(chunk + 1) * kChunkRows);
     for (Eigen::Index start = static_cast<Eigen::Index>(chunk) * kChunkRows; start < end;
          start += kBlockRows) {
       const Eigen::Index len = std::min(kBlockRows, end - start);
-      const auto a = reg.psi.middleRows(start, len);
-      const auto t = reg.tau.segment(start, len);
-      g.topLeftCorner(p, p).selfadjointView<Eigen::Upper>().rankUpdate(a.transpose());
-      g.topRightCorner(p, 1).noalias() += a.transpose() * t;
-      g(p, p) += t.squaredNorm();
+      if (scale.any()) {
+        scale_rows(reg, scale, start, len, scaled_a, scaled_t);
+        add_block(scaled_a, scaled_t, g);
+      } else {
+        add_block(reg.psi.middleRows(start, len), reg.tau.segment(start, len), g);
+      }
     }
   };
   run_tasks(partial.size(), workers_for(static_cast<std::size_t>(m), threads, 60000), chunk_gram);
@@ -264,7 +289,8 @@ struct TriangularFactor {
   Eigen::VectorXd qt_tau;  // p
 };
 
-TriangularFactor scaled_qr(const Equations& reg, const Eigen::VectorXd& col_norm) {
+TriangularFactor scaled_qr(const Equations& reg, const RowScale& scale,
+                           const Eigen::VectorXd& col_norm) {
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kBlockRows = 4096;
@@ -278,6 +304,9 @@ TriangularFactor scaled_qr(const Equations& reg, const Eigen::VectorXd& col_norm
     stack.block(above, 0, len, p) =
         reg.psi.middleRows(start, len).array().rowwise() * inverse_norm.array();
     stack.block(above, p, len, 1) = reg.tau.segment(start, len);
+    for (Eigen::Index k = 0; k < len; ++k) {
+      stack.row(above + k) *= scale.of(reg, static_cast<std::size_t>(start + k));
+    }
     Eigen::Ref<Eigen::MatrixXd> rows = stack.topRows(above + len);
     Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(rows);  // in place
     top = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
@@ -317,8 +346,8 @@ std::optional<TriangularFactor> factor_from_gram(const Eigen::MatrixXd& gram,
 // in one pass over the rows (each block's residual and its product with
 // the block while the block is in the cache). Q^T tau becomes R x of the
 // refined x, so that every solve from R (bounded ones too) sees it.
-void refine_from_residual(const Equations& reg, const Eigen::VectorXd& col_norm,
-                          TriangularFactor& f) {
+void refine_from_residual(const Equations& reg, const RowScale& scale,
+                          const Eigen::VectorXd& col_norm, TriangularFactor& f) {
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kBlockRows = 2048;
   const Eigen::VectorXd x = f.r.triangularView<Eigen::Upper>().solve(f.qt_tau);
@@ -329,6 +358,11 @@ void refine_from_residual(const Equations& reg, const Eigen::VectorXd& col_norm,
     const Eigen::Index len = std::min(kBlockRows, m - start);
     const auto a = reg.psi.middleRows(start, len);
     r.head(len).noalias() = reg.tau.segment(start, len) - a * beta;
+    if (scale.any()) {  // (s a)^T (s r) = a^T (w r)
+      const std::array<double, 3> w = scale.weights();
+      for (Eigen::Index k = 0; k < len; ++k)
+        r(k) *= w[reg.joint[static_cast<std::size_t>(start + k)]];
+    }
     psi_t_r.noalias() += a.transpose() * r.head(len);
   }
   const Eigen::VectorXd y =
@@ -339,15 +373,16 @@ void refine_from_residual(const Equations& reg, const Eigen::VectorXd& col_norm,
 
 // R and Q^T tau of the scaled regressor: from the Gram matrix where the
 // columns are well conditioned, else by Householder QR.
-TriangularFactor scaled_factor(const Equations& reg, const Eigen::MatrixXd& gram,
-                               const Eigen::VectorXd& col_norm, bool any_zero_column) {
+TriangularFactor scaled_factor(const Equations& reg, const RowScale& scale,
+                               const Eigen::MatrixXd& gram, const Eigen::VectorXd& col_norm,
+                               bool any_zero_column) {
   if (!any_zero_column) {
     if (std::optional<TriangularFactor> f = factor_from_gram(gram, col_norm)) {
-      refine_from_residual(reg, col_norm, *f);
+      refine_from_residual(reg, scale, col_norm, *f);
       return *f;
     }
   }
-  return scaled_qr(reg, col_norm);
+  return scaled_qr(reg, scale, col_norm);
 }
 
 // Runs alongside(estimate) on a thread of its own while covariance(t) runs
@@ -384,10 +419,10 @@ void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimat
 // The parameters' standard deviations (Newey-West over `lags`) and the
 // conditioning, from the SVD of the scaled factor and the residual e at the
 // unconstrained optimum: one pass over the rows on `threads` threads.
-void add_covariance(const Equations& r, const Eigen::JacobiSVD<Eigen::MatrixXd>& svd,
-                    const Eigen::MatrixXd& rr, const Eigen::VectorXd& col_norm,
-                    Eigen::Ref<const Eigen::VectorXd> e, std::size_t lags, unsigned threads,
-                    LeastSquaresResult& out) {
+void add_covariance(const Equations& r, const RowScale& scale,
+                    const Eigen::JacobiSVD<Eigen::MatrixXd>& svd, const Eigen::MatrixXd& rr,
+                    const Eigen::VectorXd& col_norm, Eigen::Ref<const Eigen::VectorXd> e,
+                    std::size_t lags, unsigned threads, LeastSquaresResult& out) {
   const Eigen::Index p = r.psi.cols();
   const Eigen::Index rows = r.psi.rows();
   const Eigen::VectorXd sv = svd.singularValues();
@@ -396,7 +431,7 @@ void add_covariance(const Equations& r, const Eigen::JacobiSVD<Eigen::MatrixXd>&
   const Eigen::MatrixXd inv_ata = vs * vs.transpose();
   const double dof = rows > p ? static_cast<double>(rows) / static_cast<double>(rows - p) : 0.0;
   const Eigen::MatrixXd cov_scaled =
-      dof * inv_ata * lagged_score_covariance(r, col_norm, e, lags, threads) * inv_ata;
+      dof * inv_ata * lagged_score_covariance(r, scale, col_norm, e, lags, threads) * inv_ata;
   out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
   out.correlation_lags = lags;
   out.condition_number_scaled = sv(0) / sv(p - 1);
@@ -407,7 +442,7 @@ void add_covariance(const Equations& r, const Eigen::JacobiSVD<Eigen::MatrixXd>&
 
 // The bounded optimum from the unconstrained one (scaled), its active
 // bounds and cost.
-void bound(const Equations& r, const std::vector<ParameterInfo>& parameters,
+void bound(const Equations& r, const RowScale& scale, const std::vector<ParameterInfo>& parameters,
            const Eigen::MatrixXd& rr, const Eigen::VectorXd& qt_tau,
            const Eigen::VectorXd& beta_scaled, const Eigen::VectorXd& col_norm,
            LeastSquaresResult& out) {
@@ -427,21 +462,22 @@ void bound(const Equations& r, const std::vector<ParameterInfo>& parameters,
     }
   }
   out.cost = inside ? out.unconstrained_cost
-                    : (r.tau - r.psi * out.beta).squaredNorm() / static_cast<double>(r.rows());
+                    : residual_squares(r, r.rows(), out.beta).cost(scale.weights(), r.rows());
 }
 
 // The least-squares solution from R: everything after the QR is p x p. The
 // singular values and right singular vectors of R are those of the scaled
 // regressor (Q has orthonormal columns). `alongside` runs with the estimate
 // while the covariance is computed.
-LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<ParameterInfo>& parameters,
-                                  LsSolver solver, const std::string& log_name, std::size_t lags,
-                                  unsigned threads, const Alongside& alongside) {
+LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
+                                  const std::vector<ParameterInfo>& parameters, LsSolver solver,
+                                  const std::string& log_name, std::size_t lags, unsigned threads,
+                                  const Alongside& alongside) {
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
-  const Eigen::MatrixXd gram = augmented_gram(r, threads);
+  const Eigen::MatrixXd gram = augmented_gram(r, scale, threads);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
-  const auto [rr, qt_tau] = scaled_factor(r, gram, col_norm, !zero_columns.empty());
+  const auto [rr, qt_tau] = scaled_factor(r, scale, gram, col_norm, !zero_columns.empty());
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
   if (!zero_columns.empty() || sv(p - 1) <= 1e-10 * sv(0)) {
@@ -461,11 +497,17 @@ LeastSquaresResult solve_ordinary(const Equations& r, const std::vector<Paramete
   SeriesVector<double> e_store(r.rows());
   Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
   e.noalias() = r.tau - r.psi * out.unconstrained_beta;
+  if (scale.any()) {
+    for (std::size_t row = 0; row < r.rows(); ++row) {
+      e(static_cast<Eigen::Index>(row)) *= scale.of(r, row);
+    }
+  }
   out.unconstrained_cost = e.squaredNorm() / static_cast<double>(r.rows());
-  bound(r, parameters, rr, qt_tau, beta_scaled, col_norm, out);
+  bound(r, scale, parameters, rr, qt_tau, beta_scaled, col_norm, out);
   const Eigen::MatrixXd& factor = rr;  // (a lambda may not capture a structured binding in C++20)
-  run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads,
-                [&](unsigned t) { add_covariance(r, svd, factor, col_norm, e, lags, t, out); });
+  run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads, [&](unsigned t) {
+    add_covariance(r, scale, svd, factor, col_norm, e, lags, t, out);
+  });
   return out;
 }
 
@@ -564,13 +606,14 @@ double bounded_least_squares_cost(const Equations& r, const std::vector<Paramete
                                   const std::string& log_name) {
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
-  const Eigen::MatrixXd gram = augmented_gram(r, 1);
+  const RowScale unweighted;
+  const Eigen::MatrixXd gram = augmented_gram(r, unweighted, 1);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
   if (!zero_columns.empty()) {
     throw delta::InputError(log_name + ": this log does not excite" +
                             names(zero_columns, parameters) + " at all");
   }
-  const auto [rr, qt_tau] = scaled_factor(r, gram, col_norm, false);
+  const auto [rr, qt_tau] = scaled_factor(r, unweighted, gram, col_norm, false);
   std::vector<bool> nonnegative(static_cast<std::size_t>(p));
   for (std::size_t c = 0; c < nonnegative.size(); ++c) nonnegative[c] = parameters[c].nonnegative;
   const Eigen::VectorXd x = bounded_least_squares(rr, qt_tau, nonnegative);
@@ -585,12 +628,16 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::string& log_name, std::size_t correlation_lags,
                                        unsigned threads, const Alongside& alongside) {
   LeastSquaresResult ols =
-      solve_ordinary(r, parameters, solver, log_name, correlation_lags, threads,
+      solve_ordinary(r, RowScale{}, parameters, solver, log_name, correlation_lags, threads,
                      weights == LsWeights::kNone ? alongside : nullptr);
   if (weights == LsWeights::kNone) return ols;
-  const std::array<double, 3> var = mean_square_per_joint(r, r.tau - r.psi * ols.beta);
+  const ResidualSquares squares = residual_squares(r, r.rows(), ols.beta, threads);
+  const std::array<std::size_t, 3> rows = r.rows_per_joint();
   std::array<double, 3> w{};
-  for (unsigned j = 0; j < 3; ++j) w[j] = var[j] > 0.0 ? 1.0 / var[j] : 1.0;
+  for (unsigned j = 0; j < 3; ++j) {
+    const double var = rows[j] > 0 ? squares.all[j] / static_cast<double>(rows[j]) : 0.0;
+    w[j] = var > 0.0 ? 1.0 / var : 1.0;
+  }
   // Normalise so the weights average to one over the joints.
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
@@ -601,8 +648,10 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                                alongside(with_weights);
                                              })
                                            : nullptr;
-  LeastSquaresResult wls = solve_ordinary(weighted(r, w), parameters, solver, log_name,
-                                          correlation_lags, threads, weighted_alongside);
+  RowScale scale;
+  for (unsigned j = 0; j < 3; ++j) scale.by_joint[j] = std::sqrt(w[j]);
+  LeastSquaresResult wls = solve_ordinary(r, scale, parameters, solver, log_name, correlation_lags,
+                                          threads, weighted_alongside);
   wls.joint_weights = w;
   return wls;
 }

@@ -268,16 +268,6 @@ QuadraticCost QuadraticCost::over_box(const Eigen::VectorXd& lower,
   return u;
 }
 
-std::array<double, 3> mean_square_per_joint(const Equations& r,
-                                            Eigen::Ref<const Eigen::VectorXd> e) {
-  std::array<double, 3> sum{};
-  for (std::size_t row = 0; row < r.rows(); ++row)
-    sum[r.joint[row]] += std::pow(e(static_cast<Eigen::Index>(row)), 2);
-  const std::array<std::size_t, 3> n = r.rows_per_joint();
-  for (unsigned j = 0; j < 3; ++j) sum[j] = n[j] > 0 ? sum[j] / static_cast<double>(n[j]) : 0.0;
-  return sum;
-}
-
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta) {
   return rmse_per_joint(r, residual_squares(r, r.rows(), beta));
 }

@@ -67,9 +67,6 @@ struct LeastSquaresResult {
 // Work run with a least-squares estimate while its covariance is computed.
 using Alongside = std::function<void(const LeastSquaresResult& estimate)>;
 
-// Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary one.
-Regression weighted(const Equations& r, const std::array<double, 3>& w);
-
 // Solves min |tau - Psi beta|^2 subject to beta_c >= 0 for each parameter
 // the model marks nonnegative (exactly: an active-set method on the
 // regressor's triangular factor). With kJoint, two steps: ordinary least

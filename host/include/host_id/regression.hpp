@@ -157,10 +157,6 @@ class QuadraticCost {
   double (*form_)(const double* half, const double* b, const double* d, std::size_t p){nullptr};
 };
 
-// The mean of e^2 over each joint's rows (0 for a joint without rows).
-std::array<double, 3> mean_square_per_joint(const Equations& r,
-                                            Eigen::Ref<const Eigen::VectorXd> e);
-
 // Root mean square error per joint of the prediction Psi beta.
 std::array<double, 3> rmse_per_joint(const Equations& r, const Eigen::VectorXd& beta);
 // The same from residual_squares(): sqrt(all[j] / rows of joint j), 0 for a

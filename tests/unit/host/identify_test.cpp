@@ -20,6 +20,23 @@
 namespace host_id {
 namespace {
 
+// Rows of joint j scaled by sqrt(w_j): a weighted problem as an ordinary
+// one, copied (the reference for the solve that scales rows as it reads them).
+Regression weighted(const Equations& r, const std::array<double, 3>& w) {
+  Regression out;
+  out.psi = r.psi;
+  out.tau = r.tau;
+  out.t_s.assign(r.t_s.begin(), r.t_s.end());
+  out.joint.assign(r.joint.begin(), r.joint.end());
+  out.sample.assign(r.sample.begin(), r.sample.end());
+  for (Eigen::Index row = 0; row < out.tau.size(); ++row) {
+    const double s = std::sqrt(w[out.joint[static_cast<std::size_t>(row)]]);
+    out.psi.row(row) *= s;
+    out.tau(row) *= s;
+  }
+  return out;
+}
+
 DeltaLog simulated(std::uint64_t seed, double noise, unsigned bits, bool derivatives,
                    const std::string& trajectory = "fourier", double duration_s = 8.0) {
   SimulateOptions o;
@@ -687,6 +704,42 @@ TEST(IdentifyTest, WeightedDirectCostIsTheCostOfTheWeightedRows) {
   EXPECT_GT(std::abs(direct_cost(reg, beta) - expected), 1e-3 * expected);
   EXPECT_NEAR(direct_cost(reg, beta, {1.0, 1.0, 1.0}), direct_cost(reg, beta),
               1e-14 * direct_cost(reg, beta));
+}
+
+// Joint weights scale each joint's rows as the solve reads them: the same
+// estimate, cost, spread and moments as an ordinary solve of a weighted copy
+// of the rows, on the Gram path and on Householder's (two columns made
+// nearly parallel put the conditioning over the Gram path's limit).
+TEST(IdentifyTest, JointWeightsGiveTheOrdinarySolveOfTheWeightedRows) {
+  const auto model = make_model({});
+  const auto expect_close = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b, double rel) {
+    ASSERT_EQ(a.size(), b.size());
+    for (Eigen::Index c = 0; c < a.size(); ++c) EXPECT_NEAR(a(c), b(c), rel * std::abs(b(c))) << c;
+  };
+  const DeltaLog fourier = simulated(5, 0.02, 17, false);
+  const Regression plain = preprocess(*model, fourier, PrepareOptions{}).regression;
+  Regression ill = plain;
+  ill.psi.col(2) =
+      ill.psi.col(1) * (ill.psi.col(2).norm() / ill.psi.col(1).norm()) + 1e-4 * ill.psi.col(2);
+  for (const Regression* reg : std::array<const Regression*, 2>{&plain, &ill}) {
+    const LeastSquaresResult w =
+        solve_least_squares(*reg, *model, LsSolver::kQr, LsWeights::kJoint, fourier.name, 20, 2);
+    EXPECT_NE(w.joint_weights, (std::array<double, 3>{1.0, 1.0, 1.0}));
+    SCOPED_TRACE(reg == &ill ? "near-parallel columns" : "as simulated");
+    const Regression copy = weighted(*reg, w.joint_weights);
+    const LeastSquaresResult o =
+        solve_least_squares(copy, *model, LsSolver::kQr, LsWeights::kNone, fourier.name, 20, 2);
+    EXPECT_EQ(o.condition_number_scaled > 1e3, reg == &ill);
+    expect_close(w.beta, o.beta, 1e-9);
+    expect_close(w.unconstrained_beta, o.unconstrained_beta, 1e-9);
+    // The spread goes through (Psi^T Psi)^-1 twice: the residuals' rounding
+    // grows with the square of the condition number (about 1e5 here).
+    expect_close(w.std_dev, o.std_dev, reg == &ill ? 1e-5 : 1e-9);
+    EXPECT_NEAR(w.cost, o.cost, 1e-12 * o.cost);
+    EXPECT_NEAR(w.condition_number_scaled, o.condition_number_scaled,
+                1e-9 * o.condition_number_scaled);
+    EXPECT_TRUE(w.psi_t_psi.isApprox(o.psi_t_psi, 1e-13));
+  }
 }
 
 // The squared residuals per joint, over the first rows and over all, from
