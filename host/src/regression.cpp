@@ -93,25 +93,30 @@ std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned thre
 
 namespace {
 
-// residual_squares() over rows [start, end): the residuals of a block of rows
-// at a time, Psi's columns each read once per block.
+// residual_squares() over rows [start, end): the prediction Psi beta of
+// the rows (Eigen reads each column in one long sequential run), then the
+// squared residuals summed per joint into four interleaved sums
+// each, so that consecutive rows do not wait on each other's addition.
 void add_residual_squares(const Equations& r, std::size_t start, std::size_t end,
-                          std::size_t first_rows, const Eigen::VectorXd& beta, ResidualSquares& s) {
-  constexpr std::size_t kBlockRows = 512;
-  std::array<double, kBlockRows> predicted;
-  for (std::size_t block = start; block < end; block += kBlockRows) {
-    const std::size_t n = std::min(kBlockRows, end - block);
-    std::fill_n(predicted.data(), n, 0.0);
-    for (Eigen::Index c = 0; c < r.psi.cols(); ++c) {
-      const double* column = r.psi.col(c).data() + block;
-      const double b = beta(c);
-      for (std::size_t k = 0; k < n; ++k) predicted[k] += column[k] * b;
-    }
-    for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t row = block + k;
-      const double e = r.tau(static_cast<Eigen::Index>(row)) - predicted[k];
-      s.all[r.joint[row]] += e * e;
-      if (row < first_rows) s.first[r.joint[row]] += e * e;
+                          std::size_t first_rows, const Eigen::VectorXd& beta,
+                          std::vector<double>& predicted, ResidualSquares& s) {
+  constexpr std::size_t kWays = 4;
+  const std::size_t n = end - start;
+  predicted.resize(n);
+  double* y = predicted.data();
+  Eigen::Map<Eigen::VectorXd>(y, static_cast<Eigen::Index>(n)).noalias() =
+      r.psi.middleRows(static_cast<Eigen::Index>(start), static_cast<Eigen::Index>(n)) * beta;
+  const double* tau = r.tau.data() + start;
+  for (std::size_t k = 0; k < n; ++k) y[k] = (tau[k] - y[k]) * (tau[k] - y[k]);
+  std::array<double, 3 * kWays> first{}, rest{};  // [way * 3 + joint]
+  const unsigned char* joint = r.joint.data() + start;
+  const std::size_t split = std::clamp(first_rows, start, end) - start;
+  for (std::size_t k = 0; k < split; ++k) first[(k % kWays) * 3 + joint[k]] += y[k];
+  for (std::size_t k = split; k < n; ++k) rest[(k % kWays) * 3 + joint[k]] += y[k];
+  for (std::size_t way = 0; way < kWays; ++way) {
+    for (unsigned j = 0; j < 3; ++j) {
+      s.first[j] += first[way * 3 + j];
+      s.all[j] += first[way * 3 + j] + rest[way * 3 + j];
     }
   }
 }
@@ -124,9 +129,11 @@ ResidualSquares residual_squares(const Equations& r, std::size_t first_rows,
   const std::size_t rows = r.rows();
   const std::size_t chunks = std::max<std::size_t>(1, (rows + kChunkRows - 1) / kChunkRows);
   std::vector<ResidualSquares> partial(chunks);
-  run_tasks(chunks, workers_for(chunks, threads, 2), [&](std::size_t, std::size_t chunk) {
+  const std::size_t workers = workers_for(chunks, threads, 2);
+  std::vector<std::vector<double>> predicted(workers);  // one buffer per thread
+  run_tasks(chunks, workers, [&](std::size_t worker, std::size_t chunk) {
     add_residual_squares(r, chunk * kChunkRows, std::min(rows, (chunk + 1) * kChunkRows),
-                         first_rows, beta, partial[chunk]);
+                         first_rows, beta, predicted[worker], partial[chunk]);
   });
   ResidualSquares total;
   for (const ResidualSquares& s : partial) {
