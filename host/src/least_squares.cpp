@@ -150,10 +150,6 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
   return s.selfadjointView<Eigen::Upper>();
 }
 
-// The upper triangle of the Gram matrix [Psi tau]^T [Psi tau], (p+1) x
-// (p+1), in one pass over the rows: chunks of fixed length on the threads
-// (blocks that stay in the cache for both products), their sums added in
-// order, so that any number of threads gives the same matrix.
 // A block's rows scaled (the weighted problem's rows) into a buffer.
 void scale_rows(const Equations& reg, const RowScale& scale, Eigen::Index start, Eigen::Index len,
                 Eigen::MatrixXd& a, Eigen::VectorXd& t) {
@@ -175,6 +171,11 @@ void add_block(const Rows& a, const Tau& t, Eigen::MatrixXd& g) {
   g(p, p) += t.squaredNorm();
 }
 
+// The upper triangle of the Gram matrix [Psi tau]^T [Psi tau], (p+1) x
+// (p+1), in one pass over the rows: chunks of fixed length on the threads
+// (blocks that stay in the cache for both products), their sums added in
+// order, so that any number of threads gives the same matrix. Weighted,
+// of the scaled rows, each block scaled into a buffer as it is read.
 Eigen::MatrixXd augmented_gram(const Equations& reg, const RowScale& scale, unsigned threads) {
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
@@ -352,6 +353,7 @@ void refine_from_residual(const Equations& reg, const RowScale& scale,
   constexpr Eigen::Index kBlockRows = 2048;
   const Eigen::VectorXd x = f.r.triangularView<Eigen::Upper>().solve(f.qt_tau);
   const Eigen::VectorXd beta = x.cwiseQuotient(col_norm);
+  const std::array<double, 3> w = scale.weights();
   Eigen::VectorXd psi_t_r = Eigen::VectorXd::Zero(x.size());
   Eigen::VectorXd r(kBlockRows);
   for (Eigen::Index start = 0; start < m; start += kBlockRows) {
@@ -359,7 +361,6 @@ void refine_from_residual(const Equations& reg, const RowScale& scale,
     const auto a = reg.psi.middleRows(start, len);
     r.head(len).noalias() = reg.tau.segment(start, len) - a * beta;
     if (scale.any()) {  // (s a)^T (s r) = a^T (w r)
-      const std::array<double, 3> w = scale.weights();
       for (Eigen::Index k = 0; k < len; ++k)
         r(k) *= w[reg.joint[static_cast<std::size_t>(start + k)]];
     }
