@@ -105,7 +105,8 @@ ResidualSquares residual_squares(const Equations& r, std::size_t first_rows,
 // Direct evaluation: one pass over all rows.
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta);
 // The same with joint j's rows weighted by joint_weights[j]: the cost of the
-// weighted problem (weighted()) without a weighted copy of the rows.
+// weighted problem (each joint's rows scaled by sqrt(joint_weights[j]))
+// without a weighted copy of the rows.
 double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
                    const std::array<double, 3>& joint_weights);
 
