@@ -2,7 +2,6 @@
 // refused with ConfigError or gives a configuration whose every value the
 // controller can take (controller_config() does not throw: validate() has
 // checked it) and whose tick counts are not 0.
-#include <unistd.h>
 
 #include <cstdint>
 #include <cstdlib>
@@ -10,9 +9,11 @@
 #include <string>
 
 #include "fw_linux/config.hpp"
+#include "scratch_directory.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path = "/tmp/fuzz_port_config_" + std::to_string(getpid()) + ".conf";
+  static const std::string path =
+      testsupport::process_scratch("fuzz_port_config").file("port.conf");
   std::ofstream(path, std::ios::binary | std::ios::trunc)
       .write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   fw_linux::PortConfig c;

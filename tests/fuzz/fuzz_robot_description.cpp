@@ -2,7 +2,6 @@
 // and, for what it accepts, the truths derived from it and the MuJoCo model
 // built from it. Errors are delta::InputError; an accepted robot must give
 // finite truths and a model MuJoCo loads.
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -13,9 +12,11 @@
 #include "delta/input_error.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "delta/robot_description.hpp"
+#include "scratch_directory.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path = "/tmp/fuzz_robot_" + std::to_string(getpid()) + ".json";
+  static const std::string path =
+      testsupport::process_scratch("fuzz_robot_description").file("robot.json");
   std::ofstream(path, std::ios::binary | std::ios::trunc)
       .write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   try {

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "delta/input_error.hpp"
+#include "scratch_directory.hpp"
 
 namespace delta::update {
 namespace {
@@ -73,7 +74,7 @@ TEST(ImageFileTest, BuildIdsAndVersionsAreChecked) {
 }
 
 TEST(ImageFileTest, KeyFilesNameWhatIsWrong) {
-  const std::string path = "/tmp/image_key_" + std::to_string(::getpid());
+  const std::string path = testsupport::process_scratch("image_file_test").file("key");
   const KeyPair k = generate_key_pair();
   std::ofstream(path) << key_text(k.public_key);
   EXPECT_EQ(read_public_key(path), k.public_key);

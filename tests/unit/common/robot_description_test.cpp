@@ -3,7 +3,6 @@
 #include "delta/robot_description.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -11,6 +10,7 @@
 
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
+#include "scratch_directory.hpp"
 
 namespace delta {
 namespace {
@@ -21,7 +21,8 @@ const char* kExample = "docs/examples/robot.json";  // tests run in the reposito
 std::string error_with(const std::function<void(nlohmann::json&)>& change) {
   nlohmann::json j = nlohmann::json::parse(read_whole_file(kExample));
   change(j);
-  const std::string path = "/tmp/robot_description_test_" + std::to_string(::getpid()) + ".json";
+  const std::string path =
+      testsupport::process_scratch("robot_description_test").file("robot.json");
   std::ofstream(path) << j.dump(2);
   try {
     read_robot_description(path);
@@ -132,7 +133,7 @@ TEST(RobotDescriptionTest, OneJointObjectServesAllThree) {
 }
 
 TEST(RobotDescriptionTest, NotJsonNamesTheFile) {
-  const std::string path = "/tmp/robot_description_bad_" + std::to_string(::getpid()) + ".json";
+  const std::string path = testsupport::process_scratch("robot_description_test").file("bad.json");
   std::ofstream(path) << "{ \"format\": ";
   try {
     read_robot_description(path);
@@ -145,7 +146,7 @@ TEST(RobotDescriptionTest, NotJsonNamesTheFile) {
 // A number no double holds is the library's out_of_range, not a parse
 // error; it too is an InputError naming where (found by fuzz_robot_description).
 TEST(RobotDescriptionTest, NumberOverflowNamesLineAndColumn) {
-  const std::string path = "/tmp/robot_description_big_" + std::to_string(::getpid()) + ".json";
+  const std::string path = testsupport::process_scratch("robot_description_test").file("big.json");
   std::ofstream(path)
       << "{\n  \"format\": \"delta-robot/1\",\n  \"platform\": {\"mass_kg\": 1e1667}\n}\n";
   try {

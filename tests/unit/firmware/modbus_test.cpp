@@ -34,6 +34,7 @@
 #include "host_id/atomic_file.hpp"
 #include "host_id/cli.hpp"
 #include "in_process_rig.hpp"
+#include "scratch_directory.hpp"
 
 namespace fw_linux {
 namespace {
@@ -446,12 +447,13 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
   ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
     return value(x, "state") == static_cast<int>(fw::State::kFault);
   }));
-  EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can",
-                              "vcan0", "-o", ::testing::TempDir() + "/x.csv"},
-                             o, e3),
-            1);
+  EXPECT_EQ(
+      host_id::run_cli({"excite", "--modbus", address, "--trajectory", "path1", "--can", "vcan0",
+                        "-o", testsupport::process_scratch("modbus_test").file("x.csv")},
+                       o, e3),
+      1);
   EXPECT_NE(e3.str().find("is in fault 1 (e-stop)"), std::string::npos) << e3.str();
-  EXPECT_FALSE(std::ifstream(::testing::TempDir() + "/x.csv").good());
+  EXPECT_FALSE(std::ifstream(testsupport::process_scratch("modbus_test").file("x.csv")).good());
 }
 
 // excite --trajectory-file uploads the file as the custom trajectory; the
@@ -459,7 +461,7 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
 // is recorded or written.
 TEST_F(Fixture, HostIdExciteUploadsATrajectoryFileAndReportsItsRefusal) {
   const std::string address = "127.0.0.1:" + std::to_string(server.tcp_port());
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = testsupport::process_scratch("modbus_test").path();
   host_id::write_file_atomically(dir + "/fast.json",
                                  delta::format_trajectory(path1_as_custom(5.0), ""));
   std::ostringstream o, e1, e2, e3;

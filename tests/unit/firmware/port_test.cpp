@@ -3,7 +3,6 @@
 // in-process around the emulator (the same code as delta_fw and
 // delta_drive_emu, frames passed by hand in bus order).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -24,14 +23,18 @@
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/trajectories.hpp"
 #include "in_process_rig.hpp"
+#include "scratch_directory.hpp"
 
 namespace fw_linux {
 namespace {
 
-// A file of this process's own: ctest runs each test as a process of its
-// own, in parallel, and a shared name let two tests overwrite each other's.
+// A file in this process's own scratch directory (removed at exit).
+std::string scratch_file(const std::string& name) {
+  return testsupport::process_scratch("port_test").file(name);
+}
+
 std::string write_temp(const std::string& text) {
-  std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_port_test.conf";
+  std::string path = scratch_file("port_test.conf");
   std::ofstream(path) << text;
   return path;
 }
@@ -66,7 +69,7 @@ TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {
                                              0.3, 9, t.fourier));
   t.blend_s = 0.5;
   t.periods = 3;
-  const std::string file = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_t.json";
+  const std::string file = scratch_file("t.json");
   std::ofstream(file) << delta::format_trajectory(t, "");
   const PortConfig c = read_port_config(write_temp("trajectory_file = " + file + "\n"));
   ASSERT_EQ(c.custom_block.size(), delta::modbus::kCustomCount);
@@ -142,7 +145,7 @@ std::string edited_eds(const std::string& from, const std::string& to, const std
   const std::size_t at = text.find(from);
   EXPECT_NE(at, std::string::npos) << from;
   if (at != std::string::npos) text.replace(at, from.size(), to);
-  const std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_" + name;
+  const std::string path = scratch_file(name);
   std::ofstream(path) << text;
   return path;
 }
