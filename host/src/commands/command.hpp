@@ -37,6 +37,11 @@ extern const CLI::Validator kHostPort;
 // A file name ending in .svg.
 extern const CLI::Validator kSvgPath;
 
+// Exit statuses of the commands that talk SDO to a node (sdo, flash):
+// the node aborted the transfer, or it did not answer.
+constexpr int kExitSdoAborted = 3;
+constexpr int kExitNoAnswer = 4;
+
 // "0x0000DE17": a 32-bit identity, CRC or code as CANopen tools print it.
 std::string hex32(std::uint32_t v);
 

@@ -33,11 +33,12 @@ struct FlashOptions {
 };
 
 // Exit statuses (docs/flashing.md). The old program runs on after each.
-constexpr int kExitRefusedByController = 3;  // an SDO abort; 0x1F57 says why
-constexpr int kExitNoAnswer = 4;             // the node does not answer, or the transfer failed
-constexpr int kExitRefusedHere = 5;          // the image is invalid, for other hardware, older
-constexpr int kExitVerifyFailed = 6;         // 0x1F56 is not the image's CRC-32
-constexpr int kExitNotConfirmed = 7;         // the new program rolled back or never confirmed
+// kExitSdoAborted (3): the controller refused; 0x1F57 says why.
+// kExitNoAnswer (4): the node does not answer, or the transfer failed.
+constexpr int kExitRefusedByController = kExitSdoAborted;
+constexpr int kExitRefusedHere = 5;   // the image is invalid, for other hardware, older
+constexpr int kExitVerifyFailed = 6;  // 0x1F56 is not the image's CRC-32
+constexpr int kExitNotConfirmed = 7;  // the new program rolled back or never confirmed
 
 // A failed step: its message and exit status.
 struct FlashError {

@@ -30,10 +30,6 @@ struct SdoOptions {
   int timeout_ms{1000};
 };
 
-// Exit statuses: the node aborted, or did not answer.
-constexpr int kExitAborted = 3;
-constexpr int kExitNoAnswer = 4;
-
 struct Multiplexer {
   std::uint16_t index;
   std::uint8_t subindex;
@@ -90,7 +86,8 @@ std::string hex_bytes(const std::vector<std::uint8_t>& bytes) {
   char b[4];
   for (const std::uint8_t v : bytes) {
     std::snprintf(b, sizeof b, "%02X", v);
-    s += (s.empty() ? "" : " ") + std::string(b);
+    if (!s.empty()) s += ' ';
+    s += b;
   }
   return s;
 }
@@ -191,7 +188,7 @@ void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
             : channel.upload(m.index, m.subindex, bytes, transfer);
   if (!outcome.ok()) {
     context.err << "host_id: error: " << channel.describe(m.index, m.subindex, outcome) << "\n";
-    context.exit_code = outcome.by_server ? kExitAborted : kExitNoAnswer;
+    context.exit_code = outcome.by_server ? kExitSdoAborted : kExitNoAnswer;
     return;
   }
   if (!write && !o.file.empty()) {
