@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -1181,11 +1182,20 @@ namespace {
 
 // The fault matrix's Modbus row (docs/hil.md): three clients reading as
 // fast as they can, one trickling its requests a byte every 150 ms and one
-// connecting and leaving in a loop, for 4 s, while delta_fw runs in real
-// time at 100 Hz with SCHED_FIFO (an 8 ms response window: the VM's
-// emulated CPUs wake up to 4 ms late, which a 2 ms window at 250 Hz missed
-// now and then, with or without the clients). Its cycle counter (input registers 6-7) and the SYNCs
-// on the bus keep their rate, and a well-behaved client is answered quickly.
+// connecting and leaving in a loop, while delta_fw runs in real time at
+// 100 Hz with SCHED_FIFO (an 8 ms response window: the VM's emulated CPUs
+// wake up to 4 ms late, which a 2 ms window at 250 Hz missed now and then,
+// with or without the clients). The flood and the churn are on and off in
+// alternating windows of 1 s (4 s of each; the trickle goes on throughout).
+// With the clients, the loop's cycle counter (input registers 6-7) and the
+// SYNCs on the bus keep their nominal rate and the rate they have without
+// the clients, and a well-behaved client is answered quickly.
+// A timing test needs the machine: ctest runs it alone (RUN_SERIAL, in
+// tests/hil/CMakeLists.txt). Beside another VM on the same two cores the
+// loop ran at 93.5-98 Hz, and there the flood did slow it (96-97 Hz with,
+// 98.5-99.5 without: the VM's CPUs are too few for the loopback traffic's
+// kernel work), and the emulated drives, themselves starved, missed the
+// 8 ms window now and then.
 TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
   constexpr int kPort = 15041;
   constexpr double kRateHz = 100.0;
@@ -1210,6 +1220,22 @@ TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
   };
 
   std::atomic<bool> stop{false};
+  std::mutex gate_mutex;
+  std::condition_variable gate;
+  bool abuse_on = true;
+  // Blocks while the flood and the churn are off; false once stopped.
+  const auto abuse_allowed = [&] {
+    std::unique_lock<std::mutex> lock(gate_mutex);
+    gate.wait(lock, [&] { return abuse_on || stop.load(); });
+    return !stop.load();
+  };
+  const auto set_abuse = [&](bool on) {
+    {
+      const std::lock_guard<std::mutex> lock(gate_mutex);
+      abuse_on = on;
+    }
+    gate.notify_all();
+  };
   std::atomic<std::uint64_t> flood_answers{0};
   std::atomic<std::uint64_t> loris_answers{0};
   std::atomic<std::uint64_t> churn_connections{0};
@@ -1217,7 +1243,7 @@ TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
   for (int k = 0; k < 3; ++k) {
     abusers.emplace_back([&] {
       hil::RawModbus c(kPort);
-      while (!stop.load() && c.read_input(0, 40)) ++flood_answers;
+      while (abuse_allowed() && c.read_input(0, 40)) ++flood_answers;
     });
   }
   abusers.emplace_back([&] {
@@ -1225,62 +1251,88 @@ TEST(ModbusAbuse, AFloodAndASlowLorisClientDoNotSlowTheControlLoop) {
     while (!stop.load() && c.trickle(6, 2, 150ms, stop)) ++loris_answers;
   });
   abusers.emplace_back([&] {
-    while (!stop.load()) {
+    while (abuse_allowed()) {
       hil::RawModbus c(kPort);
       churn_connections += c.connected() ? 1 : 0;
     }
   });
 
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::optional<std::uint32_t> c0 = cycle_counter();
+  struct Window {
+    bool abused;
+    std::chrono::steady_clock::time_point from, to;
+    std::uint32_t cycles;
+  };
+  std::vector<Window> windows;
   std::chrono::nanoseconds worst_probe{0};
-  while (std::chrono::steady_clock::now() - t0 < 4s) {
-    const auto asked = std::chrono::steady_clock::now();
-    ASSERT_TRUE(cycle_counter().has_value()) << "the probe got no answer";
-    worst_probe = std::max(worst_probe, std::chrono::steady_clock::now() - asked);
-    std::this_thread::sleep_for(50ms);  // the probe's pace
+  for (int w = 0; w < 8; ++w) {
+    const bool abused = w % 2 == 0;
+    set_abuse(abused);
+    const auto from = std::chrono::steady_clock::now();
+    const std::optional<std::uint32_t> c0 = cycle_counter();
+    ASSERT_TRUE(c0.has_value()) << "the probe got no answer";
+    while (std::chrono::steady_clock::now() - from < 1s) {
+      const auto asked = std::chrono::steady_clock::now();
+      ASSERT_TRUE(cycle_counter().has_value()) << "the probe got no answer";
+      worst_probe = std::max(worst_probe, std::chrono::steady_clock::now() - asked);
+      std::this_thread::sleep_for(50ms);  // the probe's pace
+    }
+    const std::optional<std::uint32_t> c1 = cycle_counter();
+    ASSERT_TRUE(c1.has_value()) << "the probe got no answer";
+    windows.push_back({abused, from, std::chrono::steady_clock::now(), *c1 - *c0});
   }
-  const std::optional<std::uint32_t> c1 = cycle_counter();
-  const auto t1 = std::chrono::steady_clock::now();
   stop.store(true);
+  set_abuse(true);
   for (std::thread& t : abusers) t.join();
-  ASSERT_TRUE(c0 && c1);
 
-  const double seconds = std::chrono::duration<double>(t1 - t0).count();
-  const double rate_hz = (*c1 - *c0) / seconds;
+  // Cycles per second over the windows with (true) or without the clients.
+  const auto counter_rate = [&](bool abused) {
+    double cycles = 0.0, seconds = 0.0;
+    for (const Window& w : windows) {
+      if (w.abused != abused) continue;
+      cycles += w.cycles;
+      seconds += std::chrono::duration<double>(w.to - w.from).count();
+    }
+    return cycles / seconds;
+  };
+  const double abused_hz = counter_rate(true), quiet_hz = counter_rate(false);
   std::cout << "Modbus abuse: " << flood_answers.load() << " flood answers, "
             << loris_answers.load() << " slow-loris answers, " << churn_connections.load()
-            << " short connections in " << seconds << " s; cycle counter rate " << rate_hz
-            << " Hz (nominal " << kRateHz << "); slowest probe answer "
+            << " short connections in 4 s; cycle counter rate " << abused_hz << " Hz with them, "
+            << quiet_hz << " Hz without (nominal " << kRateHz << "); slowest probe answer "
             << std::chrono::duration<double, std::milli>(worst_probe).count() << " ms\n";
   EXPECT_GT(flood_answers.load(), 300u) << "the flood was served";
   EXPECT_GE(loris_answers.load(), 1u) << "the slow client was served too";
   EXPECT_GT(churn_connections.load(), 50u);
-  EXPECT_NEAR(rate_hz, kRateHz, 0.02 * kRateHz);
+  EXPECT_NEAR(abused_hz, kRateHz, 0.02 * kRateHz) << "the loop lost its rate with the clients";
+  EXPECT_GT(abused_hz, quiet_hz - 0.02 * kRateHz) << "the clients slowed the loop";
   EXPECT_LT(worst_probe, 250ms);
 
   EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
   emu.terminate(30s);
   const std::vector<Frame> all = bus.stop();
   const auto& times = bus.kernel_times();
-  // The SYNCs of the abuse window, by kernel receive time: 250 Hz.
-  std::size_t syncs = 0;
-  std::chrono::nanoseconds first{0}, last{0};
+  // The SYNCs of each kind of window, by kernel receive time (wall clock).
   const auto wall_offset = std::chrono::system_clock::now().time_since_epoch() -
                            std::chrono::steady_clock::now().time_since_epoch();
-  const auto from = t0.time_since_epoch() + wall_offset;
-  const auto to = t1.time_since_epoch() + wall_offset;
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (all[i].id != p::kSync.base_id || all[i].error_frame) continue;
-    if (times[i] < from || times[i] > to) continue;
-    if (syncs++ == 0) first = times[i];
-    last = times[i];
-  }
-  ASSERT_GT(syncs, 100u);
-  const double sync_hz =
-      static_cast<double>(syncs - 1) / std::chrono::duration<double>(last - first).count();
-  std::cout << "SYNCs on the bus during the abuse: " << sync_hz << " Hz\n";
-  EXPECT_NEAR(sync_hz, kRateHz, 0.02 * kRateHz);
+  const auto sync_rate = [&](bool abused) {
+    double syncs = 0.0, seconds = 0.0;
+    for (const Window& w : windows) {
+      if (w.abused != abused) continue;
+      const auto from = w.from.time_since_epoch() + wall_offset;
+      const auto to = w.to.time_since_epoch() + wall_offset;
+      for (std::size_t i = 0; i < all.size(); ++i) {
+        if (all[i].id != p::kSync.base_id || all[i].error_frame) continue;
+        if (times[i] >= from && times[i] < to) ++syncs;
+      }
+      seconds += std::chrono::duration<double>(w.to - w.from).count();
+    }
+    return syncs / seconds;
+  };
+  const double abused_sync_hz = sync_rate(true), quiet_sync_hz = sync_rate(false);
+  std::cout << "SYNCs on the bus: " << abused_sync_hz << " Hz with the clients, " << quiet_sync_hz
+            << " Hz without\n";
+  EXPECT_NEAR(abused_sync_hz, kRateHz, 0.02 * kRateHz);
+  EXPECT_GT(abused_sync_hz, quiet_sync_hz - 0.02 * kRateHz) << "the clients slowed the SYNCs";
 }
 
 }  // namespace
