@@ -19,11 +19,7 @@ namespace {
 class Noise {
  public:
   explicit Noise(std::uint64_t seed) : rng_(seed ^ 0x5DEECE66Dull) {}
-  double normal() {
-    const double u1 = (static_cast<double>(rng_.next() >> 11) + 0.5) * 0x1.0p-53;
-    const double u2 = rng_.uniform();
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.28318530717958647692 * u2);
-  }
+  double normal() { return rng_.normal(); }
 
  private:
   delta::SplitMix64 rng_;

@@ -135,10 +135,7 @@ Emulator::Emulator(const EmulatorConfig& config, Outbox out)
 Emulator::~Emulator() = default;
 
 double Emulator::noise() {
-  // SplitMix64 and Box-Muller: reproducible for a seed.
-  const double u1 = rng_.uniform() + 0x1.0p-54;
-  const double u2 = rng_.uniform();
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(kTwoPi * u2);
+  return rng_.normal();  // reproducible for a seed
 }
 
 void Emulator::send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data,

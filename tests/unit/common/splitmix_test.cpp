@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace delta {
 namespace {
 
@@ -27,6 +29,31 @@ TEST(SplitMix64Test, UniformsAreTheTopBitsAndPairsInterleave) {
     EXPECT_EQ(second[k], single.uniform());
   }
   EXPECT_EQ(pairs.next(), single.next());
+}
+
+// normal() is Box-Muller on the next two uniforms, the first moved half a
+// step into (0, 1); its samples have mean 0 and variance 1.
+TEST(SplitMix64Test, NormalsAreBoxMullerOnTheNextTwoUniforms) {
+  SplitMix64 n(11), u(11);
+  for (int k = 0; k < 3; ++k) {
+    const double u1 = u.uniform() + 0x1.0p-54;
+    const double u2 = u.uniform();
+    EXPECT_EQ(n.normal(), std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2));
+  }
+  constexpr int kSamples = 200000;
+  double sum = 0.0, sum_squares = 0.0;
+  int beyond_two = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    const double x = n.normal();
+    sum += x;
+    sum_squares += x * x;
+    beyond_two += std::fabs(x) > 2.0;
+  }
+  const double mean = sum / kSamples;
+  EXPECT_NEAR(mean, 0.0, 5.0 / std::sqrt(kSamples));
+  EXPECT_NEAR(sum_squares / kSamples - mean * mean, 1.0, 5.0 * std::sqrt(2.0 / kSamples));
+  // P(|x| > 2) = 0.0455 for a normal; 5 standard errors of the count.
+  EXPECT_NEAR(beyond_two / double{kSamples}, 0.0455, 5.0 * std::sqrt(0.0455 * 0.9545 / kSamples));
 }
 
 }  // namespace

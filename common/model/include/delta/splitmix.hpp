@@ -1,8 +1,10 @@
 // SplitMix64 (Steele, Lea and Flood): a small, fully specified generator, so
 // that a seed gives the same numbers on every platform and standard library
-// (PSO's swarm, simulated and emulated noise, random excitations).
+// (PSO's swarm, simulated and emulated noise, random excitations), and
+// normal numbers from it.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -19,6 +21,13 @@ class SplitMix64 {
   }
   // Uniform in [0, 1): the output's top 53 bits.
   double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  // A standard normal (Box-Muller) from the next two uniforms; the first is
+  // moved half a step into (0, 1), so that its logarithm is finite.
+  double normal() {
+    const double u1 = uniform() + 0x1.0p-54;
+    const double u2 = uniform();
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
+  }
   // count pairs of uniforms, the first of each pair into first[k], the
   // second into second[k], in the order uniform() would give them.
   void fill_pairs(double* first, double* second, std::size_t count) {
