@@ -15,20 +15,6 @@ namespace host_id {
 
 namespace {
 
-// SplitMix64 with Box-Muller normals: the same noise for a seed everywhere.
-class Noise {
- public:
-  explicit Noise(std::uint64_t seed) : rng_(seed ^ 0x5DEECE66Dull) {}
-  double normal() { return rng_.normal(); }
-
- private:
-  delta::SplitMix64 rng_;
-};
-
-}  // namespace
-
-namespace {
-
 void check_options(const SimulateOptions& o) {
   delta::require_valid_geometry(o.geometry);
   if (!(o.duration_s > 0.0) || !(o.duration_s <= 3600.0)) {
@@ -172,7 +158,8 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
 
 // Torque noise, then encoder quantisation, as a real log has them.
 void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
-  Noise noise(o.seed);
+  // SplitMix64's normals: the same noise for a seed everywhere.
+  delta::SplitMix64 noise(o.seed ^ 0x5DEECE66Dull);
   if (o.torque_noise > 0.0) {
     for (unsigned j = 0; j < 3; ++j) {
       double ss = 0.0;
