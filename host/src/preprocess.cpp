@@ -284,6 +284,19 @@ void label_kept(const States& s, std::size_t k, std::size_t i, Regression& r) {
   }
 }
 
+// One row's p values into its place, `stride` apart, and its columns that
+// are not zero marked in `nonzero`. A function of its own so that the
+// compiler knows that the marks, bytes (which may alias anything), alias
+// neither the row nor its place: in the loop that builds the rows it
+// reloaded them for every value.
+void put_row(const double* __restrict row, double* __restrict out, std::size_t stride,
+             unsigned char* __restrict nonzero, std::size_t p) {
+  for (std::size_t c = 0; c < p; ++c) {
+    out[c * stride] = row[c];
+    nonzero[c] |= static_cast<unsigned char>(row[c] != 0.0);
+  }
+}
+
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
 // their places, on `threads` threads; and tau alike. The kept samples'
 // labels go into r (sized for them), their unfiltered rows into r.measured;
@@ -323,12 +336,7 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
         for (unsigned j = 0; j < 3; ++j) {
           const double* row = rows.data() + j * p;
-          double* out = store.row_start(side, 3 * i + j);
-          unsigned char* nz_j = nz + j * p;
-          for (std::size_t c = 0; c < p; ++c) {
-            out[c * stride] = row[c];
-            nz_j[c] |= row[c] != 0.0;
-          }
+          put_row(row, store.row_start(side, 3 * i + j), stride, nz + j * p, p);
           store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
           if (!side) moments[w].add(j, row, s.tau_Nm[k][j]);
         }
