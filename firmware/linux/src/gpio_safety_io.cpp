@@ -5,9 +5,11 @@
 #include <cerrno>
 #include <cstring>
 
-#include "fw_linux/monotonic_clock.hpp"
+#include "delta/monotonic_clock.hpp"
 
 namespace fw_linux {
+
+using delta::monotonic_us;
 
 bool EStopDebouncer::update(bool raw_open, std::uint64_t now_us) {
   if (first_) {

@@ -16,16 +16,17 @@
 
 #include "delta/can/cia402.hpp"
 #include "delta/can/protocol.hpp"
+#include "delta/monotonic_clock.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/controller_node.hpp"
 #include "fw_linux/linux_hardware.hpp"
-#include "fw_linux/monotonic_clock.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
 
 namespace fw_linux {
 
 namespace p = delta::can::protocol;
+using delta::monotonic_us;
 
 namespace {
 

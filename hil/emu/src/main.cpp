@@ -17,6 +17,7 @@
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
 #include "delta/input_error.hpp"
+#include "delta/monotonic_clock.hpp"
 #include "delta/parameter_file.hpp"
 #include "delta/robot_description.hpp"
 #include "emu/emulator.hpp"
@@ -32,12 +33,7 @@ void on_signal(int) {
 // Frames handed to the emulator between two wall-clock checks.
 constexpr std::size_t kFramesPerPass = 64;
 
-std::uint64_t monotonic_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000u +
-         static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
-}
+using delta::monotonic_us;
 
 constexpr const char* kDescription =
     "Emulates three CiA 402 drives (nodes 1-3) and the default delta robot they move "

@@ -3,26 +3,16 @@
 #include <poll.h>
 
 #include <cstdio>
-#include <ctime>
+
+#include "delta/can/protocol.hpp"
+#include "delta/monotonic_clock.hpp"
 
 namespace delta::can {
 
-namespace {
-
-constexpr std::uint32_t kSdoRequestBase = 0x600;
-constexpr std::uint32_t kSdoResponseBase = 0x580;
-
-std::uint64_t monotonic_us() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<std::uint64_t>(t.tv_sec) * 1000000u +
-         static_cast<std::uint64_t>(t.tv_nsec) / 1000u;
-}
-
-}  // namespace
+namespace p = protocol;
 
 Filter sdo_response_filter(std::uint8_t node) {
-  return {kSdoResponseBase + node, 0x7FF, false};
+  return {p::cob_id(p::kSdoTx, node), p::kStandardIdMask, false};
 }
 
 SdoChannel::SdoChannel(Socket& socket, std::uint8_t node, std::chrono::milliseconds timeout,
@@ -55,7 +45,7 @@ SdoOutcome SdoChannel::download(std::uint16_t index, std::uint8_t subindex,
 
 void SdoChannel::abort(std::uint16_t index, std::uint8_t subindex, sdo::AbortCode code) {
   Frame f;
-  f.id = kSdoRequestBase + node_;
+  f.id = p::cob_id(p::kSdoRx, node_);
   f.dlc = 8;
   f.data = sdo::abort_transfer(index, subindex, code);
   const SendResult sent = socket_.send(f);
@@ -78,7 +68,7 @@ SdoOutcome SdoChannel::run(sdo::Client& client) {
     sdo::Payload p;
     while (client.pending(p)) {
       Frame f;
-      f.id = kSdoRequestBase + node_;
+      f.id = p::cob_id(p::kSdoRx, node_);
       f.dlc = 8;
       f.data = p;
       const SendResult r = socket_.send(f);
@@ -106,7 +96,7 @@ SdoOutcome SdoChannel::run(sdo::Client& client) {
     pollfd pfd{socket_.fd(), static_cast<short>(POLLIN | (queue_full ? POLLOUT : 0)), 0};
     ::poll(&pfd, 1, 5);
     while (auto r = socket_.receive()) {
-      if (r->error || r->frame.id != kSdoResponseBase + node_ || r->frame.dlc != 8) continue;
+      if (r->error || r->frame.id != p::cob_id(p::kSdoTx, node_) || r->frame.dlc != 8) continue;
       ++o.frames_received;
       client.on_frame(r->frame.data, monotonic_us());
     }

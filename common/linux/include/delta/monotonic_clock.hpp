@@ -1,11 +1,12 @@
-// The Linux port's one clock: CLOCK_MONOTONIC in microseconds.
+// The Linux programs' one clock (the controller's port, the emulator, the
+// SDO channel): CLOCK_MONOTONIC in microseconds.
 #pragma once
 
 #include <time.h>
 
 #include <cstdint>
 
-namespace fw_linux {
+namespace delta {
 
 inline std::uint64_t monotonic_us() {
   timespec ts{};
@@ -14,4 +15,4 @@ inline std::uint64_t monotonic_us() {
          static_cast<std::uint64_t>(ts.tv_nsec) / 1000u;
 }
 
-}  // namespace fw_linux
+}  // namespace delta
