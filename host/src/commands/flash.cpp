@@ -69,9 +69,10 @@ class ControllerSession {
  public:
   explicit ControllerSession(const FlashOptions& o)
       : node_(static_cast<std::uint8_t>(o.node)),
-        socket_(delta::can::Socket::open(
-            o.iface, {delta::can::sdo_response_filter(node_),
-                      {delta::can::protocol::kControllerHeartbeat.base_id, 0x7FF, false}})),
+        socket_(
+            delta::can::Socket::open(o.iface, {delta::can::sdo_response_filter(node_),
+                                               {delta::can::protocol::kControllerHeartbeat.base_id,
+                                                delta::can::protocol::kStandardIdMask, false}})),
         channel_(socket_, node_, std::chrono::milliseconds(o.timeout_ms)) {}
 
   delta::can::SdoChannel& channel() { return channel_; }

@@ -17,18 +17,14 @@ constexpr bool multiplexer_is(const Payload& r, std::uint16_t index, std::uint8_
 }  // namespace
 
 Client::Client(std::uint32_t timeout_us, std::uint8_t block_size)
-    : timeout_us_(timeout_us),
-      block_size_(block_size == 0 || block_size > kMaxBlockSize ? kMaxBlockSize : block_size) {}
+    : timeout_us_(timeout_us), block_size_(usable_block_size(block_size)) {}
 
 bool Client::pending(Payload& out) const {
-  if (!request_pending_) return false;
-  out = request_;
-  return true;
+  return request_.peek(out);
 }
 
 void Client::request(const Payload& p) {
-  request_ = p;
-  request_pending_ = true;
+  request_.put(p);
   deadline_armed_ = false;  // armed when it is on the bus
 }
 
@@ -65,7 +61,7 @@ void Client::fail(AbortCode code, bool by_server, bool tell_server) {
   if (tell_server) {
     request(abort_transfer(index_, subindex_, code));
   } else {
-    request_pending_ = false;
+    request_.drop();
   }
 }
 
@@ -129,8 +125,7 @@ void Client::upload(std::uint16_t index, std::uint8_t subindex, std::span<std::u
 
 void Client::sent(TimeUs now_us) {
   now_us_ = now_us;
-  if (!request_pending_) return;
-  request_pending_ = false;
+  if (!request_.take()) return;
   if (state_ == State::kIdle) return;  // an abort, or the last confirmation
   if (state_ != State::kBlockDownloadSending) return arm(now_us);
   const std::uint32_t at = block_offset_ + (next_seq_ - 1u) * kSegmentBytes;

@@ -24,17 +24,14 @@ constexpr std::uint16_t get_u16(const Payload& p, unsigned at) {
 Server::Server(ObjectDictionary& dictionary, std::uint32_t timeout_us, std::uint8_t block_size)
     : dictionary_(dictionary),
       timeout_us_(timeout_us),
-      block_size_(block_size == 0 || block_size > kMaxBlockSize ? kMaxBlockSize : block_size) {}
+      block_size_(usable_block_size(block_size)) {}
 
 bool Server::pending(Payload& out) const {
-  if (!reply_pending_) return false;
-  out = reply_;
-  return true;
+  return reply_.peek(out);
 }
 
 void Server::reply(const Payload& p) {
-  reply_ = p;
-  reply_pending_ = true;
+  reply_.put(p);
 }
 
 void Server::arm() {
@@ -385,15 +382,15 @@ void Server::prepare_block_segment() {
 
 void Server::sent(TimeUs now_us) {
   now_us_ = now_us;
-  if (!reply_pending_) return;
-  reply_pending_ = false;
+  if (!reply_.take()) return;
   if (state_ != State::kBlockUploadSending) return;
   // A block segment went out: the CRC covers each byte once, however often
   // a segment is repeated.
   const std::uint32_t at = block_offset_ + (next_seq_ - 1u) * kSegmentBytes;
   const std::uint32_t bytes = smaller(kSegmentBytes, size_ - at);
   if (at == crc_offset_) {
-    crc_value_ = crc16(crc_value_, std::span<const std::uint8_t>(reply_).subspan(1, bytes));
+    crc_value_ =
+        crc16(crc_value_, std::span<const std::uint8_t>(reply_.payload()).subspan(1, bytes));
     crc_offset_ += bytes;
   }
   const bool last = at + bytes == size_;

@@ -208,6 +208,40 @@ using TimeUs = std::uint64_t;
 inline constexpr std::uint32_t kDefaultTimeoutUs = 500'000;
 inline constexpr std::uint8_t kMaxBlockSize = 127;  // segments per block
 
+// The block size a side uses: the one given, or CiA 301's largest where the
+// one given is 0 or above it.
+constexpr std::uint8_t usable_block_size(std::uint8_t given) {
+  return given == 0 || given > kMaxBlockSize ? kMaxBlockSize : given;
+}
+
+// A side's next frame, waiting for the bus: put() by its state machine,
+// shown by peek() and taken by take() once the bus took it.
+class Outgoing {
+ public:
+  void put(const Payload& p) {
+    payload_ = p;
+    waiting_ = true;
+  }
+  bool peek(Payload& out) const {
+    if (!waiting_) return false;
+    out = payload_;
+    return true;
+  }
+  // Whether a frame was waiting; none is after it.
+  bool take() {
+    const bool was = waiting_;
+    waiting_ = false;
+    return was;
+  }
+  void drop() { waiting_ = false; }
+  bool waiting() const { return waiting_; }
+  const Payload& payload() const { return payload_; }
+
+ private:
+  Payload payload_{};
+  bool waiting_{false};
+};
+
 // ---- Server ----
 
 class Server {
@@ -224,7 +258,7 @@ class Server {
   // The next frame to send, if any; sent() once the bus took it.
   bool pending(Payload& out) const;
   void sent(TimeUs now_us);
-  bool idle() const { return state_ == State::kIdle && !reply_pending_; }
+  bool idle() const { return state_ == State::kIdle && !reply_.waiting(); }
 
  private:
   enum class State : std::uint8_t {
@@ -290,8 +324,7 @@ class Server {
   std::uint8_t next_seq_{1};
   std::uint8_t last_seq_{0};
   std::uint32_t crc_offset_{0};
-  Payload reply_{};
-  bool reply_pending_{false};
+  Outgoing reply_;
   TimeUs deadline_us_{0};
   bool deadline_armed_{false};
   TimeUs now_us_{0};
@@ -403,8 +436,7 @@ class Client {
   std::uint8_t last_seq_{0};
   bool last_segment_seen_{false};
   std::uint32_t last_segment_at_{0};
-  Payload request_{};
-  bool request_pending_{false};
+  Outgoing request_;
   TimeUs deadline_us_{0};
   bool deadline_armed_{false};
   TimeUs now_us_{0};
