@@ -280,7 +280,8 @@ void Client::on_block_download_response(const Payload& r) {
     state_ = State::kBlockDownloadSending;
     return request(block_download_segment());
   }
-  if (state_ == State::kBlockDownloadAck && r[0] == 0xA2) return block_acknowledged(r[1], r[2]);
+  if (state_ == State::kBlockDownloadAck && r[0] == kBlockAcknowledge)
+    return block_acknowledged(r[1], r[2]);
   if (state_ == State::kBlockDownloadEnd && r[0] == 0xA1) return done();
   fail(kAbortCommand, false, true);
 }
@@ -349,10 +350,7 @@ void Client::block_upload_segment(const Payload& r) {
     last_segment_seen_ = last;
   }
   if (last || seq == block_) {
-    Payload p{};
-    p[0] = 0xA2;
-    p[1] = ack_seq_;
-    p[2] = block_size_;
+    const Payload p = block_acknowledge(ack_seq_, block_size_);
     block_ = block_size_;
     if (last_segment_seen_) {
       state_ = State::kBlockUploadEnd;

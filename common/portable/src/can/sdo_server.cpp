@@ -279,11 +279,7 @@ void Server::block_download_segment(const Payload& r) {
   // Segments out of order are dropped; the acknowledgement asks for them
   // again from ack_seq_ + 1.
   if (last || seq == block_) {
-    Payload p{};
-    p[0] = 0xA2;
-    p[1] = ack_seq_;
-    p[2] = block_size_;
-    reply(p);
+    reply(block_acknowledge(ack_seq_, block_size_));
     block_ = block_size_;
     if (last_segment_seen_) {
       state_ = State::kBlockDownloadEnd;

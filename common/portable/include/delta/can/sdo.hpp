@@ -122,6 +122,17 @@ constexpr Payload download_response(std::uint16_t index, std::uint8_t subindex) 
   return p;
 }
 
+// A block's acknowledgement (0xA2), by the side that receives the block:
+// the last segment taken in order, and the next block's size.
+inline constexpr std::uint8_t kBlockAcknowledge = 0xA2;
+constexpr Payload block_acknowledge(std::uint8_t last_in_order, std::uint8_t next_block_size) {
+  Payload p{};
+  p[0] = kBlockAcknowledge;
+  p[1] = last_in_order;
+  p[2] = next_block_size;
+  return p;
+}
+
 // An expedited upload response of the object's 1, 2 or 4 bytes, size
 // indicated: 0x4F, 0x4B, 0x43 (the unused bytes zero).
 constexpr Payload upload_response(std::uint16_t index, std::uint8_t subindex, std::uint32_t value,
