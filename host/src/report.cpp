@@ -224,13 +224,15 @@ std::string text_report(const FitResult& r) {
   return s.str();
 }
 
-nlohmann::json json_report(const FitResult& r) {
+namespace {
+
+// Each parameter's estimate, and its details (bounds, uncertainty, truth).
+void json_parameters(const FitResult& r, nlohmann::json& values, nlohmann::json& details) {
   using nlohmann::json;
-  const auto& o = r.options;
-  json params = json::object();
-  json details = json::array();
+  values = json::object();
+  details = json::array();
   for (const auto& e : r.parameters) {
-    params[e.info.name] = e.identifiable() ? json(e.value) : json(nullptr);
+    values[e.info.name] = e.identifiable() ? json(e.value) : json(nullptr);
     details.push_back(
         {{"name", e.info.name},
          {"unit", e.info.unit},
@@ -250,13 +252,51 @@ nlohmann::json json_report(const FitResult& r) {
       details.back()["truth"] = t->second;
     }
   }
+}
+
+nlohmann::json json_friction_shape(const FitResult& r) {
+  if (!r.friction_shape) return nullptr;
+  const FrictionShapeResult& f = *r.friction_shape;
+  return {{"coulomb_smoothing_rad_s", f.coulomb_smoothing_rad_s},
+          {"coulomb_smoothing_std_rad_s", f.coulomb_smoothing_std},
+          {"stribeck_velocity_rad_s", f.stribeck_velocity_rad_s},
+          {"stribeck_velocity_std_rad_s", f.stribeck_velocity_std},
+          {"cost_given_Nm2", f.cost_given_Nm2},
+          {"cost_fitted_Nm2", f.cost_fitted_Nm2},
+          {"evaluations", f.evaluations},
+          {"seconds", f.seconds}};
+}
+
+nlohmann::json json_pso(const FitResult& r) {
+  if (!r.pso) return nullptr;
+  const auto& o = r.options;
+  const auto& p = *r.pso;
+  return {{"particles", o.pso.particles},
+          {"topology", topology_name(o.pso.topology)},
+          {"seed", o.pso.seed},
+          {"max_iterations", o.pso.iterations},
+          {"iterations", p.iterations},
+          {"evaluations", p.evaluations},
+          {"restarts", p.restarts_done},
+          {"stop_reason", p.stop_reason},
+          {"particles_on_bound", p.particles_on_bound},
+          {"bound_factor", o.bound_factor}};
+}
+
+}  // namespace
+
+nlohmann::json json_report(const FitResult& r) {
+  using nlohmann::json;
+  const auto& o = r.options;
+  json params, details;
+  json_parameters(r, params, details);
   json fit = json_rmse(r.fit);
   fit["cost_Nm2"] = r.cost_Nm2;
   json validation = json::array();
   for (const auto& v : r.validation) validation.push_back(json_rmse(v));
   json gaps = json::array();
   for (const auto& g : r.gaps) gaps.push_back({{"line", g.line}, {"what", g.what}});
-  json j = {
+  return {
       {"format", "host_id-result/1"},
       {"model",
        {{"name", o.model.name},
@@ -289,35 +329,9 @@ nlohmann::json json_report(const FitResult& r) {
         {"active_bounds", r.active_bounds}}},
       {"validation", validation},
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
+      {"friction_shape", json_friction_shape(r)},
+      {"pso", json_pso(r)},
   };
-  j["friction_shape"] = nullptr;
-  if (r.friction_shape) {
-    const FrictionShapeResult& f = *r.friction_shape;
-    j["friction_shape"] = {{"coulomb_smoothing_rad_s", f.coulomb_smoothing_rad_s},
-                           {"coulomb_smoothing_std_rad_s", f.coulomb_smoothing_std},
-                           {"stribeck_velocity_rad_s", f.stribeck_velocity_rad_s},
-                           {"stribeck_velocity_std_rad_s", f.stribeck_velocity_std},
-                           {"cost_given_Nm2", f.cost_given_Nm2},
-                           {"cost_fitted_Nm2", f.cost_fitted_Nm2},
-                           {"evaluations", f.evaluations},
-                           {"seconds", f.seconds}};
-  }
-  if (r.pso) {
-    const auto& p = *r.pso;
-    j["pso"] = {{"particles", o.pso.particles},
-                {"topology", topology_name(o.pso.topology)},
-                {"seed", o.pso.seed},
-                {"max_iterations", o.pso.iterations},
-                {"iterations", p.iterations},
-                {"evaluations", p.evaluations},
-                {"restarts", p.restarts_done},
-                {"stop_reason", p.stop_reason},
-                {"particles_on_bound", p.particles_on_bound},
-                {"bound_factor", o.bound_factor}};
-  } else {
-    j["pso"] = nullptr;
-  }
-  return j;
 }
 
 SavedResult read_saved_result(const std::string& path) {
