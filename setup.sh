@@ -22,6 +22,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-numpy python3-scipy
   # an independent Modbus master for the RTU interoperability test
   mbpoll
+  # independent readers of a session's candump in the HIL tests: python-can,
+  # canmatrix (the DBC) and tshark's CANopen dissector
+  python3-can python3-canmatrix tshark
   # the firmware core on Cortex-M4, run on qemu
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib libnewlib-arm-none-eabi qemu-system-arm
   # real vcan for the HIL tests (hil/vcan-run: a qemu VM where the kernel has no CAN)

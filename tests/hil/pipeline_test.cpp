@@ -53,6 +53,20 @@ std::string scratch_dir() {
   return dir;
 }
 
+// The excitation session's folder: DELTA_HIL_SESSION_DIR where ctest sets
+// it, so that its candump and log outlive the VM for the independent tools'
+// check (tests/hil/CMakeLists.txt, check_candump.py), emptied of an earlier
+// session's files first; else a fresh scratch folder.
+std::string session_dir() {
+  const char* given = std::getenv("DELTA_HIL_SESSION_DIR");
+  if (given == nullptr || *given == '\0') return scratch_dir();
+  std::filesystem::create_directories(given);
+  for (const char* name : {"session.log", "path1.csv"}) {
+    std::filesystem::remove(std::filesystem::path(given) / name);
+  }
+  return given;
+}
+
 // Every frame on the bus, read by a thread from a socket opened before the
 // programs start.
 class BusObserver {
@@ -225,7 +239,7 @@ class ExcitationSession : public ::testing::Test {
   static void SetUpTestSuite() {
     g_session = new Session;
     Session& s = *g_session;
-    s.dir = scratch_dir();
+    s.dir = session_dir();
     BusObserver bus;
     hil::Child emu = start_emulator({"--plant", "lumped"});
     hil::Child rec =
