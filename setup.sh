@@ -20,8 +20,9 @@ packages=(
   # tests and benchmarks (python3 runs three tests and the fit's speed
   # bench; numpy and scipy the least-squares comparison, tests/bench/fit_numpy.py)
   libgtest-dev libgmock-dev libbenchmark-dev python3 python3-numpy python3-scipy
-  # an independent Modbus master for the RTU interoperability test
-  mbpoll
+  # independent Modbus masters: mbpoll (RTU) and pymodbus (TCP; its client
+  # module imports serial_asyncio, which Debian only recommends)
+  mbpoll python3-pymodbus python3-serial-asyncio
   # independent readers of a session's candump in the HIL tests: python-can,
   # canmatrix (the DBC) and tshark's CANopen dissector
   python3-can python3-canmatrix tshark

@@ -972,6 +972,35 @@ TEST(ModbusRtuTest, MbpollReadsRegistersAndIsToldWhatIsNotServed) {
   EXPECT_EQ(server.stats().receive_errors, 0u);
 }
 
+// pymodbus (Debian's python3-pymodbus: a Modbus implementation that shares
+// no code with ours or with libmodbus) as a TCP client: it reads both
+// tables whole, writes a holding register with functions 6 and 16 and reads
+// it back, and is told exceptions 02, 03 and 01 where the map says
+// (pymodbus_client.py).
+TEST_F(Fixture, PymodbusReadsAndWritesTheMapAndGetsItsExceptions) {
+  ASSERT_EQ(access("/usr/bin/python3", X_OK), 0);
+  const std::string args =
+      " --port " + std::to_string(server.tcp_port()) + " --inputs " +
+      std::to_string(mb::kInputCount) + " --holdings " + std::to_string(mb::kHoldingCount) +
+      " --version-address " + std::to_string(mb::named("protocol_version").address) +
+      " --version " + std::to_string(mb::kMapVersion) + " --write-address " +
+      std::to_string(mb::kAmplitudeScale.address) + " --write-value 1500 --bad-value 2001";
+  std::string out;
+  FILE* p = popen(("/usr/bin/python3 " DELTA_PYMODBUS_CLIENT + args + " 2>&1").c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char buf[256];
+  while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  const int status = pclose(p);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
+  EXPECT_NE(out.find("map version " + std::to_string(mb::kMapVersion)), std::string::npos) << out;
+  // The write reached the controller's settings, as libmodbus reads them.
+  std::uint16_t amplitude = 0;
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kAmplitudeScale.address, 1, &amplitude), 1);
+  EXPECT_EQ(amplitude, 1500);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kIllegalFunction));
+  std::cout << out;
+}
+
 TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {
   ControlPanel panel;
   PortConfig c = Rig::config();
