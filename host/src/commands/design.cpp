@@ -5,6 +5,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <ostream>
+#include <sstream>
 
 #include "commands/command.hpp"
 #include "delta/robot_description.hpp"
@@ -171,6 +172,11 @@ int run_design(DesignArguments a, std::ostream& out) {
   const double mHz = a.design.base_frequency_hz * 1000.0;
   if (std::abs(mHz - std::round(mHz)) > 1e-9 * mHz) {
     throw UsageError("--base-hz: must be a whole number of mHz (the controller's unit)");
+  }
+  if (const DesignLimits& l = a.design.limits; !(l.min_rad < l.max_rad)) {
+    std::ostringstream m;
+    m << "--min-rad (" << l.min_rad << ") must be below --max-rad (" << l.max_rad << ")";
+    throw UsageError(m.str());
   }
   const delta::RobotDescription robot = a.robot_path.empty()
                                             ? delta::default_robot_description()

@@ -629,6 +629,9 @@ TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {
   EXPECT_NE(err_.str().find("--base-hz: must be a whole number of mHz"), std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"design", "-o", path("t.json"), "--harmonics", "7"}), 2);
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--min-rad", "1", "--max-rad", "0.5"}), 2);
+  EXPECT_NE(err_.str().find("--min-rad (1) must be below --max-rad (0.5)"), std::string::npos)
+      << err_.str();
   // No excitation keeps the torque below 0.01 N m against gravity.
   EXPECT_EQ(run({"design", "-o", path("t.json"), "--max-torque", "0.01", "--iterations", "5"}), 1);
   EXPECT_NE(err_.str().find("no excitation within the limits was found: the best breaks the "
