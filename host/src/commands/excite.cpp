@@ -109,8 +109,8 @@ class BackgroundRecording {
       result_.get();  // rethrows the recorder's error
     }
   }
-  // On any way out, the recorder stops within its 50 ms poll (result_'s
-  // destructor then waits for it).
+  // On any way out, the recorder stops within its 50 ms poll and 10 ms of
+  // gathering frames (result_'s destructor then waits for it).
   ~BackgroundRecording() { finish_.store(true); }
   BackgroundRecording(const BackgroundRecording&) = delete;
   BackgroundRecording& operator=(const BackgroundRecording&) = delete;
