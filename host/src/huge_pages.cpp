@@ -1,5 +1,6 @@
 #include "host_id/huge_pages.hpp"
 
+#include <malloc.h>
 #include <sys/mman.h>
 
 #include <cstdint>
@@ -28,6 +29,16 @@ void advise_huge_pages(void* data, std::size_t bytes) {
   if (last <= first) return;
   // Advice only: an error (no THP in this kernel) leaves the buffer as it was.
   (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+}
+
+void keep_freed_memory_for_reuse() {
+#if defined(M_MMAP_THRESHOLD) && defined(M_TRIM_THRESHOLD)
+  constexpr int kLargestHeapBlock = 32 << 20;  // glibc's upper limit for the threshold
+  constexpr int kKeptAtTop = 256 << 20;
+  // Advice only: where a knob is refused, malloc keeps its default.
+  (void)mallopt(M_MMAP_THRESHOLD, kLargestHeapBlock);
+  (void)mallopt(M_TRIM_THRESHOLD, kKeptAtTop);
+#endif
 }
 
 void* allocate_buffer(std::size_t bytes) {

@@ -5,12 +5,14 @@
 #include <exception>
 
 #include "host_id/delta_log.hpp"
+#include "host_id/huge_pages.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 2) {
     std::fprintf(stderr, "usage: read_log_once LOG.csv\n");
     return 2;
   }
+  host_id::keep_freed_memory_for_reuse();  // as host_id's main does
   try {
     const host_id::DeltaLog log = host_id::read_delta_log(argv[1]);
     std::printf("%zu samples\n", log.size());

@@ -1,9 +1,12 @@
 #include "host_id/huge_pages.hpp"
 
 #include <gtest/gtest.h>
+#include <malloc.h>
 
 #include <Eigen/Dense>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -104,6 +107,31 @@ TEST(HugePagesTest, AnImpossibleSeriesThrowsBadAlloc) {
   if (!kBuffersFromOperatorNew) {
     EXPECT_THROW((void)allocator.allocate(std::size_t{1} << 58), std::bad_alloc);
   }
+}
+
+// Once asked, malloc serves a block of some MiB from its heap, and keeps it
+// when it is freed, so that the next block of that size takes the same,
+// already faulted-in memory; by default the block would be a mapping of
+// its own, returned to the kernel on free.
+TEST(HugePagesTest, FreedBlocksAreKeptForTheNextOnceAsked) {
+  if (kBuffersFromOperatorNew) GTEST_SKIP() << "AddressSanitizer's allocator has no such knobs";
+  keep_freed_memory_for_reuse();
+  constexpr std::size_t kBytes = std::size_t{8} << 20;
+  const struct mallinfo2 before = mallinfo2();
+  auto* first = static_cast<char*>(std::malloc(kBytes));
+  ASSERT_NE(first, nullptr);
+  std::memset(first, 1, kBytes);
+  const struct mallinfo2 held = mallinfo2();
+  EXPECT_EQ(held.hblkhd, before.hblkhd) << "the block is a mapping of its own";
+  EXPECT_GE(held.arena, before.arena + kBytes);
+  std::free(first);
+  const struct mallinfo2 freed = mallinfo2();
+  EXPECT_EQ(freed.arena, held.arena) << "the freed block went back to the kernel";
+  EXPECT_GE(freed.fordblks, kBytes);
+  auto* second = static_cast<char*>(std::malloc(kBytes));
+  ASSERT_NE(second, nullptr);
+  EXPECT_EQ(mallinfo2().arena, held.arena) << "the next block took fresh memory";
+  std::free(second);
 }
 
 }  // namespace
