@@ -41,7 +41,7 @@ struct Swarm {
 
 // Moves particle i towards its own best and its guide g. A coordinate that
 // leaves [0, 1] is put on the bound it crossed, its velocity reversed and
-// halved. Draws r1, r2 per coordinate, in that order.
+// halved. r1 and r2 of a coordinate are the two halves of one draw.
 void move(Swarm& s, std::size_t i, const double* g, Random& rng) {
   double* x = s.x_of(i);
   double* v = s.v_of(i);

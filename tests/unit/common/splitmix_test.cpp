@@ -16,19 +16,32 @@ TEST(SplitMix64Test, GivesThePublishedSequence) {
   EXPECT_EQ(rng.next(), 0x06C45D188009454Full);
 }
 
-// A uniform is the output's top 53 bits over 2^53; pairs are consecutive
-// uniforms, interleaved.
-TEST(SplitMix64Test, UniformsAreTheTopBitsAndPairsInterleave) {
+// A uniform is the output's top 53 bits over 2^53; a pair is one output's
+// top and bottom 32 bits, each over 2^32, so count pairs use count outputs.
+TEST(SplitMix64Test, UniformsAreTheTopBitsAndPairsSplitOneOutput) {
   SplitMix64 u(0);
   EXPECT_EQ(u.uniform(), static_cast<double>(0xE220A8397B1DCDAFull >> 11) * 0x1.0p-53);
-  SplitMix64 pairs(7), single(7);
-  double first[3], second[3];
-  pairs.fill_pairs(first, second, 3);
-  for (int k = 0; k < 3; ++k) {
-    EXPECT_EQ(first[k], single.uniform());
-    EXPECT_EQ(second[k], single.uniform());
-  }
+  SplitMix64 pairs(0);
+  double first[2], second[2];
+  pairs.fill_pairs(first, second, 2);
+  EXPECT_EQ(first[0], static_cast<double>(0xE220A839ull) * 0x1.0p-32);
+  EXPECT_EQ(second[0], static_cast<double>(0x7B1DCDAFull) * 0x1.0p-32);
+  EXPECT_EQ(first[1], static_cast<double>(0x6E789E6Aull) * 0x1.0p-32);
+  EXPECT_EQ(second[1], static_cast<double>(0xA1B965F4ull) * 0x1.0p-32);
+  SplitMix64 single(0);
+  single.next();
+  single.next();
   EXPECT_EQ(pairs.next(), single.next());
+  // Both halves stay below 1.
+  SplitMix64 many(42);
+  double a[4096], b[4096];
+  many.fill_pairs(a, b, 4096);
+  for (int k = 0; k < 4096; ++k) {
+    ASSERT_GE(a[k], 0.0);
+    ASSERT_LT(a[k], 1.0);
+    ASSERT_GE(b[k], 0.0);
+    ASSERT_LT(b[k], 1.0);
+  }
 }
 
 // normal() is Box-Muller on the next two uniforms, the first moved half a
