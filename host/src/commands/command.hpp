@@ -1,6 +1,6 @@
-// What every host_id command is made of: it adds its subcommand with its
-// options to the application (CLI11), and the subcommand's callback runs it
-// and sets the exit status. cli.cpp holds the table of commands.
+// What every host_id command is made of: it gives its subcommand (CLI11;
+// named in cli.cpp's table of commands) its description and options, and
+// the subcommand's callback runs it and sets the exit status.
 #pragma once
 
 #include <CLI/CLI.hpp>

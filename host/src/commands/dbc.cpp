@@ -9,8 +9,8 @@
 
 namespace host_id {
 
-void add_dbc_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("dbc", "the bus's DBC description (for CAN tools)");
+void add_dbc_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Writes the DBC description of the controller's CAN bus (the protocol table, "
       "docs/protocol.md) to FILE or stdout.");

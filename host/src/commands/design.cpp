@@ -203,8 +203,8 @@ int run_design(DesignArguments a, std::ostream& out) {
 
 }  // namespace
 
-void add_design_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("design", "design an excitation for the robot");
+void add_design_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Designs a Fourier excitation by PSO: the coefficients that minimise the condition number "
       "of the model's column-scaled regressor along the whole trajectory (faded in from rest, "

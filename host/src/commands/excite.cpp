@@ -305,8 +305,8 @@ int run_excite(const ExciteArguments& a, std::ostream& out, std::ostream& err) {
 
 }  // namespace
 
-void add_excite_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("excite", "run an excitation over Modbus and record it");
+void add_excite_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(kExciteDescription);
   auto a = std::make_shared<ExciteArguments>();
   c->add_option("--modbus", a->address, "the controller's Modbus TCP address")

@@ -275,8 +275,8 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
 
 }  // namespace
 
-void add_fit_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("fit", "estimate the parameters (PSO by default)");
+void add_fit_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Estimates the dynamic parameters from LOG.csv and prints a report "
       "(docs/identification.md).");

@@ -276,9 +276,9 @@ void flash(const FlashOptions& o, CommandContext& context) {
 
 }  // namespace
 
-void add_flash_command(CLI::App& app, CommandContext& context) {
+void add_flash_command(CLI::App& command, CommandContext& context) {
   auto o = std::make_shared<FlashOptions>();
-  CLI::App* c = app.add_subcommand("flash", "flash a firmware image to the controller over CAN");
+  CLI::App* c = &command;
   c->description(
       "Sends a firmware image (host_id image make) to the controller by CiA 302-3 program "
       "download: checks the node's identity and version first, clears, block-downloads with "

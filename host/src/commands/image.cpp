@@ -134,8 +134,8 @@ void run_keygen(const std::string& secret_path, const std::string& public_path,
 
 }  // namespace
 
-void add_image_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("image", "make, inspect and sign firmware images");
+void add_image_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Firmware images for 'host_id flash' (docs/flashing.md): a 256-byte header (the hardware "
       "it is for, the version, the program's length, CRC-32 and SHA-256, an optional Ed25519 "

@@ -58,8 +58,8 @@ int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err)
 
 }  // namespace
 
-void add_predict_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("predict", "the fitted model's torque at every sample of a log");
+void add_predict_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Writes PRED.csv, a delta-log/1 file with the log's metadata and, for every sample a fit "
       "would use, t (and seq), the states used (q, qd, qdd: the log's own qd and qdd where it "

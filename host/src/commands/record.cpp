@@ -76,8 +76,8 @@ int run_record(const RecordArguments& a, std::ostream& out, std::ostream& err) {
 
 }  // namespace
 
-void add_record_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("record", "record the controller's CAN log frames");
+void add_record_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(kRecordDescription);
   auto a = std::make_shared<RecordArguments>();
   RecordOptions& r = a->record;

@@ -220,8 +220,8 @@ void add_common_options(CLI::App* c, SdoOptions& o) {
 
 }  // namespace
 
-void add_sdo_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("sdo", "read or write an object of a CANopen node (SDO)");
+void add_sdo_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Reads or writes one object of a CANopen node over SocketCAN by SDO (CiA 301): "
       "expedited, segmented or, with --block, block transfer. Exit status 3: the node "

@@ -62,8 +62,8 @@ void add_measurement_options(CLI::App& c, SimulateOptions& s) {
 
 }  // namespace
 
-void add_simulate_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("simulate", "write a log from known parameters");
+void add_simulate_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Writes a delta-log/1 file with known truth. --plant lumped (the default): the torques by "
       "inverse dynamics of the lumped model (the default robot's parameters, those of --robot, "

@@ -107,8 +107,8 @@ int run_status(const StatusArguments& a, std::ostream& out) {
 
 }  // namespace
 
-void add_status_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("status", "the controller's state, faults and settings");
+void add_status_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Reads the controller's state over Modbus TCP (docs/modbus.md): firmware and register map "
       "versions, state and fault, the fault history, the run, the safety lines, the settings, "

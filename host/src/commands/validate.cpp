@@ -50,8 +50,8 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
 
 }  // namespace
 
-void add_validate_command(CLI::App& app, CommandContext& context) {
-  CLI::App* c = app.add_subcommand("validate", "torque RMSE of a saved fit on other logs");
+void add_validate_command(CLI::App& command, CommandContext& context) {
+  CLI::App* c = &command;
   c->description(
       "Prints the torque RMSE per joint of the parameters saved by 'host_id fit --out "
       "RESULT.json' on each log.");
