@@ -162,7 +162,7 @@ double ResidualSquares::cost(const std::array<double, 3>& joint_weights,
 }
 
 QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
-    : rows_(static_cast<double>(r.tau.size())) {
+    : per_row_(1.0 / static_cast<double>(r.tau.size())) {
   const Eigen::VectorXd r0 = r.tau - r.psi * beta0;
   set(r.psi.transpose() * r.psi, r.psi.transpose() * r0, beta0);
   r0_t_r0_ = r0.squaredNorm();
@@ -170,7 +170,7 @@ QuadraticCost::QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0)
 
 QuadraticCost::QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_tau,
                              const Eigen::VectorXd& beta0, double r0_t_r0, std::size_t rows)
-    : r0_t_r0_(r0_t_r0), rows_(static_cast<double>(rows)) {
+    : r0_t_r0_(r0_t_r0), per_row_(1.0 / static_cast<double>(rows)) {
   set(psi_t_psi, psi_t_tau - psi_t_psi * beta0, beta0);
 }
 
@@ -181,16 +181,19 @@ constexpr std::size_t even_above(std::size_t n) {
   return (n + 1) & ~std::size_t{1};
 }
 
-// d^T (G d - 2 b) for a symmetric p x p matrix G, from `half`: G's upper
-// triangle with half its diagonal, H (columns of length even_above(p)), so
-// that G d = (H + H^T) d and d^T G d = 2 d^T H d. H d as a sum of H's
-// columns, each over its rows down to the diagonal taken in pairs
-// (independent lanes, which the compiler vectorises; a row-by-row dot
-// product is a chain of dependent additions it may not reorder), then the
-// outer sum in two halves.
+// d^T (G d - 2 b) for d = beta - beta0 and a symmetric p x p matrix G,
+// from `half`: G's upper triangle with half its diagonal, H (columns of
+// length even_above(p)), so that G d = (H + H^T) d and d^T G d = 2 d^T H d.
+// H d as a sum of H's columns, each over its rows down to the diagonal
+// taken in pairs (independent lanes, which the compiler vectorises; a
+// row-by-row dot product is a chain of dependent additions it may not
+// reorder), then the outer sum in two halves.
 template <std::size_t P>
-double quadratic_form_of(const double* half, const double* b, const double* d) {
+double quadratic_form_of(const double* half, const double* b, const double* beta,
+                         const double* beta0) {
   constexpr std::size_t kStride = even_above(P);
+  double d[P];
+  for (std::size_t i = 0; i < P; ++i) d[i] = beta[i] - beta0[i];
   double h_d[kStride] = {};
 #pragma GCC unroll 32
   for (std::size_t j = 0; j < P; ++j) {
@@ -205,25 +208,28 @@ double quadratic_form_of(const double* half, const double* b, const double* d) {
 
 // The same for any p (a model with more parameters than the unrolled
 // ones), row by row: (H d)_i = sum over j >= i of H_ij d_j.
-double quadratic_form(const double* half, const double* b, const double* d, std::size_t p) {
+double quadratic_form(const double* half, const double* b, const double* beta, const double* beta0,
+                      std::size_t p) {
   const std::size_t stride = even_above(p);
   double quadratic = 0.0;
   for (std::size_t i = 0; i < p; ++i) {
     double h_d = 0.0;
-    for (std::size_t j = i; j < p; ++j) h_d += half[j * stride + i] * d[j];
-    quadratic += d[i] * (h_d - b[i]);
+    for (std::size_t j = i; j < p; ++j) h_d += half[j * stride + i] * (beta[j] - beta0[j]);
+    quadratic += (beta[i] - beta0[i]) * (h_d - b[i]);
   }
   return 2.0 * quadratic;
 }
 
 template <std::size_t P>
-double quadratic_form_of(const double* half, const double* b, const double* d, std::size_t) {
-  return quadratic_form_of<P>(half, b, d);
+double quadratic_form_of(const double* half, const double* b, const double* beta,
+                         const double* beta0, std::size_t) {
+  return quadratic_form_of<P>(half, b, beta, beta0);
 }
 
 template <std::size_t... P>
 auto form_for(std::size_t p, std::index_sequence<P...>) {
-  double (*form)(const double*, const double*, const double*, std::size_t) = quadratic_form;
+  double (*form)(const double*, const double*, const double*, const double*, std::size_t) =
+      quadratic_form;
   ((p == P ? (form = quadratic_form_of<P>, 0) : 0), ...);
   return form;
 }
@@ -243,15 +249,12 @@ void QuadraticCost::set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd&
       half_[j * stride + i] = i == j ? 0.5 * g : g;
     }
   }
-  d_.resize(p);
   form_ = form_for(p, std::index_sequence<9, 12, 14, 15, 18>());  // the models' usual sizes
 }
 
 double QuadraticCost::at(const double* beta) const {
-  const std::size_t p = d_.size();
-  for (std::size_t i = 0; i < p; ++i) d_[i] = beta[i] - beta0_[i];
-  const double form = form_(half_.data(), psi_t_r0_.data(), d_.data(), p);
-  return std::max(0.0, (r0_t_r0_ + form) / rows_);
+  const double form = form_(half_.data(), psi_t_r0_.data(), beta, beta0_.data(), beta0_.size());
+  return std::max(0.0, (r0_t_r0_ + form) * per_row_);
 }
 
 // With beta = lower + S u (S the spans on the diagonal): d = S (u - u0)

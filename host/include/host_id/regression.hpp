@@ -151,11 +151,11 @@ class QuadraticCost {
   std::vector<double> half_;
   std::vector<double> psi_t_r0_;
   double r0_t_r0_{0};
-  double rows_{1};
-  mutable std::vector<double> d_;  // beta - beta0
-  // The form d^T (Psi^T Psi d - 2 Psi^T r0) for this p: unrolled for the
-  // models' usual sizes, a loop otherwise.
-  double (*form_)(const double* half, const double* b, const double* d, std::size_t p){nullptr};
+  double per_row_{1};  // 1 / rows
+  // The form d^T (Psi^T Psi d - 2 Psi^T r0), d = beta - beta0, for this p:
+  // unrolled for the models' usual sizes, a loop otherwise.
+  double (*form_)(const double* half, const double* b, const double* beta, const double* beta0,
+                  std::size_t p){nullptr};
 };
 
 // Root mean square error per joint of the prediction Psi beta.
