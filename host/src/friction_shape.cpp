@@ -30,10 +30,12 @@ ShapeRegression regression_for(const DeltaLog& log, const FitOptions& options,
                                const ModelOptions& m) {
   ShapeRegression s;
   s.model = make_model(m);
-  Preprocessed pre = preprocess(*s.model, log, options.prepare, options.threads);
+  PrepareOptions prepare = options.prepare;
+  prepare.slow_rows_last_below_rad_s = min_speed_for(options);
+  Preprocessed pre = preprocess(*s.model, log, prepare, options.threads);
   s.sample_rate_hz = pre.report.sample_rate_hz;
   s.all = std::move(pre.regression);
-  s.fast_rows = fast_rows_first(s.all, min_speed_for(options), options.threads);
+  s.fast_rows = pre.fast_rows;
   return s;
 }
 

@@ -248,16 +248,19 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.options = options;
   const auto model = make_model(options.model);
+  r.min_speed_rad_s = min_speed_for(options);
+  // The slow equations after the others: the estimate takes the others.
+  PrepareOptions prepare = options.prepare;
+  prepare.slow_rows_last_below_rad_s = r.min_speed_rad_s;
   // From here on the log is only its name and gaps.
-  Preprocessed pre = preprocess_releasing(*model, log, options.prepare, options.threads);
+  Preprocessed pre = preprocess_releasing(*model, log, prepare, options.threads);
   Regression& all_rows = pre.regression;
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
   r.gaps = log.gaps;
   r.segments_used = pre.report.segments_used;
   r.segments_dropped = pre.report.segments_dropped;
-  r.min_speed_rad_s = min_speed_for(options);
-  const Equations reg(all_rows, fast_rows_first(all_rows, r.min_speed_rad_s, options.threads));
+  const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name);
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <span>
 #include <sstream>
 #include <vector>
@@ -246,12 +248,50 @@ class RowLayout {
     if (!on_side) return kept_before_[s] + q - trim_;
     return side_before_[s] + (q < trim_ ? q : q - (len - 2 * trim_));
   }
+  // Puts the rows of joints slower than slow_below_rad_s (|qd| at their
+  // sample) after all the others, each group in time order. Without it,
+  // joint j of kept sample i is row 3 i + j.
+  void order_rows(const std::vector<Segment>& segments, const States& s, double slow_below_rad_s,
+                  const std::string& log_name);
+  // The regression's row of joint j of kept sample i.
+  std::size_t row(std::size_t i, unsigned j) const {
+    return rows_.empty() ? 3 * i + j : rows_[3 * i + j];
+  }
+  // The rows of kept sample i's three joints, as offsets from the first row.
+  const std::uint32_t* rows_of(std::size_t i) const { return rows_.data() + 3 * i; }
+  bool ordered() const { return !rows_.empty(); }
+  std::size_t fast_rows() const { return rows_.empty() ? 3 * kept_ : fast_; }
 
  private:
   std::size_t trim_;
-  std::size_t kept_{0}, side_{0};
+  std::size_t kept_{0}, side_{0}, fast_{0};
   std::vector<std::size_t> kept_before_, side_before_;
+  std::vector<std::uint32_t> rows_;  // [3 i + j]; empty: 3 i + j
 };
+
+void RowLayout::order_rows(const std::vector<Segment>& segments, const States& s,
+                           double slow_below_rad_s, const std::string& log_name) {
+  if (!(slow_below_rad_s > 0.0)) return;
+  if (3 * kept_ > std::numeric_limits<std::uint32_t>::max()) {
+    throw delta::InputError(log_name + ": " + std::to_string(kept_) +
+                            " samples are more than a fit can order (at most " +
+                            std::to_string(std::numeric_limits<std::uint32_t>::max() / 3) + ")");
+  }
+  rows_.resize(3 * kept_);
+  // Marks first (1: fast), then each mark becomes its row.
+  std::size_t i = 0;
+  for (const Segment& seg : segments) {
+    for (std::size_t k = seg.begin + trim_; k + trim_ < seg.end; ++k, ++i) {
+      for (unsigned j = 0; j < 3; ++j) {
+        const bool fast = std::abs(s.states[k].qd_rad_s[j]) >= slow_below_rad_s;
+        rows_[3 * i + j] = fast ? 1u : 0u;
+        fast_ += fast ? 1 : 0;
+      }
+    }
+  }
+  std::uint32_t next_fast = 0, next_slow = static_cast<std::uint32_t>(fast_);
+  for (std::uint32_t& r : rows_) r = r != 0 ? next_fast++ : next_slow++;
+}
 
 // The regression's rows and tau in their places: psi column-major (the
 // regression's own storage), the side rows row-major, tau of both alike.
@@ -275,12 +315,14 @@ struct RowStore {
 };
 
 // A kept sample's labels: its time, and its rows' joints, speeds and sample.
-void label_kept(const States& s, std::size_t k, std::size_t i, Regression& r) {
+void label_kept(const States& s, std::size_t k, std::size_t i, const RowLayout& layout,
+                Regression& r) {
   r.t_s[i] = s.t_s[k];
   for (unsigned j = 0; j < 3; ++j) {
-    r.joint[3 * i + j] = static_cast<unsigned char>(j);
-    r.velocity_rad_s[3 * i + j] = s.states[k].qd_rad_s[j];
-    r.sample[3 * i + j] = i;
+    const std::size_t row = layout.row(i, j);
+    r.joint[row] = static_cast<unsigned char>(j);
+    r.velocity_rad_s[row] = s.states[k].qd_rad_s[j];
+    r.sample[row] = i;
   }
 }
 
@@ -330,14 +372,15 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
         }
         bool side = false;
         const std::size_t i = layout.place(si, k - seg.begin, len, side);
-        if (!side) label_kept(s, k, i, r);
+        if (!side) label_kept(s, k, i, layout, r);
         // A row's columns are `stride` apart: psi is column-major, the side
         // rows row-major.
         const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
         for (unsigned j = 0; j < 3; ++j) {
           const double* row = rows.data() + j * p;
-          put_row(row, store.row_start(side, 3 * i + j), stride, nz + j * p, p);
-          store.tau_at(side, 3 * i + j) = s.tau_Nm[k][j];
+          const std::size_t at = side ? 3 * i + j : layout.row(i, j);
+          put_row(row, store.row_start(side, at), stride, nz + j * p, p);
+          store.tau_at(side, at) = s.tau_Nm[k][j];
           if (!side) moments[w].add(j, row, s.tau_Nm[k][j]);
         }
       }
@@ -381,7 +424,6 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
     std::size_t lanes{0};
     std::array<std::ptrdiff_t, kLanes> psi_offset{}, side_offset{};  // of each lane's column
   };
-  static constexpr std::array<std::ptrdiff_t, kLanes> kNext{0, 1, 2, 3};
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < segments.size(); ++si) {
     for (unsigned j = 0; j < 3; ++j) {
@@ -397,7 +439,7 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
       }
       if (t.lanes > 0) tasks.push_back(t);
     }
-    tasks.push_back({si, 3, 3, kNext, kNext});
+    tasks.push_back({si, 3, 3, {}, {}});  // tau's three joints
   }
   const auto run = [&](const Task& t, FiltfiltBlock& block) {
     const std::size_t si = t.segment;
@@ -407,26 +449,52 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
         [&](std::size_t q) {
           bool side = false;
           const std::size_t i = layout.place(si, q, len, side);
-          if (t.joint == 3) return LaneRef{store.tau_start(side, 3 * i), kNext.data()};
-          return LaneRef{store.row_start(side, 3 * i + t.joint),
+          const std::size_t row = side ? 3 * i + t.joint : layout.row(i, t.joint);
+          return LaneRef{store.row_start(side, row),
                          side ? t.side_offset.data() : t.psi_offset.data()};
+        },
+        block);
+  };
+  // tau's three joints at a sample: next to each other, or where the row
+  // order put them.
+  static constexpr std::array<std::uint32_t, 3> kNextRow{0, 1, 2};
+  const auto run_tau = [&](const Task& t, FiltfiltBlock& block) {
+    const std::size_t si = t.segment;
+    const std::size_t len = segments[si].end - segments[si].begin;
+    filtfilt_lanes(
+        d.filter, len, 3, d.pad,
+        [&](std::size_t q) {
+          bool side = false;
+          const std::size_t i = layout.place(si, q, len, side);
+          if (side || !layout.ordered()) {
+            return LaneRef{store.tau_start(side, 3 * i), kNextRow.data()};
+          }
+          return LaneRef{store.tau_start(false, 0), layout.rows_of(i)};
         },
         block);
   };
   const std::size_t workers = workers_for(samples, threads, kSamplesPerThread);
   // One buffer per thread, grown to the longest segment.
   std::vector<FiltfiltBlock> blocks(workers, FiltfiltBlock(2, 0));
-  run_tasks(tasks.size(), workers,
-            [&](std::size_t worker, std::size_t k) { run(tasks[k], blocks[worker]); });
+  run_tasks(tasks.size(), workers, [&](std::size_t worker, std::size_t k) {
+    if (tasks[k].joint == 3) {
+      run_tau(tasks[k], blocks[worker]);
+    } else {
+      run(tasks[k], blocks[worker]);
+    }
+  });
 }
 
-// The regression of the states: built in place, labelled, filtered,
-// trimmed. The states are freed once the rows are built, before filtering
+// The regression of the states: built in place, in the row order asked
+// for, labelled, filtered, trimmed; and how many rows come before the slow
+// ones. The states are freed once the rows are built, before filtering
 // needs its buffers.
 Regression regression_of(const Model& model, const DeltaLog& log, States&& s, const FilterDesign& d,
-                         unsigned threads) {
+                         double slow_below_rad_s, unsigned threads, std::size_t& fast_rows) {
   const std::size_t p = model.size();
-  const RowLayout layout(s.segments, d.trim);
+  RowLayout layout(s.segments, d.trim);
+  layout.order_rows(s.segments, s, slow_below_rad_s, log.name);
+  fast_rows = layout.fast_rows();
   Regression r;
   r.psi.resize(static_cast<Eigen::Index>(3 * layout.kept()), static_cast<Eigen::Index>(p));
   r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
@@ -483,7 +551,8 @@ Preprocessed preprocess_with(const Model& model, const DeltaLog& log, const Prep
   out.report.samples_in_log = log.size();
   out.report.sample_rate_hz = design.sample_rate_hz;
   after_states();
-  out.regression = regression_of(model, log, std::move(states), design, threads);
+  out.regression = regression_of(model, log, std::move(states), design,
+                                 options.slow_rows_last_below_rad_s, threads, out.fast_rows);
   return out;
 }
 

@@ -37,62 +37,6 @@ std::array<std::size_t, 3> Equations::rows_per_joint() const {
 
 namespace {
 
-// A partition thread pays for its start-up from about this many rows on.
-constexpr std::size_t kRowsPerThread = 60000;
-
-// Moves the elements whose `fast` flag is set to the front of v[0..n), in
-// order, and the others after them, in order: one pass, with a buffer only
-// for the others (a few percent of the rows).
-template <class T>
-void stable_partition(T* v, std::size_t n, const std::vector<unsigned char>& fast,
-                      std::vector<T>& slow) {
-  slow.clear();
-  std::size_t out = 0;
-  for (std::size_t row = 0; row < n; ++row) {
-    if (fast[row]) {
-      v[out++] = v[row];
-    } else {
-      slow.push_back(v[row]);
-    }
-  }
-  std::copy(slow.begin(), slow.end(), v + out);
-}
-
-}  // namespace
-
-std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned threads) {
-  const std::size_t rows = r.rows();
-  std::vector<unsigned char> fast(rows);
-  std::size_t count = 0;
-  for (std::size_t row = 0; row < rows; ++row) {
-    fast[row] = std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s;
-    count += fast[row];
-  }
-  if (count == rows) return count;
-  // The columns are independent: each is one task, with its thread's buffer.
-  const auto p = static_cast<std::size_t>(r.psi.cols());
-  const std::size_t workers = workers_for(rows, threads, kRowsPerThread);
-  std::vector<std::vector<double>> slow(workers);
-  std::vector<unsigned char> slow_joint;
-  std::vector<std::size_t> slow_sample;
-  run_tasks(p + 4, workers, [&](std::size_t w, std::size_t c) {
-    if (c < p) {
-      stable_partition(r.psi.col(static_cast<Eigen::Index>(c)).data(), rows, fast, slow[w]);
-    } else if (c == p) {
-      stable_partition(r.tau.data(), rows, fast, slow[w]);
-    } else if (c == p + 1) {
-      stable_partition(r.velocity_rad_s.data(), rows, fast, slow[w]);
-    } else if (c == p + 2) {
-      stable_partition(r.joint.data(), rows, fast, slow_joint);
-    } else {
-      stable_partition(r.sample.data(), rows, fast, slow_sample);
-    }
-  });
-  return count;
-}
-
-namespace {
-
 // residual_squares() over rows [start, end): the prediction Psi beta of
 // the rows (Eigen reads each column in one long sequential run), then the
 // squared residuals summed per joint into four interleaved sums

@@ -30,6 +30,11 @@ struct PrepareOptions {
   // of 1e-3 in the friction parameters from the filters' end transients
   // (q, then the regressor columns), three periods 4e-5.
   long trim_samples{-1};
+  // Rows of a joint slower than this at their sample (|qd|, rad/s) go after
+  // every other row, each group in time order; 0: every row in time order.
+  // A fit's equations are the fast ones (FitOptions::min_speed_rad_s):
+  // built in this order, the regression needs no reordering after.
+  double slow_rows_last_below_rad_s{0};
 };
 
 // What preprocessing did, for the report.
@@ -42,7 +47,8 @@ struct PreprocessReport {
 };
 
 struct Preprocessed {
-  Regression regression;  // every kept sample, three rows each
+  Regression regression;     // every kept sample, three rows each
+  std::size_t fast_rows{0};  // the rows before the slow ones (all of them without a threshold)
   PreprocessReport report;
 };
 

@@ -46,8 +46,9 @@ struct MeasuredMoments {
 };
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
-// sample k, joints 1..3; fast_rows_first() reorders them, so code that
-// needs a row's joint or sample reads joint[row] and sample[row].
+// sample k, joints 1..3; a fit has the rows of slow joints put last
+// (PrepareOptions::slow_rows_last_below_rad_s), so code that needs a
+// row's joint or sample reads joint[row] and sample[row].
 struct Regression {
   Eigen::MatrixXd psi;                  // N m per unit of each parameter
   Eigen::VectorXd tau;                  // N m
@@ -62,7 +63,7 @@ struct Regression {
 };
 
 // The first rows of a regression, without a copy: the equations an
-// estimate uses (all of them, or the fast ones after fast_rows_first()).
+// estimate uses (all of them, or the fast ones before the slow ones).
 struct Equations {
   Equations(const Regression& r);  // every row (implicit: a regression is its equations)
   Equations(const Regression& r, std::size_t first_rows);
@@ -76,19 +77,9 @@ struct Equations {
   std::array<std::size_t, 3> rows_per_joint() const;
 };
 
-// Puts the equations of joints at least min_speed_rad_s fast at their sample
-// first, in their order, and the others after them; returns how many are
-// fast. Near a reversal the Coulomb term switches within a few
-// milliseconds, faster than the filtered velocity can place it, and the
-// residual it leaves there biases the viscous estimate, so a fit uses only
-// the fast ones (docs/identification.md). In place: one column at a time
-// passes through a buffer, the columns shared out over `threads` threads
-// (0: one per core).
-std::size_t fast_rows_first(Regression& r, double min_speed_rad_s, unsigned threads = 1);
-
 // The squared residuals e = tau - Psi beta summed per joint, over the first
-// `first_rows` rows (the equations an estimate used, after
-// fast_rows_first()) and over every row: the cost of an estimate and its
+// `first_rows` rows (the equations an estimate used: those before the
+// slow ones) and over every row: the cost of an estimate and its
 // RMSE, from one pass over the rows with no residual vector. The rows go in
 // chunks of fixed length to `threads` threads (0: one per core), the
 // chunks' sums added in order: the same sums on any number of threads.

@@ -60,9 +60,10 @@ class FiltfiltBlock {
 };
 
 // Where sample k of a set of lanes lives: lane l at at[offset[l]].
+template <class Offset = std::ptrdiff_t>
 struct LaneRef {
   double* at;
-  const std::ptrdiff_t* offset;
+  const Offset* offset;
   double& operator[](std::size_t l) const { return at[offset[l]]; }
 };
 
@@ -79,7 +80,7 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
     const std::size_t w = std::min(FiltfiltBlock::kMaxLanes, lanes - first);
     bool any = false;
     for (std::size_t k = 0; k < n; ++k) {
-      const LaneRef x = at(k);
+      const auto x = at(k);
       for (std::size_t l = 0; l < w; ++l) {
         const double v = x[first + l];
         block.sample(k, l, w) = v;
@@ -89,7 +90,7 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
     if (!any) continue;
     block.run(filter, w);
     for (std::size_t k = 0; k < n; ++k) {
-      const LaneRef x = at(k);
+      const auto x = at(k);
       for (std::size_t l = 0; l < w; ++l) x[first + l] = block.filtered(k, l);
     }
   }

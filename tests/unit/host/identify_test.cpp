@@ -841,45 +841,59 @@ TEST(IdentifyTest, PreprocessingThatReleasesTheLogGivesTheSameRegression) {
   EXPECT_FALSE(log.name.empty());
 }
 
-// A regression long enough that fast_rows_first shares its columns out
-// over two threads: the same rows as on one thread, fast ones first in their
-// order, slow ones after them in theirs, every column moved alike.
-TEST(IdentifyTest, FastRowsFirstOnTwoThreadsMovesEveryColumnAsOnOne) {
-  constexpr std::size_t kSamples = 50000;  // 150 000 rows: two workers
-  Regression r;
-  r.psi.resize(3 * kSamples, 5);
-  r.tau.resize(3 * kSamples);
-  for (std::size_t row = 0; row < 3 * kSamples; ++row) {
-    const auto i = static_cast<Eigen::Index>(row);
-    for (Eigen::Index c = 0; c < 5; ++c)
-      r.psi(i, c) = static_cast<double>(row) + 0.1 * static_cast<double>(c);
-    r.tau(i) = -static_cast<double>(row);
-    r.joint.push_back(static_cast<unsigned char>(row % 3));
-    r.sample.push_back(row / 3);
-    r.velocity_rad_s.push_back(std::sin(1e-3 * static_cast<double>(row)));
-  }
-  r.t_s.resize(kSamples);
-  Regression one = r;
-  const std::size_t fast_on_one = fast_rows_first(one, 0.3, 1);
-  const std::size_t fast_on_two = fast_rows_first(r, 0.3, 2);
-  ASSERT_EQ(fast_on_one, fast_on_two);
-  EXPECT_GT(fast_on_two, r.rows() / 2);
-  EXPECT_LT(fast_on_two, r.rows());
-  EXPECT_EQ(r.psi, one.psi);
-  EXPECT_EQ(r.tau, one.tau);
-  EXPECT_EQ(r.joint, one.joint);
-  EXPECT_EQ(r.sample, one.sample);
-  EXPECT_EQ(r.velocity_rad_s, one.velocity_rad_s);
+// The rows of `r` (built in time order) with those of joints slower than
+// min_speed_rad_s after the others, each group in its order: the order the
+// fit asks preprocessing for, by the plain definition.
+std::vector<Eigen::Index> fast_then_slow(const Regression& r, double min_speed_rad_s) {
+  std::vector<Eigen::Index> fast, slow;
   for (std::size_t row = 0; row < r.rows(); ++row) {
-    const auto i = static_cast<Eigen::Index>(row);
-    const double original = -r.tau(i);  // each row's index before the move
-    ASSERT_EQ(original, static_cast<double>(3 * r.sample[row] + r.joint[row])) << row;
-    ASSERT_EQ(r.psi(i, 4), original + 0.4) << row;
-    ASSERT_EQ(std::abs(r.velocity_rad_s[row]) >= 0.3, row < fast_on_two) << row;
-    if (row > 0 && (row < fast_on_two) == (row - 1 < fast_on_two)) {
-      ASSERT_LT(-r.tau(i - 1), original) << row;
-    }
+    (std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s ? fast : slow)
+        .push_back(static_cast<Eigen::Index>(row));
   }
+  fast.insert(fast.end(), slow.begin(), slow.end());
+  return fast;
+}
+
+// Preprocessing asked for the slow rows last builds, filters and labels
+// every row in its place: bit for bit the time-ordered regression with its
+// rows reordered, on one thread and on two, on a log with a gap (two
+// segments, each with its trimmed ends).
+TEST(IdentifyTest, SlowRowsLastAreBuiltInTheirPlaceAsTheTimeOrderedOnesReordered) {
+  DeltaLog log = simulated(4, 0.01, 17, false, "fourier", 24.0);  // 2 workers from 20 000 samples
+  log.gaps.push_back({9000, 0, "a test gap"});
+  const auto model = make_model({});
+  const Regression in_time = preprocess(*model, log, PrepareOptions{}, 1).regression;
+  const std::vector<Eigen::Index> order = fast_then_slow(in_time, 0.1);
+  PrepareOptions slow_last;
+  slow_last.slow_rows_last_below_rad_s = 0.1;
+  for (const unsigned threads : {1u, 2u}) {
+    SCOPED_TRACE(threads);
+    const Preprocessed pre = preprocess(*model, log, slow_last, threads);
+    const Regression& r = pre.regression;
+    ASSERT_EQ(r.rows(), in_time.rows());
+    std::size_t fast = 0;
+    for (std::size_t row = 0; row < in_time.rows(); ++row) {
+      fast += std::abs(in_time.velocity_rad_s[row]) >= 0.1 ? 1u : 0u;
+    }
+    EXPECT_EQ(pre.fast_rows, fast);
+    EXPECT_GT(fast, r.rows() / 2);
+    EXPECT_LT(fast, r.rows());
+    EXPECT_EQ(r.t_s, in_time.t_s);
+    for (std::size_t row = 0; row < r.rows(); ++row) {
+      const Eigen::Index from = order[row];
+      const auto i = static_cast<Eigen::Index>(row);
+      const auto k = static_cast<std::size_t>(from);
+      ASSERT_EQ(r.joint[row], in_time.joint[k]) << row;
+      ASSERT_EQ(r.sample[row], in_time.sample[k]) << row;
+      ASSERT_EQ(r.velocity_rad_s[row], in_time.velocity_rad_s[k]) << row;
+      ASSERT_EQ(r.tau(i), in_time.tau(from)) << row;
+      ASSERT_EQ(r.psi.row(i), in_time.psi.row(from)) << row;
+    }
+    // The unfiltered moments are over every row alike.
+    EXPECT_EQ(r.measured.rows, in_time.measured.rows);
+  }
+  // Without a threshold, the rows are in time order.
+  EXPECT_EQ(preprocess(*model, log, PrepareOptions{}, 2).fast_rows, in_time.rows());
 }
 
 TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
@@ -887,8 +901,11 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   const auto model = make_model({});
   const Regression all = preprocess(*model, log, PrepareOptions{}).regression;
   ASSERT_EQ(all.rows(), 3 * all.samples());
-  Regression reordered = all;
-  const Equations fast(reordered, fast_rows_first(reordered, 0.2));
+  PrepareOptions slow_last;
+  slow_last.slow_rows_last_below_rad_s = 0.2;
+  Preprocessed pre = preprocess(*model, log, slow_last);
+  const Regression& reordered = pre.regression;
+  const Equations fast(reordered, pre.fast_rows);
   std::array<std::size_t, 3> expected{};
   for (std::size_t row = 0; row < all.rows(); ++row) {
     if (std::abs(all.velocity_rad_s[row]) >= 0.2) ++expected[all.joint[row]];
@@ -940,8 +957,11 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
 TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
   const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 20.0);
   const auto model = make_model({});
-  Regression all = preprocess(*model, log, PrepareOptions{}).regression;
-  const Equations reg(all, fast_rows_first(all, 0.1));
+  PrepareOptions slow_last;
+  slow_last.slow_rows_last_below_rad_s = 0.1;
+  const Preprocessed pre = preprocess(*model, log, slow_last);
+  const Regression& all = pre.regression;
+  const Equations reg(all, pre.fast_rows);
   ASSERT_LT(reg.rows(), 3 * reg.samples());
   const auto rows = static_cast<Eigen::Index>(reg.rows());
   const Eigen::Index p = reg.psi.cols();
