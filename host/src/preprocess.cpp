@@ -339,6 +339,49 @@ void put_row(const double* __restrict row, double* __restrict out, std::size_t s
   }
 }
 
+// The unfiltered rows' moments are summed per chunk of this many samples,
+// and the chunks' sums added in order: the same sums on any number of
+// threads (a worker takes whole chunks).
+constexpr std::size_t kMomentChunk = 1024;
+
+// Where the rows of the samples go: one sample's rows at a time.
+struct RowFill {
+  const Model& model;
+  const DeltaLog& log;
+  const States& s;
+  const RowLayout& layout;
+  RowStore& store;
+  Regression& r;
+
+  // Sample k (of segment si): its three rows (`rows`, 3 p values of
+  // scratch) and torques into their places, the columns not zero marked
+  // in nz; if it is kept, its labels and its unfiltered rows into
+  // `moments`. False: the pose has no forward kinematics.
+  bool sample(std::size_t si, std::size_t k, double* rows, unsigned char* nz,
+              MeasuredMoments& moments) const {
+    const std::size_t p = model.size();
+    if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows) !=
+        delta::KinematicsStatus::kOk) {
+      return false;
+    }
+    const Segment& seg = s.segments[si];
+    bool side = false;
+    const std::size_t i = layout.place(si, k - seg.begin, seg.end - seg.begin, side);
+    if (!side) label_kept(s, k, i, layout, r);
+    // A row's columns are `stride` apart: psi is column-major, the side
+    // rows row-major.
+    const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
+    for (unsigned j = 0; j < 3; ++j) {
+      const double* row = rows + j * p;
+      const std::size_t at = side ? 3 * i + j : layout.row(i, j);
+      put_row(row, store.row_start(side, at), stride, nz + j * p, p);
+      store.tau_at(side, at) = s.tau_Nm[k][j];
+      if (!side) moments.add(j, row, s.tau_Nm[k][j]);
+    }
+    return true;
+  }
+};
+
 // Each sample's regressor rows (forward kinematics, Jacobian, lambda) into
 // their places, on `threads` threads; and tau alike. The kept samples'
 // labels go into r (sized for them), their unfiltered rows into r.measured;
@@ -350,51 +393,38 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   const std::size_t n = s.size();
   const std::size_t p = model.size();
   const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
+  const std::size_t chunks = (n + kMomentChunk - 1) / kMomentChunk;
+  const RowFill fill{model, log, s, layout, store, r};
   std::atomic<std::size_t> first_bad{n};
-  std::vector<MeasuredMoments> moments(workers);
-  for (MeasuredMoments& m : moments) m.reset(p);
+  std::vector<MeasuredMoments> chunk_moments(chunks);  // sums only
   std::vector<std::vector<unsigned char>> nonzero_of(workers, std::vector<unsigned char>(3 * p));
+  // Worker w: its share of whole chunks, each chunk's moments summed alone.
   const auto work = [&](std::size_t w) {
     std::vector<double> rows(3 * p);
-    unsigned char* nz = nonzero_of[w].data();
-    for (std::size_t si = 0; si < s.segments.size(); ++si) {
-      const Segment& seg = s.segments[si];
-      const std::size_t len = seg.end - seg.begin;
-      const std::size_t b = std::max(seg.begin, n * w / workers);
-      const std::size_t e = std::min(seg.end, n * (w + 1) / workers);
-      for (std::size_t k = b; k < e; ++k) {
-        if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows.data()) !=
-            delta::KinematicsStatus::kOk) {
-          std::size_t expected = first_bad.load();
-          while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
+    MeasuredMoments moments;
+    for (std::size_t c = chunks * w / workers; c < chunks * (w + 1) / workers; ++c) {
+      moments.reset(p);
+      for (std::size_t si = 0; si < s.segments.size(); ++si) {
+        const std::size_t b = std::max(s.segments[si].begin, c * kMomentChunk);
+        const std::size_t e = std::min(s.segments[si].end, (c + 1) * kMomentChunk);
+        for (std::size_t k = b; k < e; ++k) {
+          if (!fill.sample(si, k, rows.data(), nonzero_of[w].data(), moments)) {
+            std::size_t expected = first_bad.load();
+            while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
+            }
+            return;
           }
-          return;
-        }
-        bool side = false;
-        const std::size_t i = layout.place(si, k - seg.begin, len, side);
-        if (!side) label_kept(s, k, i, layout, r);
-        // A row's columns are `stride` apart: psi is column-major, the side
-        // rows row-major.
-        const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
-        for (unsigned j = 0; j < 3; ++j) {
-          const double* row = rows.data() + j * p;
-          const std::size_t at = side ? 3 * i + j : layout.row(i, j);
-          put_row(row, store.row_start(side, at), stride, nz + j * p, p);
-          store.tau_at(side, at) = s.tau_Nm[k][j];
-          if (!side) moments[w].add(j, row, s.tau_Nm[k][j]);
         }
       }
+      moments.flush();
+      chunk_moments[c] = moments.sums();
     }
   };
-  // One task per worker: its share of the samples, in its own moments.
   run_tasks(workers, workers, [&](std::size_t, std::size_t w) { work(w); });
-  for (MeasuredMoments& m : moments) m.flush();
   nonzero.assign(3 * p, 0);
   for (const auto& nz : nonzero_of) {
     for (std::size_t k = 0; k < nz.size(); ++k) nonzero[k] |= nz[k];
   }
-  r.measured = std::move(moments[0]);
-  for (std::size_t w = 1; w < workers; ++w) r.measured.merge(moments[w]);
   if (const std::size_t k = first_bad.load(); k < n) {
     const auto& q = s.states[k].q_rad;
     std::ostringstream m;
@@ -404,6 +434,8 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
       << "check the geometry metadata and the angle convention";
     throw delta::InputError(m.str());
   }
+  r.measured.reset(p);  // every chunk was summed
+  for (const MeasuredMoments& m : chunk_moments) r.measured.merge(m);
 }
 
 // Filters every column of Psi and tau per segment and joint with the same

@@ -272,6 +272,15 @@ void MeasuredMoments::flush() {
   for (unsigned j = 0; j < 3; ++j) flush(j);
 }
 
+MeasuredMoments MeasuredMoments::sums() const {
+  MeasuredMoments out;
+  out.psi_t_psi = psi_t_psi;
+  out.psi_t_tau = psi_t_tau;
+  out.tau_sq = tau_sq;
+  out.rows = rows;
+  return out;
+}
+
 void MeasuredMoments::merge(const MeasuredMoments& other) {
   for (unsigned j = 0; j < 3; ++j) {
     psi_t_psi[j] += other.psi_t_psi[j];

@@ -34,6 +34,8 @@ struct MeasuredMoments {
   void add(unsigned joint, const double* row, double tau);
   void flush();
   void merge(const MeasuredMoments& other);
+  // The sums alone (after flush()), without the block buffers: to merge.
+  MeasuredMoments sums() const;
   // The RMSE per joint against the measured torque (0 for a joint without rows).
   std::array<double, 3> rmse(const Eigen::VectorXd& beta) const;
 

@@ -677,6 +677,13 @@ TEST(IdentifyTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
   EXPECT_TRUE(one.psi == three.psi);
   EXPECT_TRUE(one.tau == three.tau);
   EXPECT_EQ(one.velocity_rad_s, three.velocity_rad_s);
+  // And the unfiltered rows' moments (the RMSE against the measured torque).
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(one.measured.rows[j], three.measured.rows[j]);
+    EXPECT_TRUE(one.measured.psi_t_psi[j] == three.measured.psi_t_psi[j]) << j;
+    EXPECT_TRUE(one.measured.psi_t_tau[j] == three.measured.psi_t_tau[j]) << j;
+    EXPECT_EQ(one.measured.tau_sq[j], three.measured.tau_sq[j]) << j;
+  }
   // So is the solve (135 003 rows: the Gram matrix and the covariance on two
   // threads), to the last bit.
   const LeastSquaresResult ls1 =
