@@ -66,6 +66,8 @@ struct LaneRef {
   const Offset* offset;
   double& operator[](std::size_t l) const { return at[offset[l]]; }
 };
+template <class Offset>
+LaneRef(double*, const Offset*) -> LaneRef<Offset>;
 
 // filtfilt_lanes where the caller says where each sample lives: at(k) is
 // sample k of every lane (lanes 0..lanes-1), each read once and written
