@@ -6,6 +6,19 @@
 #include <new>
 #include <vector>
 
+// 1 where AddressSanitizer replaces malloc and operator new (GCC defines
+// __SANITIZE_ADDRESS__, Clang has the feature), else 0.
+#if defined(__SANITIZE_ADDRESS__)
+#define HOST_ID_ADDRESS_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define HOST_ID_ADDRESS_SANITIZER 1
+#endif
+#endif
+#ifndef HOST_ID_ADDRESS_SANITIZER
+#define HOST_ID_ADDRESS_SANITIZER 0
+#endif
+
 namespace host_id {
 
 // Asks for transparent huge pages (2 MiB) for the whole 2 MiB blocks inside
@@ -23,17 +36,7 @@ void advise_huge_pages(void* data, std::size_t bytes);
 // AddressSanitizer always operator new, so that its checks see the buffer.
 // Throws std::bad_alloc when there is no memory.
 inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
-#if defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kBuffersFromOperatorNew = true;  // GCC's AddressSanitizer
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-inline constexpr bool kBuffersFromOperatorNew = true;  // Clang's
-#else
-inline constexpr bool kBuffersFromOperatorNew = false;
-#endif
-#else
-inline constexpr bool kBuffersFromOperatorNew = false;
-#endif
+inline constexpr bool kBuffersFromOperatorNew = HOST_ID_ADDRESS_SANITIZER != 0;
 void* allocate_buffer(std::size_t bytes);
 void free_buffer(void* p, std::size_t bytes) noexcept;
 

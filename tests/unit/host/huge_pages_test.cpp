@@ -111,18 +111,7 @@ TEST(HugePagesTest, AnImpossibleSeriesThrowsBadAlloc) {
 
 // glibc's malloc only: AddressSanitizer's allocator has no such knobs, and
 // the test is not built under it (rather than reported as passed).
-#if defined(__SANITIZE_ADDRESS__)
-#define HOST_ID_TEST_GLIBC_MALLOC 0
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define HOST_ID_TEST_GLIBC_MALLOC 0
-#endif
-#endif
-#ifndef HOST_ID_TEST_GLIBC_MALLOC
-#define HOST_ID_TEST_GLIBC_MALLOC 1
-#endif
-
-#if HOST_ID_TEST_GLIBC_MALLOC
+#if !HOST_ID_ADDRESS_SANITIZER
 // Once asked, malloc serves a block of some MiB from its heap, and keeps it
 // when it is freed, so that the next block of that size takes the same,
 // already faulted-in memory; by default the block would be a mapping of
