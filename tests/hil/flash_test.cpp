@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "scratch_directory.hpp"
 #include "vcan_interface.hpp"
 
 namespace {
@@ -60,15 +61,10 @@ void write_bytes(const std::string& path, const std::vector<char>& bytes) {
 // state folder; `extra` goes to delta_boot, `program` to delta_fw.
 class Flashing : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/delta_flash_XXXXXX";
-    dir_ = mkdtemp(tmpl);
-    fs::create_directory(dir_ + "/state");
-  }
+  void SetUp() override { fs::create_directory(dir_ + "/state"); }
   void TearDown() override {
     if (boot_) boot_->terminate(60s);
     if (emu_) emu_->terminate(30s);
-    fs::remove_all(dir_);
   }
   void start(const std::vector<std::string>& extra = {},
              const std::vector<std::string>& program = {}) {
@@ -96,7 +92,8 @@ class Flashing : public ::testing::Test {
   }
   std::string path(const std::string& name) const { return dir_ + "/" + name; }
 
-  std::string dir_;
+  const testsupport::ScratchDirectory scratch_{"delta_flash"};
+  const std::string dir_ = scratch_.path();
   std::string install_ = kBin + "/delta_fw.img";
   std::optional<hil::Child> emu_;
   std::optional<hil::Child> boot_;

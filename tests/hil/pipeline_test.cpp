@@ -33,6 +33,7 @@
 #include "delta/robot_description.hpp"
 #include "gpio_sim.hpp"
 #include "raw_modbus.hpp"
+#include "scratch_directory.hpp"
 #include "vcan_interface.hpp"
 #include "wake_up_probe.hpp"
 
@@ -47,20 +48,13 @@ const std::string kIface = hil::vcan_interface();
 const std::string kBin = DELTA_BIN_DIR;
 const std::string kSource = DELTA_SOURCE_DIR;
 
-std::string scratch_dir() {
-  const char* t = std::getenv("TMPDIR");
-  std::string dir = std::string(t ? t : "/tmp") + "/delta_hil_XXXXXX";
-  if (mkdtemp(dir.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-  return dir;
-}
-
 // The excitation session's folder: DELTA_HIL_SESSION_DIR where ctest sets
 // it, so that its candump and log outlive the VM for the independent tools'
 // check (tests/hil/CMakeLists.txt, check_candump.py), emptied of an earlier
-// session's files first; else a fresh scratch folder.
+// session's files first; else a scratch folder of this process's.
 std::string session_dir() {
   const char* given = std::getenv("DELTA_HIL_SESSION_DIR");
-  if (given == nullptr || *given == '\0') return scratch_dir();
+  if (given == nullptr || *given == '\0') return testsupport::process_scratch("delta_hil").path();
   std::filesystem::create_directories(given);
   for (const char* name : {"session.log", "path1.csv"}) {
     std::filesystem::remove(std::filesystem::path(given) / name);
@@ -659,7 +653,8 @@ TEST_P(FaultInjection, TheFirmwareFaultsWithTheRightCodeInBoundedCyclesAndDisabl
   const FaultCase& c = GetParam();
   const bool realtime =
       std::find(c.fw_args.begin(), c.fw_args.end(), "--realtime") != c.fw_args.end();
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   BusObserver bus;
   hil::Child emu = start_emulator({"--inject", c.inject + "@3"});
   std::optional<hil::Child> rec;
@@ -780,7 +775,8 @@ TEST(FirmwareStop, ASignalMidRunDisablesTheDrivesAndExitsWithStopped) {
 // atomically), and the second one records every record that came after its
 // socket opened, without a gap.
 TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap) {
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child first = start_recorder(dir + "/first.csv");
@@ -897,7 +893,8 @@ TEST(SdoTool, ReadsAndWritesTheControllersAndADrivesObjects) {
 // lost) within its consumer timeout plus the emulator's wall-clock grace
 // for a starved lock-step controller (docs/hil.md), and drops its torque.
 TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child rec = start_recorder(dir + "/killed.csv");
@@ -978,7 +975,8 @@ TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheL
   ASSERT_TRUE(delta::test::GpioSim::unavailable().empty()) << delta::test::GpioSim::unavailable();
   delta::test::GpioSim sim;
   sim.pull(0, true);  // the e-stop circuit closed: the active-low line high
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child rec = start_recorder(dir + "/estop.csv");
@@ -1053,7 +1051,8 @@ std::string stopped_and_told(hil::Child& fw, hil::Child& emu) {
 }
 
 TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   hil::Child emu = start_emulator();
   hil::Child fw = start_firmware_with_modbus(15021);
   const std::string modbus = "127.0.0.1:15021";
@@ -1124,7 +1123,8 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
 // registers over Modbus, the controller checks and runs it on the
 // multibody robot, the recorder logs it, and the default model fits it.
 TEST(HostExcite, ADesignedTrajectoryFileIsUploadedRunAndFitted) {
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   // 40 PSO iterations: condition number 4.78 against 4.68 for the full
   // search, in a sixth of the time (the full one took about a minute in the
   // emulated VM); this test is about the chain, DesignTest about the search.
@@ -1155,7 +1155,8 @@ TEST(HostExcite, ADesignedTrajectoryFileIsUploadedRunAndFitted) {
 }
 
 TEST(HostExcite, AFaultMidRunKeepsThePartialLogUnderItsOwnName) {
-  const std::string dir = scratch_dir();
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
   // Node 2 reports an overcurrent 12 s of bus time after the emulator starts:
   // inside path1's 14.4 s run, which starts within the first seconds.
   hil::Child emu = start_emulator({"--inject", "overcurrent:2@12"});

@@ -15,6 +15,7 @@
 #include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/recorder.hpp"
+#include "scratch_directory.hpp"
 #include "vcan_interface.hpp"
 
 namespace host_id {
@@ -77,13 +78,8 @@ Recording record_while(const RecordOptions& o, const std::function<void()>& send
 
 class RecordHilTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/record_hil_XXXXXX";
-    ASSERT_NE(mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string dir_;
+  const testsupport::ScratchDirectory scratch_{"record_hil"};
+  const std::string dir_ = scratch_.path();
 };
 
 TEST_F(RecordHilTest, RecordsTheControllersLogFramesIntoADeltaLog) {

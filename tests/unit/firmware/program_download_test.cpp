@@ -17,6 +17,7 @@
 
 #include "delta/update/image_file.hpp"
 #include "node_rig.hpp"
+#include "scratch_directory.hpp"
 
 namespace fw_linux {
 namespace {
@@ -34,15 +35,10 @@ std::uint8_t status_code(std::uint32_t flash_status) {
 
 // A state folder and the pipe delta_boot would read.
 struct Supervisor {
-  Supervisor() {
-    char tmpl[] = "/tmp/program_download_test.XXXXXX";
-    dir = mkdtemp(tmpl);
-    EXPECT_EQ(pipe2(fds, O_NONBLOCK | O_CLOEXEC), 0);
-  }
+  Supervisor() { EXPECT_EQ(pipe2(fds, O_NONBLOCK | O_CLOEXEC), 0); }
   ~Supervisor() {
     close(fds[0]);
     close(fds[1]);
-    fs::remove_all(dir);
   }
   boot::Supervision supervision(bool trial = false) const {
     boot::Supervision s;
@@ -64,7 +60,8 @@ struct Supervisor {
     std::ifstream in(dir + "/incoming.img", std::ios::binary);
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   }
-  std::string dir;
+  const testsupport::ScratchDirectory scratch{"program_download_test"};
+  const std::string dir = scratch.path();
   int fds[2]{-1, -1};
 };
 

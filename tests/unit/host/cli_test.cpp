@@ -22,19 +22,13 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/simulate.hpp"
+#include "scratch_directory.hpp"
 
 namespace host_id {
 namespace {
 
 class CliTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/host_id_cli_XXXXXX";
-    ASSERT_NE(mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-
   int run(const std::vector<std::string>& args) {
     out_.str("");
     err_.str("");
@@ -48,7 +42,8 @@ class CliTest : public ::testing::Test {
     ASSERT_EQ(run(args), 0) << err_.str();
   }
 
-  std::string dir_;
+  const testsupport::ScratchDirectory scratch_{"host_id_cli"};
+  const std::string dir_ = scratch_.path();
   std::ostringstream out_, err_;
 };
 
