@@ -92,14 +92,27 @@ class BartlettScoreSum {
   Eigen::MatrixXd& s_;
 };
 
+// The columns that may be nonzero in joint j's rows: as the regression
+// says, or every column where it does not know (or no longer: columns were
+// added since).
+std::vector<Eigen::Index> columns_of_joint(const Equations& r, unsigned j) {
+  if (!r.joint_columns[j].empty() && r.joint_columns_of == r.psi.cols()) {
+    return {r.joint_columns[j].begin(), r.joint_columns[j].end()};
+  }
+  std::vector<Eigen::Index> all(static_cast<std::size_t>(r.psi.cols()));
+  for (std::size_t c = 0; c < all.size(); ++c) all[c] = static_cast<Eigen::Index>(c);
+  return all;
+}
+
 // S of the covariance in the scaled coordinates (the columns of Psi divided
 // by col_norm), per joint: each joint's scores g_k = a e of its row at
 // sample k (zero where it has none), in sample order, through
-// BartlettScoreSum. Lags run over the sample index, across a gap between
-// segments too (a few pairs). The boxes m = 0 .. n+L-1 of each joint are
-// shared out in chunks of fixed length (each starts by taking in the L + 1
-// rows before it), and the chunks' sums are added in order: the same
-// result on any number of threads.
+// BartlettScoreSum, over the columns that are not zero in that joint's rows
+// (a column zero in all of them adds nothing). Lags run over the sample
+// index, across a gap between segments too (a few pairs). The boxes
+// m = 0 .. n+L-1 of each joint are shared out in chunks of fixed length
+// (each starts by taking in the L + 1 rows before it), and the chunks' sums
+// are added in order: the same result on any number of threads.
 Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scale,
                                         const Eigen::VectorXd& col_norm,
                                         Eigen::Ref<const Eigen::VectorXd> e, std::size_t lags,
@@ -108,6 +121,8 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
   const auto n = static_cast<Eigen::Index>(r.samples());
   const auto l = std::min<Eigen::Index>(static_cast<Eigen::Index>(lags), n);
   const Eigen::VectorXd inverse_norm = col_norm.cwiseInverse();
+  const std::array<std::vector<Eigen::Index>, 3> columns{
+      columns_of_joint(r, 0), columns_of_joint(r, 1), columns_of_joint(r, 2)};
   // The row of each joint at each sample (-1: none).
   std::vector<std::int32_t> row_at(3 * static_cast<std::size_t>(n), -1);
   for (std::size_t row = 0; row < r.rows(); ++row) {
@@ -123,19 +138,22 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
     const Eigen::Index first = (static_cast<Eigen::Index>(task) % chunks) * kChunk;
     const Eigen::Index last = std::min(boxes, first + kChunk);
     const std::int32_t* rows_of_joint = row_at.data() + j * n;
-    std::vector<double> g(static_cast<std::size_t>(p));
+    const std::vector<Eigen::Index>& used = columns[static_cast<std::size_t>(j)];
+    const auto q = static_cast<Eigen::Index>(used.size());
+    std::vector<double> g(used.size());
     const auto score = [&](Eigen::Index m) -> const double* {
       const std::int32_t row = m < n ? rows_of_joint[m] : -1;
       if (row < 0) return nullptr;
       const double scaled_e = e(row) * scale.of(r, static_cast<std::size_t>(row));
-      for (Eigen::Index c = 0; c < p; ++c) {
-        g[static_cast<std::size_t>(c)] = r.psi(row, c) * inverse_norm(c) * scaled_e;
+      for (Eigen::Index k = 0; k < q; ++k) {
+        const Eigen::Index c = used[static_cast<std::size_t>(k)];
+        g[static_cast<std::size_t>(k)] = r.psi(row, c) * inverse_norm(c) * scaled_e;
       }
       return g.data();
     };
     Eigen::MatrixXd& s = partial[task];
-    s = Eigen::MatrixXd::Zero(p, p);
-    BartlettScoreSum sum(p, l, s);
+    s = Eigen::MatrixXd::Zero(q, q);
+    BartlettScoreSum sum(q, l, s);
     for (Eigen::Index m = std::max<Eigen::Index>(0, first - l - 1); m < first; ++m) {
       sum.take_in(score(m));
     }
@@ -145,7 +163,15 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
   run_tasks(partial.size(), workers_for(static_cast<std::size_t>(3 * n), threads, 30000),
             chunk_sum);
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
-  for (const Eigen::MatrixXd& part : partial) s += part;
+  for (std::size_t task = 0; task < partial.size(); ++task) {
+    const std::vector<Eigen::Index>& used = columns[task / static_cast<std::size_t>(chunks)];
+    const Eigen::MatrixXd& part = partial[task];
+    for (Eigen::Index b = 0; b < part.cols(); ++b) {
+      for (Eigen::Index a = 0; a <= b; ++a) {  // the upper triangle
+        s(used[static_cast<std::size_t>(a)], used[static_cast<std::size_t>(b)]) += part(a, b);
+      }
+    }
+  }
   s /= static_cast<double>(l + 1);
   return s.selfadjointView<Eigen::Upper>();
 }

@@ -539,6 +539,12 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   r.sample.resize(3 * layout.kept());
   std::vector<unsigned char> nonzero;
   fill_rows(model, log, s, layout, store, r, nonzero, threads);
+  for (unsigned j = 0; j < 3; ++j) {
+    for (std::size_t c = 0; c < p; ++c) {
+      if (nonzero[j * p + c]) r.joint_columns[j].push_back(static_cast<Eigen::Index>(c));
+    }
+  }
+  r.joint_columns_of = static_cast<Eigen::Index>(p);
   const std::vector<Segment> segments = s.segments;
   const std::size_t samples = s.size();
   s = States{};

@@ -27,7 +27,9 @@ Equations::Equations(const Regression& r, std::size_t first_rows)
       tau(r.tau.head(static_cast<Eigen::Index>(first_rows))),
       joint(r.joint.data(), first_rows),
       sample(r.sample.data(), first_rows),
-      t_s(r.t_s) {}
+      t_s(r.t_s),
+      joint_columns{r.joint_columns[0], r.joint_columns[1], r.joint_columns[2]},
+      joint_columns_of(r.joint_columns_of) {}
 
 std::array<std::size_t, 3> Equations::rows_per_joint() const {
   std::array<std::size_t, 3> n{};

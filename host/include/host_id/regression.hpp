@@ -45,6 +45,10 @@ struct MeasuredMoments {
   std::array<Eigen::MatrixXd, 3> block_;  // p x kBlockRows: rows as columns
   std::array<Eigen::VectorXd, 3> block_tau_;
   std::array<Eigen::Index, 3> in_block_{};
+  std::array<std::vector<unsigned char>, 3> block_nonzero_;  // per column
+  Eigen::MatrixXd compact_;                                  // the block's used columns
+  Eigen::MatrixXd compact_sum_;
+  std::vector<Eigen::Index> used_;
 };
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
@@ -59,6 +63,13 @@ struct Regression {
   SeriesVector<double> velocity_rad_s;  // qd of that joint at that row's sample
   SeriesVector<std::size_t> sample;     // the index into t_s of each row's sample
   MeasuredMoments measured;             // the kept samples' rows before filtering
+  // The columns that are not zero in some row of joint j, ascending; every
+  // other column is zero in all of joint j's rows (another joint's
+  // friction, say). They describe psi while it has joint_columns_of
+  // columns: code that adds columns leaves them behind, and they are then
+  // not used (every column is taken), as where they are empty.
+  std::array<std::vector<Eigen::Index>, 3> joint_columns;
+  Eigen::Index joint_columns_of{0};
   std::size_t samples() const { return t_s.size(); }
   std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
   std::array<std::size_t, 3> rows_per_joint() const;
@@ -73,7 +84,9 @@ struct Equations {
   Eigen::Ref<const Eigen::VectorXd> tau;
   std::span<const unsigned char> joint;
   std::span<const std::size_t> sample;
-  std::span<const double> t_s;  // every sample of the regression
+  std::span<const double> t_s;                                 // every sample of the regression
+  std::array<std::span<const Eigen::Index>, 3> joint_columns;  // as Regression's,
+  Eigen::Index joint_columns_of;                               // for this many columns
   std::size_t samples() const { return t_s.size(); }
   std::size_t rows() const { return static_cast<std::size_t>(tau.size()); }
   std::array<std::size_t, 3> rows_per_joint() const;

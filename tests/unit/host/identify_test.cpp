@@ -1003,6 +1003,59 @@ TEST(IdentifyTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
   }
 }
 
+// Preprocessing names the columns that are not zero in each joint's rows
+// (the default model's joint j has no other joint's friction), and the
+// covariance works on those alone: the same standard deviations as over
+// every column, where the regression does not say.
+TEST(IdentifyTest, TheCovarianceTakesEachJointsOwnColumnsWithTheSameResult) {
+  const DeltaLog log = simulated(3, 0.02, 17, false, "fourier", 20.0);
+  const auto model = make_model({});
+  const Preprocessed pre = preprocess(*model, log, PrepareOptions{});
+  const Regression& with = pre.regression;
+  const Eigen::Index p = with.psi.cols();
+  for (unsigned j = 0; j < 3; ++j) {
+    SCOPED_TRACE(j);
+    const auto& used = with.joint_columns[j];
+    EXPECT_EQ(used.size(), 8u) << "6 shared columns, this joint's viscous and Coulomb friction";
+    for (Eigen::Index c = 0; c < p; ++c) {
+      const bool listed = std::find(used.begin(), used.end(), c) != used.end();
+      bool zero_throughout = true;
+      for (std::size_t row = 0; row < with.rows(); ++row) {
+        if (with.joint[row] == j && with.psi(static_cast<Eigen::Index>(row), c) != 0.0) {
+          zero_throughout = false;
+        }
+      }
+      EXPECT_EQ(listed, !zero_throughout) << "column " << c;
+    }
+  }
+  Regression without = with;
+  for (auto& columns : without.joint_columns) columns.clear();
+  const auto fit = [&](const Regression& r) {
+    return solve_least_squares(r, *model, LsSolver::kQr, LsWeights::kNone, log.name, 100);
+  };
+  const LeastSquaresResult a = fit(with), b = fit(without);
+  for (Eigen::Index c = 0; c < p; ++c) {
+    EXPECT_NEAR(a.std_dev(c), b.std_dev(c), 1e-13 * b.std_dev(c)) << c;
+  }
+  // A column added afterwards (the friction-shape uncertainty adds its
+  // derivatives) is not zero in any joint's rows: the lists, made for p
+  // columns, are then left aside, and every column is taken.
+  Regression grown = with;
+  grown.psi.conservativeResize(Eigen::NoChange, p + 1);
+  grown.psi.col(p) = with.psi.col(0).cwiseProduct(with.tau);
+  Regression grown_without = grown;
+  for (auto& columns : grown_without.joint_columns) columns.clear();
+  std::vector<ParameterInfo> infos = model->parameters();
+  infos.push_back({"added", "-", false, ""});
+  const auto fit_grown = [&](const Regression& r) {
+    return solve_least_squares(Equations(r), infos, LsSolver::kQr, LsWeights::kNone, log.name, 100);
+  };
+  const LeastSquaresResult c = fit_grown(grown), d = fit_grown(grown_without);
+  for (Eigen::Index k = 0; k <= p; ++k) {
+    EXPECT_NEAR(c.std_dev(k), d.std_dev(k), 1e-13 * d.std_dev(k)) << k;
+  }
+}
+
 TEST(IdentifyTest, GapsSplitTheLogIntoSegmentsThatAreNotBridged) {
   DeltaLog log = simulated(1, 0.0, 0, false, "fourier", 6.0);
   // Remove samples 3000..3099: the reader would report this gap.
