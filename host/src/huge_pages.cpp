@@ -69,4 +69,6 @@ void free_buffer(void* p, std::size_t bytes) noexcept {
   munmap(p, whole_blocks(bytes));
 }
 
+const delta::ByteStore kHugePageStore{allocate_buffer, free_buffer};
+
 }  // namespace host_id

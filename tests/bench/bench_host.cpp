@@ -12,6 +12,7 @@
 #include "delta/read_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/design.hpp"
+#include "host_id/huge_pages.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/preprocess.hpp"
@@ -56,9 +57,9 @@ const std::string& log60_path() {
 void BM_Stage1_Read60s(benchmark::State& state) {
   std::size_t bytes = 0;
   for (auto _ : state) {
-    const std::string text = delta::read_whole_file(log60_path());
-    bytes = text.size();
-    benchmark::DoNotOptimize(text.data());
+    const delta::FileBytes text = delta::read_file_bytes(log60_path(), kHugePageStore);
+    bytes = text.view().size();
+    benchmark::DoNotOptimize(text.view().data());
   }
   state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(bytes));
 }

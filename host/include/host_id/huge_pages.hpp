@@ -6,6 +6,8 @@
 #include <new>
 #include <vector>
 
+#include "delta/read_file.hpp"
+
 // 1 where AddressSanitizer replaces malloc and operator new (GCC defines
 // __SANITIZE_ADDRESS__, Clang has the feature), else 0.
 #if defined(__SANITIZE_ADDRESS__)
@@ -39,6 +41,11 @@ inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
 inline constexpr bool kBuffersFromOperatorNew = HOST_ID_ADDRESS_SANITIZER != 0;
 void* allocate_buffer(std::size_t bytes);
 void free_buffer(void* p, std::size_t bytes) noexcept;
+
+// allocate_buffer and free_buffer as a store for a file's bytes: a log's
+// text of a few MiB is then faulted in a 2 MiB page at a time as read()
+// fills it, not 4 KiB at a time.
+extern const delta::ByteStore kHugePageStore;
 
 // Makes malloc keep the blocks it is given back (up to 32 MiB each, and
 // up to 256 MiB at the top of its heap) for the next ones, instead of

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "scratch_directory.hpp"
+
 namespace host_id {
 namespace {
 
@@ -96,6 +98,30 @@ TEST(HugePagesTest, ALongSeriesLiesOnWholeHugePages) {
   EXPECT_DOUBLE_EQ(series[9], 1.5);
   SeriesVector<unsigned char> bytes(100, 7);
   EXPECT_EQ(bytes[99], 7);
+}
+
+// A log's text of some MiB is read onto whole huge pages (where the kernel
+// offers them on advice), as its bytes arrive, and given back whole.
+TEST(HugePagesTest, ALogsTextIsReadOntoHugePages) {
+  const std::string setting = first_line("/sys/kernel/mm/transparent_hugepage/enabled");
+  const testsupport::ScratchDirectory dir("delta_huge_text");
+  const std::string path = dir.file("log.csv");
+  const std::string text(3 << 20, 'x');
+  std::ofstream(path, std::ios::binary) << text;
+  {
+    const delta::FileBytes bytes = delta::read_file_bytes(path, kHugePageStore);
+    EXPECT_EQ(bytes.view(), text);
+    if (!kBuffersFromOperatorNew) {
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(bytes.view().data()) % (std::uintptr_t{2} << 20),
+                0u);
+      const long huge_kib = huge_kib_of_mapping_holding(bytes.view().data());
+      if (setting.empty() || setting.find("[never]") != std::string::npos) {
+        EXPECT_EQ(huge_kib, 0) << setting;
+      } else {
+        EXPECT_GE(huge_kib, 2048) << "transparent_hugepage: " << setting;
+      }
+    }
+  }
 }
 
 // What cannot be had is std::bad_alloc (or bad_array_new_length for a size
