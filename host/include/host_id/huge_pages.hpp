@@ -36,11 +36,18 @@ void advise_huge_pages(void* data, std::size_t bytes);
 // buffer of a few MiB from malloc holds few whole aligned blocks, and its
 // first writes fault 4 KiB at a time); below that, operator new. Under
 // AddressSanitizer always operator new, so that its checks see the buffer.
-// Throws std::bad_alloc when there is no memory.
+// Throws std::bad_alloc when there is no memory. free_buffer keeps a freed
+// buffer of one or two blocks (up to 8 of them, 16 MiB in all) for the next
+// allocate_buffer of the same length, which gets it as it was left, not
+// cleared: a fit frees and takes such buffers again and again, and every
+// fresh block costs the kernel a fault and the clearing of 2 MiB. A long
+// log's buffers are larger and go back to the kernel at once.
 inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
 inline constexpr bool kBuffersFromOperatorNew = HOST_ID_ADDRESS_SANITIZER != 0;
 void* allocate_buffer(std::size_t bytes);
 void free_buffer(void* p, std::size_t bytes) noexcept;
+// Gives the kept buffers back to the kernel.
+void return_kept_buffers() noexcept;
 
 // allocate_buffer and free_buffer as a store for a file's bytes: a log's
 // text of a few MiB is then faulted in a 2 MiB page at a time as read()

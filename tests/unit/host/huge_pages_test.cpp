@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <malloc.h>
+#include <sys/mman.h>
 
 #include <Eigen/Dense>
 #include <cstdint>
@@ -162,6 +163,58 @@ TEST(HugePagesTest, FreedBlocksAreKeptForTheNextOnceAsked) {
   ASSERT_NE(second, nullptr);
   EXPECT_EQ(mallinfo2().arena, held.arena) << "the next block took fresh memory";
   std::free(second);
+}
+#endif
+
+// Kernel buffers only (under AddressSanitizer they come from operator new,
+// and these tests are not built rather than reported as passed).
+#if !HOST_ID_ADDRESS_SANITIZER
+// Whether [p, p + bytes) is mapped in this process.
+bool mapped(void* p, std::size_t bytes) {
+  std::vector<unsigned char> pages(bytes / 4096 + 1);
+  return mincore(p, bytes, pages.data()) == 0;
+}
+
+// A freed buffer of one or two 2 MiB blocks goes to the next buffer of its
+// length as it was left; a larger one goes back to the kernel at once.
+TEST(HugePagesTest, AFreedBufferOfOneOrTwoBlocksIsTheNextOfItsLength) {
+  return_kept_buffers();
+  constexpr std::size_t kBytes = 3 << 20;  // two blocks
+  auto* first = static_cast<char*>(allocate_buffer(kBytes));
+  std::memset(first, 7, kBytes);
+  free_buffer(first, kBytes);
+  EXPECT_TRUE(mapped(first, kBytes)) << "not kept";
+  auto* again = static_cast<char*>(allocate_buffer(kBytes - 12345));  // the same two blocks
+  EXPECT_EQ(again, first);
+  EXPECT_EQ(again[kBytes - 12346], 7) << "kept as it was left";
+  auto* other = static_cast<char*>(allocate_buffer(kBytes));  // none kept now: fresh
+  EXPECT_NE(other, first);
+  EXPECT_EQ(other[0], 0);
+  free_buffer(other, kBytes);
+  free_buffer(again, kBytes - 12345);
+
+  constexpr std::size_t kLarge = 5 << 20;  // three blocks: not kept
+  auto* large = static_cast<char*>(allocate_buffer(kLarge));
+  large[0] = 1;
+  free_buffer(large, kLarge);
+  EXPECT_FALSE(mapped(large, kLarge)) << "a three-block buffer was kept";
+  return_kept_buffers();
+  EXPECT_FALSE(mapped(first, kBytes)) << "return_kept_buffers kept it";
+}
+
+// At most 16 MiB are kept: of ten freed buffers of two blocks, four stay
+// mapped for the next and six go back to the kernel.
+TEST(HugePagesTest, AtMostSixteenMiBAreKept) {
+  return_kept_buffers();
+  constexpr std::size_t kBytes = 4 << 20;
+  std::vector<void*> buffers;
+  for (int i = 0; i < 10; ++i) buffers.push_back(allocate_buffer(kBytes));
+  for (void* b : buffers) free_buffer(b, kBytes);
+  int still_mapped = 0;
+  for (void* b : buffers) still_mapped += mapped(b, kBytes) ? 1 : 0;
+  EXPECT_EQ(still_mapped, 4);  // 4 x 4 MiB
+  return_kept_buffers();
+  for (void* b : buffers) EXPECT_FALSE(mapped(b, kBytes));
 }
 #endif
 
