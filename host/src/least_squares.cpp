@@ -16,6 +16,11 @@ namespace host_id {
 
 namespace {
 
+// The passes over the rows share them out in chunks of this many rows,
+// each summed alone and the sums added in order: the same result on any
+// number of threads.
+constexpr Eigen::Index kRowChunk = 16384;
+
 // Each joint's rows scaled by the square root of its weight as they are
 // read: the weighted problem solved as an ordinary one, without a weighted
 // copy of the rows. Unweighted, every scale is 1 and every product with it
@@ -205,16 +210,16 @@ void add_block(const Rows& a, const Tau& t, Eigen::MatrixXd& g) {
 Eigen::MatrixXd augmented_gram(const Equations& reg, const RowScale& scale, unsigned threads) {
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
-  constexpr Eigen::Index kChunkRows = 16384, kBlockRows = 2048;
-  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kChunkRows - 1) / kChunkRows);
+  constexpr Eigen::Index kBlockRows = 2048;
+  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
   std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
   const auto chunk_gram = [&](std::size_t, std::size_t chunk) {
     Eigen::MatrixXd& g = partial[chunk];
     g = Eigen::MatrixXd::Zero(p + 1, p + 1);
     Eigen::MatrixXd scaled_a;
     Eigen::VectorXd scaled_t;
-    const Eigen::Index end = std::min(m, static_cast<Eigen::Index>(chunk + 1) * kChunkRows);
-    for (Eigen::Index start = static_cast<Eigen::Index>(chunk) * kChunkRows; start < end;
+    const Eigen::Index end = std::min(m, static_cast<Eigen::Index>(chunk + 1) * kRowChunk);
+    for (Eigen::Index start = static_cast<Eigen::Index>(chunk) * kRowChunk; start < end;
          start += kBlockRows) {
       const Eigen::Index len = std::min(kBlockRows, end - start);
       if (scale.any()) {
@@ -374,24 +379,35 @@ std::optional<TriangularFactor> factor_from_gram(const Eigen::MatrixXd& gram,
 // the block while the block is in the cache). Q^T tau becomes R x of the
 // refined x, so that every solve from R (bounded ones too) sees it.
 void refine_from_residual(const Equations& reg, const RowScale& scale,
-                          const Eigen::VectorXd& col_norm, TriangularFactor& f) {
+                          const Eigen::VectorXd& col_norm, unsigned threads, TriangularFactor& f) {
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kBlockRows = 2048;
   const Eigen::VectorXd x = f.r.triangularView<Eigen::Upper>().solve(f.qt_tau);
   const Eigen::VectorXd beta = x.cwiseQuotient(col_norm);
   const std::array<double, 3> w = scale.weights();
-  Eigen::VectorXd psi_t_r = Eigen::VectorXd::Zero(x.size());
-  Eigen::VectorXd r(kBlockRows);
-  for (Eigen::Index start = 0; start < m; start += kBlockRows) {
-    const Eigen::Index len = std::min(kBlockRows, m - start);
-    const auto a = reg.psi.middleRows(start, len);
-    r.head(len).noalias() = reg.tau.segment(start, len) - a * beta;
-    if (scale.any()) {  // (s a)^T (s r) = a^T (w r)
-      for (Eigen::Index k = 0; k < len; ++k)
-        r(k) *= w[reg.joint[static_cast<std::size_t>(start + k)]];
+  // Psi^T r per chunk of rows, the chunks added in order.
+  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
+  std::vector<Eigen::VectorXd> partial(static_cast<std::size_t>(chunks));
+  const auto chunk_product = [&](std::size_t, std::size_t chunk) {
+    Eigen::VectorXd& psi_t_r = partial[chunk] = Eigen::VectorXd::Zero(x.size());
+    Eigen::VectorXd r(kBlockRows);
+    const Eigen::Index end = std::min(m, static_cast<Eigen::Index>(chunk + 1) * kRowChunk);
+    for (Eigen::Index start = static_cast<Eigen::Index>(chunk) * kRowChunk; start < end;
+         start += kBlockRows) {
+      const Eigen::Index len = std::min(kBlockRows, end - start);
+      const auto a = reg.psi.middleRows(start, len);
+      r.head(len).noalias() = reg.tau.segment(start, len) - a * beta;
+      if (scale.any()) {  // (s a)^T (s r) = a^T (w r)
+        for (Eigen::Index k = 0; k < len; ++k)
+          r(k) *= w[reg.joint[static_cast<std::size_t>(start + k)]];
+      }
+      psi_t_r.noalias() += a.transpose() * r.head(len);
     }
-    psi_t_r.noalias() += a.transpose() * r.head(len);
-  }
+  };
+  run_tasks(partial.size(), workers_for(static_cast<std::size_t>(m), threads, 60000),
+            chunk_product);
+  Eigen::VectorXd psi_t_r = partial[0];
+  for (std::size_t c = 1; c < partial.size(); ++c) psi_t_r += partial[c];
   const Eigen::VectorXd y =
       f.r.transpose().triangularView<Eigen::Lower>().solve(psi_t_r.cwiseQuotient(col_norm));
   const Eigen::VectorXd step = f.r.triangularView<Eigen::Upper>().solve(y);
@@ -402,14 +418,41 @@ void refine_from_residual(const Equations& reg, const RowScale& scale,
 // columns are well conditioned, else by Householder QR.
 TriangularFactor scaled_factor(const Equations& reg, const RowScale& scale,
                                const Eigen::MatrixXd& gram, const Eigen::VectorXd& col_norm,
-                               bool any_zero_column) {
+                               bool any_zero_column, unsigned threads) {
   if (!any_zero_column) {
     if (std::optional<TriangularFactor> f = factor_from_gram(gram, col_norm)) {
-      refine_from_residual(reg, scale, col_norm, *f);
+      refine_from_residual(reg, scale, col_norm, threads, *f);
       return *f;
     }
   }
   return scaled_qr(reg, scale, col_norm);
+}
+
+// e = the scaled residual s (tau - Psi beta) of every row, on `threads`
+// threads; returns |e|^2, summed per chunk of rows and the chunks added in
+// order.
+double scaled_residual(const Equations& r, const RowScale& scale, const Eigen::VectorXd& beta,
+                       unsigned threads, Eigen::Map<Eigen::VectorXd>& e) {
+  const Eigen::Index m = r.psi.rows();
+  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
+  std::vector<double> squares(static_cast<std::size_t>(chunks), 0.0);
+  const auto chunk_residual = [&](std::size_t, std::size_t chunk) {
+    const Eigen::Index start = static_cast<Eigen::Index>(chunk) * kRowChunk;
+    const Eigen::Index len = std::min(kRowChunk, m - start);
+    auto part = e.segment(start, len);
+    part.noalias() = r.tau.segment(start, len) - r.psi.middleRows(start, len) * beta;
+    if (scale.any()) {
+      for (Eigen::Index k = 0; k < len; ++k) {
+        part(k) *= scale.of(r, static_cast<std::size_t>(start + k));
+      }
+    }
+    squares[chunk] = part.squaredNorm();
+  };
+  run_tasks(squares.size(), workers_for(static_cast<std::size_t>(m), threads, 60000),
+            chunk_residual);
+  double sum = 0.0;
+  for (const double s : squares) sum += s;
+  return sum;
 }
 
 // Runs alongside(estimate) on a thread of its own while covariance(t) runs
@@ -504,7 +547,7 @@ LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
   std::vector<std::size_t> zero_columns;
   const Eigen::MatrixXd gram = augmented_gram(r, scale, threads);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
-  const auto [rr, qt_tau] = scaled_factor(r, scale, gram, col_norm, !zero_columns.empty());
+  const auto [rr, qt_tau] = scaled_factor(r, scale, gram, col_norm, !zero_columns.empty(), threads);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd sv = svd.singularValues();
   if (!zero_columns.empty() || sv(p - 1) <= 1e-10 * sv(0)) {
@@ -523,13 +566,8 @@ LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
   // The residual, a long series: on huge pages like the rows it comes from.
   SeriesVector<double> e_store(r.rows());
   Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
-  e.noalias() = r.tau - r.psi * out.unconstrained_beta;
-  if (scale.any()) {
-    for (std::size_t row = 0; row < r.rows(); ++row) {
-      e(static_cast<Eigen::Index>(row)) *= scale.of(r, row);
-    }
-  }
-  out.unconstrained_cost = e.squaredNorm() / static_cast<double>(r.rows());
+  out.unconstrained_cost =
+      scaled_residual(r, scale, out.unconstrained_beta, threads, e) / static_cast<double>(r.rows());
   bound(r, scale, parameters, rr, qt_tau, beta_scaled, col_norm, out);
   const Eigen::MatrixXd& factor = rr;  // (a lambda may not capture a structured binding in C++20)
   run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads, [&](unsigned t) {
@@ -640,7 +678,7 @@ double bounded_least_squares_cost(const Equations& r, const std::vector<Paramete
     throw delta::InputError(log_name + ": this log does not excite" +
                             names(zero_columns, parameters) + " at all");
   }
-  const auto [rr, qt_tau] = scaled_factor(r, unweighted, gram, col_norm, false);
+  const auto [rr, qt_tau] = scaled_factor(r, unweighted, gram, col_norm, false, 1);
   std::vector<bool> nonnegative(static_cast<std::size_t>(p));
   for (std::size_t c = 0; c < nonnegative.size(); ++c) nonnegative[c] = parameters[c].nonnegative;
   const Eigen::VectorXd x = bounded_least_squares(rr, qt_tau, nonnegative);
