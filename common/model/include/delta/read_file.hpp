@@ -21,9 +21,6 @@ extern const ByteStore kOperatorNewStore;
 class FileBytes {
  public:
   FileBytes() = default;
-  // Takes a buffer of `capacity` bytes from `store`, `size` of them used.
-  FileBytes(char* bytes, std::size_t size, std::size_t capacity, const ByteStore& store)
-      : bytes_(bytes), size_(size), capacity_(capacity), store_(&store) {}
   FileBytes(FileBytes&& other) noexcept { swap(other); }
   FileBytes& operator=(FileBytes&& other) noexcept {
     FileBytes(std::move(other)).swap(*this);
@@ -38,6 +35,9 @@ class FileBytes {
 
  private:
   friend FileBytes read_file_bytes(const std::string& path, const ByteStore& store);
+  // Takes a buffer of `capacity` bytes from `store`, `size` of them used.
+  FileBytes(char* bytes, std::size_t size, std::size_t capacity, const ByteStore& store)
+      : bytes_(bytes), size_(size), capacity_(capacity), store_(&store) {}
   void swap(FileBytes& other) noexcept;
   char* bytes_{nullptr};
   std::size_t size_{0};
