@@ -21,6 +21,11 @@ namespace {
 // number of threads.
 constexpr Eigen::Index kRowChunk = 16384;
 
+// How many chunks `rows` rows make (at least one).
+Eigen::Index row_chunks(Eigen::Index rows) {
+  return std::max<Eigen::Index>(1, (rows + kRowChunk - 1) / kRowChunk);
+}
+
 // Each joint's rows scaled by the square root of its weight as they are
 // read: the weighted problem solved as an ordinary one, without a weighted
 // copy of the rows. Unweighted, every scale is 1 and every product with it
@@ -211,7 +216,7 @@ Eigen::MatrixXd augmented_gram(const Equations& reg, const RowScale& scale, unsi
   const Eigen::Index p = reg.psi.cols();
   const Eigen::Index m = reg.psi.rows();
   constexpr Eigen::Index kBlockRows = 2048;
-  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
+  const Eigen::Index chunks = row_chunks(m);
   std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
   const auto chunk_gram = [&](std::size_t, std::size_t chunk) {
     Eigen::MatrixXd& g = partial[chunk];
@@ -386,7 +391,7 @@ void refine_from_residual(const Equations& reg, const RowScale& scale,
   const Eigen::VectorXd beta = x.cwiseQuotient(col_norm);
   const std::array<double, 3> w = scale.weights();
   // Psi^T r per chunk of rows, the chunks added in order.
-  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
+  const Eigen::Index chunks = row_chunks(m);
   std::vector<Eigen::VectorXd> partial(static_cast<std::size_t>(chunks));
   const auto chunk_product = [&](std::size_t, std::size_t chunk) {
     Eigen::VectorXd& psi_t_r = partial[chunk] = Eigen::VectorXd::Zero(x.size());
@@ -434,7 +439,7 @@ TriangularFactor scaled_factor(const Equations& reg, const RowScale& scale,
 double scaled_residual(const Equations& r, const RowScale& scale, const Eigen::VectorXd& beta,
                        unsigned threads, Eigen::Map<Eigen::VectorXd>& e) {
   const Eigen::Index m = r.psi.rows();
-  const Eigen::Index chunks = std::max<Eigen::Index>(1, (m + kRowChunk - 1) / kRowChunk);
+  const Eigen::Index chunks = row_chunks(m);
   std::vector<double> squares(static_cast<std::size_t>(chunks), 0.0);
   const auto chunk_residual = [&](std::size_t, std::size_t chunk) {
     const Eigen::Index start = static_cast<Eigen::Index>(chunk) * kRowChunk;
