@@ -36,6 +36,20 @@ bool config_valid(const TrajectoryConfig& c) {
   return c.kind == TrajectoryKind::kFourier ? fourier_valid(c) : pick_and_place_valid(c);
 }
 
+// The last tick of a valid configuration, in 64 bits: a long one would wrap
+// 32. Fourier: whole periods of the base frequency, rounded to ticks, plus
+// the blends.
+u64 length_ticks_of(const TrajectoryConfig& c) {
+  if (c.kind == TrajectoryKind::kFourier) {
+    const auto& f = c.fourier;
+    const u64 period_ticks_e3 =
+        kNanoPerSecondMilli * 1000 / (u64{f.base_frequency_mHz} * c.tick_period_us);
+    return 2 * u64{c.blend_ticks} + (period_ticks_e3 * f.periods + 500) / 1000;
+  }
+  const auto& p = c.pick_and_place;
+  return u64{p.waypoints} * p.segment_ticks * p.cycles;
+}
+
 // The angle of phase (k * tick * f * dt) in (-pi, pi], exactly from integers.
 Q3_28 harmonic_phase(std::uint32_t tick, unsigned k, std::uint32_t f_mHz, std::uint32_t dt_us) {
   const u64 turns_e9 = (u64{tick} * k * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
@@ -89,20 +103,14 @@ MinJerk min_jerk(Q1_30 s) {
 Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config)
     : geometry_(geometry), config_(config) {
   if (!config_valid(config_)) return;
+  const u64 length = length_ticks_of(config_);
+  if (length > kMaxTrajectoryTicks) return;  // check_trajectory: kTooLong
+  length_ticks_ = static_cast<std::uint32_t>(length);
   ticks_per_second_ = 1000000u / config_.tick_period_us;
   if (config_.kind == TrajectoryKind::kFourier) {
-    const auto& f = config_.fourier;
-    // Whole periods of the base frequency, rounded to ticks, plus the blends.
-    const u64 period_ticks_e3 =
-        kNanoPerSecondMilli * 1000 / (u64{f.base_frequency_mHz} * config_.tick_period_us);
-    length_ticks_ = static_cast<std::uint32_t>(2 * u64{config_.blend_ticks} +
-                                               (period_ticks_e3 * f.periods + 500) / 1000);
     // w = 2 pi f: Q3.28 * mHz / 1000 -> Q10.21.
     base_omega_rad_s_ = Q10_21::from_raw(
-        saturate32(shift_round(i64{kTwoPi.raw()} * f.base_frequency_mHz, 7) / 1000));
-  } else {
-    const auto& p = config_.pick_and_place;
-    length_ticks_ = p.waypoints * p.segment_ticks * p.cycles;
+        saturate32(shift_round(i64{kTwoPi.raw()} * config_.fourier.base_frequency_mHz, 7) / 1000));
   }
 }
 
@@ -216,6 +224,11 @@ TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConf
   TrajectoryCheck c;
   if (!config_valid(config)) {
     c.fault = TrajectoryFault::kInvalidConfig;
+    return c;
+  }
+  if (length_ticks_of(config) > kMaxTrajectoryTicks) {
+    c.fault = TrajectoryFault::kTooLong;
+    c.tick = kMaxTrajectoryTicks + 1;  // the first tick past what may be walked
     return c;
   }
   const Trajectory traj(geometry, config);

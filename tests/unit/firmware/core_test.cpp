@@ -196,6 +196,42 @@ TEST(TrajectoryTest, LimitCheckNamesTheBrokenLimitTickAndJoint) {
   EXPECT_EQ(check_trajectory(g, bad, JointLimits{}).fault, TrajectoryFault::kInvalidConfig);
 }
 
+// The check walks every tick, so a trajectory longer than
+// kMaxTrajectoryTicks is refused without being walked: one of exactly that
+// length is walked (a limit broken at tick 0 shows it), one tick more is
+// not. Lengths past 32 bits are refused too, not wrapped into short ones.
+TEST(TrajectoryTest, ATrajectoryLongerThanTheCheckWalksIsRefusedAsTooLong) {
+  const GeometryQ g = default_geometry();
+  JointLimits above_q0;  // q0 is 0.45 rad: every walk stops at tick 0
+  above_q0.min_rad = to_q<Q3_28>(0.5);
+  TrajectoryConfig c = fourier_config();  // 250 mHz: 4000 ticks a period
+  c.blend_ticks = 2000;
+  c.fourier.periods = 149;  // 2 * 2000 + 149 * 4000 = 600000
+  ASSERT_EQ(Trajectory(g, c).length_ticks(), kMaxTrajectoryTicks);
+  const TrajectoryCheck longest = check_trajectory(g, c, above_q0);
+  EXPECT_EQ(longest.fault, TrajectoryFault::kJointLimit);
+  EXPECT_EQ(longest.tick, 0u);
+
+  c.fourier.periods = 150;
+  const TrajectoryCheck over = check_trajectory(g, c, above_q0);
+  EXPECT_EQ(over.fault, TrajectoryFault::kTooLong);
+  EXPECT_EQ(over.tick, kMaxTrajectoryTicks + 1);
+  EXPECT_EQ(over.joint, -1);
+  EXPECT_STREQ(trajectory_fault_name(over.fault), "too long");
+  EXPECT_EQ(Trajectory(g, c).length_ticks(), 0u);  // nothing to arm
+
+  // 1 mHz for 100 periods at 1 us a tick: 10^11 ticks, which 32 bits
+  // would have wrapped to 1.2 * 10^9.
+  c.tick_period_us = 1;
+  c.fourier.base_frequency_mHz = 1;
+  c.fourier.periods = 100;
+  EXPECT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kTooLong);
+  // 10 waypoints of 2^31 ticks, twice: 32 bits would have wrapped to 0.
+  TrajectoryConfig p = pick_and_place({{-0.08, 0.0, -0.48}, {0.08, 0.05, -0.42}}, 1u << 31, 2);
+  p.pick_and_place.waypoints = kMaxWaypoints;
+  EXPECT_EQ(check_trajectory(g, p, JointLimits{}).fault, TrajectoryFault::kTooLong);
+}
+
 TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) {
   const GeometryQ g = default_geometry();
   TrajectoryConfig c =

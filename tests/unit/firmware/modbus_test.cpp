@@ -1098,6 +1098,18 @@ TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
             mb::kCustomCount);
   EXPECT_EQ(back, good);
 
+  // 100 periods at 50 mHz last 2000 s, more ticks than the check walks
+  // (fw::kMaxTrajectoryTicks): refused as too long, the block unchanged.
+  delta::BlendedFourierTrajectory slow = path1_as_custom(1.0);
+  slow.fourier.base_frequency_hz = 0.05;
+  slow.periods = 100;
+  EXPECT_EQ(client.write_many(mb::kCustomFirst, delta::custom_trajectory_block(slow)), EMBXILVAL);
+  EXPECT_EQ(client.input("trajectory_check"), static_cast<int>(fw::TrajectoryFault::kTooLong));
+  EXPECT_EQ(client.input("trajectory_check_tick"), static_cast<int>(fw::kMaxTrajectoryTicks) + 1);
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
+            mb::kCustomCount);
+  EXPECT_EQ(back, good);
+
   // Registers out of range name themselves.
   EXPECT_EQ(client.write(mb::kCustomHarmonics, 7), EMBXILVAL);
   EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kOutOfRange));

@@ -27,6 +27,11 @@ using delta::fx::Vec3Q;
 
 inline constexpr int kMaxHarmonics = 6;
 inline constexpr int kMaxWaypoints = 10;
+// The last tick a trajectory may have: 10 minutes at the default 1 kHz.
+// check_trajectory() walks every tick (about 0.7 us each on a desktop x86,
+// several times that on a Cortex-M4) while the Modbus server waits for it,
+// so a longer one is refused (kTooLong) rather than walked for minutes.
+inline constexpr std::uint32_t kMaxTrajectoryTicks = 600000;
 
 // The minimum-jerk profile w(s) = 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]
 // and its s-derivatives: the blends, the Cartesian segments and the
@@ -125,7 +130,8 @@ class Trajectory {
 };
 
 // Walks every tick of the trajectory (a rejected configuration gives
-// kInvalidConfig at tick 0).
+// kInvalidConfig at tick 0; one longer than kMaxTrajectoryTicks, kTooLong
+// at tick kMaxTrajectoryTicks + 1, without walking it).
 TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
                                  const JointLimits& limits);
 

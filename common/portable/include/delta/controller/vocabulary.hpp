@@ -46,6 +46,7 @@ enum class TrajectoryFault : std::uint8_t {
   kVelocityLimit = 3,
   kAccelerationLimit = 4,
   kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
+  kTooLong = 6,           // more ticks than the check walks (fw::kMaxTrajectoryTicks)
 };
 
 // The excitation trajectories the controller knows, by id (the Modbus
@@ -75,12 +76,13 @@ inline constexpr std::array<std::string_view, 14> kFaultNames{"none",
                                                               "feedback malformed",
                                                               "CAN bus error",
                                                               "feedback late"};
-inline constexpr std::array<std::string_view, 6> kTrajectoryFaultNames{"ok",
+inline constexpr std::array<std::string_view, 7> kTrajectoryFaultNames{"ok",
                                                                        "invalid configuration",
                                                                        "joint limit",
                                                                        "velocity limit",
                                                                        "acceleration limit",
-                                                                       "outside the workspace"};
+                                                                       "outside the workspace",
+                                                                       "too long"};
 
 inline constexpr std::array<std::string_view, 4> kTrajectoryNames{"path1", "path2",
                                                                   "pick-and-place", "custom"};
@@ -121,7 +123,6 @@ constexpr bool trajectory_id(std::string_view name, TrajectoryId& id) {
 static_assert(kStateNames.size() == static_cast<unsigned>(State::kFault) + 1);
 static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kCustom) + 1);
 static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kFeedbackLate) + 1);
-static_assert(kTrajectoryFaultNames.size() ==
-              static_cast<unsigned>(TrajectoryFault::kOutsideWorkspace) + 1);
+static_assert(kTrajectoryFaultNames.size() == static_cast<unsigned>(TrajectoryFault::kTooLong) + 1);
 
 }  // namespace delta::controller
