@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <utility>
 
 namespace host_id {
@@ -29,36 +30,68 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 
 namespace {
 
+// Two lanes side by side in one SSE2 register (the GCC and Clang vector
+// extension). Each lane's arithmetic is the scalar one, in the same order,
+// so a lane's bits do not depend on whether it runs alone or in a pair.
+using LanePair = double __attribute__((vector_size(2 * sizeof(double))));
+
+// The two sections' states of one lane (T = double) or one pair (LanePair).
+template <class T>
+struct CascadeState {
+  T z1, z2, w1, w2;
+
+  // The steady state for a constant input x (unity DC gain).
+  static CascadeState steady(const Biquad& s, const Biquad& u, T x) {
+    return {x - s.b0 * x, s.b2 * x - s.a2 * x, x - u.b0 * x, u.b2 * x - u.a2 * x};
+  }
+  T step(const Biquad& s, const Biquad& u, T in) {
+    const T mid = s.b0 * in + z1;
+    z1 = s.b1 * in - s.a1 * mid + z2;
+    z2 = s.b2 * in - s.a2 * mid;
+    const T out = u.b0 * mid + w1;
+    w1 = u.b1 * mid - u.a1 * out + w2;
+    w2 = u.b2 * mid - u.a2 * out;
+    return out;
+  }
+};
+
+LanePair load_pair(const double* at) {
+  LanePair p;
+  std::memcpy(&p, at, sizeof p);
+  return p;
+}
+
+void store_pair(double* at, LanePair p) {
+  std::memcpy(at, &p, sizeof p);
+}
+
 // Runs the two sections in cascade over the n samples of every lane of a
 // buffer laid out by sample (W lanes contiguous), forward or backward in
 // time, starting each section of each lane in the steady state for a
 // constant input equal to the lane's first sample (unity DC gain). One pass
 // over memory for both sections; W is a template argument so that the
-// states live in registers and the lanes and sections run side by side.
+// states live in registers, two lanes to a register, and the lanes and
+// sections run side by side. The coefficients are copied first: the
+// compiler cannot know that x does not overlap the filter, and would load
+// them again after every store.
 template <std::size_t W>
 void run_cascade(const std::array<Biquad, 2>& filter, double* x, std::size_t n, bool backward) {
-  const Biquad& s = filter[0];
-  const Biquad& u = filter[1];
-  double z1[W], z2[W], w1[W], w2[W];
+  constexpr std::size_t kPairs = W / 2;
+  constexpr bool kOdd = W % 2 == 1;
+  const Biquad s = filter[0];
+  const Biquad u = filter[1];
   const double* first = backward ? x + (n - 1) * W : x;
-  for (std::size_t l = 0; l < W; ++l) {
-    z1[l] = first[l] - s.b0 * first[l];
-    z2[l] = s.b2 * first[l] - s.a2 * first[l];
-    w1[l] = first[l] - u.b0 * first[l];
-    w2[l] = u.b2 * first[l] - u.a2 * first[l];
+  std::array<CascadeState<LanePair>, kPairs> pairs;
+  for (std::size_t p = 0; p < kPairs; ++p) {
+    pairs[p] = CascadeState<LanePair>::steady(s, u, load_pair(first + 2 * p));
   }
+  CascadeState<double> last = CascadeState<double>::steady(s, u, first[W - 1]);
   for (std::size_t i = 0; i < n; ++i) {
     double* v = x + (backward ? n - 1 - i : i) * W;
-    for (std::size_t l = 0; l < W; ++l) {
-      const double in = v[l];
-      const double mid = s.b0 * in + z1[l];
-      z1[l] = s.b1 * in - s.a1 * mid + z2[l];
-      z2[l] = s.b2 * in - s.a2 * mid;
-      const double out = u.b0 * mid + w1[l];
-      w1[l] = u.b1 * mid - u.a1 * out + w2[l];
-      w2[l] = u.b2 * mid - u.a2 * out;
-      v[l] = out;
+    for (std::size_t p = 0; p < kPairs; ++p) {
+      store_pair(v + 2 * p, pairs[p].step(s, u, load_pair(v + 2 * p)));
     }
+    if constexpr (kOdd) v[W - 1] = last.step(s, u, v[W - 1]);
   }
 }
 

@@ -54,27 +54,31 @@ TEST(SignalTest, FiltfiltKeepsSlowSignalWithoutLagAndRemovesFastOne) {
 }
 
 // Lanes only share the pass over time: each series comes out exactly as
-// filtfilt() gives it alone, whatever the lanes' stride, and what lies
-// between the lanes is left alone.
+// filtfilt() gives it alone, whatever the lanes' count (one block of one to
+// six lanes, pairs and an odd one, and more than a block) and stride, and
+// what lies between the lanes is left alone.
 TEST(SignalTest, FiltfiltLanesEqualsFiltfiltOfEachSeriesBitForBit) {
   const auto filter = butterworth4_lowpass(20.0, 1000.0);
-  const std::size_t n = 700, lanes = 5, stride = 7, pad = 150;
-  std::vector<double> data(n * stride);
+  const std::size_t n = 700, stride = 9, pad = 150;
+  std::vector<double> start(n * stride);
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t l = 0; l < stride; ++l) {
       const double t = static_cast<double>(k) / 1000.0;
-      data[k * stride + l] = std::sin(2.0 * kPi * (0.7 + static_cast<double>(l)) * t) +
-                             0.01 * std::sin(2.0 * kPi * 230.0 * t + static_cast<double>(l));
+      start[k * stride + l] = std::sin(2.0 * kPi * (0.7 + static_cast<double>(l)) * t) +
+                              0.01 * std::sin(2.0 * kPi * 230.0 * t + static_cast<double>(l));
     }
   }
-  const std::vector<double> before = data;
-  filtfilt_lanes(filter, data.data(), n, lanes, stride, pad);
-  for (std::size_t l = 0; l < stride; ++l) {
-    std::vector<double> series(n);
-    for (std::size_t k = 0; k < n; ++k) series[k] = before[k * stride + l];
-    const std::vector<double> alone = l < lanes ? filtfilt(filter, series, pad) : series;
-    for (std::size_t k = 0; k < n; ++k) {
-      ASSERT_EQ(data[k * stride + l], alone[k]) << "lane " << l << ", sample " << k;
+  for (std::size_t lanes = 1; lanes <= 8; ++lanes) {
+    std::vector<double> data = start;
+    filtfilt_lanes(filter, data.data(), n, lanes, stride, pad);
+    for (std::size_t l = 0; l < stride; ++l) {
+      std::vector<double> series(n);
+      for (std::size_t k = 0; k < n; ++k) series[k] = start[k * stride + l];
+      const std::vector<double> alone = l < lanes ? filtfilt(filter, series, pad) : series;
+      for (std::size_t k = 0; k < n; ++k) {
+        ASSERT_EQ(data[k * stride + l], alone[k])
+            << lanes << " lanes: lane " << l << ", sample " << k;
+      }
     }
   }
 }
