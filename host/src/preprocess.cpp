@@ -438,13 +438,24 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   for (const MeasuredMoments& m : chunk_moments) r.measured.merge(m);
 }
 
+// Where sample q of a filter task's lanes lives: lane l is column
+// offset[l] of its joint's row, which is row[joint[l]].
+struct JointLanes {
+  std::array<double*, 3> row;
+  const std::ptrdiff_t* offset;
+  const unsigned char* joint;
+  double& operator[](std::size_t l) const { return row[joint[l]][offset[l]]; }
+};
+
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
 // filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
-// The series are independent: blocks of up to four of one joint's columns
-// that are not zero throughout (a joint's row is zero in the other joints'
-// friction columns; nonzero from fill_rows), and tau's three joints, are
-// shared out over the threads.
+// The series are independent: the (column, joint) pairs that are not zero
+// throughout (a joint's row is zero in the other joints' friction columns;
+// nonzero from fill_rows), taken column by column so that one task's lanes
+// are the three joints of the same columns, whose rows lie side by side:
+// each column is read and written once, not once per joint. They and tau's
+// three joints are shared out over the threads.
 void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
                     const RowLayout& layout, RowStore& store,
                     const std::vector<unsigned char>& nonzero, std::size_t samples,
@@ -452,26 +463,28 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
   constexpr std::size_t kLanes = FiltfiltBlock::kMaxLanes;
   struct Task {
     std::size_t segment;
-    unsigned joint;  // 3: tau's three joints
+    bool tau{false};  // tau's three joints
     std::size_t lanes{0};
     std::array<std::ptrdiff_t, kLanes> psi_offset{}, side_offset{};  // of each lane's column
+    std::array<unsigned char, kLanes> joint{};
   };
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < segments.size(); ++si) {
-    for (unsigned j = 0; j < 3; ++j) {
-      Task t{si, j};
-      for (std::size_t c = 0; c < store.p; ++c) {
+    Task t{si};
+    for (std::size_t c = 0; c < store.p; ++c) {
+      for (unsigned j = 0; j < 3; ++j) {
         if (!nonzero[j * store.p + c]) continue;
         t.psi_offset[t.lanes] = static_cast<std::ptrdiff_t>(c) * store.psi.outerStride();
         t.side_offset[t.lanes] = static_cast<std::ptrdiff_t>(c);
+        t.joint[t.lanes] = static_cast<unsigned char>(j);
         if (++t.lanes == kLanes) {
           tasks.push_back(t);
           t.lanes = 0;
         }
       }
-      if (t.lanes > 0) tasks.push_back(t);
     }
-    tasks.push_back({si, 3, 3, {}, {}});  // tau's three joints
+    if (t.lanes > 0) tasks.push_back(t);
+    tasks.push_back({si, true, 3, {}, {}, {}});
   }
   const auto run = [&](const Task& t, FiltfiltBlock& block) {
     const std::size_t si = t.segment;
@@ -481,9 +494,11 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
         [&](std::size_t q) {
           bool side = false;
           const std::size_t i = layout.place(si, q, len, side);
-          const std::size_t row = side ? 3 * i + t.joint : layout.row(i, t.joint);
-          return LaneRef{store.row_start(side, row),
-                         side ? t.side_offset.data() : t.psi_offset.data()};
+          JointLanes at{{}, side ? t.side_offset.data() : t.psi_offset.data(), t.joint.data()};
+          for (unsigned j = 0; j < 3; ++j) {
+            at.row[j] = store.row_start(side, side ? 3 * i + j : layout.row(i, j));
+          }
+          return at;
         },
         block);
   };
@@ -509,7 +524,7 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
   // One buffer per thread, grown to the longest segment.
   std::vector<FiltfiltBlock> blocks(workers, FiltfiltBlock(2, 0));
   run_tasks(tasks.size(), workers, [&](std::size_t worker, std::size_t k) {
-    if (tasks[k].joint == 3) {
+    if (tasks[k].tau) {
       run_tau(tasks[k], blocks[worker]);
     } else {
       run(tasks[k], blocks[worker]);

@@ -35,12 +35,12 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vec
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
                     std::size_t lanes, std::size_t stride, std::size_t pad);
 
-// Up to four series of n samples, extended at both ends by odd reflection
+// Up to six series of n samples, extended at both ends by odd reflection
 // over pad samples and filtered forward and backward: the work of
 // filtfilt_lanes, with the samples placed and taken by the caller.
 class FiltfiltBlock {
  public:
-  static constexpr std::size_t kMaxLanes = 4;
+  static constexpr std::size_t kMaxLanes = 6;
   // n >= 2; room for up to max_lanes lanes.
   FiltfiltBlock(std::size_t n, std::size_t pad, std::size_t max_lanes = kMaxLanes);
   // Makes the block serve series of n samples, keeping its buffer (one
