@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "commands/command.hpp"
+#include "delta/controller/vocabulary.hpp"
 #include "delta/robot_description.hpp"
 #include "delta/trajectory_file.hpp"
 #include "host_id/atomic_file.hpp"
@@ -172,6 +173,16 @@ int run_design(DesignArguments a, std::ostream& out) {
   const double mHz = a.design.base_frequency_hz * 1000.0;
   if (std::abs(mHz - std::round(mHz)) > 1e-9 * mHz) {
     throw UsageError("--base-hz: must be a whole number of mHz (the controller's unit)");
+  }
+  const DesignOptions& o = a.design;
+  if (const double s = 2.0 * o.blend_s + o.periods / o.base_frequency_hz;
+      s * 1000.0 > delta::controller::kMaxTrajectoryTicks) {
+    std::ostringstream m;
+    m << "--base-hz " << o.base_frequency_hz << " with --periods " << o.periods << " and --blend "
+      << o.blend_s << " lasts " << s << " s; the controller runs at most "
+      << delta::controller::kMaxTrajectoryTicks / 1000 << " s ("
+      << delta::controller::kMaxTrajectoryTicks << " ticks of 1 ms, docs/modbus.md)";
+    throw UsageError(m.str());
   }
   if (const DesignLimits& l = a.design.limits; !(l.min_rad < l.max_rad)) {
     std::ostringstream m;

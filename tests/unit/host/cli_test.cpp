@@ -627,6 +627,12 @@ TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {
   EXPECT_EQ(run({"design", "-o", path("t.json"), "--min-rad", "1", "--max-rad", "0.5"}), 2);
   EXPECT_NE(err_.str().find("--min-rad (1) must be below --max-rad (0.5)"), std::string::npos)
       << err_.str();
+  // 100 periods of 0.1 Hz: 1002 s, more than the controller walks.
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--base-hz", "0.1", "--periods", "100"}), 2);
+  EXPECT_NE(err_.str().find("--base-hz 0.1 with --periods 100 and --blend 1 lasts 1002 s; the "
+                            "controller runs at most 600 s"),
+            std::string::npos)
+      << err_.str();
   // No excitation keeps the torque below 0.01 N m against gravity.
   EXPECT_EQ(run({"design", "-o", path("t.json"), "--max-torque", "0.01", "--iterations", "5"}), 1);
   EXPECT_NE(err_.str().find("no excitation within the limits was found: the best breaks the "

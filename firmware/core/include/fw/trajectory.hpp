@@ -27,11 +27,9 @@ using delta::fx::Vec3Q;
 
 inline constexpr int kMaxHarmonics = 6;
 inline constexpr int kMaxWaypoints = 10;
-// The last tick a trajectory may have: 10 minutes at the default 1 kHz.
-// check_trajectory() walks every tick (about 0.7 us each on a desktop x86,
-// several times that on a Cortex-M4) while the Modbus server waits for it,
-// so a longer one is refused (kTooLong) rather than walked for minutes.
-inline constexpr std::uint32_t kMaxTrajectoryTicks = 600000;
+// check_trajectory() refuses a trajectory longer than this (kTooLong)
+// rather than walk it for minutes (the controller's vocabulary says why).
+using delta::controller::kMaxTrajectoryTicks;
 
 // The minimum-jerk profile w(s) = 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]
 // and its s-derivatives: the blends, the Cartesian segments and the

@@ -46,8 +46,14 @@ enum class TrajectoryFault : std::uint8_t {
   kVelocityLimit = 3,
   kAccelerationLimit = 4,
   kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
-  kTooLong = 6,           // more ticks than the check walks (fw::kMaxTrajectoryTicks)
+  kTooLong = 6,           // more than kMaxTrajectoryTicks
 };
+
+// The last tick a trajectory may have: 10 minutes at the default 1 ms tick.
+// The controller walks every tick against its limits before it runs a
+// trajectory (about 0.7 us a tick on a desktop x86), while its Modbus
+// server waits; a longer one is refused (TrajectoryFault::kTooLong).
+inline constexpr std::uint32_t kMaxTrajectoryTicks = 600000;
 
 // The excitation trajectories the controller knows, by id (the Modbus
 // holding register `trajectory`, docs/modbus.md); the firmware's catalogue
