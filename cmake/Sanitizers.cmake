@@ -12,7 +12,7 @@ endif()
 # they call; the harnesses link libFuzzer itself.
 if(DELTA_FUZZ)
   if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
-    message(FATAL_ERROR "DELTA_FUZZ needs clang (the fuzz preset sets it)")
+    message(FATAL_ERROR "DELTA_FUZZ needs clang (the asan and fuzz presets set it)")
   endif()
   add_compile_options(-fsanitize=fuzzer-no-link)
 endif()
