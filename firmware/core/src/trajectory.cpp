@@ -36,18 +36,26 @@ bool config_valid(const TrajectoryConfig& c) {
   return c.kind == TrajectoryKind::kFourier ? fourier_valid(c) : pick_and_place_valid(c);
 }
 
-// The last tick of a valid configuration, in 64 bits: a long one would wrap
-// 32. Fourier: whole periods of the base frequency, rounded to ticks, plus
-// the blends.
+// a * b, or UINT64_MAX where that would not fit.
+u64 saturating_mul(u64 a, u64 b) {
+  return a != 0 && b > UINT64_MAX / a ? UINT64_MAX : a * b;
+}
+
+// The last tick of a valid configuration, in 64 bits and saturating: a long
+// one would wrap 32 bits, and the core's counts (periods, cycles) can make
+// it wrap 64. Fourier: whole periods of the base frequency, rounded to
+// ticks, plus the blends.
 u64 length_ticks_of(const TrajectoryConfig& c) {
   if (c.kind == TrajectoryKind::kFourier) {
     const auto& f = c.fourier;
     const u64 period_ticks_e3 =
         kNanoPerSecondMilli * 1000 / (u64{f.base_frequency_mHz} * c.tick_period_us);
-    return 2 * u64{c.blend_ticks} + (period_ticks_e3 * f.periods + 500) / 1000;
+    const u64 periods_e3 = saturating_mul(period_ticks_e3, f.periods);
+    // Rounded to the nearest tick; at most 2^64 / 1000 + 2^33: no wrap.
+    return 2 * u64{c.blend_ticks} + periods_e3 / 1000 + (periods_e3 % 1000 >= 500 ? 1 : 0);
   }
   const auto& p = c.pick_and_place;
-  return u64{p.waypoints} * p.segment_ticks * p.cycles;
+  return saturating_mul(u64{p.waypoints} * p.segment_ticks, p.cycles);
 }
 
 // The angle of phase (k * tick * f * dt) in (-pi, pi], exactly from integers.

@@ -226,9 +226,17 @@ TEST(TrajectoryTest, ATrajectoryLongerThanTheCheckWalksIsRefusedAsTooLong) {
   c.fourier.base_frequency_mHz = 1;
   c.fourier.periods = 100;
   EXPECT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kTooLong);
+  // 4 * 10^9 periods of 10^12 / 1000 ticks: past 64 bits, saturated.
+  c.fourier.periods = 4000000000u;
+  EXPECT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kTooLong);
   // 10 waypoints of 2^31 ticks, twice: 32 bits would have wrapped to 0.
   TrajectoryConfig p = pick_and_place({{-0.08, 0.0, -0.48}, {0.08, 0.05, -0.42}}, 1u << 31, 2);
   p.pick_and_place.waypoints = kMaxWaypoints;
+  EXPECT_EQ(check_trajectory(g, p, JointLimits{}).fault, TrajectoryFault::kTooLong);
+  // 8 waypoints of 2^31 ticks, 2^30 times: 2^64, which 64 bits would have
+  // wrapped to 0 (a trajectory of no ticks). Saturated instead.
+  p.pick_and_place.waypoints = 8;
+  p.pick_and_place.cycles = 1u << 30;
   EXPECT_EQ(check_trajectory(g, p, JointLimits{}).fault, TrajectoryFault::kTooLong);
 }
 
