@@ -3,8 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <cstring>
 #include <utility>
+
+#include "host_id/lane_pair.hpp"
 
 namespace host_id {
 
@@ -30,11 +31,6 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 
 namespace {
 
-// Two lanes side by side in one SSE2 register (the GCC and Clang vector
-// extension). Each lane's arithmetic is the scalar one, in the same order,
-// so a lane's bits do not depend on whether it runs alone or in a pair.
-using LanePair = double __attribute__((vector_size(2 * sizeof(double))));
-
 // The two sections' states of one lane (T = double) or one pair (LanePair).
 template <class T>
 struct CascadeState {
@@ -54,16 +50,6 @@ struct CascadeState {
     return out;
   }
 };
-
-LanePair load_pair(const double* at) {
-  LanePair p;
-  std::memcpy(&p, at, sizeof p);
-  return p;
-}
-
-void store_pair(double* at, LanePair p) {
-  std::memcpy(at, &p, sizeof p);
-}
 
 // Runs the two sections in cascade over the n samples of every lane of a
 // buffer laid out by sample (W lanes contiguous), forward or backward in
