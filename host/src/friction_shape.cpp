@@ -58,7 +58,7 @@ Eigen::VectorXd ln_shape_std(const DeltaLog& log, const FitOptions& options,
   const Eigen::Index p = s.all.psi.cols();
   const Eigen::Index k = ln_shape.size();
   std::vector<ParameterInfo> infos = s.model->parameters();
-  s.all.psi.conservativeResize(Eigen::NoChange, p + k);
+  s.all.psi.conservative_resize_columns(p + k);
   constexpr double kStep = 0.01;  // in ln units: 1 %
   for (Eigen::Index i = 0; i < k; ++i) {
     Eigen::VectorXd up = ln_shape, down = ln_shape;

@@ -3,6 +3,7 @@
 #include <malloc.h>
 #include <sys/mman.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <mutex>
@@ -23,65 +24,150 @@ std::size_t whole_blocks(std::size_t bytes) {
   return (bytes + kHuge - 1) & ~(kHuge - 1);
 }
 
-// Mappings of one or two 2 MiB blocks, kept when freed for the next buffer
-// of the same length: a fit frees and takes such buffers again and again
-// (filter blocks, labels, residuals), and each fresh one costs the kernel a
-// page fault and the clearing of every byte of its blocks. At most
-// kKeptBytes in all, so a long log's memory is not held back (its buffers
-// are larger and never kept).
-class KeptBlocks {
+// Freed mappings (whole, aligned 2 MiB blocks), kept for the next buffers
+// instead of going back to the kernel: a fit frees and takes buffers of
+// megabytes again and again (the file's text, the joint states, filter
+// blocks, labels, residuals), and every fresh block costs the kernel a page
+// fault and the clearing of its 2 MiB. A buffer takes the smallest kept
+// range that holds it, and the rest of that range stays kept; where none
+// holds it, it is a new mapping into which the kept ranges move, largest
+// first, as many as fit (the kernel moves their pages, not their bytes), so
+// that only the rest of it is fresh. A freed range next to a kept one joins
+// it. At most kKeptBytes are kept: the part of a freed buffer beyond that
+// goes back to the kernel, so a long log's memory is not held back.
+class KeptRanges {
  public:
-  static constexpr std::size_t kLargestKept = 2 * kHuge;
-  static constexpr std::size_t kKeptBytes = 8 * kHuge;
+  static constexpr std::size_t kKeptBytes = 32 * kHuge;
 
-  // The mapping of exactly `length` bytes kept last, or nullptr.
+  // The start of `length` bytes of kept memory, or nullptr.
   void* take(std::size_t length) {
     const std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = count_; i-- > 0;) {
-      if (blocks_[i].length == length) {
-        void* p = blocks_[i].at;
-        for (std::size_t k = i; k + 1 < count_; ++k) blocks_[k] = blocks_[k + 1];
-        --count_;
-        kept_bytes_ -= length;
-        return p;
-      }
+    std::size_t best = count_;
+    for (std::size_t i = 0; i < count_; ++i) {
+      const std::size_t len = ranges_[i].length;
+      if (len >= length && (best == count_ || len < ranges_[best].length)) best = i;
     }
+    if (best < count_) return take_front(best, length);
+    if (count_ > 0) return gather(length);
     return nullptr;
   }
 
-  // Every kept mapping back to the kernel.
+  // Keeps [p, p + length) as far as the limit allows and gives the rest
+  // back to the kernel.
+  void keep(void* p, std::size_t length) noexcept {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const std::size_t kept = std::min(length, kKeptBytes - kept_bytes_);
+    if (kept < length) munmap(static_cast<char*>(p) + kept, length - kept);
+    if (kept == 0) return;
+    if (!join(p, kept)) {
+      if (count_ == ranges_.size()) {
+        munmap(p, kept);
+        return;
+      }
+      ranges_[count_++] = {static_cast<char*>(p), kept};
+    }
+    kept_bytes_ += kept;
+  }
+
+  // Every kept range back to the kernel.
   void give_back() noexcept {
     const std::lock_guard<std::mutex> lock(mutex_);
-    for (std::size_t i = 0; i < count_; ++i) munmap(blocks_[i].at, blocks_[i].length);
+    for (std::size_t i = 0; i < count_; ++i) munmap(ranges_[i].at, ranges_[i].length);
     count_ = 0;
     kept_bytes_ = 0;
   }
 
-  // True if the mapping is kept (else the caller unmaps it).
-  bool keep(void* p, std::size_t length) {
-    if (length > kLargestKept) return false;
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (count_ == blocks_.size() || kept_bytes_ + length > kKeptBytes) return false;
-    blocks_[count_++] = {p, length};
-    kept_bytes_ += length;
-    return true;
-  }
-
  private:
-  struct Block {
-    void* at{nullptr};
+  struct Range {
+    char* at{nullptr};
     std::size_t length{0};
   };
+
+  void* take_front(std::size_t i, std::size_t length) {
+    char* p = ranges_[i].at;
+    ranges_[i].at += length;
+    ranges_[i].length -= length;
+    kept_bytes_ -= length;
+    if (ranges_[i].length == 0) remove(i);
+    return p;
+  }
+
+  // A new aligned mapping of `length` bytes into whose front the kept
+  // ranges move, largest first, as many as fit (their pages move, not their
+  // bytes); the rest of it is fresh. nullptr where the kernel refuses.
+  void* gather(std::size_t length) {
+    void* reserved =
+        mmap(nullptr, length + kHuge, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (reserved == MAP_FAILED) return nullptr;
+    const auto begin = reinterpret_cast<std::uintptr_t>(reserved);
+    const std::uintptr_t aligned = (begin + kHuge - 1) & ~(kHuge - 1);
+    if (aligned > begin) munmap(reserved, aligned - begin);
+    if (const std::uintptr_t tail = begin + length + kHuge - (aligned + length); tail > 0) {
+      munmap(reinterpret_cast<void*>(aligned + length), tail);
+    }
+    char* const out = reinterpret_cast<char*>(aligned);
+    std::size_t filled = 0;
+    for (std::size_t i = largest_fitting(length); i < count_;
+         i = largest_fitting(length - filled)) {
+      const Range r = ranges_[i];
+      remove(i);
+      kept_bytes_ -= r.length;
+      // Moved over the fresh part; a range the kernel will not move (two
+      // mappings side by side that it did not merge) goes back to it.
+      if (mremap(r.at, r.length, r.length, MREMAP_MAYMOVE | MREMAP_FIXED, out + filled) ==
+          MAP_FAILED) {
+        munmap(r.at, r.length);
+        continue;
+      }
+      filled += r.length;
+    }
+    (void)madvise(out, length, MADV_HUGEPAGE);  // advice only
+    return out;
+  }
+
+  // The largest kept range of at most `room` bytes, or count_.
+  std::size_t largest_fitting(std::size_t room) const {
+    std::size_t found = count_;
+    for (std::size_t i = 0; i < count_; ++i) {
+      if (ranges_[i].length <= room &&
+          (found == count_ || ranges_[i].length > ranges_[found].length)) {
+        found = i;
+      }
+    }
+    return found;
+  }
+
+  // Whether [p, p + length) joined a kept range it borders.
+  bool join(void* p, std::size_t length) {
+    char* at = static_cast<char*>(p);
+    for (std::size_t i = 0; i < count_; ++i) {
+      if (ranges_[i].at + ranges_[i].length == at) {
+        ranges_[i].length += length;
+        return true;
+      }
+      if (at + length == ranges_[i].at) {
+        ranges_[i] = {at, ranges_[i].length + length};
+        return true;
+      }
+    }
+    return false;
+  }
+
+  void remove(std::size_t i) {
+    for (std::size_t k = i; k + 1 < count_; ++k) ranges_[k] = ranges_[k + 1];
+    --count_;
+  }
+
   std::mutex mutex_;
-  std::array<Block, 8> blocks_{};
+  std::array<Range, 32> ranges_{};
   std::size_t count_{0};
   std::size_t kept_bytes_{0};
 };
 
 // Never destroyed (nothing to do): a buffer freed by another static object's
 // destructor at exit still finds it.
-KeptBlocks kept_blocks;
-static_assert(std::is_trivially_destructible_v<KeptBlocks>);
+KeptRanges kept_ranges;
+static_assert(std::is_trivially_destructible_v<KeptRanges>);
 
 }  // namespace
 
@@ -105,13 +191,13 @@ void keep_freed_memory_for_reuse() {
 }
 
 void return_kept_buffers() noexcept {
-  kept_blocks.give_back();
+  kept_ranges.give_back();
 }
 
 void* allocate_buffer(std::size_t bytes) {
   if (!from_kernel(bytes)) return ::operator new(bytes);
   const std::size_t length = whole_blocks(bytes);
-  if (void* kept = kept_blocks.take(length)) return kept;
+  if (void* kept = kept_ranges.take(length)) return kept;
   // One block more than needed, so that an aligned run of blocks lies inside;
   // the unaligned head and the tail go back at once.
   void* mapped =
@@ -135,7 +221,7 @@ void free_buffer(void* p, std::size_t bytes) noexcept {
     return;
   }
   const std::size_t length = whole_blocks(bytes);
-  if (!kept_blocks.keep(p, length)) munmap(p, length);
+  kept_ranges.keep(p, length);
 }
 
 const delta::ByteStore kHugePageStore{allocate_buffer, free_buffer};

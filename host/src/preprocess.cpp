@@ -296,7 +296,7 @@ void RowLayout::order_rows(const std::vector<Segment>& segments, const States& s
 // The regression's rows and tau in their places: psi column-major (the
 // regression's own storage), the side rows row-major, tau of both alike.
 struct RowStore {
-  Eigen::MatrixXd& psi;
+  SeriesMatrix& psi;
   Eigen::VectorXd& tau;
   std::vector<double> side_rows;  // 3 p per trimmed sample
   std::vector<double> side_tau;   // 3 per trimmed sample
@@ -545,7 +545,6 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   Regression r;
   r.psi.resize(static_cast<Eigen::Index>(3 * layout.kept()), static_cast<Eigen::Index>(p));
   r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
-  advise_huge_pages(r.psi.data(), static_cast<std::size_t>(r.psi.size()) * sizeof(double));
   RowStore store{r.psi, r.tau, std::vector<double>(3 * layout.trimmed() * p),
                  std::vector<double>(3 * layout.trimmed()), p};
   r.t_s.resize(layout.kept());

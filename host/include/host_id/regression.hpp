@@ -12,6 +12,7 @@
 
 #include "host_id/huge_pages.hpp"
 #include "host_id/model.hpp"
+#include "host_id/series_matrix.hpp"
 
 namespace host_id {
 
@@ -56,7 +57,7 @@ struct MeasuredMoments {
 // (PrepareOptions::slow_rows_last_below_rad_s), so code that needs a
 // row's joint or sample reads joint[row] and sample[row].
 struct Regression {
-  Eigen::MatrixXd psi;                  // N m per unit of each parameter
+  SeriesMatrix psi;                     // N m per unit of each parameter
   Eigen::VectorXd tau;                  // N m
   SeriesVector<double> t_s;             // time of sample k
   SeriesVector<unsigned char> joint;    // the joint of each row, 0..2

@@ -175,46 +175,120 @@ bool mapped(void* p, std::size_t bytes) {
   return mincore(p, bytes, pages.data()) == 0;
 }
 
-// A freed buffer of one or two 2 MiB blocks goes to the next buffer of its
-// length as it was left; a larger one goes back to the kernel at once.
-TEST(HugePagesTest, AFreedBufferOfOneOrTwoBlocksIsTheNextOfItsLength) {
+constexpr std::size_t kBlock = std::size_t{2} << 20;
+
+// Fills [p, p + bytes) with the byte v.
+void paint(void* p, std::size_t bytes, unsigned char v) {
+  std::memset(p, v, bytes);
+}
+
+// Whether every byte of [p, p + bytes) is v.
+bool painted(const void* p, std::size_t bytes, unsigned char v) {
+  const auto* c = static_cast<const unsigned char*>(p);
+  for (std::size_t i = 0; i < bytes; ++i) {
+    if (c[i] != v) return false;
+  }
+  return true;
+}
+
+// A freed buffer goes to the next buffer it can hold, as it was left.
+TEST(HugePagesTest, AFreedBufferIsTheNextThatFitsAsItWasLeft) {
   return_kept_buffers();
   constexpr std::size_t kBytes = 3 << 20;  // two blocks
   auto* first = static_cast<char*>(allocate_buffer(kBytes));
-  std::memset(first, 7, kBytes);
+  paint(first, kBytes, 7);
   free_buffer(first, kBytes);
   EXPECT_TRUE(mapped(first, kBytes)) << "not kept";
   auto* again = static_cast<char*>(allocate_buffer(kBytes - 12345));  // the same two blocks
   EXPECT_EQ(again, first);
-  EXPECT_EQ(again[kBytes - 12346], 7) << "kept as it was left";
+  EXPECT_TRUE(painted(again, kBytes - 12345, 7)) << "not as it was left";
   auto* other = static_cast<char*>(allocate_buffer(kBytes));  // none kept now: fresh
   EXPECT_NE(other, first);
-  EXPECT_EQ(other[0], 0);
+  EXPECT_TRUE(painted(other, kBytes, 0));
   free_buffer(other, kBytes);
   free_buffer(again, kBytes - 12345);
-
-  constexpr std::size_t kLarge = 5 << 20;  // three blocks: not kept
-  auto* large = static_cast<char*>(allocate_buffer(kLarge));
-  large[0] = 1;
-  free_buffer(large, kLarge);
-  EXPECT_FALSE(mapped(large, kLarge)) << "a three-block buffer was kept";
   return_kept_buffers();
   EXPECT_FALSE(mapped(first, kBytes)) << "return_kept_buffers kept it";
+  EXPECT_FALSE(mapped(other, kBytes)) << "return_kept_buffers kept it";
 }
 
-// At most 16 MiB are kept: of ten freed buffers of two blocks, four stay
-// mapped for the next and six go back to the kernel.
-TEST(HugePagesTest, AtMostSixteenMiBAreKept) {
+// A large freed buffer serves smaller ones from its front, and what is left
+// of it stays kept for the next.
+TEST(HugePagesTest, ALargeFreedBufferIsSharedOutToSmallerOnes) {
   return_kept_buffers();
-  constexpr std::size_t kBytes = 4 << 20;
+  auto* large = static_cast<char*>(allocate_buffer(5 * kBlock));
+  for (std::size_t b = 0; b < 5; ++b)
+    paint(large + b * kBlock, kBlock, static_cast<unsigned char>(b + 1));
+  free_buffer(large, 5 * kBlock);
+  auto* a = static_cast<char*>(allocate_buffer(3 << 20));  // two blocks
+  auto* b = static_cast<char*>(allocate_buffer(2 * kBlock));
+  auto* c = static_cast<char*>(allocate_buffer(kBlock));
+  EXPECT_EQ(a, large);
+  EXPECT_EQ(b, large + 2 * kBlock);
+  EXPECT_EQ(c, large + 4 * kBlock);
+  EXPECT_TRUE(painted(b, kBlock, 3));
+  EXPECT_TRUE(painted(c, kBlock, 5));
+  auto* d = static_cast<char*>(allocate_buffer(kBlock));  // nothing left: fresh
+  EXPECT_TRUE(painted(d, kBlock, 0));
+  free_buffer(a, 3 << 20);
+  free_buffer(b, 2 * kBlock);
+  free_buffer(c, kBlock);
+  free_buffer(d, kBlock);
+  return_kept_buffers();
+  EXPECT_FALSE(mapped(large, 5 * kBlock));
+}
+
+// A buffer larger than any kept one is a new mapping into whose front the
+// kept ones move, largest first, with what they held; the rest is fresh,
+// and the kept ones are no longer where they were.
+TEST(HugePagesTest, ABufferLargerThanAnyKeptOneGathersThem) {
+  return_kept_buffers();
+  auto* two = static_cast<char*>(allocate_buffer(2 * kBlock));
+  auto* one = static_cast<char*>(allocate_buffer(kBlock));
+  paint(two, 2 * kBlock, 9);
+  paint(one, kBlock, 4);
+  free_buffer(one, kBlock);
+  free_buffer(two, 2 * kBlock);
+  auto* gathered = static_cast<char*>(allocate_buffer(5 * kBlock));
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(gathered) % kBlock, 0u) << "not aligned";
+  EXPECT_TRUE(painted(gathered, 2 * kBlock, 9));
+  EXPECT_TRUE(painted(gathered + 2 * kBlock, kBlock, 4));
+  EXPECT_TRUE(painted(gathered + 3 * kBlock, 2 * kBlock, 0));
+  EXPECT_FALSE(mapped(two, 2 * kBlock)) << "moved, yet still mapped where it was";
+  EXPECT_FALSE(mapped(one, kBlock)) << "moved, yet still mapped where it was";
+  paint(gathered, 5 * kBlock, 1);  // writable throughout
+  free_buffer(gathered, 5 * kBlock);
+  return_kept_buffers();
+}
+
+// At most 64 MiB are kept: of twenty freed buffers of 4 MiB, the first
+// sixteen stay mapped for the next and the other four go back to the kernel.
+TEST(HugePagesTest, AtMostSixtyFourMiBAreKept) {
+  return_kept_buffers();
+  constexpr std::size_t kBytes = 2 * kBlock;
   std::vector<void*> buffers;
-  for (int i = 0; i < 10; ++i) buffers.push_back(allocate_buffer(kBytes));
+  for (int i = 0; i < 20; ++i) buffers.push_back(allocate_buffer(kBytes));
   for (void* b : buffers) free_buffer(b, kBytes);
-  int still_mapped = 0;
-  for (void* b : buffers) still_mapped += mapped(b, kBytes) ? 1 : 0;
-  EXPECT_EQ(still_mapped, 4);  // 4 x 4 MiB
+  for (std::size_t i = 0; i < buffers.size(); ++i) {
+    EXPECT_EQ(mapped(buffers[i], kBytes), i < 16) << "buffer " << i;
+  }
   return_kept_buffers();
   for (void* b : buffers) EXPECT_FALSE(mapped(b, kBytes));
+}
+
+// The part of a freed buffer beyond the limit goes back to the kernel, and
+// its front is kept.
+TEST(HugePagesTest, AFreedBufferPastTheLimitKeepsOnlyItsFront) {
+  return_kept_buffers();
+  auto* most = allocate_buffer(31 * kBlock);
+  auto* last = static_cast<char*>(allocate_buffer(3 * kBlock));
+  free_buffer(most, 31 * kBlock);
+  free_buffer(last, 3 * kBlock);
+  EXPECT_TRUE(mapped(last, kBlock));
+  EXPECT_FALSE(mapped(last + kBlock, kBlock));
+  EXPECT_FALSE(mapped(last + 2 * kBlock, kBlock));
+  return_kept_buffers();
+  EXPECT_FALSE(mapped(last, kBlock));
 }
 #endif
 
