@@ -22,7 +22,7 @@ struct PsoOptions {
   std::uint64_t seed{1};
   // Stall: no relative improvement of the best cost by more than
   // stall_tolerance within stall_iterations iterations.
-  std::size_t stall_iterations{1000};
+  std::size_t stall_iterations{500};
   double stall_tolerance{1e-12};
   // On a stall, restart the swarm around the best point this many times
   // before stopping. None by default: the fit's cost is a convex quadratic
