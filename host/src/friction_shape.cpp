@@ -1,10 +1,13 @@
 #include "host_id/friction_shape.hpp"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/preprocess.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -18,59 +21,81 @@ ModelOptions with_shape(ModelOptions m, const Eigen::VectorXd& ln_shape) {
   return m;
 }
 
-// The fit's equations under a model: preprocessed, the fast rows first.
-struct ShapeRegression {
-  std::unique_ptr<Model> model;
-  Regression all;
-  std::size_t fast_rows{0};
-  double sample_rate_hz{0};
-};
-
-ShapeRegression regression_for(const DeltaLog& log, const FitOptions& options,
-                               const ModelOptions& m) {
-  ShapeRegression s;
-  s.model = make_model(m);
+// The log preprocessed for the given model's shape, the fast rows first:
+// each shape tried after it recomputes only the columns the shape changes.
+ShapePreprocess preprocess_for_shapes(const DeltaLog& log, const FitOptions& options) {
   PrepareOptions prepare = options.prepare;
   prepare.slow_rows_last_below_rad_s = min_speed_for(options);
-  Preprocessed pre = preprocess(*s.model, log, prepare, options.threads);
-  s.sample_rate_hz = pre.report.sample_rate_hz;
-  s.all = std::move(pre.regression);
-  s.fast_rows = pre.fast_rows;
-  return s;
+  return ShapePreprocess(*make_model(options.model), log, prepare, options.threads);
 }
 
-double profiled_cost(const DeltaLog& log, const FitOptions& options, const ModelOptions& m) {
-  const ShapeRegression s = regression_for(log, options, m);
-  return bounded_least_squares_cost(Equations(s.all, s.fast_rows), s.model->parameters(), log.name);
+// The bounded least-squares cost of the log's fast rows under model m.
+double profiled_cost(ShapePreprocess& pre, const ModelOptions& m, const std::string& log_name) {
+  const std::unique_ptr<Model> model = make_model(m);
+  const Preprocessed& p = pre.with_shape(*model);
+  return bounded_least_squares_cost(Equations(p.regression, p.fast_rows), model->parameters(),
+                                    log_name);
+}
+
+// The columns that carry the friction's shape in some joint's rows.
+std::vector<Eigen::Index> shape_columns(const Model& model) {
+  std::vector<Eigen::Index> out;
+  std::array<std::size_t, Model::kMaxShapeTerms> columns{};
+  std::array<double, Model::kMaxShapeTerms> values{};
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::size_t n = model.shape_terms(j, 0.0, columns.data(), values.data());
+    for (std::size_t t = 0; t < n; ++t) out.push_back(static_cast<Eigen::Index>(columns[t]));
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Those columns of psi.
+Eigen::MatrixXd columns_of(const SeriesMatrix& psi, const std::vector<Eigen::Index>& columns) {
+  Eigen::MatrixXd out(psi.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    out.col(static_cast<Eigen::Index>(k)) = psi.col(columns[k]);
+  }
+  return out;
 }
 
 // Standard deviations of the log shape parameters: the Gauss-Newton
 // covariance of the whole problem, the residual's derivative in each shape
 // parameter (central differences) appended to the regressor as a column.
-Eigen::VectorXd ln_shape_std(const DeltaLog& log, const FitOptions& options,
+// Only the shape's columns differ between the two shapes of a difference.
+Eigen::VectorXd ln_shape_std(ShapePreprocess& pre, const DeltaLog& log, const FitOptions& options,
                              const Eigen::VectorXd& ln_shape) {
-  const ModelOptions best = with_shape(options.model, ln_shape);
-  ShapeRegression s = regression_for(log, options, best);
-  const std::size_t lags = correlation_lags_for(s.sample_rate_hz, options.prepare.cutoff_hz);
-  const Equations eq(s.all, s.fast_rows);
-  const LeastSquaresResult ls =
-      solve_least_squares(eq, s.model->parameters(), LsSolver::kQr, LsWeights::kNone, log.name);
-  const Eigen::Index p = s.all.psi.cols();
+  const std::unique_ptr<Model> model = make_model(with_shape(options.model, ln_shape));
+  const Preprocessed& best = pre.with_shape(*model);
+  Regression all = best.regression;
+  const std::size_t fast_rows = best.fast_rows;
+  const std::size_t lags =
+      correlation_lags_for(best.report.sample_rate_hz, options.prepare.cutoff_hz);
+  const LeastSquaresResult ls = solve_least_squares(Equations(all, fast_rows), model->parameters(),
+                                                    LsSolver::kQr, LsWeights::kNone, log.name);
+  const Eigen::Index p = all.psi.cols();
   const Eigen::Index k = ln_shape.size();
-  std::vector<ParameterInfo> infos = s.model->parameters();
-  s.all.psi.conservative_resize_columns(p + k);
+  const std::vector<Eigen::Index> shape = shape_columns(*model);
+  Eigen::VectorXd shape_beta(static_cast<Eigen::Index>(shape.size()));
+  for (std::size_t c = 0; c < shape.size(); ++c) {
+    shape_beta(static_cast<Eigen::Index>(c)) = ls.beta(shape[c]);
+  }
+  std::vector<ParameterInfo> infos = model->parameters();
+  all.psi.conservative_resize_columns(p + k);
   constexpr double kStep = 0.01;  // in ln units: 1 %
   for (Eigen::Index i = 0; i < k; ++i) {
     Eigen::VectorXd up = ln_shape, down = ln_shape;
     up(i) += kStep;
     down(i) -= kStep;
-    const ShapeRegression a = regression_for(log, options, with_shape(options.model, up));
-    const ShapeRegression b = regression_for(log, options, with_shape(options.model, down));
-    s.all.psi.col(p + i) = (a.all.psi - b.all.psi) * ls.beta / (2.0 * kStep);
+    const Eigen::MatrixXd above = columns_of(
+        pre.with_shape(*make_model(with_shape(options.model, up))).regression.psi, shape);
+    const Eigen::MatrixXd below = columns_of(
+        pre.with_shape(*make_model(with_shape(options.model, down))).regression.psi, shape);
+    all.psi.col(p + i) = (above - below) * shape_beta / (2.0 * kStep);
     infos.push_back({i == 0 ? "ln_coulomb_smoothing" : "ln_stribeck_velocity", "-", false, ""});
   }
   const LeastSquaresResult aug = solve_least_squares(
-      Equations(s.all, s.fast_rows), infos, LsSolver::kQr, LsWeights::kNone, log.name, lags);
+      Equations(all, fast_rows), infos, LsSolver::kQr, LsWeights::kNone, log.name, lags);
   return aug.std_dev.tail(k);
 }
 
@@ -91,7 +116,8 @@ FrictionShapeResult fit_friction_shape(const DeltaLog& log, const FitOptions& op
     upper(1) = std::log(kStribeckMaxRadS);
   }
   FrictionShapeResult r;
-  r.cost_given_Nm2 = profiled_cost(log, options, options.model);
+  ShapePreprocess pre = preprocess_for_shapes(log, options);
+  r.cost_given_Nm2 = profiled_cost(pre, options.model, log.name);
   PsoOptions pso;
   pso.particles = 8;
   pso.iterations = 40;
@@ -101,12 +127,12 @@ FrictionShapeResult fit_friction_shape(const DeltaLog& log, const FitOptions& op
   pso.seed = options.pso.seed;
   const PsoResult best = run_pso(
       [&](const Eigen::VectorXd& ln_shape) {
-        return profiled_cost(log, options, with_shape(options.model, ln_shape));
+        return profiled_cost(pre, with_shape(options.model, ln_shape), log.name);
       },
       lower, upper, pso);
   r.evaluations = best.evaluations + 1;
   r.cost_fitted_Nm2 = best.best_cost;
-  const Eigen::VectorXd std_ln = ln_shape_std(log, options, best.best);
+  const Eigen::VectorXd std_ln = ln_shape_std(pre, log, options, best.best);
   r.coulomb_smoothing_rad_s = std::exp(best.best(0));
   r.coulomb_smoothing_std = r.coulomb_smoothing_rad_s * std_ln(0);
   if (stribeck) {

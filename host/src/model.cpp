@@ -143,6 +143,20 @@ class PhysicalModel final : public Model {
     return delta::KinematicsStatus::kOk;
   }
 
+  std::size_t shape_terms(unsigned joint, double qd_rad_s, std::size_t* columns,
+                          double* values) const override {
+    const delta::FrictionShapeTerms shape = delta::friction_shape_terms(
+        qd_rad_s, options_.coulomb_smoothing_rad_s, options_.stribeck_velocity_rad_s);
+    std::size_t n = 0;
+    for (const Column& c : columns_) {
+      const bool coulomb = c.term.basis == &B::coulomb;
+      if (!coulomb && c.term.basis != &B::stribeck) continue;
+      columns[n] = c.first + (c.per_joint ? joint : 0);
+      values[n++] = coulomb ? shape.coulomb : shape.stribeck;
+    }
+    return n;
+  }
+
   std::vector<double> parameter_vector(const delta::HighFidelityParameters& h) const override {
     std::vector<double> v;
     for (const Column& c : columns_) {

@@ -532,16 +532,21 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
   });
 }
 
-// The regression of the states: built in place, in the row order asked
-// for, labelled, filtered, trimmed; and how many rows come before the slow
-// ones. The states are freed once the rows are built, before filtering
-// needs its buffers.
-Regression regression_of(const Model& model, const DeltaLog& log, States&& s, const FilterDesign& d,
-                         double slow_below_rad_s, unsigned threads, std::size_t& fast_rows) {
-  const std::size_t p = model.size();
+// Where the states' samples go: the kept ones in the row order asked for
+// (joints slower than slow_below_rad_s last), the trimmed ones aside.
+RowLayout layout_of(const States& s, const FilterDesign& d, double slow_below_rad_s,
+                    const std::string& log_name) {
   RowLayout layout(s.segments, d.trim);
-  layout.order_rows(s.segments, s, slow_below_rad_s, log.name);
-  fast_rows = layout.fast_rows();
+  layout.order_rows(s.segments, s, slow_below_rad_s, log_name);
+  return layout;
+}
+
+// The regression of the states: built in place, in the layout's row
+// order, labelled, filtered, trimmed. With free_states the states are
+// freed once the rows are built, before filtering needs its buffers.
+Regression regression_of(const Model& model, const DeltaLog& log, States& s, const FilterDesign& d,
+                         const RowLayout& layout, unsigned threads, bool free_states) {
+  const std::size_t p = model.size();
   Regression r;
   r.psi.resize(static_cast<Eigen::Index>(3 * layout.kept()), static_cast<Eigen::Index>(p));
   r.tau.resize(static_cast<Eigen::Index>(3 * layout.kept()));
@@ -561,9 +566,79 @@ Regression regression_of(const Model& model, const DeltaLog& log, States&& s, co
   r.joint_columns_of = static_cast<Eigen::Index>(p);
   const std::vector<Segment> segments = s.segments;
   const std::size_t samples = s.size();
-  s = States{};
+  if (free_states) s = States{};
   if (!d.logged_derivatives) filter_columns(d, segments, layout, store, nonzero, samples, threads);
   return r;
+}
+
+// The columns of joint j's shape terms in the model's rows, and how many.
+struct ShapeColumns {
+  std::array<std::size_t, Model::kMaxShapeTerms> column{};
+  std::size_t count{0};
+};
+
+// The shape terms of joint j over segment si: computed from each sample's
+// velocity, filtered as fill_rows and filter_columns build and filter
+// them (a lane's bits do not depend on the others), and the kept samples'
+// values put into psi. Returns whether each term is anywhere nonzero.
+std::array<bool, Model::kMaxShapeTerms> refill_shape_terms(const Model& model, const States& s,
+                                                           const RowLayout& layout,
+                                                           const FilterDesign& d, std::size_t si,
+                                                           unsigned j, const ShapeColumns& shape,
+                                                           Regression& r) {
+  const Segment& seg = s.segments[si];
+  const std::size_t n = seg.end - seg.begin;
+  const std::size_t lanes = shape.count;
+  std::vector<double> values(n * lanes);
+  std::array<std::size_t, Model::kMaxShapeTerms> columns{};
+  std::array<bool, Model::kMaxShapeTerms> nonzero{};
+  for (std::size_t q = 0; q < n; ++q) {
+    double* v = &values[q * lanes];
+    model.shape_terms(j, s.states[seg.begin + q].qd_rad_s[j], columns.data(), v);
+    for (std::size_t t = 0; t < lanes; ++t) nonzero[t] = nonzero[t] || v[t] != 0.0;
+  }
+  if (!d.logged_derivatives) filtfilt_lanes(d.filter, values.data(), n, lanes, lanes, d.pad);
+  for (std::size_t q = 0; q < n; ++q) {
+    bool side = false;
+    const std::size_t i = layout.place(si, q, n, side);
+    if (side) continue;
+    const auto row = static_cast<Eigen::Index>(layout.row(i, j));
+    for (std::size_t t = 0; t < lanes; ++t) {
+      r.psi(row, static_cast<Eigen::Index>(shape.column[t])) = values[q * lanes + t];
+    }
+  }
+  return nonzero;
+}
+
+// The columns of r that carry the friction's shape recomputed for model's
+// shape, one task per segment and joint; the joints' nonzero columns
+// follow.
+void refill_shape_columns(const Model& model, const States& s, const RowLayout& layout,
+                          const FilterDesign& d, unsigned threads, Regression& r) {
+  std::array<ShapeColumns, 3> shape;
+  std::array<double, Model::kMaxShapeTerms> unused{};
+  for (unsigned j = 0; j < 3; ++j) {
+    shape[j].count = model.shape_terms(j, 0.0, shape[j].column.data(), unused.data());
+  }
+  const std::size_t tasks = 3 * s.segments.size();
+  std::vector<std::array<bool, Model::kMaxShapeTerms>> nonzero(tasks);
+  run_tasks(tasks, workers_for(s.size(), threads, kSamplesPerThread / 3),
+            [&](std::size_t, std::size_t task) {
+              const auto j = static_cast<unsigned>(task % 3);
+              nonzero[task] = refill_shape_terms(model, s, layout, d, task / 3, j, shape[j], r);
+            });
+  for (unsigned j = 0; j < 3; ++j) {
+    std::vector<Eigen::Index>& columns = r.joint_columns[j];
+    for (std::size_t t = 0; t < shape[j].count; ++t) {
+      bool any = false;
+      for (std::size_t task = j; task < tasks; task += 3) any = any || nonzero[task][t];
+      const auto c = static_cast<Eigen::Index>(shape[j].column[t]);
+      const auto at = std::lower_bound(columns.begin(), columns.end(), c);
+      const bool listed = at != columns.end() && *at == c;
+      if (any && !listed) columns.insert(at, c);
+      if (!any && listed) columns.erase(at);
+    }
+  }
 }
 
 }  // namespace
@@ -603,8 +678,9 @@ Preprocessed preprocess_with(const Model& model, const DeltaLog& log, const Prep
   out.report.samples_in_log = log.size();
   out.report.sample_rate_hz = design.sample_rate_hz;
   after_states();
-  out.regression = regression_of(model, log, std::move(states), design,
-                                 options.slow_rows_last_below_rad_s, threads, out.fast_rows);
+  const RowLayout layout = layout_of(states, design, options.slow_rows_last_below_rad_s, log.name);
+  out.fast_rows = layout.fast_rows();
+  out.regression = regression_of(model, log, states, design, layout, threads, true);
   return out;
 }
 
@@ -618,6 +694,43 @@ Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOp
 Preprocessed preprocess_releasing(const Model& model, DeltaLog& log, const PrepareOptions& options,
                                   unsigned threads) {
   return preprocess_with(model, log, options, threads, [&log] { release_samples(log); });
+}
+
+// What a fit that searches the friction's shape keeps of its log: the
+// filter, the joint states, the row layout, and the regression of the last
+// shape asked for.
+struct ShapePreprocess::Kept {
+  Kept(const Model& model, const DeltaLog& log, const PrepareOptions& options, unsigned t)
+      : design(design_filter(log, options)),
+        states(joint_states(log, design, t)),
+        layout(layout_of(states, design, options.slow_rows_last_below_rad_s, log.name)),
+        threads(t) {
+    out.report.segments_used = states.segments.size();
+    out.report.segments_dropped = states.segments_dropped;
+    out.report.derivatives = describe(design, options, states);
+    out.report.samples_in_log = log.size();
+    out.report.sample_rate_hz = design.sample_rate_hz;
+    out.fast_rows = layout.fast_rows();
+    out.regression = regression_of(model, log, states, design, layout, t, false);
+  }
+  FilterDesign design;
+  States states;
+  RowLayout layout;
+  unsigned threads;
+  Preprocessed out;
+};
+
+ShapePreprocess::ShapePreprocess(const Model& model, const DeltaLog& log,
+                                 const PrepareOptions& options, unsigned threads)
+    : kept_(std::make_unique<Kept>(model, log, options, threads)) {}
+
+ShapePreprocess::~ShapePreprocess() = default;
+
+const Preprocessed& ShapePreprocess::with_shape(const Model& model) {
+  refill_shape_columns(model, kept_->states, kept_->layout, kept_->design, kept_->threads,
+                       kept_->out.regression);
+  kept_->out.regression.measured = MeasuredMoments{};
+  return kept_->out;
 }
 
 }  // namespace host_id

@@ -65,6 +65,17 @@ Joint3 coupling_term(const Geometry& g, const JointState& s, const JointTrig& t,
 
 }  // namespace
 
+FrictionShapeTerms friction_shape_terms(double qd_rad_s, double coulomb_smoothing_rad_s,
+                                        double stribeck_velocity_rad_s) {
+  FrictionShapeTerms t;
+  t.coulomb = std::tanh(qd_rad_s / coulomb_smoothing_rad_s);
+  if (stribeck_velocity_rad_s > 0.0) {
+    const double v = qd_rad_s / stribeck_velocity_rad_s;
+    t.stribeck = std::exp(-v * v) * t.coulomb;
+  }
+  return t;
+}
+
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
                                 double coulomb_smoothing_rad_s, DynamicsBasis& out,
                                 double stribeck_velocity_rad_s) {
@@ -85,11 +96,10 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
     out.gravity[i] = -t.cos_q[i];
     out.gravity_sin[i] = t.sin_q[i];
     out.viscous[i] = s.qd_rad_s[i];
-    out.coulomb[i] = std::tanh(s.qd_rad_s[i] / coulomb_smoothing_rad_s);
-    if (stribeck_velocity_rad_s > 0.0) {
-      const double v = s.qd_rad_s[i] / stribeck_velocity_rad_s;
-      out.stribeck[i] = std::exp(-v * v) * out.coulomb[i];
-    }
+    const FrictionShapeTerms shape =
+        friction_shape_terms(s.qd_rad_s[i], coulomb_smoothing_rad_s, stribeck_velocity_rad_s);
+    out.coulomb[i] = shape.coulomb;
+    if (stribeck_velocity_rad_s > 0.0) out.stribeck[i] = shape.stribeck;
   }
   return KinematicsStatus::kOk;
 }

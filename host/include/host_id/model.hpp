@@ -53,6 +53,16 @@ class Model {
   // sin term, no coupling and equal platform masses). Throws
   // delta::InputError for a model without physical parameters (paper14).
   virtual std::vector<double> parameter_vector(const delta::HighFidelityParameters& p) const = 0;
+  // Where the friction's shape (coulomb_smoothing_rad_s,
+  // stribeck_velocity_rad_s) enters joint j's row: the columns of its shape
+  // terms, and their values at the joint's velocity qd, as rows() writes
+  // them. Every other value of the rows is the same for any shape. Returns
+  // how many (at most kMaxShapeTerms); 0 for a model without such terms.
+  static constexpr std::size_t kMaxShapeTerms = 2;
+  virtual std::size_t shape_terms(unsigned /*joint*/, double /*qd_rad_s*/, std::size_t* /*columns*/,
+                                  double* /*values*/) const {
+    return 0;
+  }
 
  protected:
   explicit Model(ModelOptions o) : options_(std::move(o)) {}

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -73,5 +74,27 @@ Preprocessed preprocess(const Model& model, const DeltaLog& log, const PrepareOp
 // name, geometry and gaps.
 Preprocessed preprocess_releasing(const Model& model, DeltaLog& log, const PrepareOptions& options,
                                   unsigned threads = 0);
+
+// A log preprocessed once for fits that differ only in the friction's shape
+// (Model::shape_terms: the Coulomb smoothing, the Stribeck velocity), as
+// --fit-friction-shape makes: the joint states and the row layout are kept,
+// and another shape recomputes and filters only its own columns, the same
+// values as preprocess() with that shape gives. Throws as preprocess().
+class ShapePreprocess {
+ public:
+  ShapePreprocess(const Model& model, const DeltaLog& log, const PrepareOptions& options,
+                  unsigned threads = 0);
+  ~ShapePreprocess();
+  ShapePreprocess(const ShapePreprocess&) = delete;
+  ShapePreprocess& operator=(const ShapePreprocess&) = delete;
+  // The preprocessed log under `model`: the model given at construction
+  // with another friction shape. Valid until the next call; its regression
+  // has no measured-torque moments (regression.measured is empty).
+  const Preprocessed& with_shape(const Model& model);
+
+ private:
+  struct Kept;
+  std::unique_ptr<Kept> kept_;
+};
 
 }  // namespace host_id

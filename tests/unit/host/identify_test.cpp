@@ -884,6 +884,46 @@ std::vector<Eigen::Index> fast_then_slow(const Regression& r, double min_speed_r
   return fast;
 }
 
+// A log preprocessed once for the friction's shape gives, for another
+// shape, bit for bit what preprocessing with that shape gives: every value
+// of psi and tau, the fast rows and each joint's nonzero columns; on a log
+// with a gap (two segments) and on one with logged derivatives (nothing
+// filtered), with one shape term (Coulomb) and two (with Stribeck), on one
+// thread and on two.
+TEST(IdentifyTest, AnotherFrictionShapeGivesWhatPreprocessingWithItGives) {
+  DeltaLog with_gap = simulated(4, 0.01, 17, false, "fourier", 24.0);
+  with_gap.gaps.push_back({9000, 0, "a test gap"});
+  const DeltaLog with_derivatives = simulated(5, 0.01, 0, true);
+  PrepareOptions prepare;
+  prepare.slow_rows_last_below_rad_s = 0.05;
+  for (const DeltaLog* log : {static_cast<const DeltaLog*>(&with_gap), &with_derivatives}) {
+    for (const std::string name : {"delta", "lumped"}) {
+      for (const double stribeck : {0.0, 0.2}) {
+        for (const unsigned threads : {1u, 2u}) {
+          SCOPED_TRACE(log->name + " " + name + " stribeck " + std::to_string(stribeck) +
+                       " threads " + std::to_string(threads));
+          ModelOptions first = model_named(name);
+          first.stribeck_velocity_rad_s = stribeck;
+          ModelOptions other = first;
+          other.coulomb_smoothing_rad_s = 0.035;
+          if (stribeck > 0.0) other.stribeck_velocity_rad_s = 0.07;
+          ShapePreprocess shapes(*make_model(first), *log, prepare, threads);
+          for (const ModelOptions& m : {other, first}) {
+            const auto model = make_model(m);
+            const Preprocessed& got = shapes.with_shape(*model);
+            const Preprocessed want = preprocess(*model, *log, prepare, threads);
+            EXPECT_TRUE(got.regression.psi == want.regression.psi);
+            EXPECT_TRUE(got.regression.tau == want.regression.tau);
+            EXPECT_EQ(got.fast_rows, want.fast_rows);
+            EXPECT_EQ(got.regression.joint_columns, want.regression.joint_columns);
+            EXPECT_EQ(got.regression.measured.rows[0], 0u) << "moments of another shape";
+          }
+        }
+      }
+    }
+  }
+}
+
 // Preprocessing asked for the slow rows last builds, filters and labels
 // every row in its place: bit for bit the time-ordered regression with its
 // rows reordered, on one thread and on two, on a log with a gap (two

@@ -98,6 +98,17 @@ struct JointState {
   Joint3 qdd_rad_s2{};
 };
 
+// The terms of one joint that carry the friction's shape: the smoothed
+// Coulomb term tanh(qd / w), and the Stribeck term exp(-(qd / vs)^2)
+// tanh(qd / w) where vs > 0 (else 0). dynamics_basis uses them, and a fit
+// that searches the shape recomputes them alone.
+struct FrictionShapeTerms {
+  double coulomb{};
+  double stribeck{};
+};
+FrictionShapeTerms friction_shape_terms(double qd_rad_s, double coulomb_smoothing_rad_s,
+                                        double stribeck_velocity_rad_s);
+
 // Computes the basis terms at one sample. Returns kUnreachable or kSingular
 // where the pose has no forward kinematics or a singular Jacobian.
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
