@@ -46,10 +46,6 @@ struct MeasuredMoments {
   std::array<Eigen::MatrixXd, 3> block_;  // p x kBlockRows: rows as columns
   std::array<Eigen::VectorXd, 3> block_tau_;
   std::array<Eigen::Index, 3> in_block_{};
-  std::array<std::vector<unsigned char>, 3> block_nonzero_;  // per column
-  Eigen::MatrixXd compact_;                                  // the block's used columns
-  Eigen::MatrixXd compact_sum_;
-  std::vector<Eigen::Index> used_;
 };
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
