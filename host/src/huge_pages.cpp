@@ -112,17 +112,36 @@ class KeptRanges {
       const Range r = ranges_[i];
       remove(i);
       kept_bytes_ -= r.length;
-      // Moved over the fresh part; a range the kernel will not move (two
-      // mappings side by side that it did not merge) goes back to it.
-      if (mremap(r.at, r.length, r.length, MREMAP_MAYMOVE | MREMAP_FIXED, out + filled) ==
-          MAP_FAILED) {
-        munmap(r.at, r.length);
-        continue;
+      if (!move_range(r.at, r.length, out + filled)) {
+        munmap(out, length);
+        return nullptr;
       }
       filled += r.length;
     }
     (void)madvise(out, length, MADV_HUGEPAGE);  // advice only
     return out;
+  }
+
+  // Moves the pages of [from, from + length) over [to, to + length), which
+  // is ours: in one piece, or a 2 MiB block at a time where the range spans
+  // mappings the kernel keeps apart (two joined ranges it did not merge).
+  // A block that will not move goes back to the kernel and fresh memory
+  // takes its place (a failed move may have unmapped its destination).
+  // False if not even that can be had.
+  static bool move_range(char* from, std::size_t length, char* to) {
+    const auto moved = [](char* a, std::size_t n, char* b) {
+      return mremap(a, n, n, MREMAP_MAYMOVE | MREMAP_FIXED, b) != MAP_FAILED;
+    };
+    if (moved(from, length, to)) return true;
+    for (std::size_t at = 0; at < length; at += kHuge) {
+      if (moved(from + at, kHuge, to + at)) continue;
+      munmap(from + at, kHuge);
+      if (mmap(to + at, kHuge, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_FIXED, -1,
+               0) == MAP_FAILED) {
+        return false;
+      }
+    }
+    return true;
   }
 
   // The largest kept range of at most `room` bytes, or count_.

@@ -261,6 +261,28 @@ TEST(HugePagesTest, ABufferLargerThanAnyKeptOneGathersThem) {
   return_kept_buffers();
 }
 
+// A kept range that spans two mappings (two joined ranges the kernel keeps
+// apart: here one buffer whose halves were advised differently) still
+// moves into a larger buffer with what it held. Kernels before 6.17 refuse
+// to move it in one piece, and it goes a block at a time; newer ones may
+// move it whole.
+TEST(HugePagesTest, AKeptRangeOverTwoMappingsStillMoves) {
+  return_kept_buffers();
+  auto* two = static_cast<char*>(allocate_buffer(2 * kBlock));
+  paint(two, kBlock, 3);
+  paint(two + kBlock, kBlock, 5);
+  ASSERT_EQ(madvise(two + kBlock, kBlock, MADV_NOHUGEPAGE), 0);  // its own mapping now
+  free_buffer(two, 2 * kBlock);
+  auto* larger = static_cast<char*>(allocate_buffer(3 * kBlock));
+  EXPECT_TRUE(painted(larger, kBlock, 3));
+  EXPECT_TRUE(painted(larger + kBlock, kBlock, 5));
+  EXPECT_TRUE(painted(larger + 2 * kBlock, kBlock, 0));
+  EXPECT_FALSE(mapped(two, 2 * kBlock));
+  paint(larger, 3 * kBlock, 1);  // writable throughout
+  free_buffer(larger, 3 * kBlock);
+  return_kept_buffers();
+}
+
 // At most 64 MiB are kept: of twenty freed buffers of 4 MiB, the first
 // sixteen stay mapped for the next and the other four go back to the kernel.
 TEST(HugePagesTest, AtMostSixtyFourMiBAreKept) {
