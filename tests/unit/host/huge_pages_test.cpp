@@ -263,7 +263,7 @@ TEST(HugePagesTest, ABufferLargerThanAnyKeptOneGathersThem) {
 
 // A kept range that spans two mappings (two joined ranges the kernel keeps
 // apart: here one buffer whose halves were advised differently) still
-// moves into a larger buffer with what it held. Kernels before 6.17 refuse
+// moves into a larger buffer with what it held. Older kernels refuse
 // to move it in one piece, and it goes a block at a time; newer ones may
 // move it whole.
 TEST(HugePagesTest, AKeptRangeOverTwoMappingsStillMoves) {
