@@ -907,8 +907,13 @@ TEST(IdentifyTest, AnotherFrictionShapeGivesWhatPreprocessingWithItGives) {
           ModelOptions other = first;
           other.coulomb_smoothing_rad_s = 0.035;
           if (stribeck > 0.0) other.stribeck_velocity_rad_s = 0.07;
+          // A Stribeck velocity so small that the term underflows to zero
+          // at every sample: its columns leave the joints' nonzero columns,
+          // and come back with the next shape.
+          ModelOptions vanishing = first;
+          if (stribeck > 0.0) vanishing.stribeck_velocity_rad_s = 1e-6;
           ShapePreprocess shapes(*make_model(first), *log, prepare, threads);
-          for (const ModelOptions& m : {other, first}) {
+          for (const ModelOptions& m : {other, vanishing, first}) {
             const auto model = make_model(m);
             const Preprocessed& got = shapes.with_shape(*model);
             const Preprocessed want = preprocess(*model, *log, prepare, threads);
