@@ -224,6 +224,18 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   return text.str();
 }
 
+// What preprocessing the log did, up to its joint states.
+PreprocessReport report_of(const DeltaLog& log, const FilterDesign& d,
+                           const PrepareOptions& options, const States& s) {
+  PreprocessReport report;
+  report.segments_used = s.segments.size();
+  report.segments_dropped = s.segments_dropped;
+  report.derivatives = describe(d, options, s);
+  report.samples_in_log = log.size();
+  report.sample_rate_hz = d.sample_rate_hz;
+  return report;
+}
+
 // Where each sample's three rows go. The samples kept after trimming go
 // straight into the regression (rows 3i..3i+2 of kept sample i); the few
 // trimmed at each segment end, which only the filter needs, go into a side
@@ -647,11 +659,7 @@ PreparedStates prepare_states(const DeltaLog& log, const PrepareOptions& options
   const FilterDesign design = design_filter(log, options);
   const States s = joint_states(log, design, 1);
   PreparedStates out;
-  out.report.segments_used = s.segments.size();
-  out.report.segments_dropped = s.segments_dropped;
-  out.report.derivatives = describe(design, options, s);
-  out.report.samples_in_log = log.size();
-  out.report.sample_rate_hz = design.sample_rate_hz;
+  out.report = report_of(log, design, options, s);
   for (const Segment& seg : s.segments) {
     for (std::size_t k = seg.begin + design.trim; k + design.trim < seg.end; ++k) {
       out.log_index.push_back(seg.log_begin + (k - seg.begin));
@@ -672,11 +680,7 @@ Preprocessed preprocess_with(const Model& model, const DeltaLog& log, const Prep
   const FilterDesign design = design_filter(log, options);
   Preprocessed out;
   States states = joint_states(log, design, threads);
-  out.report.segments_used = states.segments.size();
-  out.report.segments_dropped = states.segments_dropped;
-  out.report.derivatives = describe(design, options, states);
-  out.report.samples_in_log = log.size();
-  out.report.sample_rate_hz = design.sample_rate_hz;
+  out.report = report_of(log, design, options, states);
   after_states();
   const RowLayout layout = layout_of(states, design, options.slow_rows_last_below_rad_s, log.name);
   out.fast_rows = layout.fast_rows();
@@ -705,11 +709,7 @@ struct ShapePreprocess::Kept {
         states(joint_states(log, design, t)),
         layout(layout_of(states, design, options.slow_rows_last_below_rad_s, log.name)),
         threads(t) {
-    out.report.segments_used = states.segments.size();
-    out.report.segments_dropped = states.segments_dropped;
-    out.report.derivatives = describe(design, options, states);
-    out.report.samples_in_log = log.size();
-    out.report.sample_rate_hz = design.sample_rate_hz;
+    out.report = report_of(log, design, options, states);
     out.fast_rows = layout.fast_rows();
     out.regression = regression_of(model, log, states, design, layout, t, false);
   }
