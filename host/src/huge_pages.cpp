@@ -190,15 +190,6 @@ static_assert(std::is_trivially_destructible_v<KeptRanges>);
 
 }  // namespace
 
-void advise_huge_pages(void* data, std::size_t bytes) {
-  const auto begin = reinterpret_cast<std::uintptr_t>(data);
-  const std::uintptr_t first = (begin + kHuge - 1) & ~(kHuge - 1);
-  const std::uintptr_t last = (begin + bytes) & ~(kHuge - 1);
-  if (last <= first) return;
-  // Advice only: an error (no THP in this kernel) leaves the buffer as it was.
-  (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
-}
-
 void keep_freed_memory_for_reuse() {
 #if defined(M_MMAP_THRESHOLD) && defined(M_TRIM_THRESHOLD)
   constexpr int kLargestHeapBlock = 32 << 20;  // glibc's upper limit for the threshold

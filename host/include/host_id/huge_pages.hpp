@@ -23,25 +23,19 @@
 
 namespace host_id {
 
-// Asks for transparent huge pages (2 MiB) for the whole 2 MiB blocks inside
-// [data, data + bytes), before the buffer is first written: a large
-// regressor is then faulted in by one page fault per 2 MiB instead of one
-// per 4 KiB, and the kernel's page faults were a fifth of a fit's time. Only
-// advice: where the kernel has no huge pages to give (or none configured)
-// nothing changes.
-void advise_huge_pages(void* data, std::size_t bytes);
-
 // Memory for a buffer of `bytes`: from kHugePageBufferBytes on, whole 2 MiB
 // blocks from the kernel, aligned to 2 MiB and advised as huge pages (a
 // buffer of a few MiB from malloc holds few whole aligned blocks, and its
 // first writes fault 4 KiB at a time); below that, operator new. Under
 // AddressSanitizer always operator new, so that its checks see the buffer.
-// Throws std::bad_alloc when there is no memory. free_buffer keeps a freed
-// buffer of one or two blocks (up to 8 of them, 16 MiB in all) for the next
-// allocate_buffer of the same length, which gets it as it was left, not
-// cleared: a fit frees and takes such buffers again and again, and every
-// fresh block costs the kernel a fault and the clearing of 2 MiB. A long
-// log's buffers are larger and go back to the kernel at once.
+// Throws std::bad_alloc when there is no memory. free_buffer keeps freed
+// blocks (up to 64 MiB in all; the rest goes back to the kernel) for the
+// next allocate_buffer, which gets them as they were left, not cleared: the
+// front of the smallest kept range that holds it, or, larger than any, a
+// new mapping into which the kept ranges are moved (their pages, not their
+// bytes) with only its rest fresh. A fit frees and takes such buffers
+// again and again, and every fresh block costs the kernel a fault and the
+// clearing of 2 MiB.
 inline constexpr std::size_t kHugePageBufferBytes = std::size_t{1} << 20;
 inline constexpr bool kBuffersFromOperatorNew = HOST_ID_ADDRESS_SANITIZER != 0;
 void* allocate_buffer(std::size_t bytes);
