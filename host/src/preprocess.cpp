@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -338,25 +339,29 @@ void label_kept(const States& s, std::size_t k, std::size_t i, const RowLayout& 
   }
 }
 
-// One row's p values into its place, `stride` apart, and its columns that
-// are not zero marked in `nonzero`. A function of its own so that the
-// compiler knows that the marks, bytes (which may alias anything), alias
-// neither the row nor its place: in the loop that builds the rows it
-// reloaded them for every value.
-void put_row(const double* __restrict row, double* __restrict out, std::size_t stride,
-             unsigned char* __restrict nonzero, std::size_t p) {
-  for (std::size_t c = 0; c < p; ++c) {
-    out[c * stride] = row[c];
-    nonzero[c] |= static_cast<unsigned char>(row[c] != 0.0);
-  }
-}
-
 // The unfiltered rows' moments are summed per chunk of this many samples,
 // and the chunks' sums added in order: the same sums on any number of
 // threads (a worker takes whole chunks).
 constexpr std::size_t kMomentChunk = 1024;
 
-// Where the rows of the samples go: one sample's rows at a time.
+// The samples whose rows are built together, at most: their rows are
+// computed into a tile that stays in the cache, row after row, and then
+// copied out a column at a time. Written straight into the column-major
+// regressor, a sample's rows were stores to p columns far apart, and the
+// stores waited on memory.
+constexpr std::size_t kTileSamples = 128;
+
+// A worker's tile: the rows of up to kTileSamples samples, row-major, the
+// torque of each row, and the regressor row each kept row goes to.
+struct RowTile {
+  explicit RowTile(std::size_t p)
+      : rows(3 * kTileSamples * p), tau(3 * kTileSamples), to_row(3 * kTileSamples) {}
+  std::vector<double> rows;
+  std::vector<double> tau;
+  std::vector<std::size_t> to_row;
+};
+
+// Where the rows of the samples go: a tile of samples at a time.
 struct RowFill {
   const Model& model;
   const DeltaLog& log;
@@ -365,32 +370,88 @@ struct RowFill {
   RowStore& store;
   Regression& r;
 
-  // Sample k (of segment si): its three rows (`rows`, 3 p values of
-  // scratch) and torques into their places, the columns not zero marked
-  // in nz; if it is kept, its labels and its unfiltered rows into
-  // `moments`. False: the pose has no forward kinematics.
-  bool sample(std::size_t si, std::size_t k, double* rows, unsigned char* nz,
-              MeasuredMoments& moments) const {
+  // Samples [b, e) of segment si (no longer than a tile): their rows and
+  // torques into their places, the columns not zero marked in nz (3 p, per
+  // joint); the kept samples' labels, and their unfiltered rows into
+  // `moments`. The first sample whose pose has no forward kinematics, or e.
+  std::size_t samples(std::size_t si, std::size_t b, std::size_t e, RowTile& tile,
+                      unsigned char* nz, MeasuredMoments& moments) const {
     const std::size_t p = model.size();
-    if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows) !=
-        delta::KinematicsStatus::kOk) {
-      return false;
+    for (std::size_t k = b; k < e; ++k) {
+      if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], &tile.rows[3 * (k - b) * p]) !=
+          delta::KinematicsStatus::kOk) {
+        return k;
+      }
+      for (unsigned j = 0; j < 3; ++j) tile.tau[3 * (k - b) + j] = s.tau_Nm[k][j];
     }
     const Segment& seg = s.segments[si];
-    bool side = false;
-    const std::size_t i = layout.place(si, k - seg.begin, seg.end - seg.begin, side);
-    if (!side) label_kept(s, k, i, layout, r);
-    // A row's columns are `stride` apart: psi is column-major, the side
-    // rows row-major.
-    const std::size_t stride = side ? 1 : static_cast<std::size_t>(store.psi.rows());
+    const std::size_t len = seg.end - seg.begin;
+    // The kept samples of a segment are one run between its trimmed ends.
+    std::size_t kept_b = e, kept_e = e;
+    for (std::size_t k = b; k < e; ++k) {
+      bool side = false;
+      const std::size_t i = layout.place(si, k - seg.begin, len, side);
+      if (side) {
+        put_aside(&tile.rows[3 * (k - b) * p], &tile.tau[3 * (k - b)], i, nz);
+        continue;
+      }
+      kept_b = std::min(kept_b, k);
+      kept_e = k + 1;
+      label_kept(s, k, i, layout, r);
+      for (unsigned j = 0; j < 3; ++j) tile.to_row[3 * (k - b) + j] = layout.row(i, j);
+    }
+    if (kept_b < kept_e) put_kept(tile, kept_b - b, kept_e - b, nz, moments);
+    return e;
+  }
+
+  // A trimmed sample's three rows (row-major) and torques into the side
+  // buffers at its side index i.
+  void put_aside(const double* rows, const double* tau, std::size_t i, unsigned char* nz) const {
+    const std::size_t p = model.size();
     for (unsigned j = 0; j < 3; ++j) {
       const double* row = rows + j * p;
-      const std::size_t at = side ? 3 * i + j : layout.row(i, j);
-      put_row(row, store.row_start(side, at), stride, nz + j * p, p);
-      store.tau_at(side, at) = s.tau_Nm[k][j];
-      if (!side) moments.add(j, row, s.tau_Nm[k][j]);
+      double* out = store.row_start(true, 3 * i + j);
+      for (std::size_t c = 0; c < p; ++c) {
+        out[c] = row[c];
+        nz[j * p + c] |= static_cast<unsigned char>(row[c] != 0.0);
+      }
+      store.tau_at(true, 3 * i + j) = tau[j];
     }
-    return true;
+  }
+
+  // The kept samples [first, last) of the tile: each column copied to the
+  // regressor (its rows ascend in two runs at most, the fast and the slow
+  // joints), tau alike, and each joint's rows into the moments. A value
+  // marks its column not zero by its bits other than the sign (-0.0 is
+  // zero, as -0.0 == 0.0), which costs no comparison.
+  void put_kept(const RowTile& tile, std::size_t first, std::size_t last, unsigned char* nz,
+                MeasuredMoments& moments) const {
+    const std::size_t p = model.size();
+    for (std::size_t c = 0; c < p; ++c) {
+      double* column = &store.psi(0, static_cast<Eigen::Index>(c));
+      std::array<std::uint64_t, 3> bits{};
+      for (std::size_t t = first; t < last; ++t) {
+        for (unsigned j = 0; j < 3; ++j) {
+          const double v = tile.rows[(3 * t + j) * p + c];
+          column[tile.to_row[3 * t + j]] = v;
+          bits[j] |= std::bit_cast<std::uint64_t>(v) << 1;
+        }
+      }
+      for (unsigned j = 0; j < 3; ++j) nz[j * p + c] |= static_cast<unsigned char>(bits[j] != 0);
+    }
+    for (std::size_t t = 3 * first; t < 3 * last; ++t) {
+      store.tau(static_cast<Eigen::Index>(tile.to_row[t])) = tile.tau[t];
+    }
+    const auto n = static_cast<Eigen::Index>(last - first);
+    const auto pi = static_cast<Eigen::Index>(p);
+    for (unsigned j = 0; j < 3; ++j) {
+      // Joint j's rows as the columns of a p x n matrix, and its torques.
+      const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> rows(
+          &tile.rows[(3 * first + j) * p], pi, n, Eigen::OuterStride<>(3 * pi));
+      const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<3>> tau(
+          &tile.tau[3 * first + j], n);
+      moments.add(j, rows, tau);
+    }
   }
 };
 
@@ -408,28 +469,28 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   const std::size_t chunks = (n + kMomentChunk - 1) / kMomentChunk;
   const RowFill fill{model, log, s, layout, store, r};
   std::atomic<std::size_t> first_bad{n};
-  std::vector<MeasuredMoments> chunk_moments(chunks);  // sums only
+  std::vector<MeasuredMoments> chunk_moments(chunks);
   std::vector<std::vector<unsigned char>> nonzero_of(workers, std::vector<unsigned char>(3 * p));
-  // Worker w: its share of whole chunks, each chunk's moments summed alone.
+  // Worker w: its share of whole chunks, each chunk's moments summed alone,
+  // a tile at a time within a chunk and a segment.
   const auto work = [&](std::size_t w) {
-    std::vector<double> rows(3 * p);
-    MeasuredMoments moments;
+    RowTile tile(p);
     for (std::size_t c = chunks * w / workers; c < chunks * (w + 1) / workers; ++c) {
+      MeasuredMoments& moments = chunk_moments[c];
       moments.reset(p);
       for (std::size_t si = 0; si < s.segments.size(); ++si) {
         const std::size_t b = std::max(s.segments[si].begin, c * kMomentChunk);
         const std::size_t e = std::min(s.segments[si].end, (c + 1) * kMomentChunk);
-        for (std::size_t k = b; k < e; ++k) {
-          if (!fill.sample(si, k, rows.data(), nonzero_of[w].data(), moments)) {
-            std::size_t expected = first_bad.load();
-            while (k < expected && !first_bad.compare_exchange_weak(expected, k)) {
-            }
-            return;
+        for (std::size_t k = b; k < e; k += kTileSamples) {
+          const std::size_t end = std::min(e, k + kTileSamples);
+          const std::size_t bad = fill.samples(si, k, end, tile, nonzero_of[w].data(), moments);
+          if (bad == end) continue;
+          std::size_t expected = first_bad.load();
+          while (bad < expected && !first_bad.compare_exchange_weak(expected, bad)) {
           }
+          return;
         }
       }
-      moments.flush();
-      chunk_moments[c] = moments.sums();
     }
   };
   run_tasks(workers, workers, [&](std::size_t, std::size_t w) { work(w); });

@@ -244,43 +244,17 @@ void MeasuredMoments::reset(std::size_t parameters) {
     psi_t_tau[j] = Eigen::VectorXd::Zero(p);
     tau_sq[j] = 0.0;
     rows[j] = 0;
-    block_[j].resize(p, kBlockRows);
-    block_tau_[j].resize(kBlockRows);
-    in_block_[j] = 0;
   }
 }
 
-void MeasuredMoments::add(unsigned joint, const double* row, double tau) {
-  const Eigen::Index k = in_block_[joint]++;
-  double* column = block_[joint].col(k).data();
-  for (Eigen::Index c = 0; c < block_[joint].rows(); ++c) column[c] = row[c];
-  block_tau_[joint](k) = tau;
-  if (in_block_[joint] == kBlockRows) flush(joint);
-}
-
-void MeasuredMoments::flush(unsigned joint) {
-  const Eigen::Index k = in_block_[joint];
-  if (k == 0) return;
-  const auto rows_in = block_[joint].leftCols(k);
-  const auto tau_in = block_tau_[joint].head(k);
-  psi_t_psi[joint].selfadjointView<Eigen::Upper>().rankUpdate(rows_in);
-  psi_t_tau[joint].noalias() += rows_in * tau_in;
-  tau_sq[joint] += tau_in.squaredNorm();
-  rows[joint] += static_cast<std::size_t>(k);
-  in_block_[joint] = 0;
-}
-
-void MeasuredMoments::flush() {
-  for (unsigned j = 0; j < 3; ++j) flush(j);
-}
-
-MeasuredMoments MeasuredMoments::sums() const {
-  MeasuredMoments out;
-  out.psi_t_psi = psi_t_psi;
-  out.psi_t_tau = psi_t_tau;
-  out.tau_sq = tau_sq;
-  out.rows = rows;
-  return out;
+void MeasuredMoments::add(
+    unsigned joint,
+    const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>& rows_as_columns,
+    const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<3>>& tau) {
+  psi_t_psi[joint].selfadjointView<Eigen::Upper>().rankUpdate(rows_as_columns);
+  psi_t_tau[joint].noalias() += rows_as_columns * tau;
+  tau_sq[joint] += tau.squaredNorm();
+  rows[joint] += static_cast<std::size_t>(tau.size());
 }
 
 void MeasuredMoments::merge(const MeasuredMoments& other) {

@@ -30,22 +30,14 @@ struct MeasuredMoments {
   std::array<double, 3> tau_sq{};
   std::array<std::size_t, 3> rows{};
   void reset(std::size_t parameters);
-  // Rows are gathered a block at a time and taken into the sums by one
-  // rank update per block; flush() takes the rest (before merge or rmse).
-  void add(unsigned joint, const double* row, double tau);
-  void flush();
+  // The rows of one joint, a block at a time: rows are the columns of a
+  // p x n matrix (taken into the sums by one rank update), with their torques.
+  void add(unsigned joint,
+           const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>& rows_as_columns,
+           const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<3>>& tau);
   void merge(const MeasuredMoments& other);
-  // The sums alone (after flush()), without the block buffers: to merge.
-  MeasuredMoments sums() const;
   // The RMSE per joint against the measured torque (0 for a joint without rows).
   std::array<double, 3> rmse(const Eigen::VectorXd& beta) const;
-
- private:
-  static constexpr Eigen::Index kBlockRows = 128;
-  void flush(unsigned joint);
-  std::array<Eigen::MatrixXd, 3> block_;  // p x kBlockRows: rows as columns
-  std::array<Eigen::VectorXd, 3> block_tau_;
-  std::array<Eigen::Index, 3> in_block_{};
 };
 
 // One equation (row) per joint and sample. As built, rows 3k..3k+2 belong to
