@@ -33,6 +33,7 @@ struct FilterDesign {
   std::size_t pad{0};   // reflected samples at each end of a filtered series
   std::size_t trim{0};  // samples dropped at each segment end after filtering
   double sample_rate_hz{0};
+  double median_step_s{0};  // of the whole log
 };
 
 // Joint states and torques of every sample of every segment long enough to
@@ -60,6 +61,7 @@ double median_step(const double* t, std::size_t n) {
 FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   FilterDesign d;
   const double h_median = median_step(log.t.data(), log.t.size());
+  d.median_step_s = h_median;
   const double fs =
       log.sample_rate_hz ? *log.sample_rate_hz : (h_median > 0 ? 1.0 / h_median : 0.0);
   d.sample_rate_hz = fs;
@@ -82,57 +84,54 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
 // Samples per thread that pay for its start-up.
 constexpr std::size_t kSamplesPerThread = 20000;
 
-// The buffers a segment's series are worked in, reused for every segment:
-// joint j's q, qd and qdd at [j n, (j + 1) n) of q, qd and qdd.
-struct SeriesScratch {
-  SeriesVector<double> q, qd, qdd;
-  std::vector<double> one_qd, one_qdd;  // one joint's, as differentiated
-  FiltfiltBlock block{2, 0, 3};
-};
-
-// Whether the times t[0..n) are evenly spaced, and their step h (their
-// median step, for a log that carries no derivatives).
-bool uniform_steps(const double* t, std::size_t n, double& h) {
-  h = median_step(t, n);
+// Whether the times t[0..n) are evenly spaced about their median step h.
+bool uniform_steps(const double* t, std::size_t n, double h) {
   double worst = 0.0;
   for (std::size_t i = 1; i < n; ++i) worst = std::max(worst, std::abs((t[i] - t[i - 1]) - h));
   return worst <= 1e-6 * h;
 }
 
-// The three joints' q of segment [b, e) of the log into the scratch buffers,
-// filtered as three lanes of one pass and differentiated (step h where the
-// times are uniform); only copied where the log carries qd and qdd.
-void derive_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                   bool uniform, double h, SeriesScratch& scratch) {
+// The three joints' q of segment [b, e) of the log into the block, filtered
+// as three lanes of one pass.
+void filter_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
+                   FiltfiltBlock& block) {
   const std::size_t n = e - b;
-  SeriesVector<double>& q = scratch.q;
-  q.resize(3 * n);
-  for (unsigned j = 0; j < 3; ++j) {
-    std::copy_n(log.q[j].begin() + static_cast<std::ptrdiff_t>(b), n,
-                q.begin() + static_cast<std::ptrdiff_t>(j * n));
+  block.resize(n, d.pad);
+  for (std::size_t k = 0; k < n; ++k) {
+    for (unsigned j = 0; j < 3; ++j) block.sample(k, j, 3) = log.q[j][b + k];
   }
-  if (d.logged_derivatives) return;
-  const std::array<std::ptrdiff_t, 3> joint_lane{0, static_cast<std::ptrdiff_t>(n),
-                                                 static_cast<std::ptrdiff_t>(2 * n)};
-  filtfilt_lanes(
-      d.filter, n, 3, d.pad,
-      [&](std::size_t k) {
-        return LaneRef{&q[k], joint_lane.data()};
-      },
-      scratch.block);
-  scratch.qd.resize(3 * n);
-  scratch.qdd.resize(3 * n);
-  for (unsigned j = 0; j < 3; ++j) {
-    const std::span<const double> qj(q.data() + j * n, n);
-    if (uniform) {
-      differentiate_uniform(qj, h, scratch.one_qd, scratch.one_qdd);
-    } else {
-      differentiate_nonuniform(std::span(log.t).subspan(b, n), qj, scratch.one_qd, scratch.one_qdd);
-    }
-    std::copy(scratch.one_qd.begin(), scratch.one_qd.end(), scratch.qd.data() + j * n);
-    std::copy(scratch.one_qdd.begin(), scratch.one_qdd.end(), scratch.qdd.data() + j * n);
-  }
+  block.run(d.filter, 3);
 }
+
+// Where the joint states of segment [b, e) come from: the log's q, qd and
+// qdd where it carries the derivatives, else the filtered q in the block,
+// differentiated at step h where the times are uniform.
+struct JointSource {
+  const DeltaLog& log;
+  const FilterDesign& d;
+  const FiltfiltBlock& block;
+  std::size_t b, n;
+  bool uniform;
+  double h;
+
+  // Sample i of the segment.
+  void state(std::size_t i, delta::JointState& st) const {
+    for (unsigned j = 0; j < 3; ++j) {
+      if (d.logged_derivatives) {
+        st.q_rad[j] = log.q[j][b + i];
+        st.qd_rad_s[j] = log.qd[j][b + i];
+        st.qdd_rad_s2[j] = log.qdd[j][b + i];
+        continue;
+      }
+      const double* q = block.filtered_lane(j);  // sample k at q[3 k]
+      const Derivatives dq = uniform ? uniform_derivatives_at(q, 3, n, h, i)
+                                     : nonuniform_derivatives_at(log.t.data() + b, q, 3, n, i);
+      st.q_rad[j] = q[3 * i];
+      st.qd_rad_s[j] = dq.first;
+      st.qdd_rad_s2[j] = dq.second;
+    }
+  }
+};
 
 // Room for segment [b, e)'s states at the end of out, and its raw torques
 // (filtered later with the regressor's columns) and times.
@@ -149,37 +148,29 @@ void place_raw(const DeltaLog& log, std::size_t b, std::size_t e, States& out) {
 }
 
 // q, qd, qdd and tau of one segment [b, e) of the log, appended to out. The
-// joints' series are derived on one thread while the states' memory is
-// laid out on another, then put into the states on all of them.
+// joints' q are filtered on one thread while the states' memory is laid
+// out on another; then the states are differentiated into place on all.
 void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                    unsigned threads, States& out, SeriesScratch& scratch) {
+                    unsigned threads, States& out, FiltfiltBlock& block) {
   const std::size_t n = e - b;
   const std::size_t first = out.states.size();
   out.segments.push_back({first, first + n, b});
-  double h = 0.0;
+  // The whole log's median step serves a log without gaps.
+  const double h = b == 0 && e == log.size() ? d.median_step_s : median_step(log.t.data() + b, n);
   const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
   out.any_nonuniform = out.any_nonuniform || !uniform;
   const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
   run_tasks(2, workers, [&](std::size_t, std::size_t task) {
-    if (task == 0) {
-      derive_joints(log, d, b, e, uniform, h, scratch);
-    } else {
+    if (task == 1) {
       place_raw(log, b, e, out);
+    } else if (!d.logged_derivatives) {
+      filter_joints(log, d, b, e, block);
     }
   });
-  std::array<const double*, 3> qd{}, qdd{};
-  for (unsigned j = 0; j < 3; ++j) {
-    qd[j] = d.logged_derivatives ? log.qd[j].data() + b : scratch.qd.data() + j * n;
-    qdd[j] = d.logged_derivatives ? log.qdd[j].data() + b : scratch.qdd.data() + j * n;
-  }
+  const JointSource source{log, d, block, b, n, uniform, h};
   run_tasks(workers, workers, [&](std::size_t, std::size_t w) {
     for (std::size_t i = n * w / workers; i < n * (w + 1) / workers; ++i) {
-      delta::JointState& st = out.states[first + i];
-      for (unsigned j = 0; j < 3; ++j) {
-        st.q_rad[j] = scratch.q[j * n + i];
-        st.qd_rad_s[j] = qd[j][i];
-        st.qdd_rad_s2[j] = qdd[j][i];
-      }
+      source.state(i, out.states[first + i]);
     }
   });
 }
@@ -189,7 +180,7 @@ States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads
   out.states.reserve(log.size());
   out.tau_Nm.reserve(log.size());
   out.t_s.reserve(log.size());
-  SeriesScratch scratch;
+  FiltfiltBlock block(2, 0, 3);
   std::vector<std::size_t> bounds{0};
   for (const SampleGap& g : log.gaps) bounds.push_back(g.index);
   bounds.push_back(log.size());
@@ -198,7 +189,7 @@ States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads
       ++out.segments_dropped;
       continue;
     }
-    append_segment(log, d, bounds[s], bounds[s + 1], threads, out, scratch);
+    append_segment(log, d, bounds[s], bounds[s + 1], threads, out, block);
   }
   if (out.states.empty()) {
     std::ostringstream s;

@@ -175,26 +175,11 @@ void differentiate_uniform(std::span<const double> x, double h, std::vector<doub
   dx.assign(n, 0.0);
   ddx.assign(n, 0.0);
   if (n < 3) return;
-  for (std::size_t i = 2; i + 2 < n; ++i) {
-    dx[i] = (-x[i + 2] + 8.0 * x[i + 1] - 8.0 * x[i - 1] + x[i - 2]) / (12.0 * h);
-    ddx[i] =
-        (-x[i + 2] + 16.0 * x[i + 1] - 30.0 * x[i] + 16.0 * x[i - 1] - x[i - 2]) / (12.0 * h * h);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Derivatives d = uniform_derivatives_at(x.data(), 1, n, h, i);
+    dx[i] = d.first;
+    ddx[i] = d.second;
   }
-  // Near the ends: three-point central, then one-sided.
-  const auto central3 = [&](std::size_t i) {
-    dx[i] = (x[i + 1] - x[i - 1]) / (2.0 * h);
-    ddx[i] = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (h * h);
-  };
-  if (n >= 5) {
-    central3(1);
-    central3(n - 2);
-  } else {
-    for (std::size_t i = 1; i + 1 < n; ++i) central3(i);
-  }
-  dx[0] = (-3.0 * x[0] + 4.0 * x[1] - x[2]) / (2.0 * h);
-  ddx[0] = ddx[1];
-  dx[n - 1] = (3.0 * x[n - 1] - 4.0 * x[n - 2] + x[n - 3]) / (2.0 * h);
-  ddx[n - 1] = ddx[n - 2];
 }
 
 void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
@@ -203,18 +188,11 @@ void differentiate_nonuniform(std::span<const double> t, std::span<const double>
   dx.assign(n, 0.0);
   ddx.assign(n, 0.0);
   if (n < 3) return;
-  for (std::size_t i = 1; i + 1 < n; ++i) {
-    const double hm = t[i] - t[i - 1];
-    const double hp = t[i + 1] - t[i];
-    // Exact for quadratics on uneven spacing.
-    dx[i] = (x[i + 1] * hm * hm - x[i - 1] * hp * hp + x[i] * (hp * hp - hm * hm)) /
-            (hm * hp * (hm + hp));
-    ddx[i] = 2.0 * ((x[i + 1] - x[i]) / hp - (x[i] - x[i - 1]) / hm) / (hm + hp);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Derivatives d = nonuniform_derivatives_at(t.data(), x.data(), 1, n, i);
+    dx[i] = d.first;
+    ddx[i] = d.second;
   }
-  dx[0] = (x[1] - x[0]) / (t[1] - t[0]);
-  ddx[0] = ddx[1];
-  dx[n - 1] = (x[n - 1] - x[n - 2]) / (t[n - 1] - t[n - 2]);
-  ddx[n - 1] = ddx[n - 2];
 }
 
 }  // namespace host_id

@@ -53,6 +53,8 @@ class FiltfiltBlock {
   void run(const std::array<Biquad, 2>& filter, std::size_t lanes);
   // Sample k of lane l after run().
   double filtered(std::size_t k, std::size_t l) const { return ext_[(pad_ + k) * lanes_ + l]; }
+  // Lane l's filtered samples after run(): sample k at [k * lanes].
+  const double* filtered_lane(std::size_t l) const { return ext_.data() + pad_ * lanes_ + l; }
 
  private:
   std::size_t n_, pad_, lanes_{0}, max_lanes_;
@@ -106,13 +108,55 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
   filtfilt_lanes(filter, n, lanes, pad, at, block);
 }
 
-// First and second derivatives of uniformly sampled x with spacing h: the
-// five-point central stencils (error O(h^4)) inside, three-point and
-// one-sided stencils at the two samples of each end.
+// The first and second derivatives at one sample.
+struct Derivatives {
+  double first{0}, second{0};
+};
+
+// Of uniformly sampled x with spacing h, at sample i of n >= 3 (sample k
+// at x[k * stride]): the five-point central stencils (error O(h^4)) inside,
+// three-point and one-sided stencils at the two samples of each end.
+inline Derivatives uniform_derivatives_at(const double* x, std::size_t stride, std::size_t n,
+                                          double h, std::size_t i) {
+  const auto at = [&](std::size_t k) { return x[k * stride]; };
+  const auto central3 = [&](std::size_t k) {
+    return Derivatives{(at(k + 1) - at(k - 1)) / (2.0 * h),
+                       (at(k + 1) - 2.0 * at(k) + at(k - 1)) / (h * h)};
+  };
+  if (i == 0) return {(-3.0 * at(0) + 4.0 * at(1) - at(2)) / (2.0 * h), central3(1).second};
+  if (i + 1 == n) {
+    return {(3.0 * at(n - 1) - 4.0 * at(n - 2) + at(n - 3)) / (2.0 * h), central3(n - 2).second};
+  }
+  if (i == 1 || i + 2 == n) return central3(i);
+  return {(-at(i + 2) + 8.0 * at(i + 1) - 8.0 * at(i - 1) + at(i - 2)) / (12.0 * h),
+          (-at(i + 2) + 16.0 * at(i + 1) - 30.0 * at(i) + 16.0 * at(i - 1) - at(i - 2)) /
+              (12.0 * h * h)};
+}
+
+// The same on non-uniform times t: three-point stencils (error O(h^2)),
+// exact for quadratics; one-sided first differences at the ends.
+inline Derivatives nonuniform_derivatives_at(const double* t, const double* x, std::size_t stride,
+                                             std::size_t n, std::size_t i) {
+  const auto at = [&](std::size_t k) { return x[k * stride]; };
+  const auto second = [&](std::size_t k) {
+    const double hm = t[k] - t[k - 1];
+    const double hp = t[k + 1] - t[k];
+    return 2.0 * ((at(k + 1) - at(k)) / hp - (at(k) - at(k - 1)) / hm) / (hm + hp);
+  };
+  if (i == 0) return {(at(1) - at(0)) / (t[1] - t[0]), second(1)};
+  if (i + 1 == n) return {(at(n - 1) - at(n - 2)) / (t[n - 1] - t[n - 2]), second(n - 2)};
+  const double hm = t[i] - t[i - 1];
+  const double hp = t[i + 1] - t[i];
+  return {(at(i + 1) * hm * hm - at(i - 1) * hp * hp + at(i) * (hp * hp - hm * hm)) /
+              (hm * hp * (hm + hp)),
+          second(i)};
+}
+
+// uniform_derivatives_at for every sample of x (zeros for fewer than three).
 void differentiate_uniform(std::span<const double> x, double h, std::vector<double>& dx,
                            std::vector<double>& ddx);
 
-// The same on non-uniform times t: three-point stencils (error O(h^2)).
+// nonuniform_derivatives_at for every sample of x on times t.
 void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
                               std::vector<double>& dx, std::vector<double>& ddx);
 

@@ -112,5 +112,31 @@ TEST(SignalTest, NonUniformDifferencesAreExactForQuadratics) {
   }
 }
 
+// Preprocessing differentiates each joint's q where the filter left it,
+// every third value of the block: the one-sample stencils read x through
+// their stride and give, at every sample (the ends too), exactly what the
+// whole-series functions give.
+TEST(SignalTest, DerivativesAtOneSampleThroughAStrideAreTheSeriesDerivatives) {
+  for (const std::size_t n : {3u, 4u, 5u, 6u, 40u}) {
+    std::vector<double> t(n), x(n), strided(3 * n, -7.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      t[i] = 0.001 * static_cast<double>(i) + (i % 3 == 1 ? 2e-4 : 0.0);
+      x[i] = std::sin(3.0 * t[i]) + 0.5 * t[i] * t[i] * static_cast<double>(i % 5);
+      strided[3 * i + 1] = x[i];
+    }
+    std::vector<double> dx, ddx, tdx, tddx;
+    differentiate_uniform(x, 0.001, dx, ddx);
+    differentiate_nonuniform(t, x, tdx, tddx);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Derivatives u = uniform_derivatives_at(strided.data() + 1, 3, n, 0.001, i);
+      const Derivatives v = nonuniform_derivatives_at(t.data(), strided.data() + 1, 3, n, i);
+      EXPECT_EQ(u.first, dx[i]) << n << " samples, sample " << i;
+      EXPECT_EQ(u.second, ddx[i]) << n << " samples, sample " << i;
+      EXPECT_EQ(v.first, tdx[i]) << n << " samples, sample " << i;
+      EXPECT_EQ(v.second, tddx[i]) << n << " samples, sample " << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace host_id
