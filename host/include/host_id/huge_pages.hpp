@@ -4,6 +4,8 @@
 
 #include <cstddef>
 #include <new>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "delta/read_file.hpp"
@@ -69,6 +71,19 @@ struct HugePageAllocator {
     return static_cast<T*>(allocate_buffer(n * sizeof(T)));
   }
   void deallocate(T* p, std::size_t n) noexcept { free_buffer(p, n * sizeof(T)); }
+  // What resize() and a count constructor add is default-initialised, not
+  // value-initialised: a double is left as the memory has it. Every series
+  // is written in full before it is read, and zeroing it first was a pass
+  // of its own on one thread, which also faulted all its pages in there
+  // rather than on the threads that then write it.
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
   friend bool operator==(const HugePageAllocator&, const HugePageAllocator&) { return true; }
 };
 
