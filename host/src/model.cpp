@@ -1,5 +1,7 @@
 #include "host_id/model.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "delta/input_error.hpp"
@@ -111,6 +113,7 @@ std::vector<Term> delta_terms() {
 // A model linear in physical parameters, one column (or three) per term.
 class PhysicalModel final : public Model {
  public:
+  using Model::rows;
   PhysicalModel(ModelOptions o, std::vector<Term> terms) : Model(std::move(o)) {
     if (options_.stribeck_velocity_rad_s > 0.0) terms.push_back(kStribeck);
     if (options_.offsets) terms.push_back(kOffset);
@@ -131,16 +134,25 @@ class PhysicalModel final : public Model {
     const auto status = delta::dynamics_basis(g, s, gravity_m_s2, options_.coulomb_smoothing_rad_s,
                                               b, options_.stribeck_velocity_rad_s);
     if (status != delta::KinematicsStatus::kOk) return status;
-    const std::size_t p = size();
-    for (unsigned j = 0; j < 3; ++j) {
-      double* row = out + j * p;
-      for (std::size_t c = 0; c < p; ++c) row[c] = 0.0;
-      for (const Column& c : columns_) {
-        const double term = c.term.basis != nullptr ? (b.*(c.term.basis))[j] : 1.0;
-        row[c.first + (c.per_joint ? j : 0)] = term;
-      }
-    }
+    rows_of(b, out);
     return delta::KinematicsStatus::kOk;
+  }
+
+  // A basis at a time through the kinematics of two samples side by side.
+  std::size_t rows(const delta::Geometry& g, double gravity_m_s2, const delta::JointState* s,
+                   std::size_t count, double* out) const override {
+    constexpr std::size_t kBatch = 16;
+    std::array<delta::DynamicsBasis, kBatch> b;
+    const std::size_t p = size();
+    for (std::size_t first = 0; first < count; first += kBatch) {
+      const std::size_t n = std::min(kBatch, count - first);
+      const std::size_t done =
+          delta::dynamics_bases(g, s + first, n, gravity_m_s2, options_.coulomb_smoothing_rad_s,
+                                b.data(), options_.stribeck_velocity_rad_s);
+      for (std::size_t k = 0; k < done; ++k) rows_of(b[k], out + (first + k) * 3 * p);
+      if (done < n) return first + done;
+    }
+    return count;
   }
 
   std::size_t shape_terms(unsigned joint, double qd_rad_s, std::size_t* columns,
@@ -183,6 +195,18 @@ class PhysicalModel final : public Model {
   bool is_per_joint(const Term& t) const {
     return t.sharing == Sharing::kJoint || (t.sharing == Sharing::kArm && options_.per_joint);
   }
+  // The three rows (row-major) of a sample with basis b.
+  void rows_of(const delta::DynamicsBasis& b, double* out) const {
+    const std::size_t p = size();
+    for (unsigned j = 0; j < 3; ++j) {
+      double* row = out + j * p;
+      for (std::size_t c = 0; c < p; ++c) row[c] = 0.0;
+      for (const Column& c : columns_) {
+        const double term = c.term.basis != nullptr ? (b.*(c.term.basis))[j] : 1.0;
+        row[c.first + (c.per_joint ? j : 0)] = term;
+      }
+    }
+  }
   std::vector<Column> columns_;
 };
 
@@ -192,6 +216,7 @@ class PhysicalModel final : public Model {
 // with (x, y, z) = FK(q). The lambda coefficients are free constants per arm.
 class Paper14Model final : public Model {
  public:
+  using Model::rows;
   explicit Paper14Model(ModelOptions o) : Model(std::move(o)) {
     parameters_.push_back({"beta1", "kg m^2", true, "shared coefficient of qdd_i"});
     parameters_.push_back({"beta5", "N m", false, "shared coefficient of cos(q_i)"});
@@ -231,6 +256,14 @@ class Paper14Model final : public Model {
 };
 
 }  // namespace
+
+std::size_t Model::rows(const delta::Geometry& g, double gravity_m_s2, const delta::JointState* s,
+                        std::size_t count, double* out) const {
+  for (std::size_t k = 0; k < count; ++k) {
+    if (rows(g, gravity_m_s2, s[k], out + k * 3 * size()) != delta::KinematicsStatus::kOk) return k;
+  }
+  return count;
+}
 
 std::unique_ptr<Model> make_model(const ModelOptions& options) {
   if (!(options.coulomb_smoothing_rad_s > 0.0) || !std::isfinite(options.coulomb_smoothing_rad_s)) {

@@ -368,11 +368,10 @@ struct RowFill {
   std::size_t samples(std::size_t si, std::size_t b, std::size_t e, RowTile& tile,
                       unsigned char* nz, MeasuredMoments& moments) const {
     const std::size_t p = model.size();
+    const std::size_t done =
+        model.rows(log.geometry, log.gravity_m_s2, &s.states[b], e - b, tile.rows.data());
+    if (done < e - b) return b + done;
     for (std::size_t k = b; k < e; ++k) {
-      if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], &tile.rows[3 * (k - b) * p]) !=
-          delta::KinematicsStatus::kOk) {
-        return k;
-      }
       for (unsigned j = 0; j < 3; ++j) tile.tau[3 * (k - b) + j] = s.tau_Nm[k][j];
     }
     const Segment& seg = s.segments[si];

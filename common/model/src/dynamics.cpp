@@ -2,23 +2,27 @@
 
 #include <cmath>
 
+#include "delta/double_pair.hpp"
+
 namespace delta {
 
 namespace {
 
+template <class T>
 struct PoseKinematics {
-  Vec3<double> p{};
-  VelocityKinematics<double> vk{};
+  Vec3<T> p{};
+  VelocityKinematics<T> vk{};
 };
 
 // The joint angles' cosines and sines, computed once per sample for the
 // kinematics and the dynamics terms alike.
+template <class T>
 struct JointTrig {
-  Joint3 cos_q{}, sin_q{};
+  JointVector<T> cos_q{}, sin_q{};
 };
 
-JointTrig trig_of(const Joint3& q) {
-  JointTrig t;
+JointTrig<double> trig_of(const Joint3& q) {
+  JointTrig<double> t;
   for (unsigned i = 0; i < 3; ++i) {
     t.cos_q[i] = std::cos(q[i]);
     t.sin_q[i] = std::sin(q[i]);
@@ -26,8 +30,9 @@ JointTrig trig_of(const Joint3& q) {
   return t;
 }
 
-KinematicsStatus pose_kinematics(const Geometry& g, const JointTrig& t, const Joint3& qd,
-                                 PoseKinematics& out) {
+template <class T>
+KinematicsStatus pose_kinematics(const BasicGeometry<T>& g, const JointTrig<T>& t,
+                                 const JointVector<T>& qd, PoseKinematics<T>& out) {
   const auto fk = forward_kinematics(g, t.cos_q, t.sin_q);
   if (fk.status != KinematicsStatus::kOk) return fk.status;
   out.p = fk.position_m;
@@ -35,8 +40,9 @@ KinematicsStatus pose_kinematics(const Geometry& g, const JointTrig& t, const Jo
   return out.vk.status;
 }
 
-Joint3 transpose_times(const Mat3<double>& J, const Vec3<double>& v) {
-  const Vec3<double> r = J.transposed() * v;
+template <class T>
+JointVector<T> transpose_times(const Mat3<T>& J, const Vec3<T>& v) {
+  const Vec3<T> r = J.transposed() * v;
   return {r.x, r.y, r.z};
 }
 
@@ -45,22 +51,101 @@ Joint3 transpose_times(const Mat3<double>& J, const Vec3<double>& v) {
 // B_k = (R + a cos q) u_k - a sin q z moves with e_k = dB_k/dq_k =
 // -a (sin q u_k + cos q z), and accelerates at Bdd_k = e_k qdd_k + f_k qd_k^2
 // with f_k = de_k/dq_k = a (-cos q u_k + sin q z).
-Joint3 coupling_term(const Geometry& g, const JointState& s, const JointTrig& t,
-                     const Mat3<double>& J, const Vec3<double>& pdd) {
-  const double a = g.upper_arm_length_m;
-  Vec3<double> e[3];
-  Vec3<double> elbow_acceleration_sum{};
+template <class T>
+JointVector<T> coupling_term(const BasicGeometry<T>& g, const JointVector<T>& qd,
+                             const JointVector<T>& qdd, const JointTrig<T>& t, const Mat3<T>& J,
+                             const Vec3<T>& pdd) {
+  const T a = g.upper_arm_length_m;
+  Vec3<T> e[3];
+  Vec3<T> elbow_acceleration_sum{};
   for (unsigned k = 0; k < 3; ++k) {
-    const double c = t.cos_q[k];
-    const double sn = t.sin_q[k];
-    const Vec3<double> u{kChainCos[k], kChainSin[k], 0.0};
-    e[k] = Vec3<double>{-a * sn * u.x, -a * sn * u.y, -a * c};
-    const Vec3<double> f{-a * c * u.x, -a * c * u.y, a * sn};
-    const double qd = s.qd_rad_s[k];
-    elbow_acceleration_sum = elbow_acceleration_sum + e[k] * s.qdd_rad_s2[k] + f * (qd * qd);
+    const T c = t.cos_q[k];
+    const T sn = t.sin_q[k];
+    const Vec3<T> u{T(kChainCos[k]), T(kChainSin[k]), T(0.0)};
+    e[k] = Vec3<T>{-a * sn * u.x, -a * sn * u.y, -a * c};
+    const Vec3<T> f{-a * c * u.x, -a * c * u.y, a * sn};
+    elbow_acceleration_sum = elbow_acceleration_sum + e[k] * qdd[k] + f * (qd[k] * qd[k]);
   }
-  const Joint3 jt = transpose_times(J, elbow_acceleration_sum);
+  const JointVector<T> jt = transpose_times(J, elbow_acceleration_sum);
   return {jt[0] + e[0].dot(pdd), jt[1] + e[1].dot(pdd), jt[2] + e[2].dot(pdd)};
+}
+
+// The basis terms that need the pose's kinematics: J^T pdd, J^T (0, 0,
+// gravity) and the coupling, in T (double, or two samples side by side).
+template <class T>
+struct PoseTerms {
+  JointVector<T> platform_inertial{}, platform_weight{}, coupling{};
+};
+
+template <class T>
+KinematicsStatus pose_terms(const BasicGeometry<T>& g, const JointTrig<T>& t,
+                            const JointVector<T>& qd, const JointVector<T>& qdd, T gravity_m_s2,
+                            PoseTerms<T>& out) {
+  PoseKinematics<T> pk;
+  const auto status = pose_kinematics(g, t, qd, pk);
+  if (status != KinematicsStatus::kOk) return status;
+  const Vec3<T> qdd_v{qdd[0], qdd[1], qdd[2]};
+  const Mat3<T>& J = pk.vk.jacobian;
+  const Vec3<T> pdd = J * qdd_v + pk.vk.jacobian_dot_qdot;
+  out.platform_inertial = transpose_times(J, pdd);
+  // -g with g = (0, 0, -gravity).
+  out.platform_weight = transpose_times(J, Vec3<T>{T(0.0), T(0.0), gravity_m_s2});
+  out.coupling = coupling_term(g, qd, qdd, t, J, pdd);
+  return KinematicsStatus::kOk;
+}
+
+// The basis at sample s from its trigonometry and pose terms; the joints'
+// own terms (friction's shape included) computed here.
+void complete_basis(const JointState& s, const JointTrig<double>& t, const PoseTerms<double>& pose,
+                    double coulomb_smoothing_rad_s, double stribeck_velocity_rad_s,
+                    DynamicsBasis& out) {
+  out.platform_inertial = pose.platform_inertial;
+  out.platform_weight = pose.platform_weight;
+  out.coupling = pose.coupling;
+  for (unsigned i = 0; i < 3; ++i) {
+    out.platform[i] = out.platform_inertial[i] + out.platform_weight[i];
+    out.inertia[i] = s.qdd_rad_s2[i];
+    out.gravity[i] = -t.cos_q[i];
+    out.gravity_sin[i] = t.sin_q[i];
+    out.viscous[i] = s.qd_rad_s[i];
+    const FrictionShapeTerms shape =
+        friction_shape_terms(s.qd_rad_s[i], coulomb_smoothing_rad_s, stribeck_velocity_rad_s);
+    out.coulomb[i] = shape.coulomb;
+    if (stribeck_velocity_rad_s > 0.0) out.stribeck[i] = shape.stribeck;
+  }
+}
+
+// Two samples' bases side by side; false where either has no kinematics
+// (then neither basis is complete).
+bool two_bases(const Geometry& g, const JointState& s0, const JointState& s1, double gravity_m_s2,
+               double coulomb_smoothing_rad_s, double stribeck_velocity_rad_s, DynamicsBasis& out0,
+               DynamicsBasis& out1) {
+  using P = DoublePair;
+  const JointTrig<double> t0 = trig_of(s0.q_rad), t1 = trig_of(s1.q_rad);
+  JointTrig<P> t;
+  JointVector<P> qd, qdd;
+  for (unsigned i = 0; i < 3; ++i) {
+    t.cos_q[i] = P(t0.cos_q[i], t1.cos_q[i]);
+    t.sin_q[i] = P(t0.sin_q[i], t1.sin_q[i]);
+    qd[i] = P(s0.qd_rad_s[i], s1.qd_rad_s[i]);
+    qdd[i] = P(s0.qdd_rad_s2[i], s1.qdd_rad_s2[i]);
+  }
+  const BasicGeometry<P> gp{g.upper_arm_length_m, g.forearm_length_m, g.base_radius_m,
+                            g.platform_radius_m};
+  PoseTerms<P> pose;
+  if (pose_terms(gp, t, qd, qdd, P(gravity_m_s2), pose) != KinematicsStatus::kOk) return false;
+  PoseTerms<double> pose0, pose1;
+  for (unsigned i = 0; i < 3; ++i) {
+    pose0.platform_inertial[i] = pose.platform_inertial[i].first();
+    pose1.platform_inertial[i] = pose.platform_inertial[i].second();
+    pose0.platform_weight[i] = pose.platform_weight[i].first();
+    pose1.platform_weight[i] = pose.platform_weight[i].second();
+    pose0.coupling[i] = pose.coupling[i].first();
+    pose1.coupling[i] = pose.coupling[i].second();
+  }
+  complete_basis(s0, t0, pose0, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out0);
+  complete_basis(s1, t1, pose1, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out1);
+  return true;
 }
 
 }  // namespace
@@ -79,29 +164,32 @@ FrictionShapeTerms friction_shape_terms(double qd_rad_s, double coulomb_smoothin
 KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double gravity_m_s2,
                                 double coulomb_smoothing_rad_s, DynamicsBasis& out,
                                 double stribeck_velocity_rad_s) {
-  const JointTrig t = trig_of(s.q_rad);
-  PoseKinematics pk;
-  const auto status = pose_kinematics(g, t, s.qd_rad_s, pk);
+  const JointTrig<double> t = trig_of(s.q_rad);
+  PoseTerms<double> pose;
+  const auto status = pose_terms(g, t, s.qd_rad_s, s.qdd_rad_s2, gravity_m_s2, pose);
   if (status != KinematicsStatus::kOk) return status;
-  const Vec3<double> qdd{s.qdd_rad_s2[0], s.qdd_rad_s2[1], s.qdd_rad_s2[2]};
-  const Mat3<double>& J = pk.vk.jacobian;
-  const Vec3<double> pdd = J * qdd + pk.vk.jacobian_dot_qdot;
-  // -g with g = (0, 0, -gravity).
-  out.platform_inertial = transpose_times(J, pdd);
-  out.platform_weight = transpose_times(J, Vec3<double>{0.0, 0.0, gravity_m_s2});
-  out.coupling = coupling_term(g, s, t, J, pdd);
-  for (unsigned i = 0; i < 3; ++i) {
-    out.platform[i] = out.platform_inertial[i] + out.platform_weight[i];
-    out.inertia[i] = s.qdd_rad_s2[i];
-    out.gravity[i] = -t.cos_q[i];
-    out.gravity_sin[i] = t.sin_q[i];
-    out.viscous[i] = s.qd_rad_s[i];
-    const FrictionShapeTerms shape =
-        friction_shape_terms(s.qd_rad_s[i], coulomb_smoothing_rad_s, stribeck_velocity_rad_s);
-    out.coulomb[i] = shape.coulomb;
-    if (stribeck_velocity_rad_s > 0.0) out.stribeck[i] = shape.stribeck;
-  }
+  complete_basis(s, t, pose, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out);
   return KinematicsStatus::kOk;
+}
+
+std::size_t dynamics_bases(const Geometry& g, const JointState* s, std::size_t count,
+                           double gravity_m_s2, double coulomb_smoothing_rad_s, DynamicsBasis* out,
+                           double stribeck_velocity_rad_s) {
+  std::size_t k = 0;
+  for (; k + 2 <= count; k += 2) {
+    if (two_bases(g, s[k], s[k + 1], gravity_m_s2, coulomb_smoothing_rad_s, stribeck_velocity_rad_s,
+                  out[k], out[k + 1])) {
+      continue;
+    }
+    break;  // one of the two has no kinematics: the samples alone say which
+  }
+  for (; k < count; ++k) {
+    if (dynamics_basis(g, s[k], gravity_m_s2, coulomb_smoothing_rad_s, out[k],
+                       stribeck_velocity_rad_s) != KinematicsStatus::kOk) {
+      return k;
+    }
+  }
+  return count;
 }
 
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p) {
@@ -175,7 +263,7 @@ KinematicsStatus forward_dynamics(const Geometry& g, const LumpedParameters& p, 
   const auto status = dynamics_basis(g, s, p.gravity_m_s2, p.coulomb_smoothing_rad_s, b);
   if (status != KinematicsStatus::kOk) return status;
   const Joint3 bias = torque_from_basis(b, p);
-  PoseKinematics pk;
+  PoseKinematics<double> pk;
   pose_kinematics(g, trig_of(q_rad), qd_rad_s, pk);
   const Mat3<double>& J = pk.vk.jacobian;
   Mat3<double> M{};

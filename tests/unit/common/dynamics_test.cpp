@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace delta {
 namespace {
@@ -78,6 +79,71 @@ TEST(DynamicsTest, BasisReportsUnreachablePose) {
   const Geometry short_forearms{0.2, 0.1, 0.1, 0.035};
   EXPECT_EQ(dynamics_basis(short_forearms, JointState{}, 9.81, 0.01, b),
             KinematicsStatus::kUnreachable);
+}
+
+// Many samples' bases, two at a time side by side (the kinematics on
+// DoublePair), each the same bits as dynamics_basis gives it alone: with an
+// even and an odd count, with and without a Stribeck term.
+TEST(DynamicsTest, BasesOfManySamplesAreEachSamplesBasisBitForBit) {
+  const Geometry g = kDefaultGeometry;
+  std::vector<JointState> s(37);
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const double t = 0.013 * static_cast<double>(k);
+    for (unsigned j = 0; j < 3; ++j) {
+      const double w = 1.0 + 0.7 * j;
+      s[k].q_rad[j] = 0.3 + 0.5 * std::sin(w * t + j);
+      s[k].qd_rad_s[j] = 0.5 * w * std::cos(w * t + j) - (k % 5 == 0 ? 0.49 * w : 0.0);
+      s[k].qdd_rad_s2[j] = -0.5 * w * w * std::sin(w * t + j);
+    }
+  }
+  for (const double stribeck : {0.0, 0.05}) {
+    for (const std::size_t count : {s.size(), s.size() - 1}) {
+      std::vector<DynamicsBasis> together(count);
+      ASSERT_EQ(dynamics_bases(g, s.data(), count, 9.81, 0.02, together.data(), stribeck), count);
+      for (std::size_t k = 0; k < count; ++k) {
+        DynamicsBasis alone;
+        ASSERT_EQ(dynamics_basis(g, s[k], 9.81, 0.02, alone, stribeck), KinematicsStatus::kOk);
+        const auto same = [&](const Joint3 DynamicsBasis::*term, const char* name) {
+          for (unsigned j = 0; j < 3; ++j) {
+            EXPECT_EQ((together[k].*term)[j], (alone.*term)[j])
+                << name << ", sample " << k << " of " << count << ", joint " << j;
+          }
+        };
+        same(&DynamicsBasis::inertia, "inertia");
+        same(&DynamicsBasis::gravity, "gravity");
+        same(&DynamicsBasis::gravity_sin, "gravity_sin");
+        same(&DynamicsBasis::platform, "platform");
+        same(&DynamicsBasis::platform_inertial, "platform_inertial");
+        same(&DynamicsBasis::platform_weight, "platform_weight");
+        same(&DynamicsBasis::coupling, "coupling");
+        same(&DynamicsBasis::viscous, "viscous");
+        same(&DynamicsBasis::coulomb, "coulomb");
+        same(&DynamicsBasis::stribeck, "stribeck");
+      }
+    }
+  }
+}
+
+// A pose without forward kinematics in a pair fails the pair; the samples
+// are then taken alone, so the count returned is that sample, whichever
+// lane it was in, and the bases before it are complete.
+TEST(DynamicsTest, BasesStopAtTheFirstSampleWithoutKinematics) {
+  const Geometry g = kDefaultGeometry;
+  const JointState reachable{{0.3, 0.2, 0.4}, {0.5, -0.2, 0.1}, {1.0, 2.0, -1.0}};
+  const JointState unreachable{{3.0, 0.0, 0.0}, {}, {}};
+  DynamicsBasis alone;
+  ASSERT_EQ(dynamics_basis(g, unreachable, 9.81, 0.02, alone), KinematicsStatus::kUnreachable);
+  ASSERT_EQ(dynamics_basis(g, reachable, 9.81, 0.02, alone), KinematicsStatus::kOk);
+  for (std::size_t bad = 0; bad < 5; ++bad) {
+    std::vector<JointState> s(6, reachable);
+    s[bad] = unreachable;
+    std::vector<DynamicsBasis> out(s.size());
+    EXPECT_EQ(dynamics_bases(g, s.data(), s.size(), 9.81, 0.02, out.data()), bad);
+    for (std::size_t k = 0; k < bad; ++k) {
+      EXPECT_EQ(out[k].coupling, alone.coupling) << "sample " << k << " before " << bad;
+      EXPECT_EQ(out[k].platform, alone.platform) << "sample " << k << " before " << bad;
+    }
+  }
 }
 
 }  // namespace
