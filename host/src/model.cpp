@@ -126,6 +126,7 @@ class PhysicalModel final : public Model {
         parameters_.push_back({t.name + suffix, t.unit, t.nonnegative, t.meaning + all});
       }
     }
+    plan_rows();
   }
 
   delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
@@ -195,19 +196,35 @@ class PhysicalModel final : public Model {
   bool is_per_joint(const Term& t) const {
     return t.sharing == Sharing::kJoint || (t.sharing == Sharing::kArm && options_.per_joint);
   }
-  // The three rows (row-major) of a sample with basis b.
+  // The three rows (row-major) of a sample with basis b, as the plan says.
   void rows_of(const delta::DynamicsBasis& b, double* out) const {
     const std::size_t p = size();
+    std::fill_n(out, 3 * p, 0.0);
+    for (const Entry& e : entries_) out[e.at] = (b.*(e.term))[e.joint];
+    for (const std::size_t at : ones_) out[at] = 1.0;
+  }
+  // Where rows_of() puts the basis: term[joint] at out[at] (joint j's row
+  // starts at j p); 1 at each of ones_; 0 elsewhere. From columns_, once.
+  struct Entry {
+    std::size_t at;
+    delta::Joint3 B::*term;
+    unsigned joint;
+  };
+  void plan_rows() {
     for (unsigned j = 0; j < 3; ++j) {
-      double* row = out + j * p;
-      for (std::size_t c = 0; c < p; ++c) row[c] = 0.0;
       for (const Column& c : columns_) {
-        const double term = c.term.basis != nullptr ? (b.*(c.term.basis))[j] : 1.0;
-        row[c.first + (c.per_joint ? j : 0)] = term;
+        const std::size_t at = j * size() + c.first + (c.per_joint ? j : 0);
+        if (c.term.basis != nullptr) {
+          entries_.push_back({at, c.term.basis, j});
+        } else {
+          ones_.push_back(at);
+        }
       }
     }
   }
   std::vector<Column> columns_;
+  std::vector<Entry> entries_;
+  std::vector<std::size_t> ones_;
 };
 
 // The paper's regressor (its eq. 1.2), in this project's conventions:
