@@ -5,8 +5,6 @@
 #include <cstddef>
 #include <utility>
 
-#include "host_id/lane_pair.hpp"
-
 namespace host_id {
 
 std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz) {
@@ -30,76 +28,6 @@ std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_
 }
 
 namespace {
-
-// The two sections' states of one lane (T = double) or one pair (LanePair).
-template <class T>
-struct CascadeState {
-  T z1, z2, w1, w2;
-
-  // The steady state for a constant input x (unity DC gain).
-  static CascadeState steady(const Biquad& s, const Biquad& u, T x) {
-    return {x - s.b0 * x, s.b2 * x - s.a2 * x, x - u.b0 * x, u.b2 * x - u.a2 * x};
-  }
-  T step(const Biquad& s, const Biquad& u, T in) {
-    const T mid = s.b0 * in + z1;
-    z1 = s.b1 * in - s.a1 * mid + z2;
-    z2 = s.b2 * in - s.a2 * mid;
-    const T out = u.b0 * mid + w1;
-    w1 = u.b1 * mid - u.a1 * out + w2;
-    w2 = u.b2 * mid - u.a2 * out;
-    return out;
-  }
-};
-
-// Runs the two sections in cascade over the n samples of every lane of a
-// buffer laid out by sample (W lanes contiguous), forward or backward in
-// time, starting each section of each lane in the steady state for a
-// constant input equal to the lane's first sample (unity DC gain). One pass
-// over memory for both sections; W is a template argument so that the
-// states live in registers, two lanes to a register, and the lanes and
-// sections run side by side. The coefficients are copied first: the
-// compiler cannot know that x does not overlap the filter, and would load
-// them again after every store.
-template <std::size_t W>
-void run_cascade(const std::array<Biquad, 2>& filter, double* x, std::size_t n, bool backward) {
-  constexpr std::size_t kPairs = W / 2;
-  constexpr bool kOdd = W % 2 == 1;
-  const Biquad s = filter[0];
-  const Biquad u = filter[1];
-  const double* first = backward ? x + (n - 1) * W : x;
-  std::array<CascadeState<LanePair>, kPairs> pairs;
-  for (std::size_t p = 0; p < kPairs; ++p) {
-    pairs[p] = CascadeState<LanePair>::steady(s, u, load_pair(first + 2 * p));
-  }
-  CascadeState<double> last = CascadeState<double>::steady(s, u, first[W - 1]);
-  for (std::size_t i = 0; i < n; ++i) {
-    double* v = x + (backward ? n - 1 - i : i) * W;
-    for (std::size_t p = 0; p < kPairs; ++p) {
-      store_pair(v + 2 * p, pairs[p].step(s, u, load_pair(v + 2 * p)));
-    }
-    if constexpr (kOdd) v[W - 1] = last.step(s, u, v[W - 1]);
-  }
-}
-
-// Forward through both sections, then backward through both.
-template <std::size_t W>
-void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n) {
-  run_cascade<W>(filter, x, n, false);
-  run_cascade<W>(filter, x, n, true);
-}
-
-// The lane count as a template argument, up to FiltfiltBlock::kMaxLanes.
-template <std::size_t... W>
-void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n,
-                             std::size_t lanes, std::index_sequence<W...>) {
-  ((lanes == W + 1 ? filter_forward_backward<W + 1>(filter, x, n) : void()), ...);
-}
-
-void filter_forward_backward(const std::array<Biquad, 2>& filter, double* x, std::size_t n,
-                             std::size_t lanes) {
-  filter_forward_backward(filter, x, n, lanes,
-                          std::make_index_sequence<FiltfiltBlock::kMaxLanes>());
-}
 
 // The value at sample `at` of the least-squares line through the m samples
 // first .. first + m of one lane (in sample units), so that a noisy end
@@ -136,6 +64,16 @@ void FiltfiltBlock::resize(std::size_t n, std::size_t pad) {
 }
 
 void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) {
+  extend_and_forward(filter, lanes);
+  with_lanes(lanes, [&](auto w) {
+    constexpr std::size_t W = decltype(w)::value;
+    double* x = ext_.data();
+    cascade::run<W>(filter, x, n_ + 2 * pad_, true, pad_,
+                    [x](std::size_t i, const double* out) { std::copy_n(out, W, x + i * W); });
+  });
+}
+
+void FiltfiltBlock::extend_and_forward(const std::array<Biquad, 2>& filter, std::size_t lanes) {
   lanes_ = lanes;
   const std::size_t w = lanes;
   double* x = ext_.data() + pad_ * w;  // the samples, as sample() placed them
@@ -150,7 +88,12 @@ void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) 
       ext_[(pad_ + n_ + i) * w + l] = 2.0 * xn - x[(n_ - 2 - i) * w + l];
     }
   }
-  filter_forward_backward(filter, ext_.data(), n_ + 2 * pad_, w);
+  with_lanes(w, [&](auto lanes_w) {
+    constexpr std::size_t W = decltype(lanes_w)::value;
+    double* ext = ext_.data();
+    cascade::run<W>(filter, ext, n_ + 2 * pad_, false, 0,
+                    [ext](std::size_t i, const double* out) { std::copy_n(out, W, ext + i * W); });
+  });
 }
 
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,

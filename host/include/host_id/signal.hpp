@@ -6,17 +6,14 @@
 #include <array>
 #include <cstddef>
 #include <span>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
+#include "host_id/cascade.hpp"
 #include "host_id/huge_pages.hpp"
 
 namespace host_id {
-
-// One second-order section, direct form II transposed:
-// y = b0 x + z1; z1 = b1 x - a1 y + z2; z2 = b2 x - a2 y.
-struct Biquad {
-  double b0{1}, b1{0}, b2{0}, a1{0}, a2{0};
-};
 
 // A 4th-order Butterworth low-pass as two sections (bilinear transform with
 // pre-warping). Requires 0 < cutoff_hz < sample_rate_hz / 2.
@@ -51,12 +48,37 @@ class FiltfiltBlock {
     return ext_[(pad_ + k) * lanes + l];
   }
   void run(const std::array<Biquad, 2>& filter, std::size_t lanes);
+  // run(), each sample's filtered lanes handed to put(k, values) as the
+  // backward pass finishes them (k = n - 1 down to 0) instead of being left
+  // in the block: one pass over the block fewer, and none over the
+  // reflected samples before the first.
+  template <class Put>
+  void run(const std::array<Biquad, 2>& filter, std::size_t lanes, Put put) {
+    extend_and_forward(filter, lanes);
+    with_lanes(lanes, [&](auto w) {
+      cascade::run<decltype(w)::value>(filter, ext_.data(), n_ + 2 * pad_, true, pad_,
+                                       [&](std::size_t i, const double* out) {
+                                         if (i < pad_ + n_) put(i - pad_, out);
+                                       });
+    });
+  }
   // Sample k of lane l after run().
   double filtered(std::size_t k, std::size_t l) const { return ext_[(pad_ + k) * lanes_ + l]; }
   // Lane l's filtered samples after run(): sample k at [k * lanes].
   const double* filtered_lane(std::size_t l) const { return ext_.data() + pad_ * lanes_ + l; }
 
  private:
+  // The reflected ends, then the forward pass, in place.
+  void extend_and_forward(const std::array<Biquad, 2>& filter, std::size_t lanes);
+  // f(std::integral_constant<std::size_t, lanes>{}), lanes 1 .. kMaxLanes.
+  template <class F>
+  static void with_lanes(std::size_t lanes, F f) {
+    with_lanes(lanes, f, std::make_index_sequence<kMaxLanes>());
+  }
+  template <class F, std::size_t... W>
+  static void with_lanes(std::size_t lanes, F f, std::index_sequence<W...>) {
+    ((lanes == W + 1 ? f(std::integral_constant<std::size_t, W + 1>{}) : void()), ...);
+  }
   std::size_t n_, pad_, lanes_{0}, max_lanes_;
   SeriesVector<double> ext_;  // the lanes, interleaved, with their reflected ends
 };
@@ -92,11 +114,10 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
       }
     }
     if (!any) continue;
-    block.run(filter, w);
-    for (std::size_t k = 0; k < n; ++k) {
+    block.run(filter, w, [&](std::size_t k, const double* values) {
       const auto x = at(k);
-      for (std::size_t l = 0; l < w; ++l) x[first + l] = block.filtered(k, l);
-    }
+      for (std::size_t l = 0; l < w; ++l) x[first + l] = values[l];
+    });
   }
 }
 

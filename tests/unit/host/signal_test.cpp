@@ -83,6 +83,35 @@ TEST(SignalTest, FiltfiltLanesEqualsFiltfiltOfEachSeriesBitForBit) {
   }
 }
 
+// A block's two ways of giving its result, left in the block (filtered())
+// or handed out as the backward pass finishes each sample, give the same
+// bits, each sample once, in time order backward.
+TEST(SignalTest, ABlockHandsOutWhatItWouldLeaveInPlace) {
+  const auto filter = butterworth4_lowpass(20.0, 1000.0);
+  const std::size_t n = 500, pad = 150;
+  for (std::size_t lanes = 1; lanes <= FiltfiltBlock::kMaxLanes; ++lanes) {
+    FiltfiltBlock in_place(n, pad), handed_out(n, pad);
+    for (std::size_t k = 0; k < n; ++k) {
+      for (std::size_t l = 0; l < lanes; ++l) {
+        const double t = static_cast<double>(k) / 1000.0;
+        const double v = std::cos(2.0 * kPi * (1.3 + static_cast<double>(l)) * t) + 0.1 * t;
+        in_place.sample(k, l, lanes) = v;
+        handed_out.sample(k, l, lanes) = v;
+      }
+    }
+    in_place.run(filter, lanes);
+    std::size_t next = n;
+    handed_out.run(filter, lanes, [&](std::size_t k, const double* values) {
+      ASSERT_EQ(k + 1, next) << lanes << " lanes";
+      next = k;
+      for (std::size_t l = 0; l < lanes; ++l) {
+        ASSERT_EQ(values[l], in_place.filtered(k, l)) << lanes << " lanes: " << l << ", " << k;
+      }
+    });
+    EXPECT_EQ(next, 0u) << lanes << " lanes";
+  }
+}
+
 TEST(SignalTest, FivePointDifferencesOfASineAreFourthOrderAccurate) {
   const double h = 1e-3, w = 2 * kPi * 2.0;
   std::vector<double> x(1000);
