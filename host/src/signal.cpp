@@ -112,30 +112,4 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vec
   return y;
 }
 
-void differentiate_uniform(std::span<const double> x, double h, std::vector<double>& dx,
-                           std::vector<double>& ddx) {
-  const std::size_t n = x.size();
-  dx.assign(n, 0.0);
-  ddx.assign(n, 0.0);
-  if (n < 3) return;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Derivatives d = uniform_derivatives_at(x.data(), 1, n, h, i);
-    dx[i] = d.first;
-    ddx[i] = d.second;
-  }
-}
-
-void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
-                              std::vector<double>& dx, std::vector<double>& ddx) {
-  const std::size_t n = x.size();
-  dx.assign(n, 0.0);
-  ddx.assign(n, 0.0);
-  if (n < 3) return;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Derivatives d = nonuniform_derivatives_at(t.data(), x.data(), 1, n, i);
-    dx[i] = d.first;
-    ddx[i] = d.second;
-  }
-}
-
 }  // namespace host_id

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
-#include <span>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -62,8 +61,6 @@ class FiltfiltBlock {
                                        });
     });
   }
-  // Sample k of lane l after run().
-  double filtered(std::size_t k, std::size_t l) const { return ext_[(pad_ + k) * lanes_ + l]; }
   // Lane l's filtered samples after run(): sample k at [k * lanes].
   const double* filtered_lane(std::size_t l) const { return ext_.data() + pad_ * lanes_ + l; }
 
@@ -172,13 +169,5 @@ inline Derivatives nonuniform_derivatives_at(const double* t, const double* x, s
               (hm * hp * (hm + hp)),
           second(i)};
 }
-
-// uniform_derivatives_at for every sample of x (zeros for fewer than three).
-void differentiate_uniform(std::span<const double> x, double h, std::vector<double>& dx,
-                           std::vector<double>& ddx);
-
-// nonuniform_derivatives_at for every sample of x on times t.
-void differentiate_nonuniform(std::span<const double> t, std::span<const double> x,
-                              std::vector<double>& dx, std::vector<double>& ddx);
 
 }  // namespace host_id

@@ -105,7 +105,8 @@ TEST(SignalTest, ABlockHandsOutWhatItWouldLeaveInPlace) {
       ASSERT_EQ(k + 1, next) << lanes << " lanes";
       next = k;
       for (std::size_t l = 0; l < lanes; ++l) {
-        ASSERT_EQ(values[l], in_place.filtered(k, l)) << lanes << " lanes: " << l << ", " << k;
+        ASSERT_EQ(values[l], in_place.filtered_lane(l)[k * lanes])
+            << lanes << " lanes: " << l << ", " << k;
       }
     });
     EXPECT_EQ(next, 0u) << lanes << " lanes";
@@ -116,13 +117,12 @@ TEST(SignalTest, FivePointDifferencesOfASineAreFourthOrderAccurate) {
   const double h = 1e-3, w = 2 * kPi * 2.0;
   std::vector<double> x(1000);
   for (std::size_t i = 0; i < x.size(); ++i) x[i] = std::sin(w * static_cast<double>(i) * h);
-  std::vector<double> dx, ddx;
-  differentiate_uniform(x, h, dx, ddx);
   double e1 = 0.0, e2 = 0.0;
   for (std::size_t i = 2; i + 2 < x.size(); ++i) {
     const double t = static_cast<double>(i) * h;
-    e1 = std::max(e1, std::abs(dx[i] - w * std::cos(w * t)));
-    e2 = std::max(e2, std::abs(ddx[i] + w * w * std::sin(w * t)));
+    const Derivatives d = uniform_derivatives_at(x.data(), 1, x.size(), h, i);
+    e1 = std::max(e1, std::abs(d.first - w * std::cos(w * t)));
+    e2 = std::max(e2, std::abs(d.second + w * w * std::sin(w * t)));
   }
   // (w h)^4 / 30 relative: about 8e-10 * w and 8e-10 * w^2 (plus rounding).
   EXPECT_LT(e1 / w, 1e-9);
@@ -133,19 +133,36 @@ TEST(SignalTest, NonUniformDifferencesAreExactForQuadratics) {
   const std::vector<double> t{0.0, 0.001, 0.0025, 0.003, 0.0052};
   std::vector<double> x;
   for (double ti : t) x.push_back(2.0 + 3.0 * ti - 40.0 * ti * ti);
-  std::vector<double> dx, ddx;
-  differentiate_nonuniform(t, x, dx, ddx);
   for (std::size_t i = 1; i + 1 < t.size(); ++i) {
-    EXPECT_NEAR(dx[i], 3.0 - 80.0 * t[i], 1e-9);
-    EXPECT_NEAR(ddx[i], -80.0, 1e-6);
+    const Derivatives d = nonuniform_derivatives_at(t.data(), x.data(), 1, t.size(), i);
+    EXPECT_NEAR(d.first, 3.0 - 80.0 * t[i], 1e-9);
+    EXPECT_NEAR(d.second, -80.0, 1e-6);
+  }
+}
+
+// Every uniform stencil, the ends' included, is exact for a quadratic, on
+// series as short as three samples.
+TEST(SignalTest, UniformDifferencesAreExactForQuadraticsAtEverySample) {
+  const double h = 0.01;
+  for (const std::size_t n : {3u, 4u, 5u, 6u, 40u}) {
+    std::vector<double> x(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double ti = h * static_cast<double>(i);
+      x[i] = 2.0 + 3.0 * ti - 40.0 * ti * ti;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const Derivatives d = uniform_derivatives_at(x.data(), 1, n, h, i);
+      EXPECT_NEAR(d.first, 3.0 - 80.0 * h * static_cast<double>(i), 1e-9) << n << ", " << i;
+      EXPECT_NEAR(d.second, -80.0, 1e-8) << n << ", " << i;
+    }
   }
 }
 
 // Preprocessing differentiates each joint's q where the filter left it,
-// every third value of the block: the one-sample stencils read x through
-// their stride and give, at every sample (the ends too), exactly what the
-// whole-series functions give.
-TEST(SignalTest, DerivativesAtOneSampleThroughAStrideAreTheSeriesDerivatives) {
+// every third value of the block: through a stride the stencils give, at
+// every sample (the ends too), exactly what they give on the same values
+// side by side.
+TEST(SignalTest, DerivativesThroughAStrideAreThoseOfTheSeriesAlone) {
   for (const std::size_t n : {3u, 4u, 5u, 6u, 40u}) {
     std::vector<double> t(n), x(n), strided(3 * n, -7.0);
     for (std::size_t i = 0; i < n; ++i) {
@@ -153,16 +170,15 @@ TEST(SignalTest, DerivativesAtOneSampleThroughAStrideAreTheSeriesDerivatives) {
       x[i] = std::sin(3.0 * t[i]) + 0.5 * t[i] * t[i] * static_cast<double>(i % 5);
       strided[3 * i + 1] = x[i];
     }
-    std::vector<double> dx, ddx, tdx, tddx;
-    differentiate_uniform(x, 0.001, dx, ddx);
-    differentiate_nonuniform(t, x, tdx, tddx);
     for (std::size_t i = 0; i < n; ++i) {
       const Derivatives u = uniform_derivatives_at(strided.data() + 1, 3, n, 0.001, i);
+      const Derivatives ua = uniform_derivatives_at(x.data(), 1, n, 0.001, i);
       const Derivatives v = nonuniform_derivatives_at(t.data(), strided.data() + 1, 3, n, i);
-      EXPECT_EQ(u.first, dx[i]) << n << " samples, sample " << i;
-      EXPECT_EQ(u.second, ddx[i]) << n << " samples, sample " << i;
-      EXPECT_EQ(v.first, tdx[i]) << n << " samples, sample " << i;
-      EXPECT_EQ(v.second, tddx[i]) << n << " samples, sample " << i;
+      const Derivatives va = nonuniform_derivatives_at(t.data(), x.data(), 1, n, i);
+      EXPECT_EQ(u.first, ua.first) << n << " samples, sample " << i;
+      EXPECT_EQ(u.second, ua.second) << n << " samples, sample " << i;
+      EXPECT_EQ(v.first, va.first) << n << " samples, sample " << i;
+      EXPECT_EQ(v.second, va.second) << n << " samples, sample " << i;
     }
   }
 }
