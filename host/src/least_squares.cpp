@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <exception>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -460,9 +459,10 @@ double scaled_residual(const Equations& r, const RowScale& scale, const Eigen::V
   return sum;
 }
 
-// Runs alongside(estimate) on a thread of its own while covariance(t) runs
-// on this one with t one thread fewer; one after the other where only one
-// thread is allowed. An exception from either is rethrown here.
+// Runs alongside(estimate) and covariance(t), t one thread fewer than
+// allowed, side by side (run_tasks: each on a thread of its own); one after
+// the other where only one thread is allowed. The first exception either
+// throws is rethrown here.
 template <class Covariance>
 void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimate, unsigned threads,
                    const Covariance& covariance) {
@@ -473,22 +473,13 @@ void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimat
     if (alongside) alongside(estimate);
     return;
   }
-  std::exception_ptr failed;
-  std::thread side([&] {
-    try {
+  run_tasks(2, 2, [&](std::size_t, std::size_t k) {
+    if (k == 0) {
       alongside(estimate);
-    } catch (...) {
-      failed = std::current_exception();
+    } else {
+      covariance(allowed - 1);
     }
   });
-  try {
-    covariance(allowed - 1);
-  } catch (...) {
-    side.join();
-    throw;
-  }
-  side.join();
-  if (failed) std::rethrow_exception(failed);
 }
 
 // The parameters' standard deviations (Newey-West over `lags`) and the

@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 
 #include "delta/read_file.hpp"
@@ -15,6 +16,7 @@
 #include "host_id/huge_pages.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/parallel.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
 #include "host_id/regression.hpp"
@@ -206,6 +208,25 @@ void BM_FitFromFilePso60s(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_FitFromFilePso60s)->Unit(benchmark::kMillisecond);
+
+// run_tasks with two workers on two tasks of 1 ms of CPU time each: the
+// wall time is 1 ms where both run at once, 2 ms where one waits behind
+// the other (as a new thread did behind the thread that made it).
+void BM_RunTasksTwoTasksOf1ms(benchmark::State& state) {
+  const auto thread_cpu_ns = [] {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e9 + static_cast<double>(t.tv_nsec);
+  };
+  for (auto _ : state) {
+    run_tasks(2, 2, [&](std::size_t, std::size_t) {
+      const double start = thread_cpu_ns();
+      double x = 0.0;
+      while (thread_cpu_ns() - start < 1e6) benchmark::DoNotOptimize(x += 1.0);
+    });
+  }
+}
+BENCHMARK(BM_RunTasksTwoTasksOf1ms)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace host_id
