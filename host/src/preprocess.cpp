@@ -167,8 +167,10 @@ void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, s
     }
   });
   const JointSource source{log, d, block, b, n, uniform, h};
-  run_tasks(workers, workers, [&](std::size_t, std::size_t w) {
-    for (std::size_t i = n * w / workers; i < n * (w + 1) / workers; ++i) {
+  // In pieces that the threads take as they come free.
+  constexpr std::size_t kPiece = 4096;
+  run_tasks((n + kPiece - 1) / kPiece, workers, [&](std::size_t, std::size_t piece) {
+    for (std::size_t i = piece * kPiece; i < std::min(n, (piece + 1) * kPiece); ++i) {
       source.state(i, out.states[first + i]);
     }
   });
@@ -460,29 +462,29 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   std::atomic<std::size_t> first_bad{n};
   std::vector<MeasuredMoments> chunk_moments(chunks);
   std::vector<std::vector<unsigned char>> nonzero_of(workers, std::vector<unsigned char>(3 * p));
-  // Worker w: its share of whole chunks, each chunk's moments summed alone,
-  // a tile at a time within a chunk and a segment.
-  const auto work = [&](std::size_t w) {
-    RowTile tile(p);
-    for (std::size_t c = chunks * w / workers; c < chunks * (w + 1) / workers; ++c) {
-      MeasuredMoments& moments = chunk_moments[c];
-      moments.reset(p);
-      for (std::size_t si = 0; si < s.segments.size(); ++si) {
-        const std::size_t b = std::max(s.segments[si].begin, c * kMomentChunk);
-        const std::size_t e = std::min(s.segments[si].end, (c + 1) * kMomentChunk);
-        for (std::size_t k = b; k < e; k += kTileSamples) {
-          const std::size_t end = std::min(e, k + kTileSamples);
-          const std::size_t bad = fill.samples(si, k, end, tile, nonzero_of[w].data(), moments);
-          if (bad == end) continue;
-          std::size_t expected = first_bad.load();
-          while (bad < expected && !first_bad.compare_exchange_weak(expected, bad)) {
-          }
-          return;
+  std::vector<RowTile> tiles(workers, RowTile(p));
+  // Chunk c on worker w: its moments summed alone, a tile at a time within
+  // a segment. The workers take the next chunk left, so that a thread the
+  // machine slows down does less; a chunk after a bad sample is skipped.
+  const auto work = [&](std::size_t w, std::size_t c) {
+    if (first_bad.load() < c * kMomentChunk) return;
+    MeasuredMoments& moments = chunk_moments[c];
+    moments.reset(p);
+    for (std::size_t si = 0; si < s.segments.size(); ++si) {
+      const std::size_t b = std::max(s.segments[si].begin, c * kMomentChunk);
+      const std::size_t e = std::min(s.segments[si].end, (c + 1) * kMomentChunk);
+      for (std::size_t k = b; k < e; k += kTileSamples) {
+        const std::size_t end = std::min(e, k + kTileSamples);
+        const std::size_t bad = fill.samples(si, k, end, tiles[w], nonzero_of[w].data(), moments);
+        if (bad == end) continue;
+        std::size_t expected = first_bad.load();
+        while (bad < expected && !first_bad.compare_exchange_weak(expected, bad)) {
         }
+        return;
       }
     }
   };
-  run_tasks(workers, workers, [&](std::size_t, std::size_t w) { work(w); });
+  run_tasks(chunks, workers, work);
   nonzero.assign(3 * p, 0);
   for (const auto& nz : nonzero_of) {
     for (std::size_t k = 0; k < nz.size(); ++k) nonzero[k] |= nz[k];
