@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cstddef>
 #include <exception>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -25,8 +26,10 @@ inline std::size_t workers_for(std::size_t items, unsigned threads, std::size_t 
 // the thread that made it, and while that thread kept working the new one
 // waited there for a millisecond or more with the other CPU idle (measured
 // on a two-CPU machine: two tasks of 1 ms took 2.0 ms that way, 1.1 ms
-// with this one waiting). The first exception a task throws is rethrown
-// here once every worker has stopped; the workers take no new task after it.
+// with this one waiting). Where the system will not start another thread,
+// this one works in its place. The first exception a task throws is
+// rethrown here once every worker has stopped; the workers take no new task
+// after it.
 template <class Task>
 void run_tasks(std::size_t tasks, std::size_t workers, const Task& task) {
   workers = std::min(workers, tasks);
@@ -48,7 +51,11 @@ void run_tasks(std::size_t tasks, std::size_t workers, const Task& task) {
   };
   std::vector<std::thread> pool;
   pool.reserve(workers);
-  for (std::size_t w = 0; w < workers; ++w) pool.emplace_back(work, w);
+  try {
+    for (std::size_t w = 0; w < workers; ++w) pool.emplace_back(work, w);
+  } catch (const std::system_error&) {
+    work(pool.size());  // no thread to be had: this one takes that worker's place
+  }
   for (std::thread& t : pool) t.join();
   if (failed) std::rethrow_exception(failed);
 }

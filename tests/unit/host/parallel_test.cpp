@@ -1,14 +1,20 @@
 #include "host_id/parallel.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
 #include <mutex>
 #include <set>
 #include <stdexcept>
 #include <thread>
 #include <vector>
+
+#include "host_id/huge_pages.hpp"  // HOST_ID_ADDRESS_SANITIZER
 
 namespace host_id {
 namespace {
@@ -92,6 +98,28 @@ TEST(RunTasks, RethrowsATasksException) {
     }
   }
 }
+
+#if !HOST_ID_ADDRESS_SANITIZER  // the sanitizer's own mappings need address space
+// In a child process: with no address space left for a thread's stack,
+// runs 8 tasks on 4 workers and exits 0 if every task ran.
+[[noreturn]] void run_without_room_for_threads() {
+  long pages = 0;
+  std::ifstream("/proc/self/statm") >> pages;
+  const auto in_use = static_cast<rlim_t>(pages) * static_cast<rlim_t>(sysconf(_SC_PAGESIZE));
+  const rlim_t room = in_use + (rlim_t{2} << 20);  // an 8 MiB stack does not fit
+  const rlimit limit{room, room};
+  if (setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(3);
+  std::atomic<int> ran{0};
+  run_tasks(8, 4, [&](std::size_t, std::size_t) { ++ran; });
+  std::_Exit(ran.load() == 8 ? 0 : 1);
+}
+
+// Where no thread can be started, the caller does the work itself, and
+// every task runs.
+TEST(RunTasks, WorksOnWhereNoThreadCanBeStarted) {
+  EXPECT_EXIT(run_without_room_for_threads(), ::testing::ExitedWithCode(0), "");
+}
+#endif
 
 TEST(WorkersFor, AtLeastOneAtMostAsked) {
   EXPECT_EQ(workers_for(10, 4, 100), 1u);
