@@ -139,23 +139,6 @@ class PhysicalModel final : public Model {
     return delta::KinematicsStatus::kOk;
   }
 
-  // A basis at a time through the kinematics of two samples side by side.
-  std::size_t rows(const delta::Geometry& g, double gravity_m_s2, const delta::JointState* s,
-                   std::size_t count, double* out) const override {
-    constexpr std::size_t kBatch = 16;
-    std::array<delta::DynamicsBasis, kBatch> b;
-    const std::size_t p = size();
-    for (std::size_t first = 0; first < count; first += kBatch) {
-      const std::size_t n = std::min(kBatch, count - first);
-      const std::size_t done =
-          delta::dynamics_bases(g, s + first, n, gravity_m_s2, options_.coulomb_smoothing_rad_s,
-                                b.data(), options_.stribeck_velocity_rad_s);
-      for (std::size_t k = 0; k < done; ++k) rows_of(b[k], out + (first + k) * 3 * p);
-      if (done < n) return first + done;
-    }
-    return count;
-  }
-
   std::size_t shape_terms(unsigned joint, double qd_rad_s, std::size_t* columns,
                           double* values) const override {
     const delta::FrictionShapeTerms shape = delta::friction_shape_terms(

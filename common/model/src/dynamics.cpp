@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "delta/double_pair.hpp"
-
 namespace delta {
 
 namespace {
@@ -71,7 +69,7 @@ JointVector<T> coupling_term(const BasicGeometry<T>& g, const JointVector<T>& qd
 }
 
 // The basis terms that need the pose's kinematics: J^T pdd, J^T (0, 0,
-// gravity) and the coupling, in T (double, or two samples side by side).
+// gravity) and the coupling.
 template <class T>
 struct PoseTerms {
   JointVector<T> platform_inertial{}, platform_weight{}, coupling{};
@@ -115,39 +113,6 @@ void complete_basis(const JointState& s, const JointTrig<double>& t, const PoseT
   }
 }
 
-// Two samples' bases side by side; false where either has no kinematics
-// (then neither basis is complete).
-bool two_bases(const Geometry& g, const JointState& s0, const JointState& s1, double gravity_m_s2,
-               double coulomb_smoothing_rad_s, double stribeck_velocity_rad_s, DynamicsBasis& out0,
-               DynamicsBasis& out1) {
-  using P = DoublePair;
-  const JointTrig<double> t0 = trig_of(s0.q_rad), t1 = trig_of(s1.q_rad);
-  JointTrig<P> t;
-  JointVector<P> qd, qdd;
-  for (unsigned i = 0; i < 3; ++i) {
-    t.cos_q[i] = P(t0.cos_q[i], t1.cos_q[i]);
-    t.sin_q[i] = P(t0.sin_q[i], t1.sin_q[i]);
-    qd[i] = P(s0.qd_rad_s[i], s1.qd_rad_s[i]);
-    qdd[i] = P(s0.qdd_rad_s2[i], s1.qdd_rad_s2[i]);
-  }
-  const BasicGeometry<P> gp{g.upper_arm_length_m, g.forearm_length_m, g.base_radius_m,
-                            g.platform_radius_m};
-  PoseTerms<P> pose;
-  if (pose_terms(gp, t, qd, qdd, P(gravity_m_s2), pose) != KinematicsStatus::kOk) return false;
-  PoseTerms<double> pose0, pose1;
-  for (unsigned i = 0; i < 3; ++i) {
-    pose0.platform_inertial[i] = pose.platform_inertial[i].first();
-    pose1.platform_inertial[i] = pose.platform_inertial[i].second();
-    pose0.platform_weight[i] = pose.platform_weight[i].first();
-    pose1.platform_weight[i] = pose.platform_weight[i].second();
-    pose0.coupling[i] = pose.coupling[i].first();
-    pose1.coupling[i] = pose.coupling[i].second();
-  }
-  complete_basis(s0, t0, pose0, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out0);
-  complete_basis(s1, t1, pose1, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out1);
-  return true;
-}
-
 }  // namespace
 
 FrictionShapeTerms friction_shape_terms(double qd_rad_s, double coulomb_smoothing_rad_s,
@@ -170,26 +135,6 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
   if (status != KinematicsStatus::kOk) return status;
   complete_basis(s, t, pose, coulomb_smoothing_rad_s, stribeck_velocity_rad_s, out);
   return KinematicsStatus::kOk;
-}
-
-std::size_t dynamics_bases(const Geometry& g, const JointState* s, std::size_t count,
-                           double gravity_m_s2, double coulomb_smoothing_rad_s, DynamicsBasis* out,
-                           double stribeck_velocity_rad_s) {
-  std::size_t k = 0;
-  for (; k + 2 <= count; k += 2) {
-    if (two_bases(g, s[k], s[k + 1], gravity_m_s2, coulomb_smoothing_rad_s, stribeck_velocity_rad_s,
-                  out[k], out[k + 1])) {
-      continue;
-    }
-    break;  // one of the two has no kinematics: the samples alone say which
-  }
-  for (; k < count; ++k) {
-    if (dynamics_basis(g, s[k], gravity_m_s2, coulomb_smoothing_rad_s, out[k],
-                       stribeck_velocity_rad_s) != KinematicsStatus::kOk) {
-      return k;
-    }
-  }
-  return count;
 }
 
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p) {

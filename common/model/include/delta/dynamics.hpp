@@ -116,15 +116,6 @@ KinematicsStatus dynamics_basis(const Geometry& g, const JointState& s, double g
                                 double coulomb_smoothing_rad_s, DynamicsBasis& out,
                                 double stribeck_velocity_rad_s = 0.0);
 
-// The basis terms of count samples s[0..count) into out[0..count), two
-// samples side by side (each the same bits as dynamics_basis gives it
-// alone). Returns the first sample without forward kinematics or with a
-// singular Jacobian (its basis and those after it are not computed), or
-// count.
-std::size_t dynamics_bases(const Geometry& g, const JointState* s, std::size_t count,
-                           double gravity_m_s2, double coulomb_smoothing_rad_s, DynamicsBasis* out,
-                           double stribeck_velocity_rad_s = 0.0);
-
 // tau = basis . parameters.
 Joint3 torque_from_basis(const DynamicsBasis& b, const LumpedParameters& p);
 Joint3 torque_from_basis(const DynamicsBasis& b, const HighFidelityParameters& p);

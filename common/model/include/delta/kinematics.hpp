@@ -164,9 +164,7 @@ ForwardKinematicsResult<T> forward_kinematics(const BasicGeometry<T>& g,
     r.status = KinematicsStatus::kUnreachable;
     return r;
   }
-  // The solution below; per lane where T holds two samples (double_pair.hpp).
-  const auto above = ez.z > T(0);
-  ez = {pick(above, -ez.x, ez.x), pick(above, -ez.y, ez.y), pick(above, -ez.z, ez.z)};
+  if (ez.z > T(0)) ez = -ez;  // the solution below
   r.position_m = c[0] + ex * x + ey * y + ez * sqrt(z_sq);
   r.status = KinematicsStatus::kOk;
   return r;

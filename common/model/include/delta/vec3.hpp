@@ -24,12 +24,6 @@ struct Vec3 {
   constexpr T operator[](std::size_t i) const { return i == 0 ? x : (i == 1 ? y : z); }
 };
 
-// where ? a : b: the scalar case of a choice that a type of several lanes
-// (double_pair.hpp) makes per lane.
-constexpr double pick(bool where, double a, double b) {
-  return where ? a : b;
-}
-
 template <class T>
 constexpr Vec3<T> operator*(T s, const Vec3<T>& v) {
   return v * s;
