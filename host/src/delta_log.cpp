@@ -14,7 +14,6 @@
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
 #include "host_id/atomic_file.hpp"
-#include "host_id/huge_pages.hpp"
 
 namespace host_id {
 
@@ -495,7 +494,7 @@ DeltaLog parse_delta_log(std::string_view text, const std::string& name) {
 }
 
 DeltaLog read_delta_log(const std::string& path) {
-  return parse_delta_log(delta::read_file_bytes(path, kHugePageStore).view(), path);
+  return parse_delta_log(delta::read_file_bytes(path).view(), path);
 }
 
 std::string format_number(double v) {

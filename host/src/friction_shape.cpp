@@ -51,7 +51,7 @@ std::vector<Eigen::Index> shape_columns(const Model& model) {
 }
 
 // Those columns of psi.
-Eigen::MatrixXd columns_of(const SeriesMatrix& psi, const std::vector<Eigen::Index>& columns) {
+Eigen::MatrixXd columns_of(const Eigen::MatrixXd& psi, const std::vector<Eigen::Index>& columns) {
   Eigen::MatrixXd out(psi.rows(), static_cast<Eigen::Index>(columns.size()));
   for (std::size_t k = 0; k < columns.size(); ++k) {
     out.col(static_cast<Eigen::Index>(k)) = psi.col(columns[k]);
@@ -81,7 +81,7 @@ Eigen::VectorXd ln_shape_std(ShapePreprocess& pre, const DeltaLog& log, const Fi
     shape_beta(static_cast<Eigen::Index>(c)) = ls.beta(shape[c]);
   }
   std::vector<ParameterInfo> infos = model->parameters();
-  all.psi.conservative_resize_columns(p + k);
+  all.psi.conservativeResize(Eigen::NoChange, p + k);
   constexpr double kStep = 0.01;  // in ln units: 1 %
   for (Eigen::Index i = 0; i < k; ++i) {
     Eigen::VectorXd up = ln_shape, down = ln_shape;

@@ -560,7 +560,7 @@ LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
   out.tau_t_tau = gram(p, p);
   out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
   // The residual, a long series: on huge pages like the rows it comes from.
-  SeriesVector<double> e_store(r.rows());
+  std::vector<double> e_store(r.rows());
   Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
   out.unconstrained_cost =
       scaled_residual(r, scale, out.unconstrained_beta, threads, e) / static_cast<double>(r.rows());

@@ -3,7 +3,7 @@
 #include <vector>
 
 #include "host_id/cli.hpp"
-#include "host_id/huge_pages.hpp"
+#include "host_id/memory.hpp"
 
 int main(int argc, char** argv) {
   host_id::keep_freed_memory_for_reuse();

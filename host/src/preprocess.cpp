@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "delta/input_error.hpp"
-#include "host_id/huge_pages.hpp"
 #include "host_id/parallel.hpp"
 #include "host_id/signal.hpp"
 
@@ -38,9 +37,9 @@ struct FilterDesign {
 // Joint states and torques of every sample of every segment long enough to
 // use, with q filtered and differentiated unless the log carries qd, qdd.
 struct States {
-  SeriesVector<delta::JointState> states;
-  SeriesVector<delta::Joint3> tau_Nm;
-  SeriesVector<double> t_s;
+  std::vector<delta::JointState> states;
+  std::vector<delta::Joint3> tau_Nm;
+  std::vector<double> t_s;
   std::vector<Segment> segments;
   bool any_nonuniform{false};
   std::size_t segments_dropped{0};
@@ -90,25 +89,25 @@ bool uniform_steps(const double* t, std::size_t n, double h) {
   return worst <= 1e-6 * h;
 }
 
-// The three joints' q of segment [b, e) of the log into the block, filtered
-// as three lanes of one pass.
+// The three joints' q of segment [b, e) of the log, filtered, into q
+// (allocated by the caller, so that their memory returns to the caller's
+// heap, not to a worker thread's).
 void filter_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                   FiltfiltBlock& block) {
-  const std::size_t n = e - b;
-  block.resize(n, d.pad);
-  for (std::size_t k = 0; k < n; ++k) {
-    for (unsigned j = 0; j < 3; ++j) block.sample(k, j, 3) = log.q[j][b + k];
+                   std::array<std::vector<double>, 3>& q) {
+  for (unsigned j = 0; j < 3; ++j) {
+    std::copy(log.q[j].begin() + static_cast<std::ptrdiff_t>(b),
+              log.q[j].begin() + static_cast<std::ptrdiff_t>(e), q[j].begin());
+    filtfilt_in_place(d.filter, q[j], d.pad);
   }
-  block.run(d.filter, 3);
 }
 
 // Where the joint states of segment [b, e) come from: the log's q, qd and
-// qdd where it carries the derivatives, else the filtered q in the block,
-// differentiated at step h where the times are uniform.
+// qdd where it carries the derivatives, else the filtered q, differentiated
+// at step h where the times are uniform.
 struct JointSource {
   const DeltaLog& log;
   const FilterDesign& d;
-  const FiltfiltBlock& block;
+  const std::array<std::vector<double>, 3>& filtered_q;
   std::size_t b, n;
   bool uniform;
   double h;
@@ -122,10 +121,10 @@ struct JointSource {
         st.qdd_rad_s2[j] = log.qdd[j][b + i];
         continue;
       }
-      const double* q = block.filtered_lane(j);  // sample k at q[3 k]
-      const Derivatives dq = uniform ? uniform_derivatives_at(q, 3, n, h, i)
-                                     : nonuniform_derivatives_at(log.t.data() + b, q, 3, n, i);
-      st.q_rad[j] = q[3 * i];
+      const double* q = filtered_q[j].data();
+      const Derivatives dq = uniform ? uniform_derivatives_at(q, n, h, i)
+                                     : nonuniform_derivatives_at(log.t.data() + b, q, n, i);
+      st.q_rad[j] = q[i];
       st.qd_rad_s[j] = dq.first;
       st.qdd_rad_s2[j] = dq.second;
     }
@@ -150,7 +149,7 @@ void place_raw(const DeltaLog& log, std::size_t b, std::size_t e, States& out) {
 // joints' q are filtered on one thread while the states' memory is laid
 // out on another; then the states are differentiated into place on all.
 void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
-                    unsigned threads, States& out, FiltfiltBlock& block) {
+                    unsigned threads, States& out) {
   const std::size_t n = e - b;
   const std::size_t first = out.states.size();
   out.segments.push_back({first, first + n, b});
@@ -159,14 +158,18 @@ void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, s
   const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
   out.any_nonuniform = out.any_nonuniform || !uniform;
   const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
+  std::array<std::vector<double>, 3> filtered_q;
+  if (!d.logged_derivatives) {
+    for (auto& q : filtered_q) q.resize(n);
+  }
   run_tasks(2, workers, [&](std::size_t, std::size_t task) {
     if (task == 1) {
       place_raw(log, b, e, out);
     } else if (!d.logged_derivatives) {
-      filter_joints(log, d, b, e, block);
+      filter_joints(log, d, b, e, filtered_q);
     }
   });
-  const JointSource source{log, d, block, b, n, uniform, h};
+  const JointSource source{log, d, filtered_q, b, n, uniform, h};
   // In pieces that the threads take as they come free.
   constexpr std::size_t kPiece = 4096;
   run_tasks((n + kPiece - 1) / kPiece, workers, [&](std::size_t, std::size_t piece) {
@@ -181,7 +184,6 @@ States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads
   out.states.reserve(log.size());
   out.tau_Nm.reserve(log.size());
   out.t_s.reserve(log.size());
-  FiltfiltBlock block(2, 0, 3);
   std::vector<std::size_t> bounds{0};
   for (const SampleGap& g : log.gaps) bounds.push_back(g.index);
   bounds.push_back(log.size());
@@ -190,7 +192,7 @@ States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads
       ++out.segments_dropped;
       continue;
     }
-    append_segment(log, d, bounds[s], bounds[s + 1], threads, out, block);
+    append_segment(log, d, bounds[s], bounds[s + 1], threads, out);
   }
   if (out.states.empty()) {
     std::ostringstream s;
@@ -262,9 +264,6 @@ class RowLayout {
   std::size_t row(std::size_t i, unsigned j) const {
     return rows_.empty() ? 3 * i + j : rows_[3 * i + j];
   }
-  // The rows of kept sample i's three joints, as offsets from the first row.
-  const std::uint32_t* rows_of(std::size_t i) const { return rows_.data() + 3 * i; }
-  bool ordered() const { return !rows_.empty(); }
   std::size_t fast_rows() const { return rows_.empty() ? 3 * kept_ : fast_; }
 
  private:
@@ -301,7 +300,7 @@ void RowLayout::order_rows(const std::vector<Segment>& segments, const States& s
 // The regression's rows and tau in their places: psi column-major (the
 // regression's own storage), the side rows row-major, tau of both alike.
 struct RowStore {
-  SeriesMatrix& psi;
+  Eigen::MatrixXd& psi;
   Eigen::VectorXd& tau;
   std::vector<double> side_rows;  // 3 p per trimmed sample
   std::vector<double> side_tau;   // 3 per trimmed sample
@@ -316,7 +315,6 @@ struct RowStore {
   // The start of a row: its columns are offsets psi_offset (column-major
   // psi) or side_offset (the side rows, row-major) away.
   double* row_start(bool on_side, std::size_t row) { return &at(on_side, row, 0); }
-  double* tau_start(bool on_side, std::size_t row) { return &tau_at(on_side, row); }
 };
 
 // A kept sample's labels: its time, and its rows' joints, speeds and sample.
@@ -502,98 +500,43 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   for (const MeasuredMoments& m : chunk_moments) r.measured.merge(m);
 }
 
-// Where sample q of a filter task's lanes lives: lane l is column
-// offset[l] of its joint's row, which is row[joint[l]].
-struct JointLanes {
-  std::array<double*, 3> row;
-  const std::ptrdiff_t* offset;
-  const unsigned char* joint;
-  double& operator[](std::size_t l) const { return row[joint[l]][offset[l]]; }
-};
-
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
 // filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
-// The series are independent: the (column, joint) pairs that are not zero
-// throughout (a joint's row is zero in the other joints' friction columns;
-// nonzero from fill_rows), taken column by column so that one task's lanes
-// are the three joints of the same columns, whose rows lie side by side:
-// each column is read and written once, not once per joint. They and tau's
-// three joints are shared out over the threads.
+// The series are independent: a task is one segment's (column, joint) pair
+// that is not zero throughout (a joint's row is zero in the other joints'
+// friction columns; nonzero from fill_rows), or one joint's tau, and the
+// tasks are shared out over the threads.
 void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
                     const RowLayout& layout, RowStore& store,
                     const std::vector<unsigned char>& nonzero, std::size_t samples,
                     unsigned threads) {
-  constexpr std::size_t kLanes = FiltfiltBlock::kMaxLanes;
   struct Task {
     std::size_t segment;
-    bool tau{false};  // tau's three joints
-    std::size_t lanes{0};
-    std::array<std::ptrdiff_t, kLanes> psi_offset{}, side_offset{};  // of each lane's column
-    std::array<unsigned char, kLanes> joint{};
+    unsigned joint;
+    bool tau;
+    std::size_t column;
   };
   std::vector<Task> tasks;
   for (std::size_t si = 0; si < segments.size(); ++si) {
-    Task t{si};
-    for (std::size_t c = 0; c < store.p; ++c) {
-      for (unsigned j = 0; j < 3; ++j) {
-        if (!nonzero[j * store.p + c]) continue;
-        t.psi_offset[t.lanes] = static_cast<std::ptrdiff_t>(c) * store.psi.outerStride();
-        t.side_offset[t.lanes] = static_cast<std::ptrdiff_t>(c);
-        t.joint[t.lanes] = static_cast<unsigned char>(j);
-        if (++t.lanes == kLanes) {
-          tasks.push_back(t);
-          t.lanes = 0;
-        }
+    for (unsigned j = 0; j < 3; ++j) {
+      tasks.push_back({si, j, true, 0});
+      for (std::size_t c = 0; c < store.p; ++c) {
+        if (nonzero[j * store.p + c]) tasks.push_back({si, j, false, c});
       }
     }
-    if (t.lanes > 0) tasks.push_back(t);
-    tasks.push_back({si, true, 3, {}, {}, {}});
   }
-  const auto run = [&](const Task& t, FiltfiltBlock& block) {
-    const std::size_t si = t.segment;
-    const std::size_t len = segments[si].end - segments[si].begin;
-    filtfilt_lanes(
-        d.filter, len, t.lanes, d.pad,
-        [&](std::size_t q) {
-          bool side = false;
-          const std::size_t i = layout.place(si, q, len, side);
-          JointLanes at{{}, side ? t.side_offset.data() : t.psi_offset.data(), t.joint.data()};
-          for (unsigned j = 0; j < 3; ++j) {
-            at.row[j] = store.row_start(side, side ? 3 * i + j : layout.row(i, j));
-          }
-          return at;
-        },
-        block);
-  };
-  // tau's three joints at a sample: next to each other, or where the row
-  // order put them.
-  static constexpr std::array<std::uint32_t, 3> kNextRow{0, 1, 2};
-  const auto run_tau = [&](const Task& t, FiltfiltBlock& block) {
-    const std::size_t si = t.segment;
-    const std::size_t len = segments[si].end - segments[si].begin;
-    filtfilt_lanes(
-        d.filter, len, 3, d.pad,
-        [&](std::size_t q) {
-          bool side = false;
-          const std::size_t i = layout.place(si, q, len, side);
-          if (side || !layout.ordered()) {
-            return LaneRef{store.tau_start(side, 3 * i), kNextRow.data()};
-          }
-          return LaneRef{store.tau_start(false, 0), layout.rows_of(i)};
-        },
-        block);
+  const auto run = [&](const Task& t) {
+    const std::size_t len = segments[t.segment].end - segments[t.segment].begin;
+    filtfilt_lanes(d.filter, len, 1, d.pad, [&](std::size_t q) {
+      bool side = false;
+      const std::size_t i = layout.place(t.segment, q, len, side);
+      const std::size_t row = side ? 3 * i + t.joint : layout.row(i, t.joint);
+      return t.tau ? &store.tau_at(side, row) : &store.at(side, row, t.column);
+    });
   };
   const std::size_t workers = workers_for(samples, threads, kSamplesPerThread);
-  // One buffer per thread, grown to the longest segment.
-  std::vector<FiltfiltBlock> blocks(workers, FiltfiltBlock(2, 0));
-  run_tasks(tasks.size(), workers, [&](std::size_t worker, std::size_t k) {
-    if (tasks[k].tau) {
-      run_tau(tasks[k], blocks[worker]);
-    } else {
-      run(tasks[k], blocks[worker]);
-    }
-  });
+  run_tasks(tasks.size(), workers, [&](std::size_t, std::size_t k) { run(tasks[k]); });
 }
 
 // Where the states' samples go: the kept ones in the row order asked for
@@ -661,7 +604,9 @@ std::array<bool, Model::kMaxShapeTerms> refill_shape_terms(const Model& model, c
     model.shape_terms(j, s.states[seg.begin + q].qd_rad_s[j], columns.data(), v);
     for (std::size_t t = 0; t < lanes; ++t) nonzero[t] = nonzero[t] || v[t] != 0.0;
   }
-  if (!d.logged_derivatives) filtfilt_lanes(d.filter, values.data(), n, lanes, lanes, d.pad);
+  if (!d.logged_derivatives) {
+    filtfilt_lanes(d.filter, n, lanes, d.pad, [&](std::size_t q) { return &values[q * lanes]; });
+  }
   for (std::size_t q = 0; q < n; ++q) {
     bool side = false;
     const std::size_t i = layout.place(si, q, n, side);

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include "delta/splitmix.hpp"
-#include "host_id/lane_pair.hpp"
 
 namespace host_id {
 
@@ -40,39 +39,19 @@ struct Swarm {
   std::vector<double> randoms;  // one move's r1 for every coordinate, then its r2
 };
 
-// One coordinate (T = double) or two side by side (LanePair) moved towards
-// the best p and the guide g with the draws r1, r2. A coordinate that
-// leaves [0, 1] is put on the bound it crossed, its velocity reversed and
-// halved. Selects, not branches (the comparisons are std::clamp's), so that
-// a pair is one instruction per step and a coordinate's bits are the same
-// alone or in a pair.
-template <class T>
-void move_coordinate(T& x, T& v, T p, T g, T r1, T r2) {
-  const T lowest_speed = T{} - kMaxSpeed, highest_speed = T{} + kMaxSpeed;
-  const T zero = T{}, one = T{} + 1.0;
-  T vel = kChi * (v + kC * r1 * (p - x) + kC * r2 * (g - x));
-  vel = vel < lowest_speed ? lowest_speed : vel;
-  vel = highest_speed < vel ? highest_speed : vel;
-  const T pos = x + vel;
-  T at = pos < zero ? zero : pos;
-  at = one < at ? one : at;
-  const T reversed = -0.5 * vel;
-  x = at;
-  v = at == pos ? vel : reversed;
-}
-
-// The dim coordinates x (velocities v) moved, two at a time.
+// The dim coordinates x (velocities v) moved towards the best p and the
+// guide g with the draws r1, r2. A coordinate that leaves [0, 1] is put on
+// the bound it crossed, its velocity reversed and halved.
 void move_coordinates(double* x, double* v, const double* p, const double* g, const double* r1,
                       const double* r2, std::size_t dim) {
-  std::size_t d = 0;
-  for (; d + 2 <= dim; d += 2) {
-    LanePair xd = load_pair(x + d), vd = load_pair(v + d);
-    move_coordinate(xd, vd, load_pair(p + d), load_pair(g + d), load_pair(r1 + d),
-                    load_pair(r2 + d));
-    store_pair(x + d, xd);
-    store_pair(v + d, vd);
+  for (std::size_t d = 0; d < dim; ++d) {
+    const double vel =
+        std::clamp(kChi * (v[d] + kC * r1[d] * (p[d] - x[d]) + kC * r2[d] * (g[d] - x[d])),
+                   -kMaxSpeed, kMaxSpeed);
+    const double pos = x[d] + vel;
+    x[d] = std::clamp(pos, 0.0, 1.0);
+    v[d] = x[d] == pos ? vel : -0.5 * vel;
   }
-  if (d < dim) move_coordinate(x[d], v[d], p[d], g[d], r1[d], r2[d]);
 }
 
 // Moves particle i towards its own best and its guide g. r1 and r2 of a

@@ -120,87 +120,32 @@ QuadraticCost::QuadraticCost(const Eigen::MatrixXd& psi_t_psi, const Eigen::Vect
   set(psi_t_psi, psi_t_tau - psi_t_psi * beta0, beta0);
 }
 
-namespace {
-
-// Rounded up to even: the length of a column of QuadraticCost's triangle.
-constexpr std::size_t even_above(std::size_t n) {
-  return (n + 1) & ~std::size_t{1};
-}
-
-// d^T (G d - 2 b) for d = beta - beta0 and a symmetric p x p matrix G,
-// from `half`: G's upper triangle with half its diagonal, H (columns of
-// length even_above(p)), so that G d = (H + H^T) d and d^T G d = 2 d^T H d.
-// H d as a sum of H's columns, each over its rows down to the diagonal
-// taken in pairs (independent lanes, which the compiler vectorises; a
-// row-by-row dot product is a chain of dependent additions it may not
-// reorder), then the outer sum in two halves.
-template <std::size_t P>
-double quadratic_form_of(const double* half, const double* b, const double* beta,
-                         const double* beta0) {
-  constexpr std::size_t kStride = even_above(P);
-  double d[P];
-  for (std::size_t i = 0; i < P; ++i) d[i] = beta[i] - beta0[i];
-  double h_d[kStride] = {};
-#pragma GCC unroll 32
-  for (std::size_t j = 0; j < P; ++j) {
-    const double* column = half + j * kStride;
-    const double dj = d[j];
-    for (std::size_t i = 0; i < even_above(j + 1); ++i) h_d[i] += column[i] * dj;
-  }
-  double sum[2] = {0.0, 0.0};
-  for (std::size_t i = 0; i < P; ++i) sum[i % 2] += d[i] * (h_d[i] - b[i]);
-  return 2.0 * (sum[0] + sum[1]);
-}
-
-// The same for any p (a model with more parameters than the unrolled
-// ones), row by row: (H d)_i = sum over j >= i of H_ij d_j.
-double quadratic_form(const double* half, const double* b, const double* beta, const double* beta0,
-                      std::size_t p) {
-  const std::size_t stride = even_above(p);
-  double quadratic = 0.0;
-  for (std::size_t i = 0; i < p; ++i) {
-    double h_d = 0.0;
-    for (std::size_t j = i; j < p; ++j) h_d += half[j * stride + i] * (beta[j] - beta0[j]);
-    quadratic += (beta[i] - beta0[i]) * (h_d - b[i]);
-  }
-  return 2.0 * quadratic;
-}
-
-template <std::size_t P>
-double quadratic_form_of(const double* half, const double* b, const double* beta,
-                         const double* beta0, std::size_t) {
-  return quadratic_form_of<P>(half, b, beta, beta0);
-}
-
-template <std::size_t... P>
-auto form_for(std::size_t p, std::index_sequence<P...>) {
-  double (*form)(const double*, const double*, const double*, const double*, std::size_t) =
-      quadratic_form;
-  ((p == P ? (form = quadratic_form_of<P>, 0) : 0), ...);
-  return form;
-}
-
-}  // namespace
-
 void QuadraticCost::set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
                         const Eigen::VectorXd& beta0) {
   const auto p = static_cast<std::size_t>(beta0.size());
-  const std::size_t stride = even_above(p);
   beta0_.assign(beta0.data(), beta0.data() + p);
   psi_t_r0_.assign(psi_t_r0.data(), psi_t_r0.data() + p);
-  half_.assign(p * stride, 0.0);
+  half_.assign(p * p, 0.0);
   for (std::size_t j = 0; j < p; ++j) {
     for (std::size_t i = 0; i <= j; ++i) {
       const double g = psi_t_psi(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
-      half_[j * stride + i] = i == j ? 0.5 * g : g;
+      half_[j * p + i] = i == j ? 0.5 * g : g;
     }
   }
-  form_ = form_for(p, std::index_sequence<9, 12, 14, 15, 18>());  // the models' usual sizes
 }
 
+// d^T (G d - 2 b) for d = beta - beta0 from `half`, G's upper triangle with
+// half its diagonal (H), so that d^T G d = 2 d^T H d: row by row,
+// (H d)_i = sum over j >= i of H_ij d_j.
 double QuadraticCost::at(const double* beta) const {
-  const double form = form_(half_.data(), psi_t_r0_.data(), beta, beta0_.data(), beta0_.size());
-  return std::max(0.0, (r0_t_r0_ + form) * per_row_);
+  const std::size_t p = beta0_.size();
+  double quadratic = 0.0;
+  for (std::size_t i = 0; i < p; ++i) {
+    double h_d = 0.0;
+    for (std::size_t j = i; j < p; ++j) h_d += half_[j * p + i] * (beta[j] - beta0_[j]);
+    quadratic += (beta[i] - beta0_[i]) * (h_d - psi_t_r0_[i]);
+  }
+  return std::max(0.0, (r0_t_r0_ + 2.0 * quadratic) * per_row_);
 }
 
 // With beta = lower + S u (S the spans on the diagonal): d = S (u - u0)
@@ -209,7 +154,6 @@ double QuadraticCost::at(const double* beta) const {
 QuadraticCost QuadraticCost::over_box(const Eigen::VectorXd& lower,
                                       const Eigen::VectorXd& upper) const {
   const std::size_t p = beta0_.size();
-  const std::size_t stride = even_above(p);
   QuadraticCost u = *this;
   for (std::size_t i = 0; i < p; ++i) {
     const auto k = static_cast<Eigen::Index>(i);
@@ -217,8 +161,8 @@ QuadraticCost QuadraticCost::over_box(const Eigen::VectorXd& lower,
     u.beta0_[i] = (beta0_[i] - lower(k)) / span;
     u.psi_t_r0_[i] *= span;
     for (std::size_t j = 0; j < p; ++j) {
-      u.half_[j * stride + i] *= span;
-      u.half_[i * stride + j] *= span;
+      u.half_[j * p + i] *= span;
+      u.half_[i * p + j] *= span;
     }
   }
   return u;

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <utility>
+#include <vector>
 
 namespace host_id {
 
@@ -50,66 +50,59 @@ double line_end_value(const double* x, std::size_t stride, std::size_t first, st
   return (sx - slope * st) / md + slope * at;
 }
 
+// The two sections' states of one series.
+struct CascadeState {
+  double z1, z2, w1, w2;
+
+  // The steady state for a constant input x (unity DC gain).
+  static CascadeState steady(const Biquad& s, const Biquad& u, double x) {
+    return {x - s.b0 * x, s.b2 * x - s.a2 * x, x - u.b0 * x, u.b2 * x - u.a2 * x};
+  }
+  double step(const Biquad& s, const Biquad& u, double in) {
+    const double mid = s.b0 * in + z1;
+    z1 = s.b1 * in - s.a1 * mid + z2;
+    z2 = s.b2 * in - s.a2 * mid;
+    const double out = u.b0 * mid + w1;
+    w1 = u.b1 * mid - u.a1 * out + w2;
+    w2 = u.b2 * mid - u.a2 * out;
+    return out;
+  }
+};
+
 }  // namespace
 
-FiltfiltBlock::FiltfiltBlock(std::size_t n, std::size_t pad, std::size_t max_lanes)
-    : n_(0), pad_(0), max_lanes_(std::min(max_lanes, kMaxLanes)) {
-  resize(n, pad);
-}
-
-void FiltfiltBlock::resize(std::size_t n, std::size_t pad) {
-  n_ = n;
-  pad_ = std::min(pad, n - 1);
-  if (ext_.size() < (n_ + 2 * pad_) * max_lanes_) ext_.resize((n_ + 2 * pad_) * max_lanes_);
-}
-
-void FiltfiltBlock::run(const std::array<Biquad, 2>& filter, std::size_t lanes) {
-  extend_and_forward(filter, lanes);
-  with_lanes(lanes, [&](auto w) {
-    constexpr std::size_t W = decltype(w)::value;
-    double* x = ext_.data();
-    cascade::run<W>(filter, x, n_ + 2 * pad_, true, pad_,
-                    [x](std::size_t i, const double* out) { std::copy_n(out, W, x + i * W); });
-  });
-}
-
-void FiltfiltBlock::extend_and_forward(const std::array<Biquad, 2>& filter, std::size_t lanes) {
-  lanes_ = lanes;
-  const std::size_t w = lanes;
-  double* x = ext_.data() + pad_ * w;  // the samples, as sample() placed them
+void filtfilt_in_place(const std::array<Biquad, 2>& filter, std::vector<double>& x,
+                       std::size_t pad_asked) {
+  const std::size_t n = x.size();
+  if (n < 2) return;
+  const std::size_t pad = std::min(pad_asked, n - 1);
   // Odd reflection about robust end values: 2 x0 - x[pad..1], x,
   // 2 xn - x[n-2..n-1-pad], with x0 and xn from lines through the ends.
-  const std::size_t m = std::min(n_, std::max<std::size_t>(3, pad_ / 3));
-  for (std::size_t l = 0; l < w; ++l) {
-    const double x0 = line_end_value(x + l, w, 0, m, 0.0);
-    const double xn = line_end_value(x + l, w, n_ - m, m, static_cast<double>(n_ - 1));
-    for (std::size_t i = 0; i < pad_; ++i) {
-      ext_[i * w + l] = 2.0 * x0 - x[(pad_ - i) * w + l];
-      ext_[(pad_ + n_ + i) * w + l] = 2.0 * xn - x[(n_ - 2 - i) * w + l];
-    }
+  // Only the reflected ends are stored; x is filtered where it is.
+  const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
+  const double x0 = line_end_value(x.data(), 1, 0, m, 0.0);
+  const double xn = line_end_value(x.data(), 1, n - m, m, static_cast<double>(n - 1));
+  std::vector<double> head(pad), tail(pad);
+  for (std::size_t i = 0; i < pad; ++i) {
+    head[i] = 2.0 * x0 - x[pad - i];
+    tail[i] = 2.0 * xn - x[n - 2 - i];
   }
-  with_lanes(w, [&](auto lanes_w) {
-    constexpr std::size_t W = decltype(lanes_w)::value;
-    double* ext = ext_.data();
-    cascade::run<W>(filter, ext, n_ + 2 * pad_, false, 0,
-                    [ext](std::size_t i, const double* out) { std::copy_n(out, W, ext + i * W); });
-  });
+  const Biquad& s = filter[0];
+  const Biquad& u = filter[1];
+  CascadeState forward = CascadeState::steady(s, u, pad > 0 ? head.front() : x.front());
+  for (const double v : head) forward.step(s, u, v);
+  for (double& v : x) v = forward.step(s, u, v);
+  for (double& v : tail) v = forward.step(s, u, v);
+  // Backward from the end of the tail; only x's samples are kept.
+  CascadeState backward = CascadeState::steady(s, u, pad > 0 ? tail.back() : x.back());
+  for (std::size_t i = pad; i-- > 0;) backward.step(s, u, tail[i]);
+  for (std::size_t i = n; i-- > 0;) x[i] = backward.step(s, u, x[i]);
 }
 
-void filtfilt_lanes(const std::array<Biquad, 2>& filter, double* data, std::size_t n,
-                    std::size_t lanes, std::size_t stride, std::size_t pad) {
-  std::vector<std::ptrdiff_t> offset(lanes);
-  for (std::size_t l = 0; l < lanes; ++l) offset[l] = static_cast<std::ptrdiff_t>(l);
-  filtfilt_lanes(filter, n, lanes, pad, [&](std::size_t k) {
-    return LaneRef{data + k * stride, offset.data()};
-  });
-}
-
-std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, const std::vector<double>& x,
+std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<double> x,
                              std::size_t pad) {
-  std::vector<double> y = x;
-  filtfilt_lanes(filter, y.data(), y.size(), 1, 1, pad);
-  return y;
+  filtfilt_in_place(filter, x, pad);
+  return x;
 }
 
 }  // namespace host_id

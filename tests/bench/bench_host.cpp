@@ -13,7 +13,6 @@
 #include "delta/read_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/design.hpp"
-#include "host_id/huge_pages.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/parallel.hpp"
@@ -59,7 +58,7 @@ const std::string& log60_path() {
 void BM_Stage1_Read60s(benchmark::State& state) {
   std::size_t bytes = 0;
   for (auto _ : state) {
-    const delta::FileBytes text = delta::read_file_bytes(log60_path(), kHugePageStore);
+    const delta::FileBytes text = delta::read_file_bytes(log60_path());
     bytes = text.view().size();
     benchmark::DoNotOptimize(text.view().data());
   }

@@ -5,7 +5,7 @@
 #include <exception>
 
 #include "host_id/delta_log.hpp"
-#include "host_id/huge_pages.hpp"
+#include "host_id/memory.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

@@ -6,7 +6,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <new>
 #include <utility>
 
 #include "delta/input_error.hpp"
@@ -29,26 +28,9 @@ class Descriptor {
   int fd_;
 };
 
-void* operator_new_allocate(std::size_t bytes) {
-  return ::operator new(bytes);
-}
-
-void operator_new_release(void* p, std::size_t) noexcept {
-  ::operator delete(p);
-}
-
 }  // namespace
 
-const ByteStore kOperatorNewStore{operator_new_allocate, operator_new_release};
-
-void FileBytes::swap(FileBytes& other) noexcept {
-  std::swap(bytes_, other.bytes_);
-  std::swap(size_, other.size_);
-  std::swap(capacity_, other.capacity_);
-  std::swap(store_, other.store_);
-}
-
-FileBytes read_file_bytes(const std::string& path, const ByteStore& store) {
+FileBytes read_file_bytes(const std::string& path) {
   const Descriptor fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
   if (fd.get() < 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
   struct stat st {};
@@ -58,16 +40,17 @@ FileBytes read_file_bytes(const std::string& path, const ByteStore& store) {
   // A regular file's size is known (one byte more shows its end in the same
   // read); a pipe or a growing file reads on in blocks until end of file.
   std::size_t capacity = S_ISREG(st.st_mode) ? static_cast<std::size_t>(st.st_size) + 1 : 65536;
-  FileBytes bytes(static_cast<char*>(store.allocate(capacity)), 0, capacity, store);
+  FileBytes bytes;
+  bytes.bytes_ = std::make_unique_for_overwrite<char[]>(capacity);
   std::size_t used = 0;
   for (;;) {
     if (used == capacity) {
-      FileBytes larger(static_cast<char*>(store.allocate(capacity * 2)), 0, capacity * 2, store);
-      std::memcpy(larger.bytes_, bytes.bytes_, used);
-      bytes = std::move(larger);
+      auto larger = std::make_unique_for_overwrite<char[]>(capacity * 2);
+      std::memcpy(larger.get(), bytes.bytes_.get(), used);
+      bytes.bytes_ = std::move(larger);
       capacity *= 2;
     }
-    const ssize_t n = ::read(fd.get(), bytes.bytes_ + used, capacity - used);
+    const ssize_t n = ::read(fd.get(), bytes.bytes_.get() + used, capacity - used);
     if (n < 0) {
       if (errno == EINTR) continue;
       throw InputError(path + ": read failed: " + std::strerror(errno));

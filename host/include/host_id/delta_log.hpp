@@ -14,11 +14,10 @@
 #include <vector>
 
 #include "delta/geometry.hpp"
-#include "host_id/huge_pages.hpp"
 
 namespace host_id {
 
-using Series = SeriesVector<double>;
+using Series = std::vector<double>;
 using Series3 = std::array<Series, 3>;
 
 // A place where samples are not contiguous: samples [0, index) and

@@ -10,9 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "host_id/huge_pages.hpp"
 #include "host_id/model.hpp"
-#include "host_id/series_matrix.hpp"
 
 namespace host_id {
 
@@ -45,13 +43,13 @@ struct MeasuredMoments {
 // (PrepareOptions::slow_rows_last_below_rad_s), so code that needs a
 // row's joint or sample reads joint[row] and sample[row].
 struct Regression {
-  SeriesMatrix psi;                     // N m per unit of each parameter
-  Eigen::VectorXd tau;                  // N m
-  SeriesVector<double> t_s;             // time of sample k
-  SeriesVector<unsigned char> joint;    // the joint of each row, 0..2
-  SeriesVector<double> velocity_rad_s;  // qd of that joint at that row's sample
-  SeriesVector<std::size_t> sample;     // the index into t_s of each row's sample
-  MeasuredMoments measured;             // the kept samples' rows before filtering
+  Eigen::MatrixXd psi;                 // N m per unit of each parameter
+  Eigen::VectorXd tau;                 // N m
+  std::vector<double> t_s;             // time of sample k
+  std::vector<unsigned char> joint;    // the joint of each row, 0..2
+  std::vector<double> velocity_rad_s;  // qd of that joint at that row's sample
+  std::vector<std::size_t> sample;     // the index into t_s of each row's sample
+  MeasuredMoments measured;            // the kept samples' rows before filtering
   // The columns that are not zero in some row of joint j, ascending; every
   // other column is zero in all of joint j's rows (another joint's
   // friction, say). They describe psi while it has joint_columns_of
@@ -119,8 +117,7 @@ double direct_cost(const Equations& r, const Eigen::VectorXd& beta,
 // beta0, which is small near the optimum and enters only multiplied by d.
 // The symmetric Psi^T Psi enters through its upper triangle: half the
 // products of the full matrix. An evaluation allocates nothing (PSO makes
-// hundreds of thousands of them): plain loops over the triangle and one
-// scratch vector, so one object serves one thread.
+// hundreds of thousands of them), so one object serves several threads.
 class QuadraticCost {
  public:
   QuadraticCost(const Equations& r, const Eigen::VectorXd& beta0);
@@ -140,17 +137,10 @@ class QuadraticCost {
   void set(const Eigen::MatrixXd& psi_t_psi, const Eigen::VectorXd& psi_t_r0,
            const Eigen::VectorXd& beta0);
   std::vector<double> beta0_;
-  // Psi^T Psi's upper triangle with half its diagonal, column by column:
-  // each column's length is p rounded up to even, zero below the diagonal,
-  // so that a column's products go in pairs.
-  std::vector<double> half_;
+  std::vector<double> half_;  // Psi^T Psi's upper triangle with half its diagonal, column-major
   std::vector<double> psi_t_r0_;
   double r0_t_r0_{0};
   double per_row_{1};  // 1 / rows
-  // The form d^T (Psi^T Psi d - 2 Psi^T r0), d = beta - beta0, for this p:
-  // unrolled for the models' usual sizes, a loop otherwise.
-  double (*form_)(const double* half, const double* b, const double* beta, const double* beta0,
-                  std::size_t p){nullptr};
 };
 
 // Root mean square error per joint of the prediction Psi beta.

@@ -1148,7 +1148,7 @@ TEST(IdentifyTest, TheCovarianceTakesEachJointsOwnColumnsWithTheSameResult) {
   // derivatives) is not zero in any joint's rows: the lists, made for p
   // columns, are then left aside, and every column is taken.
   Regression grown = with;
-  grown.psi.conservative_resize_columns(p + 1);
+  grown.psi.conservativeResize(Eigen::NoChange, p + 1);
   grown.psi.col(p) = with.psi.col(0).cwiseProduct(with.tau);
   Regression grown_without = grown;
   for (auto& columns : grown_without.joint_columns) columns.clear();

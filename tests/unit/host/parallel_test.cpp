@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "host_id/huge_pages.hpp"  // HOST_ID_ADDRESS_SANITIZER
+#include "address_sanitizer.hpp"
 
 namespace host_id {
 namespace {
@@ -99,7 +99,7 @@ TEST(RunTasks, RethrowsATasksException) {
   }
 }
 
-#if !HOST_ID_ADDRESS_SANITIZER  // the sanitizer's own mappings need address space
+#if !DELTA_ADDRESS_SANITIZER  // the sanitizer's own mappings need address space
 // In a child process: with no address space left for a thread's stack,
 // runs 8 tasks on 4 workers and exits 0 if every task ran.
 [[noreturn]] void run_without_room_for_threads() {
