@@ -1,7 +1,7 @@
 // host_id's speed targets on a 60 s, 1 kHz log (7.9 MB): each stage of a
 // fit (read, parse, preprocess, regressor, solve, covariance, PSO), one cost
 // evaluation (direct against O(p^2)), and whole fits. tests/bench/fit_speed.py
-// turns the stages into the ratios of docs/identification.md.
+// turns the stages into the ratios of docs/dev/performance.md.
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The least-squares fit of `host_id fit --model lumped --method ls` in numpy
-and scipy, for the speed comparison of docs/identification.md.
+and scipy, for the speed comparison of docs/dev/performance.md.
 
   tests/bench/fit_numpy.py LOG.csv [--host-id build/bin/host_id] [--runs 3]
 

@@ -3,7 +3,7 @@
 
   tests/bench/fit_speed.py [--build build] [--runs 7] [--compare OTHER_HOST_ID]
 
-Makes the 60 s and 10-minute, 1 kHz logs of docs/identification.md (1.5 %
+Makes the 60 s and 10-minute, 1 kHz logs of docs/dev/performance.md (1.5 %
 torque noise, 17-bit encoders) with `host_id simulate` unless they exist,
 then times, each in a fresh process and taking the median of --runs:
   - reading and parsing the 60 s log (build/bin/read_log_once),
