@@ -113,7 +113,6 @@ std::vector<Term> delta_terms() {
 // A model linear in physical parameters, one column (or three) per term.
 class PhysicalModel final : public Model {
  public:
-  using Model::rows;
   PhysicalModel(ModelOptions o, std::vector<Term> terms) : Model(std::move(o)) {
     if (options_.stribeck_velocity_rad_s > 0.0) terms.push_back(kStribeck);
     if (options_.offsets) terms.push_back(kOffset);
@@ -216,7 +215,6 @@ class PhysicalModel final : public Model {
 // with (x, y, z) = FK(q). The lambda coefficients are free constants per arm.
 class Paper14Model final : public Model {
  public:
-  using Model::rows;
   explicit Paper14Model(ModelOptions o) : Model(std::move(o)) {
     parameters_.push_back({"beta1", "kg m^2", true, "shared coefficient of qdd_i"});
     parameters_.push_back({"beta5", "N m", false, "shared coefficient of cos(q_i)"});
@@ -256,14 +254,6 @@ class Paper14Model final : public Model {
 };
 
 }  // namespace
-
-std::size_t Model::rows(const delta::Geometry& g, double gravity_m_s2, const delta::JointState* s,
-                        std::size_t count, double* out) const {
-  for (std::size_t k = 0; k < count; ++k) {
-    if (rows(g, gravity_m_s2, s[k], out + k * 3 * size()) != delta::KinematicsStatus::kOk) return k;
-  }
-  return count;
-}
 
 std::unique_ptr<Model> make_model(const ModelOptions& options) {
   if (!(options.coulomb_smoothing_rad_s > 0.0) || !std::isfinite(options.coulomb_smoothing_rad_s)) {

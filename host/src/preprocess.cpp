@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -312,9 +311,6 @@ struct RowStore {
   double& tau_at(bool on_side, std::size_t row) {
     return on_side ? side_tau[row] : tau(static_cast<Eigen::Index>(row));
   }
-  // The start of a row: its columns are offsets psi_offset (column-major
-  // psi) or side_offset (the side rows, row-major) away.
-  double* row_start(bool on_side, std::size_t row) { return &at(on_side, row, 0); }
 };
 
 // A kept sample's labels: its time, and its rows' joints, speeds and sample.
@@ -334,24 +330,21 @@ void label_kept(const States& s, std::size_t k, std::size_t i, const RowLayout& 
 // threads (a worker takes whole chunks).
 constexpr std::size_t kMomentChunk = 1024;
 
-// The samples whose rows are built together, at most: their rows are
-// computed into a tile that stays in the cache, row after row, and then
-// copied out a column at a time. Written straight into the column-major
-// regressor, a sample's rows were stores to p columns far apart, and the
-// stores waited on memory.
-constexpr std::size_t kTileSamples = 128;
-
-// A worker's tile: the rows of up to kTileSamples samples, row-major, the
-// torque of each row, and the regressor row each kept row goes to.
-struct RowTile {
-  explicit RowTile(std::size_t p)
-      : rows(3 * kTileSamples * p), tau(3 * kTileSamples), to_row(3 * kTileSamples) {}
+// A worker's rows of the samples it builds together (at most a chunk):
+// row-major, 3 p values per sample, the torque of each row, and the
+// regressor row each kept row goes to. Built row by row in this small
+// buffer and then copied out a column at a time: written straight into the
+// column-major regressor, a sample's rows are stores to p columns far
+// apart, which wait on memory.
+struct ChunkRows {
+  explicit ChunkRows(std::size_t p)
+      : rows(3 * kMomentChunk * p), tau(3 * kMomentChunk), to_row(3 * kMomentChunk) {}
   std::vector<double> rows;
   std::vector<double> tau;
   std::vector<std::size_t> to_row;
 };
 
-// Where the rows of the samples go: a tile of samples at a time.
+// Where the rows of the samples go.
 struct RowFill {
   const Model& model;
   const DeltaLog& log;
@@ -360,36 +353,36 @@ struct RowFill {
   RowStore& store;
   Regression& r;
 
-  // Samples [b, e) of segment si (no longer than a tile): their rows and
+  // Samples [b, e) of segment si (no more than a chunk): their rows and
   // torques into their places, the columns not zero marked in nz (3 p, per
   // joint); the kept samples' labels, and their unfiltered rows into
   // `moments`. The first sample whose pose has no forward kinematics, or e.
-  std::size_t samples(std::size_t si, std::size_t b, std::size_t e, RowTile& tile,
+  std::size_t samples(std::size_t si, std::size_t b, std::size_t e, ChunkRows& chunk,
                       unsigned char* nz, MeasuredMoments& moments) const {
     const std::size_t p = model.size();
-    const std::size_t done =
-        model.rows(log.geometry, log.gravity_m_s2, &s.states[b], e - b, tile.rows.data());
-    if (done < e - b) return b + done;
-    for (std::size_t k = b; k < e; ++k) {
-      for (unsigned j = 0; j < 3; ++j) tile.tau[3 * (k - b) + j] = s.tau_Nm[k][j];
-    }
     const Segment& seg = s.segments[si];
     const std::size_t len = seg.end - seg.begin;
     // The kept samples of a segment are one run between its trimmed ends.
     std::size_t kept_b = e, kept_e = e;
     for (std::size_t k = b; k < e; ++k) {
+      double* rows = &chunk.rows[3 * (k - b) * p];
+      if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows) !=
+          delta::KinematicsStatus::kOk) {
+        return k;
+      }
+      for (unsigned j = 0; j < 3; ++j) chunk.tau[3 * (k - b) + j] = s.tau_Nm[k][j];
       bool side = false;
       const std::size_t i = layout.place(si, k - seg.begin, len, side);
       if (side) {
-        put_aside(&tile.rows[3 * (k - b) * p], &tile.tau[3 * (k - b)], i, nz);
+        put_aside(rows, &chunk.tau[3 * (k - b)], i, nz);
         continue;
       }
       kept_b = std::min(kept_b, k);
       kept_e = k + 1;
       label_kept(s, k, i, layout, r);
-      for (unsigned j = 0; j < 3; ++j) tile.to_row[3 * (k - b) + j] = layout.row(i, j);
+      for (unsigned j = 0; j < 3; ++j) chunk.to_row[3 * (k - b) + j] = layout.row(i, j);
     }
-    if (kept_b < kept_e) put_kept(tile, kept_b - b, kept_e - b, nz, moments);
+    if (kept_b < kept_e) put_kept(chunk, kept_b - b, kept_e - b, nz, moments);
     return e;
   }
 
@@ -398,47 +391,39 @@ struct RowFill {
   void put_aside(const double* rows, const double* tau, std::size_t i, unsigned char* nz) const {
     const std::size_t p = model.size();
     for (unsigned j = 0; j < 3; ++j) {
-      const double* row = rows + j * p;
-      double* out = store.row_start(true, 3 * i + j);
       for (std::size_t c = 0; c < p; ++c) {
-        out[c] = row[c];
-        nz[j * p + c] |= static_cast<unsigned char>(row[c] != 0.0);
+        const double v = rows[j * p + c];
+        store.at(true, 3 * i + j, c) = v;
+        nz[j * p + c] |= static_cast<unsigned char>(v != 0.0);
       }
       store.tau_at(true, 3 * i + j) = tau[j];
     }
   }
 
-  // The kept samples [first, last) of the tile: each column copied to the
-  // regressor (its rows ascend in two runs at most, the fast and the slow
-  // joints), tau alike, and each joint's rows into the moments. A value
-  // marks its column not zero by its bits other than the sign (-0.0 is
-  // zero, as -0.0 == 0.0), which costs no comparison.
-  void put_kept(const RowTile& tile, std::size_t first, std::size_t last, unsigned char* nz,
+  // The kept samples [first, last) of the chunk: each column copied to the
+  // regressor, tau alike, and each joint's rows into the moments.
+  void put_kept(const ChunkRows& chunk, std::size_t first, std::size_t last, unsigned char* nz,
                 MeasuredMoments& moments) const {
     const std::size_t p = model.size();
     for (std::size_t c = 0; c < p; ++c) {
       double* column = &store.psi(0, static_cast<Eigen::Index>(c));
-      std::array<std::uint64_t, 3> bits{};
-      for (std::size_t t = first; t < last; ++t) {
-        for (unsigned j = 0; j < 3; ++j) {
-          const double v = tile.rows[(3 * t + j) * p + c];
-          column[tile.to_row[3 * t + j]] = v;
-          bits[j] |= std::bit_cast<std::uint64_t>(v) << 1;
-        }
+      for (std::size_t t = 3 * first; t < 3 * last; ++t) {
+        const double v = chunk.rows[t * p + c];
+        column[chunk.to_row[t]] = v;
+        nz[(t % 3) * p + c] |= static_cast<unsigned char>(v != 0.0);
       }
-      for (unsigned j = 0; j < 3; ++j) nz[j * p + c] |= static_cast<unsigned char>(bits[j] != 0);
     }
     for (std::size_t t = 3 * first; t < 3 * last; ++t) {
-      store.tau(static_cast<Eigen::Index>(tile.to_row[t])) = tile.tau[t];
+      store.tau(static_cast<Eigen::Index>(chunk.to_row[t])) = chunk.tau[t];
     }
     const auto n = static_cast<Eigen::Index>(last - first);
     const auto pi = static_cast<Eigen::Index>(p);
     for (unsigned j = 0; j < 3; ++j) {
       // Joint j's rows as the columns of a p x n matrix, and its torques.
       const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> rows(
-          &tile.rows[(3 * first + j) * p], pi, n, Eigen::OuterStride<>(3 * pi));
+          &chunk.rows[(3 * first + j) * p], pi, n, Eigen::OuterStride<>(3 * pi));
       const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<3>> tau(
-          &tile.tau[3 * first + j], n);
+          &chunk.tau[3 * first + j], n);
       moments.add(j, rows, tau);
     }
   }
@@ -460,9 +445,9 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   std::atomic<std::size_t> first_bad{n};
   std::vector<MeasuredMoments> chunk_moments(chunks);
   std::vector<std::vector<unsigned char>> nonzero_of(workers, std::vector<unsigned char>(3 * p));
-  std::vector<RowTile> tiles(workers, RowTile(p));
-  // Chunk c on worker w: its moments summed alone, a tile at a time within
-  // a segment. The workers take the next chunk left, so that a thread the
+  std::vector<ChunkRows> rows_of(workers, ChunkRows(p));
+  // Chunk c on worker w, its moments summed alone, a segment's part at a
+  // time. The workers take the next chunk left, so that a thread the
   // machine slows down does less; a chunk after a bad sample is skipped.
   const auto work = [&](std::size_t w, std::size_t c) {
     if (first_bad.load() < c * kMomentChunk) return;
@@ -471,15 +456,13 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
       const std::size_t b = std::max(s.segments[si].begin, c * kMomentChunk);
       const std::size_t e = std::min(s.segments[si].end, (c + 1) * kMomentChunk);
-      for (std::size_t k = b; k < e; k += kTileSamples) {
-        const std::size_t end = std::min(e, k + kTileSamples);
-        const std::size_t bad = fill.samples(si, k, end, tiles[w], nonzero_of[w].data(), moments);
-        if (bad == end) continue;
-        std::size_t expected = first_bad.load();
-        while (bad < expected && !first_bad.compare_exchange_weak(expected, bad)) {
-        }
-        return;
+      if (b >= e) continue;
+      const std::size_t bad = fill.samples(si, b, e, rows_of[w], nonzero_of[w].data(), moments);
+      if (bad == e) continue;
+      std::size_t expected = first_bad.load();
+      while (bad < expected && !first_bad.compare_exchange_weak(expected, bad)) {
       }
+      return;
     }
   };
   run_tasks(chunks, workers, work);

@@ -48,12 +48,6 @@ class Model {
   // Returns kOk, or why the pose has no kinematics.
   virtual delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
                                        const delta::JointState& s, double* out) const = 0;
-  // The rows of count samples s[0..count), each sample's three rows after
-  // the previous one's (3 size() values apiece), the same values as rows()
-  // gives each alone. Returns the first sample without kinematics (its
-  // rows and those after it are not written), or count.
-  virtual std::size_t rows(const delta::Geometry& g, double gravity_m_s2,
-                           const delta::JointState* s, std::size_t count, double* out) const;
   // The parameter vector, in the order of parameters(), of a robot with
   // known physical parameters (a lumped robot is the special case with no
   // sin term, no coupling and equal platform masses). Throws

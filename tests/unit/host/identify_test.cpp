@@ -332,45 +332,6 @@ TEST(IdentifyTest, PaperModelShowsTheValidationGapThatSolvingLambdaCloses) {
 // PSO compares costs to 1e-12 (its stall tolerance), so the O(p^2) cost
 // must equal the direct sum of squares that well at and near the optimum,
 // where the expansion about zero lost about 5e-9 to cancellation.
-// The rows of many samples at once (two samples' kinematics side by side
-// for the physical models, one at a time for paper14) are each sample's
-// rows alone, bit for bit, and stop at a pose without kinematics.
-TEST(IdentifyTest, EveryModelsRowsOfManySamplesAreEachSamplesRows) {
-  const delta::Geometry g = delta::kDefaultGeometry;
-  std::vector<delta::JointState> s(9);
-  for (std::size_t k = 0; k < s.size(); ++k) {
-    for (unsigned j = 0; j < 3; ++j) {
-      const double x = 0.1 * static_cast<double>(k + j);
-      s[k].q_rad[j] = 0.2 + 0.3 * std::sin(x);
-      s[k].qd_rad_s[j] = std::cos(3.0 * x);
-      s[k].qdd_rad_s2[j] = 4.0 * std::sin(5.0 * x);
-    }
-  }
-  ModelOptions stribeck;
-  stribeck.stribeck_velocity_rad_s = 0.05;
-  stribeck.offsets = true;
-  ModelOptions lumped, paper;
-  lumped.name = "lumped";
-  paper.name = "paper14";
-  for (const ModelOptions& options : {ModelOptions{}, stribeck, lumped, paper}) {
-    const auto model = make_model(options);
-    const std::size_t p = model->size();
-    std::vector<double> together(s.size() * 3 * p), alone(3 * p);
-    ASSERT_EQ(model->rows(g, 9.81, s.data(), s.size(), together.data()), s.size());
-    for (std::size_t k = 0; k < s.size(); ++k) {
-      ASSERT_EQ(model->rows(g, 9.81, s[k], alone.data()), delta::KinematicsStatus::kOk);
-      for (std::size_t c = 0; c < 3 * p; ++c) {
-        EXPECT_EQ(together[k * 3 * p + c], alone[c])
-            << options.name << ", sample " << k << ", " << c;
-      }
-    }
-    std::vector<delta::JointState> with_bad = s;
-    with_bad[5].q_rad = {3.0, 0.0, 0.0};  // no forward kinematics
-    EXPECT_EQ(model->rows(g, 9.81, with_bad.data(), with_bad.size(), together.data()), 5u)
-        << options.name;
-  }
-}
-
 TEST(IdentifyTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
   const DeltaLog log = simulated(4, 0.02, 17, false);
   const auto model = make_model({});
