@@ -70,18 +70,14 @@ void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
 }
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
-// the conditioning and the box. The swarm needs the estimate but not its
-// covariance, so it runs while that is computed.
+// the conditioning and the box.
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
                                const FitOptions& options, std::size_t lags,
                                const std::string& log_name, FitResult& r, Box& box) {
   const bool pso = options.method == Method::kPso;
   const LeastSquaresResult ls = solve_least_squares(
-      reg, parameters, options.solver, options.weights, log_name, lags, options.threads,
-      pso ? Alongside([&](const LeastSquaresResult& estimate) {
-        run_swarm(reg, estimate, parameters, options, r, box);
-      })
-          : nullptr);
+      reg, parameters, options.solver, options.weights, log_name, lags, options.threads);
+  if (pso) run_swarm(reg, ls, parameters, options, r, box);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
   r.std_dev_lags = ls.correlation_lags;

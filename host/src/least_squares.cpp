@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <optional>
 #include <sstream>
-#include <thread>
 
 #include "delta/input_error.hpp"
 #include "host_id/parallel.hpp"
@@ -436,7 +435,7 @@ TriangularFactor scaled_factor(const Equations& reg, const RowScale& scale,
 // threads; returns |e|^2, summed per chunk of rows and the chunks added in
 // order.
 double scaled_residual(const Equations& r, const RowScale& scale, const Eigen::VectorXd& beta,
-                       unsigned threads, Eigen::Map<Eigen::VectorXd>& e) {
+                       unsigned threads, Eigen::VectorXd& e) {
   const Eigen::Index m = r.psi.rows();
   const Eigen::Index chunks = row_chunks(m);
   std::vector<double> squares(static_cast<std::size_t>(chunks), 0.0);
@@ -457,29 +456,6 @@ double scaled_residual(const Equations& r, const RowScale& scale, const Eigen::V
   double sum = 0.0;
   for (const double s : squares) sum += s;
   return sum;
-}
-
-// Runs alongside(estimate) and covariance(t), t one thread fewer than
-// allowed, side by side (run_tasks: each on a thread of its own); one after
-// the other where only one thread is allowed. The first exception either
-// throws is rethrown here.
-template <class Covariance>
-void run_alongside(const Alongside& alongside, const LeastSquaresResult& estimate, unsigned threads,
-                   const Covariance& covariance) {
-  const unsigned allowed =
-      threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : threads;
-  if (!alongside || allowed < 2) {
-    covariance(allowed);
-    if (alongside) alongside(estimate);
-    return;
-  }
-  run_tasks(2, 2, [&](std::size_t, std::size_t k) {
-    if (k == 0) {
-      alongside(estimate);
-    } else {
-      covariance(allowed - 1);
-    }
-  });
 }
 
 // The parameters' standard deviations (Newey-West over `lags`) and the
@@ -533,12 +509,10 @@ void bound(const Equations& r, const RowScale& scale, const std::vector<Paramete
 
 // The least-squares solution from R: everything after the QR is p x p. The
 // singular values and right singular vectors of R are those of the scaled
-// regressor (Q has orthonormal columns). `alongside` runs with the estimate
-// while the covariance is computed.
+// regressor (Q has orthonormal columns).
 LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
                                   const std::vector<ParameterInfo>& parameters, LsSolver solver,
-                                  const std::string& log_name, std::size_t lags, unsigned threads,
-                                  const Alongside& alongside) {
+                                  const std::string& log_name, std::size_t lags, unsigned threads) {
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
   const Eigen::MatrixXd gram = augmented_gram(r, scale, threads);
@@ -559,16 +533,11 @@ LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
   out.psi_t_tau = gram.topRightCorner(p, 1);
   out.tau_t_tau = gram(p, p);
   out.unconstrained_beta = beta_scaled.cwiseQuotient(col_norm);
-  // The residual, a long series: on huge pages like the rows it comes from.
-  std::vector<double> e_store(r.rows());
-  Eigen::Map<Eigen::VectorXd> e(e_store.data(), r.psi.rows());
+  Eigen::VectorXd e(r.psi.rows());
   out.unconstrained_cost =
       scaled_residual(r, scale, out.unconstrained_beta, threads, e) / static_cast<double>(r.rows());
   bound(r, scale, parameters, rr, qt_tau, beta_scaled, col_norm, out);
-  const Eigen::MatrixXd& factor = rr;  // (a lambda may not capture a structured binding in C++20)
-  run_alongside(alongside, alongside ? out : LeastSquaresResult{}, threads, [&](unsigned t) {
-    add_covariance(r, scale, svd, factor, col_norm, e, lags, t, out);
-  });
+  add_covariance(r, scale, svd, rr, col_norm, e, lags, threads, out);
   return out;
 }
 
@@ -657,10 +626,9 @@ std::size_t correlation_lags_for(double sample_rate_hz, double cutoff_hz) {
 
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags, unsigned threads,
-                                       const Alongside& alongside) {
+                                       std::size_t correlation_lags, unsigned threads) {
   return solve_least_squares(r, model.parameters(), solver, weights, log_name, correlation_lags,
-                             threads, alongside);
+                             threads);
 }
 
 double bounded_least_squares_cost(const Equations& r, const std::vector<ParameterInfo>& parameters,
@@ -687,10 +655,9 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name, std::size_t correlation_lags,
-                                       unsigned threads, const Alongside& alongside) {
+                                       unsigned threads) {
   LeastSquaresResult ols =
-      solve_ordinary(r, RowScale{}, parameters, solver, log_name, correlation_lags, threads,
-                     weights == LsWeights::kNone ? alongside : nullptr);
+      solve_ordinary(r, RowScale{}, parameters, solver, log_name, correlation_lags, threads);
   if (weights == LsWeights::kNone) return ols;
   const ResidualSquares squares = residual_squares(r, r.rows(), ols.beta, threads);
   const std::array<std::size_t, 3> rows = r.rows_per_joint();
@@ -702,17 +669,10 @@ LeastSquaresResult solve_least_squares(const Equations& r,
   // Normalise so the weights average to one over the joints.
   const double mean_w = (w[0] + w[1] + w[2]) / 3.0;
   for (double& x : w) x /= mean_w;
-  const Alongside weighted_alongside = alongside
-                                           ? Alongside([&](const LeastSquaresResult& estimate) {
-                                               LeastSquaresResult with_weights = estimate;
-                                               with_weights.joint_weights = w;
-                                               alongside(with_weights);
-                                             })
-                                           : nullptr;
   RowScale scale;
   for (unsigned j = 0; j < 3; ++j) scale.by_joint[j] = std::sqrt(w[j]);
-  LeastSquaresResult wls = solve_ordinary(r, scale, parameters, solver, log_name, correlation_lags,
-                                          threads, weighted_alongside);
+  LeastSquaresResult wls =
+      solve_ordinary(r, scale, parameters, solver, log_name, correlation_lags, threads);
   wls.joint_weights = w;
   return wls;
 }

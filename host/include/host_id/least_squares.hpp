@@ -5,7 +5,6 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cstddef>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -64,9 +63,6 @@ struct LeastSquaresResult {
   double tau_t_tau{0};
 };
 
-// Work run with a least-squares estimate while its covariance is computed.
-using Alongside = std::function<void(const LeastSquaresResult& estimate)>;
-
 // Solves min |tau - Psi beta|^2 subject to beta_c >= 0 for each parameter
 // the model marks nonnegative (exactly: an active-set method on the
 // regressor's triangular factor). With kJoint, two steps: ordinary least
@@ -83,23 +79,15 @@ using Alongside = std::function<void(const LeastSquaresResult& estimate)>;
 // the white-noise formula (L = 0) then understates the spread several times.
 // The passes over the rows run on `threads` threads (0: one per core) for
 // long regressions, with the same result on any number of them.
-//
-// alongside, when given, is called once with the estimate (beta, the costs,
-// the moments and the joint weights; not yet the standard deviations or the
-// conditioning) on a thread of its own while the covariance is computed on
-// the others (after it, where threads allows only one): work that needs the
-// estimate but not its spread, such as a swarm on the same cost.
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
-                                       std::size_t correlation_lags = 0, unsigned threads = 1,
-                                       const Alongside& alongside = nullptr);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1);
 // The same for columns described by `parameters` (names and bounds).
 LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name,
-                                       std::size_t correlation_lags = 0, unsigned threads = 1,
-                                       const Alongside& alongside = nullptr);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1);
 
 // The cost (mean squared error) of the bounded optimum alone: no
 // covariance, for a search that solves many problems (variable projection).

@@ -789,46 +789,6 @@ TEST(IdentifyTest, ResidualSquaresPerJointEqualTheRowByRowSums) {
   }
 }
 
-// Work given to solve_least_squares runs once, with the estimate that the
-// solve returns, before its covariance is known: on a thread of its own
-// while the covariance is computed, or after it on one thread. It leaves the
-// covariance as it is, and what it throws reaches the caller.
-TEST(IdentifyTest, WorkAlongsideTheCovarianceSeesTheEstimateAndItsFailureIsRethrown) {
-  const DeltaLog log = simulated(4, 0.01, 17, false);
-  const auto model = make_model({});
-  const Regression reg = preprocess(*model, log, PrepareOptions{}).regression;
-  const LeastSquaresResult alone =
-      solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 20, 2);
-  for (const unsigned threads : {1u, 2u}) {
-    for (const LsWeights weights : {LsWeights::kNone, LsWeights::kJoint}) {
-      int calls = 0;
-      LeastSquaresResult seen;
-      const LeastSquaresResult ls =
-          solve_least_squares(reg, *model, LsSolver::kQr, weights, log.name, 20, threads,
-                              [&](const LeastSquaresResult& estimate) {
-                                ++calls;
-                                seen = estimate;
-                              });
-      EXPECT_EQ(calls, 1) << threads;
-      EXPECT_TRUE(seen.beta == ls.beta) << threads;
-      EXPECT_EQ(seen.cost, ls.cost);
-      EXPECT_TRUE(seen.psi_t_psi == ls.psi_t_psi);
-      EXPECT_EQ(seen.joint_weights, ls.joint_weights);
-      EXPECT_EQ(seen.std_dev.size(), 0) << "the estimate is given before its covariance";
-      if (weights == LsWeights::kNone) {
-        EXPECT_TRUE(ls.std_dev == alone.std_dev) << threads;
-      } else {
-        EXPECT_NE(ls.joint_weights, alone.joint_weights);
-      }
-    }
-    EXPECT_THROW(
-        solve_least_squares(
-            reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 20, threads,
-            [](const LeastSquaresResult&) { throw delta::InputError("alongside failed"); }),
-        delta::InputError);
-  }
-}
-
 // The passes of least squares over the rows (the Gram matrix, the
 // refinement's residual, the residual at the estimate, the covariance) are
 // shared out in chunks of fixed length and their sums added in order: on
