@@ -9,10 +9,10 @@
 #include <mutex>
 #include <thread>
 
+#include "delta/atomic_file.hpp"
 #include "delta/can/protocol.hpp"
 #include "delta/can/socketcan.hpp"
 #include "delta/read_file.hpp"
-#include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/recorder.hpp"
 #include "scratch_directory.hpp"

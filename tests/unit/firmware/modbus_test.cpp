@@ -24,6 +24,7 @@
 #include <sstream>
 #include <thread>
 
+#include "delta/atomic_file.hpp"
 #include "delta/custom_trajectory_block.hpp"
 #include "delta/modbus/register_map.hpp"
 #include "delta/trajectory_file.hpp"
@@ -31,7 +32,6 @@
 #include "fw_linux/modbus_server.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
-#include "host_id/atomic_file.hpp"
 #include "host_id/cli.hpp"
 #include "in_process_rig.hpp"
 #include "scratch_directory.hpp"
@@ -462,8 +462,8 @@ TEST_F(Fixture, HostIdExciteRefusesBadArgumentsAndAControllerInFault) {
 TEST_F(Fixture, HostIdExciteUploadsATrajectoryFileAndReportsItsRefusal) {
   const std::string address = "127.0.0.1:" + std::to_string(server.tcp_port());
   const std::string dir = testsupport::process_scratch("modbus_test").path();
-  host_id::write_file_atomically(dir + "/fast.json",
-                                 delta::format_trajectory(path1_as_custom(5.0), ""));
+  delta::write_file_atomically(dir + "/fast.json",
+                               delta::format_trajectory(path1_as_custom(5.0), ""));
   std::ostringstream o, e1, e2, e3;
   EXPECT_EQ(host_id::run_cli({"excite", "--modbus", address, "--trajectory-file",
                               dir + "/fast.json", "--can", "vcan0", "-o", dir + "/f.csv"},
@@ -491,10 +491,10 @@ TEST_F(Fixture, HostIdExciteUploadsATrajectoryFileAndReportsItsRefusal) {
 }
 
 TEST(HostIdExcite, PartialLogNames) {
-  EXPECT_EQ(host_id::partial_log_path("run.csv"), "run.partial.csv");
-  EXPECT_EQ(host_id::partial_log_path("/data/v1.2/run.csv"), "/data/v1.2/run.partial.csv");
-  EXPECT_EQ(host_id::partial_log_path("/data/v1.2/run"), "/data/v1.2/run.partial");
-  EXPECT_EQ(host_id::partial_log_path(".hidden"), ".hidden.partial");
+  EXPECT_EQ(delta::partial_log_path("run.csv"), "run.partial.csv");
+  EXPECT_EQ(delta::partial_log_path("/data/v1.2/run.csv"), "/data/v1.2/run.partial.csv");
+  EXPECT_EQ(delta::partial_log_path("/data/v1.2/run"), "/data/v1.2/run.partial");
+  EXPECT_EQ(delta::partial_log_path(".hidden"), ".hidden.partial");
 }
 
 // A raw TCP connection, for what libmodbus would never send.

@@ -14,11 +14,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "delta/atomic_file.hpp"
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
 #include "delta/trajectory_file.hpp"
 #include "held_joint_log.hpp"
-#include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/simulate.hpp"
@@ -277,9 +277,9 @@ TEST_F(CliTest, TheShippedDbcIsTheOneTheProtocolTableGives) {
 
 TEST_F(CliTest, AtomicWriteLeavesTheOldFileWhenItFails) {
   std::ofstream(path("keep.txt")) << "old";
-  write_file_atomically(path("keep.txt"), "new");
+  delta::write_file_atomically(path("keep.txt"), "new");
   EXPECT_EQ(delta::read_whole_file(path("keep.txt")), "new");
-  EXPECT_THROW(write_file_atomically(path("no/such/dir/f.txt"), "x"), delta::InputError);
+  EXPECT_THROW(delta::write_file_atomically(path("no/such/dir/f.txt"), "x"), delta::InputError);
   // Only the written file is left: no temporary files.
   std::size_t files = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir_)) {
@@ -512,7 +512,7 @@ TEST_F(CliTest, SeveralModelsShareOneTable2) {
 TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
   const DeltaLog log =
       testlogs::log_with_joint3_held(4.0, 0.35, delta::default_lumped_parameters());
-  write_file_atomically(path("held.csv"), format_delta_log(log));
+  delta::write_file_atomically(path("held.csv"), format_delta_log(log));
   ASSERT_EQ(run({"fit", path("held.csv"), "--model", "lumped", "--per-joint", "--offsets",
                  "--min-speed", "0", "--method", "ls", "--out", path("r.json")}),
             0)

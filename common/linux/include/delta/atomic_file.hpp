@@ -22,4 +22,8 @@ void write_file_atomically(const std::string& path, std::string_view content, mo
 // on failure, `to` then as it was.
 void rename_durably(const std::string& from, const std::string& to);
 
+// Where a command keeps what it has when it could not finish:
+// "run.csv" -> "run.partial.csv"; "run" -> "run.partial".
+std::string partial_log_path(const std::string& path);
+
 }  // namespace delta

@@ -5,10 +5,10 @@
 #include <ostream>
 
 #include "commands/command.hpp"
+#include "delta/atomic_file.hpp"
 #include "delta/parameter_file.hpp"
 #include "delta/robot_description.hpp"
 #include "delta/trajectory_file.hpp"
-#include "host_id/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 
 namespace host_id {
@@ -108,7 +108,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
     }
     if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
     const DeltaLog log = simulate_log(s);
-    write_file_atomically(a->out_path, format_delta_log(log));
+    delta::write_file_atomically(a->out_path, format_delta_log(log));
     context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
                 << s.trajectory << ")\n";
     context.exit_code = 0;

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "commands/command.hpp"
+#include "delta/atomic_file.hpp"
 #include "delta/can/sdo_channel.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 
@@ -192,7 +192,7 @@ void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
     return;
   }
   if (!write && !o.file.empty()) {
-    write_file_atomically(o.file, std::string(bytes.begin(), bytes.end()));
+    delta::write_file_atomically(o.file, std::string(bytes.begin(), bytes.end()));
   } else if (!write) {
     context.out << decode(o.type, bytes) << "\n";
   }

@@ -5,10 +5,10 @@
 #include <optional>
 #include <sstream>
 
+#include "delta/atomic_file.hpp"
 #include "delta/input_error.hpp"
 #include "delta/json_text.hpp"
 #include "delta/read_file.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 

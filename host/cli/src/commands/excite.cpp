@@ -14,11 +14,11 @@
 
 #include "commands/command.hpp"
 #include "commands/controller_text.hpp"
+#include "delta/atomic_file.hpp"
 #include "delta/controller/vocabulary.hpp"
 #include "delta/custom_trajectory_block.hpp"
 #include "delta/input_error.hpp"
 #include "delta/trajectory_file.hpp"
-#include "host_id/atomic_file.hpp"
 #include "host_id/controller_link.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/recorder.hpp"
@@ -297,9 +297,9 @@ int run_excite(const ExciteArguments& a, std::ostream& out, std::ostream& err) {
   rec.log.metadata.emplace_back("trajectory", a.trajectory);
   if (!a.trajectory_file.empty())
     rec.log.metadata.emplace_back("trajectory_file", a.trajectory_file);
-  const std::string path = run.ending.empty() ? a.out_path : partial_log_path(a.out_path);
-  write_file_atomically(path, format_delta_log(rec.log));
-  if (!a.raw_path.empty()) write_file_atomically(a.raw_path, rec.raw);
+  const std::string path = run.ending.empty() ? a.out_path : delta::partial_log_path(a.out_path);
+  delta::write_file_atomically(path, format_delta_log(rec.log));
+  if (!a.raw_path.empty()) delta::write_file_atomically(a.raw_path, rec.raw);
   return report(a, run, rec, recording.expected(), rate_hz, path, out, err);
 }
 

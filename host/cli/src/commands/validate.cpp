@@ -4,7 +4,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
-#include "host_id/atomic_file.hpp"
+#include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/report.hpp"
@@ -34,8 +34,8 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
     rows.push_back(predictions.back().rmse());
   }
   if (!a.plot_path.empty()) {
-    write_file_atomically(a.plot_path,
-                          svg_torque_plot(predictions, "host_id validate " + a.result_path));
+    delta::write_file_atomically(a.plot_path,
+                                 svg_torque_plot(predictions, "host_id validate " + a.result_path));
   }
   if (a.json) {
     nlohmann::json j = nlohmann::json::array();

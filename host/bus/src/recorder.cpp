@@ -9,12 +9,12 @@
 #include <sstream>
 #include <thread>
 
+#include "delta/atomic_file.hpp"
 #include "delta/can/cia402.hpp"
 #include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
 #include "delta/controller/vocabulary.hpp"
 #include "delta/input_error.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 
@@ -272,8 +272,8 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
   Recording r = capture(o, ready);
-  write_file_atomically(o.out_path, format_delta_log(r.log));
-  if (o.raw_path) write_file_atomically(*o.raw_path, r.raw);
+  delta::write_file_atomically(o.out_path, format_delta_log(r.log));
+  if (o.raw_path) delta::write_file_atomically(*o.raw_path, r.raw);
   return r.summary;
 }
 

@@ -4,12 +4,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "delta/atomic_file.hpp"
 #include "delta/input_error.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "delta/path_follower.hpp"
 #include "delta/splitmix.hpp"
 #include "delta/trajectory.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 

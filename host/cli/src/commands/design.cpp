@@ -8,10 +8,10 @@
 #include <sstream>
 
 #include "commands/command.hpp"
+#include "delta/atomic_file.hpp"
 #include "delta/controller/vocabulary.hpp"
 #include "delta/robot_description.hpp"
 #include "delta/trajectory_file.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 
@@ -203,7 +203,7 @@ int run_design(DesignArguments a, std::ostream& out) {
                            {"designed", quality_json(d.quality, *model)},
                            {"compared_with", a.compare},
                            {"preset", quality_json(preset, *model)}};
-  write_file_atomically(a.out_path, delta::format_trajectory(d.trajectory, design.dump()));
+  delta::write_file_atomically(a.out_path, delta::format_trajectory(d.trajectory, design.dump()));
   if (a.json) {
     out << design.dump(2) << "\n";
   } else {

@@ -11,9 +11,9 @@
 #include <ostream>
 #include <sstream>
 
+#include "delta/atomic_file.hpp"
 #include "delta/input_error.hpp"
 #include "delta/read_file.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 

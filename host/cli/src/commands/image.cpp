@@ -7,10 +7,10 @@
 #include <string>
 
 #include "commands/command.hpp"
+#include "delta/atomic_file.hpp"
 #include "delta/can/protocol.hpp"
 #include "delta/read_file.hpp"
 #include "delta/update/image_file.hpp"
-#include "host_id/atomic_file.hpp"
 
 namespace host_id {
 
@@ -57,7 +57,7 @@ void run_make(const MakeOptions& o, CommandContext& context) {
   const std::string_view p = program.view();
   const std::vector<std::uint8_t> image =
       up::make_image(f, {reinterpret_cast<const std::uint8_t*>(p.data()), p.size()});
-  write_file_atomically(o.out, {reinterpret_cast<const char*>(image.data()), image.size()});
+  delta::write_file_atomically(o.out, {reinterpret_cast<const char*>(image.data()), image.size()});
   context.out << o.out << ": " << p.size() << " bytes of program, version "
               << up::version_text(f.version) << ", CRC-32 "
               << hex32(up::crc32({image.data() + up::kHeaderBytes, p.size()})) << "\n";
@@ -110,8 +110,8 @@ void run_sign(const std::string& path, const std::string& key_path, const std::s
   const std::vector<std::uint8_t> signed_image =
       up::sign_image({reinterpret_cast<const std::uint8_t*>(v.data()), v.size()}, seed);
   const std::string target = out_path.empty() ? path : out_path;
-  write_file_atomically(target,
-                        {reinterpret_cast<const char*>(signed_image.data()), signed_image.size()});
+  delta::write_file_atomically(
+      target, {reinterpret_cast<const char*>(signed_image.data()), signed_image.size()});
   context.out << target << ": signed with the key of public key "
               << up::key_text(up::public_key_of(seed));
   context.exit_code = 0;
@@ -124,8 +124,8 @@ void run_keygen(const std::string& secret_path, const std::string& public_path,
     throw UsageError("image keygen: " + secret_path + " exists; not overwriting a secret key");
   }
   const up::KeyPair k = up::generate_key_pair();
-  write_file_atomically(secret_path, up::key_text(k.seed), 0600);  // owner only
-  write_file_atomically(public_path, up::key_text(k.public_key));
+  delta::write_file_atomically(secret_path, up::key_text(k.seed), 0600);  // owner only
+  delta::write_file_atomically(public_path, up::key_text(k.public_key));
   context.out << "secret key: " << secret_path << " (keep it off the controller)\n"
               << "public key: " << public_path
               << " (verifies signatures: host_id image info --public-key)\n";

@@ -7,7 +7,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
-#include "host_id/atomic_file.hpp"
+#include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/report.hpp"
 
@@ -28,7 +28,7 @@ int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err)
   const DeltaLog log = read_delta_log(a.log_path);
   warn_about_gaps(err, log);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
-  write_file_atomically(a.out_path, format_delta_log(p.log));
+  delta::write_file_atomically(a.out_path, format_delta_log(p.log));
   const std::size_t left_out = log.size() - p.log.size();
   if (a.json) {
     out << nlohmann::json{{"result", a.result_path},

@@ -8,7 +8,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
-#include "host_id/atomic_file.hpp"
+#include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/report.hpp"
@@ -226,9 +226,9 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
       j["other_models"].push_back(json_report(results[i]));
     }
   }
-  if (!a.out_path.empty()) write_file_atomically(a.out_path, j.dump(2) + "\n");
+  if (!a.out_path.empty()) delta::write_file_atomically(a.out_path, j.dump(2) + "\n");
   if (!a.plot_path.empty()) {
-    write_file_atomically(
+    delta::write_file_atomically(
         a.plot_path, svg_torque_plot(r.predictions, "host_id fit, model " + r.options.model.name));
   }
   if (a.json) {

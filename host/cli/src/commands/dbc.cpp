@@ -5,7 +5,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
-#include "host_id/atomic_file.hpp"
+#include "delta/atomic_file.hpp"
 
 namespace host_id {
 
@@ -20,7 +20,7 @@ void add_dbc_command(CLI::App& command, CommandContext& context) {
     if (path->empty()) {
       context.out << make_dbc();
     } else {
-      write_file_atomically(*path, make_dbc());
+      delta::write_file_atomically(*path, make_dbc());
     }
     context.exit_code = 0;
   });
