@@ -445,7 +445,10 @@ PortConfig read_port_config(const std::string& path) {
   return c;
 }
 
-void validate(const PortConfig& c) {
+namespace {
+
+// The cycle, the limits, the gains and the heartbeats.
+void validate_control(const PortConfig& c) {
   require(1000000 % c.period_us == 0,
           "period_us = " + std::to_string(c.period_us) + " must divide one second exactly");
   require(c.response_window_us < c.period_us, "response_window_us must be shorter than period_us");
@@ -475,6 +478,10 @@ void validate(const PortConfig& c) {
               " in whole cycles of period_us = " + std::to_string(c.period_us) +
               "), and controller_heartbeat_timeout_ms = " +
               std::to_string(c.controller_heartbeat_timeout_ms));
+}
+
+// Each joint's drive: its model, its node, its SYNC counter.
+void validate_joints(const PortConfig& c) {
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     const delta::DriveModel& m = c.joints[j].model;
@@ -495,6 +502,10 @@ void validate(const PortConfig& c) {
                   std::to_string(k + 1) + "'s node");
     }
   }
+}
+
+// The Modbus address and the GPIO lines.
+void validate_io(const PortConfig& c) {
   if (!c.modbus.tcp.empty()) (void)split_host_port(c.modbus.tcp, "modbus.tcp");
   if (!c.gpio.chip.empty()) {
     const std::uint32_t l[] = {c.gpio.estop_line, c.gpio.enable_line, c.gpio.brake_line,
@@ -507,6 +518,14 @@ void validate(const PortConfig& c) {
       }
     }
   }
+}
+
+}  // namespace
+
+void validate(const PortConfig& c) {
+  validate_control(c);
+  validate_joints(c);
+  validate_io(c);
   (void)controller_config(c);  // every value fits its Q format
 }
 

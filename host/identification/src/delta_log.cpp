@@ -503,9 +503,11 @@ std::string format_number(double v) {
   return std::string(buf, r.ptr);
 }
 
-std::string format_delta_log(const DeltaLog& log) {
-  std::string out;
-  out.reserve(log.size() * 120 + 512);
+namespace {
+
+// The metadata lines: the required keys first, then every other key in
+// the log's order.
+void append_metadata(const DeltaLog& log, std::string& out) {
   const auto meta = [&](const std::string& k, const std::string& v) {
     out += "# " + k + " = " + v + "\n";
   };
@@ -524,48 +526,47 @@ std::string format_delta_log(const DeltaLog& log) {
     }
     meta(k, v);
   }
-  const bool has_seq = !log.seq.empty();
-  if (has_seq) out += "seq,";
+}
+
+void append_header(const DeltaLog& log, std::string& out) {
+  if (!log.seq.empty()) out += "seq,";
   out += "t,q1,q2,q3,tau1,tau2,tau3";
   if (log.has_qd) out += ",qd1,qd2,qd3";
   if (log.has_qdd) out += ",qdd1,qdd2,qdd3";
   for (const auto& [n, s] : log.extra_columns) out += "," + n;
   out += '\n';
+}
+
+// Sample k's line, each number in its shortest round-trip form.
+void append_sample(const DeltaLog& log, std::size_t k, std::string& out) {
   char buf[32];
   const auto put = [&](double v) {
+    out += ',';
     const auto r = std::to_chars(buf, buf + sizeof buf, v);
     out.append(buf, r.ptr);
   };
-  for (std::size_t k = 0; k < log.size(); ++k) {
-    if (has_seq) {
-      out += std::to_string(log.seq[k]);
-      out += ',';
-    }
-    put(log.t[k]);
-    for (const auto* group : {&log.q, &log.tau}) {
-      for (unsigned j = 0; j < 3; ++j) {
-        out += ',';
-        put((*group)[j][k]);
-      }
-    }
-    if (log.has_qd) {
-      for (unsigned j = 0; j < 3; ++j) {
-        out += ',';
-        put(log.qd[j][k]);
-      }
-    }
-    if (log.has_qdd) {
-      for (unsigned j = 0; j < 3; ++j) {
-        out += ',';
-        put(log.qdd[j][k]);
-      }
-    }
-    for (const auto& [n, s] : log.extra_columns) {
-      out += ',';
-      put(s[k]);
-    }
-    out += '\n';
+  if (!log.seq.empty()) {
+    out += std::to_string(log.seq[k]);
+    out += ',';
   }
+  const auto r = std::to_chars(buf, buf + sizeof buf, log.t[k]);
+  out.append(buf, r.ptr);
+  for (unsigned j = 0; j < 3; ++j) put(log.q[j][k]);
+  for (unsigned j = 0; j < 3; ++j) put(log.tau[j][k]);
+  for (unsigned j = 0; log.has_qd && j < 3; ++j) put(log.qd[j][k]);
+  for (unsigned j = 0; log.has_qdd && j < 3; ++j) put(log.qdd[j][k]);
+  for (const auto& [n, s] : log.extra_columns) put(s[k]);
+  out += '\n';
+}
+
+}  // namespace
+
+std::string format_delta_log(const DeltaLog& log) {
+  std::string out;
+  out.reserve(log.size() * 120 + 512);
+  append_metadata(log, out);
+  append_header(log, out);
+  for (std::size_t k = 0; k < log.size(); ++k) append_sample(log, k, out);
   return out;
 }
 

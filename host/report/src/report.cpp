@@ -149,9 +149,10 @@ std::string text_table2(const std::vector<FitResult>& results) {
   return s.str();
 }
 
-std::string text_report(const FitResult& r) {
-  std::ostringstream s;
-  const auto& o = r.options;
+namespace {
+
+// What was fitted: the samples and equations used, the gaps, the model.
+void text_samples(const FitResult& r, std::ostream& s) {
   s << "host_id fit: " << r.fit.log << "\n";
   s << "  samples   " << r.fit.samples << " of " << r.samples_in_log << " used, in "
     << r.segments_used << " segment(s)";
@@ -164,7 +165,12 @@ std::string text_report(const FitResult& r) {
   }
   for (const auto& g : r.gaps)
     s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
-  s << "  model     " << model_summary(o.model, r.parameters.size()) << "\n";
+  s << "  model     " << model_summary(r.options.model, r.parameters.size()) << "\n";
+}
+
+// How it was fitted: the method, the weights, the friction's shape, the time.
+void text_method(const FitResult& r, std::ostream& s) {
+  const auto& o = r.options;
   if (r.pso) {
     const auto& p = *r.pso;
     s << "  method    pso: " << o.pso.particles << " particles, " << topology_name(o.pso.topology)
@@ -196,10 +202,10 @@ std::string text_report(const FitResult& r) {
   }
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
+}
 
-  s << parameter_table(r);
-  s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
-    << r.std_dev_lags << " samples)\n";
+// The cost, the conditioning and the bounds held.
+void text_cost(const FitResult& r, std::ostream& s) {
   s << "\n  cost (mean squared torque error) " << fmt("%.6e", r.cost_Nm2) << " N^2 m^2";
   if (r.pso) {
     s << "\n  least-squares optimum            " << fmt("%.6e", r.ls_cost_Nm2)
@@ -217,6 +223,18 @@ std::string text_report(const FitResult& r) {
     s << "\n            the estimate is the optimum within the bounds; least squares and PSO solve "
          "the same bounded problem\n";
   }
+}
+
+}  // namespace
+
+std::string text_report(const FitResult& r) {
+  std::ostringstream s;
+  text_samples(r, s);
+  text_method(r, s);
+  s << parameter_table(r);
+  s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
+    << r.std_dev_lags << " samples)\n";
+  text_cost(r, s);
   s << "\n";
   std::vector<LogRmse> rows{r.fit};
   rows.insert(rows.end(), r.validation.begin(), r.validation.end());

@@ -130,6 +130,68 @@ void residual_against_velocity(std::ostringstream& s, const std::vector<double>&
     << "</text>\n";
 }
 
+// Joint j's torque panel (measured and predicted) and its residual panel,
+// from height y on; returns the height after them.
+double joint_panels(std::ostringstream& s, const Prediction& p, unsigned j, double t0, double t1,
+                    double w, double y) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, rmax = 0;
+  std::vector<double> resid(p.measured_Nm[j].size());
+  for (std::size_t k = 0; k < resid.size(); ++k) {
+    lo = std::min({lo, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
+    hi = std::max({hi, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
+    resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
+    rmax = std::max(rmax, std::abs(resid[k]));
+  }
+  if (!(hi > lo)) {
+    lo -= 1;
+    hi += 1;
+  }
+  if (!(rmax > 0)) rmax = 1e-9;
+  char label[64];
+  std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_filtered_Nm[j]);
+  axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
+  s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
+    << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
+  s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#1f77b4", 1.2);
+  s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#ff7f0e", 1.0);
+  y += kPanelH + 16;
+  axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid.");
+  s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, "#d62728", 0.8);
+  y += kResidH;
+  char tl[64];
+  std::snprintf(tl, sizeof tl, "%.3g s", t0);
+  s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 14) << "\" font-size=\"11\">" << tl
+    << "</text>\n";
+  std::snprintf(tl, sizeof tl, "t = %.3g s", t1);
+  s << "<text x=\"" << num(kLeft + w) << "\" y=\"" << num(y + 14)
+    << "\" font-size=\"11\" text-anchor=\"end\">" << tl << "</text>\n";
+  return y + kGap;
+}
+
+// One log's block: its name, the three joints' panels, and the residuals
+// against velocity; returns the height after it.
+double log_block(std::ostringstream& s, const Prediction& p, double w, double y) {
+  s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 16) << "\" font-size=\"14\">" << esc(p.log)
+    << "</text>\n";
+  y += 30;
+  const double t0 = p.t_s.empty() ? 0.0 : p.t_s.front();
+  const double t1 = p.t_s.empty() ? 1.0 : std::max(p.t_s.back(), t0 + 1e-9);
+  for (unsigned j = 0; j < 3; ++j) y = joint_panels(s, p, j, t0, t1, w, y);
+  s << "<text x=\"" << kLeft << "\" y=\"" << num(y - 6) << "\" font-size=\"12\">"
+    << "residual against joint velocity (dots: samples; line: mean in 40 velocity bins)"
+    << "</text>\n";
+  const double pw = (w - 2 * 20) / 3;
+  for (unsigned j = 0; j < 3; ++j) {
+    std::vector<double> resid(p.measured_Nm[j].size());
+    for (std::size_t k = 0; k < resid.size(); ++k) {
+      resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
+    }
+    residual_against_velocity(s, p.velocity_rad_s[j], resid, kLeft + j * (pw + 20), pw, y,
+                              kScatterH, j + 1);
+  }
+  return y + kScatterH + kScatterGap;
+}
+
 }  // namespace
 
 std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::string& title) {
@@ -144,60 +206,7 @@ std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::stri
     << " - measured (blue) and predicted (orange) joint torque, residual (red), both filtered"
     << "</text>\n";
   double y = 40;
-  for (const Prediction& p : logs) {
-    s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 16) << "\" font-size=\"14\">" << esc(p.log)
-      << "</text>\n";
-    y += 30;
-    const double t0 = p.t_s.empty() ? 0.0 : p.t_s.front();
-    const double t1 = p.t_s.empty() ? 1.0 : std::max(p.t_s.back(), t0 + 1e-9);
-    for (unsigned j = 0; j < 3; ++j) {
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo, rmax = 0;
-      std::vector<double> resid(p.measured_Nm[j].size());
-      for (std::size_t k = 0; k < resid.size(); ++k) {
-        lo = std::min({lo, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
-        hi = std::max({hi, p.measured_Nm[j][k], p.predicted_Nm[j][k]});
-        resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
-        rmax = std::max(rmax, std::abs(resid[k]));
-      }
-      if (!(hi > lo)) {
-        lo -= 1;
-        hi += 1;
-      }
-      if (!(rmax > 0)) rmax = 1e-9;
-      char label[64];
-      std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_filtered_Nm[j]);
-      axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
-      s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
-        << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
-      s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#1f77b4", 1.2);
-      s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#ff7f0e", 1.0);
-      y += kPanelH + 16;
-      axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid.");
-      s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, "#d62728", 0.8);
-      y += kResidH;
-      char tl[64];
-      std::snprintf(tl, sizeof tl, "%.3g s", t0);
-      s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 14) << "\" font-size=\"11\">" << tl
-        << "</text>\n";
-      std::snprintf(tl, sizeof tl, "t = %.3g s", t1);
-      s << "<text x=\"" << num(kLeft + w) << "\" y=\"" << num(y + 14)
-        << "\" font-size=\"11\" text-anchor=\"end\">" << tl << "</text>\n";
-      y += kGap;
-    }
-    s << "<text x=\"" << kLeft << "\" y=\"" << num(y - 6) << "\" font-size=\"12\">"
-      << "residual against joint velocity (dots: samples; line: mean in 40 velocity bins)"
-      << "</text>\n";
-    const double pw = (w - 2 * 20) / 3;
-    for (unsigned j = 0; j < 3; ++j) {
-      std::vector<double> resid(p.measured_Nm[j].size());
-      for (std::size_t k = 0; k < resid.size(); ++k) {
-        resid[k] = p.measured_Nm[j][k] - p.predicted_Nm[j][k];
-      }
-      residual_against_velocity(s, p.velocity_rad_s[j], resid, kLeft + j * (pw + 20), pw, y,
-                                kScatterH, j + 1);
-    }
-    y += kScatterH + kScatterGap;
-  }
+  for (const Prediction& p : logs) y = log_block(s, p, w, y);
   s << "</svg>\n";
   return s.str();
 }
