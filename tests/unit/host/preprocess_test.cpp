@@ -1,0 +1,217 @@
+// Tests of preprocess: from a log to its regression, against the plain definitions.
+#include "host_id/preprocess.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <map>
+
+#include "delta/input_error.hpp"
+#include "fit_fixtures.hpp"
+#include "held_joint_log.hpp"
+#include "host_id/identify.hpp"
+#include "host_id/least_squares.hpp"
+#include "host_id/preprocess.hpp"
+#include "host_id/regression.hpp"
+#include "host_id/simulate.hpp"
+
+namespace host_id {
+namespace {
+
+using namespace test;
+
+TEST(PreprocessTest, EstimatedDerivativesOnNoiseFreeLogStayWithinOneTenThousandth) {
+  // No qd/qdd columns: filtered q, five-point differences, parallel filtering.
+  const DeltaLog log = simulated(1, 0.0, 0, false);
+  const FitResult r = fit_log(log, least_squares());
+  EXPECT_LT(max_relative_error(r, parameter_vector({}, delta::default_lumped_parameters())), 1e-4);
+}
+
+// The regressor is built and filtered on several threads for long logs:
+// the same regression, bit for bit, as on one.
+TEST(PreprocessTest, PreprocessingOnSeveralThreadsGivesTheSameRegression) {
+  // 45 001 samples: two workers (one per 20 000 samples, up to the threads given).
+  const DeltaLog log = simulated(3, 0.01, 17, false, "fourier", 45.0);
+  const auto model = make_model({});
+  const Regression one = preprocess(*model, log, PrepareOptions{}, 1).regression;
+  const Regression three = preprocess(*model, log, PrepareOptions{}, 3).regression;
+  ASSERT_EQ(one.rows(), three.rows());
+  EXPECT_TRUE(one.psi == three.psi);
+  EXPECT_TRUE(one.tau == three.tau);
+  EXPECT_EQ(one.velocity_rad_s, three.velocity_rad_s);
+  // And the unfiltered rows' moments (the RMSE against the measured torque).
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(one.measured.rows[j], three.measured.rows[j]);
+    EXPECT_TRUE(one.measured.psi_t_psi[j] == three.measured.psi_t_psi[j]) << j;
+    EXPECT_TRUE(one.measured.psi_t_tau[j] == three.measured.psi_t_tau[j]) << j;
+    EXPECT_EQ(one.measured.tau_sq[j], three.measured.tau_sq[j]) << j;
+  }
+  // So is the solve (135 003 rows: the Gram matrix and the covariance on two
+  // threads), to the last bit.
+  const LeastSquaresResult ls1 =
+      solve_least_squares(one, *model, LsSolver::kQr, LsWeights::kNone, log.name, 100, 1);
+  const LeastSquaresResult ls3 =
+      solve_least_squares(one, *model, LsSolver::kQr, LsWeights::kNone, log.name, 100, 3);
+  EXPECT_TRUE(ls1.beta == ls3.beta);
+  EXPECT_TRUE(ls1.std_dev == ls3.std_dev);
+  EXPECT_TRUE(ls1.psi_t_psi == ls3.psi_t_psi);
+}
+
+// What a fit uses: the same regression, with the log's samples freed on the
+// way (the log keeps its name, geometry and gaps).
+TEST(PreprocessTest, PreprocessingThatReleasesTheLogGivesTheSameRegression) {
+  DeltaLog log = simulated(3, 0.01, 17, false, "fourier", 5.0);
+  log.gaps.push_back({2000, 7, "a test gap"});
+  const auto model = make_model({});
+  const Preprocessed kept = preprocess(*model, log, PrepareOptions{});
+  const Preprocessed released = preprocess_releasing(*model, log, PrepareOptions{});
+  EXPECT_TRUE(kept.regression.psi == released.regression.psi);
+  EXPECT_TRUE(kept.regression.tau == released.regression.tau);
+  EXPECT_EQ(kept.regression.t_s, released.regression.t_s);
+  EXPECT_EQ(kept.report.samples_in_log, released.report.samples_in_log);
+  EXPECT_EQ(released.report.samples_in_log, 5001u);
+  EXPECT_EQ(log.size(), 0u);
+  EXPECT_TRUE(log.tau[0].empty());
+  EXPECT_EQ(log.gaps.size(), 1u);
+  EXPECT_FALSE(log.name.empty());
+}
+
+// The rows of `r` (built in time order) with those of joints slower than
+// min_speed_rad_s after the others, each group in its order: the order the
+// fit asks preprocessing for, by the plain definition.
+std::vector<Eigen::Index> fast_then_slow(const Regression& r, double min_speed_rad_s) {
+  std::vector<Eigen::Index> fast, slow;
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    (std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s ? fast : slow)
+        .push_back(static_cast<Eigen::Index>(row));
+  }
+  fast.insert(fast.end(), slow.begin(), slow.end());
+  return fast;
+}
+
+// A log preprocessed once for the friction's shape gives, for another
+// shape, bit for bit what preprocessing with that shape gives: every value
+// of psi and tau, the fast rows and each joint's nonzero columns; on a log
+// with a gap (two segments) and on one with logged derivatives (nothing
+// filtered), with one shape term (Coulomb) and two (with Stribeck), on one
+// thread and on two.
+TEST(PreprocessTest, AnotherFrictionShapeGivesWhatPreprocessingWithItGives) {
+  DeltaLog with_gap = simulated(4, 0.01, 17, false, "fourier", 24.0);
+  with_gap.gaps.push_back({9000, 0, "a test gap"});
+  const DeltaLog with_derivatives = simulated(5, 0.01, 0, true);
+  PrepareOptions prepare;
+  prepare.slow_rows_last_below_rad_s = 0.05;
+  for (const DeltaLog* log : {static_cast<const DeltaLog*>(&with_gap), &with_derivatives}) {
+    for (const std::string name : {"delta", "lumped"}) {
+      for (const double stribeck : {0.0, 0.2}) {
+        for (const unsigned threads : {1u, 2u}) {
+          SCOPED_TRACE(log->name + " " + name + " stribeck " + std::to_string(stribeck) +
+                       " threads " + std::to_string(threads));
+          ModelOptions first = model_named(name);
+          first.stribeck_velocity_rad_s = stribeck;
+          ModelOptions other = first;
+          other.coulomb_smoothing_rad_s = 0.035;
+          if (stribeck > 0.0) other.stribeck_velocity_rad_s = 0.07;
+          // A Stribeck velocity so small that the term underflows to zero
+          // at every sample: its columns leave the joints' nonzero columns,
+          // and come back with the next shape.
+          ModelOptions vanishing = first;
+          if (stribeck > 0.0) vanishing.stribeck_velocity_rad_s = 1e-6;
+          ShapePreprocess shapes(*make_model(first), *log, prepare, threads);
+          for (const ModelOptions& m : {other, vanishing, first}) {
+            const auto model = make_model(m);
+            const Preprocessed& got = shapes.with_shape(*model);
+            const Preprocessed want = preprocess(*model, *log, prepare, threads);
+            EXPECT_TRUE(got.regression.psi == want.regression.psi);
+            EXPECT_TRUE(got.regression.tau == want.regression.tau);
+            EXPECT_EQ(got.fast_rows, want.fast_rows);
+            EXPECT_EQ(got.regression.joint_columns, want.regression.joint_columns);
+            EXPECT_EQ(got.regression.measured.rows[0], 0u) << "moments of another shape";
+          }
+        }
+      }
+    }
+  }
+}
+
+// Preprocessing asked for the slow rows last builds, filters and labels
+// every row in its place: bit for bit the time-ordered regression with its
+// rows reordered, on one thread and on two, on a log with a gap (two
+// segments, each with its trimmed ends).
+TEST(PreprocessTest, SlowRowsLastAreBuiltInTheirPlaceAsTheTimeOrderedOnesReordered) {
+  DeltaLog log = simulated(4, 0.01, 17, false, "fourier", 24.0);  // 2 workers from 20 000 samples
+  log.gaps.push_back({9000, 0, "a test gap"});
+  const auto model = make_model({});
+  const Regression in_time = preprocess(*model, log, PrepareOptions{}, 1).regression;
+  const std::vector<Eigen::Index> order = fast_then_slow(in_time, 0.1);
+  PrepareOptions slow_last;
+  slow_last.slow_rows_last_below_rad_s = 0.1;
+  for (const unsigned threads : {1u, 2u}) {
+    SCOPED_TRACE(threads);
+    const Preprocessed pre = preprocess(*model, log, slow_last, threads);
+    const Regression& r = pre.regression;
+    ASSERT_EQ(r.rows(), in_time.rows());
+    std::size_t fast = 0;
+    for (std::size_t row = 0; row < in_time.rows(); ++row) {
+      fast += std::abs(in_time.velocity_rad_s[row]) >= 0.1 ? 1u : 0u;
+    }
+    EXPECT_EQ(pre.fast_rows, fast);
+    EXPECT_GT(fast, r.rows() / 2);
+    EXPECT_LT(fast, r.rows());
+    EXPECT_EQ(r.t_s, in_time.t_s);
+    for (std::size_t row = 0; row < r.rows(); ++row) {
+      const Eigen::Index from = order[row];
+      const auto i = static_cast<Eigen::Index>(row);
+      const auto k = static_cast<std::size_t>(from);
+      ASSERT_EQ(r.joint[row], in_time.joint[k]) << row;
+      ASSERT_EQ(r.sample[row], in_time.sample[k]) << row;
+      ASSERT_EQ(r.velocity_rad_s[row], in_time.velocity_rad_s[k]) << row;
+      ASSERT_EQ(r.tau(i), in_time.tau(from)) << row;
+      ASSERT_EQ(r.psi.row(i), in_time.psi.row(from)) << row;
+    }
+    // The unfiltered moments are over every row alike.
+    EXPECT_EQ(r.measured.rows, in_time.measured.rows);
+  }
+  // Without a threshold, the rows are in time order.
+  EXPECT_EQ(preprocess(*model, log, PrepareOptions{}, 2).fast_rows, in_time.rows());
+}
+
+TEST(PreprocessTest, GapsSplitTheLogIntoSegmentsThatAreNotBridged) {
+  DeltaLog log = simulated(1, 0.0, 0, false, "fourier", 6.0);
+  // Remove samples 3000..3099: the reader would report this gap.
+  const std::size_t b = 3000, e = 3100;
+  log.t.erase(log.t.begin() + b, log.t.begin() + e);
+  log.seq.erase(log.seq.begin() + b, log.seq.begin() + e);
+  for (unsigned j = 0; j < 3; ++j) {
+    log.q[j].erase(log.q[j].begin() + b, log.q[j].begin() + e);
+    log.tau[j].erase(log.tau[j].begin() + b, log.tau[j].begin() + e);
+  }
+  log.gaps.push_back({b, 0, "seq jumps"});
+  const FitResult r = fit_log(log, least_squares());
+  EXPECT_EQ(r.segments_used, 2u);
+  // Each segment loses 150 samples at each end: 5901 - 4 * 150.
+  EXPECT_EQ(r.fit.samples, 5901u - 4u * 150u);
+  // Had the gap been bridged, the differentiated angles would jump there and
+  // ruin the fit; it stays as good as without a gap.
+  EXPECT_LT(max_relative_error(r, parameter_vector({}, delta::default_lumped_parameters())), 1e-3);
+}
+
+TEST(PreprocessTest, CutoffAboveNyquistIsRejected) {
+  const DeltaLog log = simulated(1, 0.0, 0, false, "fourier", 1.0);
+  FitOptions f = least_squares();
+  f.prepare.cutoff_hz = 600.0;
+  try {
+    fit_log(log, f);
+    FAIL();
+  } catch (const delta::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("must lie between 0 and the Nyquist frequency 500 Hz"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace host_id
