@@ -84,12 +84,6 @@ CLI::Validator number_where(std::function<bool(double)> ok, const std::string& d
 
 }  // namespace
 
-std::string hex32(std::uint32_t v) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%08X", v);
-  return text;
-}
-
 const CLI::Validator kFinite = number_where([](double) { return true; }, "finite");
 const CLI::Validator kPositive = number_where([](double v) { return v > 0; }, "> 0");
 const CLI::Validator kNonNegative = number_where([](double v) { return v >= 0; }, ">= 0");

@@ -8,6 +8,7 @@
 #include <iosfwd>
 #include <string>
 
+#include "delta/hex.hpp"
 #include "delta/input_error.hpp"
 
 namespace host_id {
@@ -42,8 +43,7 @@ extern const CLI::Validator kSvgPath;
 constexpr int kExitSdoAborted = 3;
 constexpr int kExitNoAnswer = 4;
 
-// "0x0000DE17": a 32-bit identity, CRC or code as CANopen tools print it.
-std::string hex32(std::uint32_t v);
+using delta::hex32;
 
 void add_fit_command(CLI::App& app, CommandContext& context);
 void add_validate_command(CLI::App& app, CommandContext& context);

@@ -1,280 +1,16 @@
-// host_id flash: a firmware image to the controller over CAN (CiA 302-3
-// program download, docs/flashing.md): identity and version checked
-// first, block download with progress, the CRC verified, the new program
-// started and its confirmation awaited.
-#include <chrono>
+// host_id flash: its options, and the closing line of a flash
+// (host_id/flash.hpp does the work).
+#include "host_id/flash.hpp"
+
 #include <cstdio>
+#include <memory>
 #include <ostream>
 #include <string>
-#include <vector>
 
 #include "commands/command.hpp"
-#include "delta/can/protocol.hpp"
-#include "delta/can/sdo_channel.hpp"
 #include "delta/update/image_file.hpp"
 
 namespace host_id {
-
-namespace {
-
-namespace sdo = delta::can::sdo;
-namespace up = delta::update;
-using Clock = std::chrono::steady_clock;
-
-struct FlashOptions {
-  std::string image;
-  std::string iface;
-  int node{delta::can::protocol::kControllerNode};
-  bool allow_downgrade{false};
-  bool force{false};
-  int retries{2};
-  double confirm_timeout_s{60};
-  int timeout_ms{1000};
-};
-
-// Exit statuses (docs/flashing.md). The old program runs on after each.
-// kExitSdoAborted (3): the controller refused; 0x1F57 says why.
-// kExitNoAnswer (4): the node does not answer, or the transfer failed.
-constexpr int kExitRefusedByController = kExitSdoAborted;
-constexpr int kExitRefusedHere = 5;   // the image is invalid, for other hardware, older
-constexpr int kExitVerifyFailed = 6;  // 0x1F56 is not the image's CRC-32
-constexpr int kExitNotConfirmed = 7;  // the new program rolled back or never confirmed
-
-// A failed step: its message and exit status.
-struct FlashError {
-  std::string message;
-  int exit_code;
-};
-
-// CiA 302-3's flash status (0x1F57) in words.
-std::string flash_status_text(std::uint32_t status) {
-  static const char* const kCodes[] = {"no error",
-                                       "no valid program",
-                                       "data format unknown",
-                                       "data format error or CRC error",
-                                       "flash not cleared before write",
-                                       "flash write error",
-                                       "general address error",
-                                       "flash secured (write access not allowed now)"};
-  const unsigned code = (status >> 1) & 0x7F;
-  std::string text = code < 8 ? kCodes[code] : "error code " + std::to_string(code);
-  const unsigned verdict = (status >> 8) & 0xFF;
-  if (verdict != 0 && verdict < up::kVerdictCount) {
-    text += std::string(" (") + up::describe(static_cast<up::Verdict>(verdict)) + ")";
-  }
-  return text;
-}
-
-class ControllerSession {
- public:
-  explicit ControllerSession(const FlashOptions& o)
-      : node_(static_cast<std::uint8_t>(o.node)),
-        socket_(
-            delta::can::Socket::open(o.iface, {delta::can::sdo_response_filter(node_),
-                                               {delta::can::protocol::kControllerHeartbeat.base_id,
-                                                delta::can::protocol::kStandardIdMask, false}})),
-        channel_(socket_, node_, std::chrono::milliseconds(o.timeout_ms)) {}
-
-  delta::can::SdoChannel& channel() { return channel_; }
-
-  // An unsigned object, or the failure as a FlashError.
-  std::uint32_t read_u32(std::uint16_t index, std::uint8_t sub) {
-    std::vector<std::uint8_t> bytes;
-    const auto o = channel_.upload(index, sub, bytes, sdo::Transfer::kAuto, 4);
-    if (!o.ok()) throw failure(index, sub, o);
-    std::uint32_t v = 0;
-    for (std::size_t i = 0; i < bytes.size(); ++i) v |= std::uint32_t{bytes[i]} << (8 * i);
-    return v;
-  }
-  std::string read_text(std::uint16_t index) {
-    std::vector<std::uint8_t> bytes;
-    const auto o = channel_.upload(index, 0, bytes, sdo::Transfer::kAuto, 256);
-    if (!o.ok()) throw failure(index, 0, o);
-    return {bytes.begin(), bytes.end()};
-  }
-  void write_u8(std::uint16_t index, std::uint8_t sub, std::uint8_t value) {
-    const std::uint8_t bytes[] = {value};
-    const auto o = channel_.download(index, sub, bytes, sdo::Transfer::kAuto);
-    if (!o.ok()) throw failure(index, sub, o);
-  }
-  FlashError failure(std::uint16_t index, std::uint8_t sub, const delta::can::SdoOutcome& o) {
-    std::string message = channel_.describe(index, sub, o);
-    // The node discards the rest of a block it aborted (CiA 301 servers
-    // may not; ours does), so the status can be read at once.
-    std::vector<std::uint8_t> status;
-    if (o.by_server && index >= 0x1F50 && index <= 0x1F57 &&
-        channel_.upload(0x1F57, 1, status, sdo::Transfer::kAuto, 4).ok() && status.size() == 4) {
-      message += "; flash status (0x1F57): " +
-                 flash_status_text(std::uint32_t{status[0]} | std::uint32_t{status[1]} << 8 |
-                                   std::uint32_t{status[2]} << 16 | std::uint32_t{status[3]} << 24);
-    }
-    return {message, o.by_server ? kExitRefusedByController : kExitNoAnswer};
-  }
-  // Whether the node sent its boot-up (heartbeat state 0) before `until`.
-  bool await_boot_up(Clock::time_point until) {
-    while (Clock::now() < until) {
-      if (!socket_.wait_readable(std::chrono::milliseconds(50))) continue;
-      while (auto r = socket_.receive()) {
-        if (!r->error && r->frame.id == delta::can::protocol::kControllerHeartbeat.base_id &&
-            r->frame.dlc >= 1 && r->frame.data[0] == 0) {
-          return true;
-        }
-      }
-    }
-    return false;
-  }
-
- private:
-  std::uint8_t node_;
-  delta::can::Socket socket_;
-  delta::can::SdoChannel channel_;
-};
-
-// The node's identity and version against the image's: another product is
-// refused unless --force, an older version unless --allow-downgrade.
-up::Version check_target(ControllerSession& s, const up::ImageHeader& h, const FlashOptions& o,
-                         std::ostream& err) {
-  const up::Identity node{s.read_u32(0x1018, 1), s.read_u32(0x1018, 2), s.read_u32(0x1018, 3)};
-  const std::string running_text = s.read_text(0x100A);
-  if (up::check_identity(h, node) != up::Verdict::kOk) {
-    const std::string what = o.image + " is for vendor " + hex32(h.identity.vendor_id) +
-                             ", product " + hex32(h.identity.product_code) + "; node " +
-                             std::to_string(o.node) + " is vendor " + hex32(node.vendor_id) +
-                             ", product " + hex32(node.product_code);
-    if (!o.force) throw FlashError{what + " (--force sends it anyway)", kExitRefusedHere};
-    err << "host_id: warning: " << what << "; sending it as --force asks\n";
-  }
-  up::Version running{};
-  try {
-    running = up::parse_version(running_text);
-  } catch (const delta::InputError&) {
-    running = {static_cast<std::uint16_t>(node.revision >> 16),
-               static_cast<std::uint16_t>(node.revision & 0xFFFF), 0};
-  }
-  if (up::compare(h.version, running) < 0 && !o.allow_downgrade) {
-    throw FlashError{o.image + " holds version " + up::version_text(h.version) +
-                         ", older than the running " + up::version_text(running) +
-                         " (--allow-downgrade to flash it)",
-                     kExitRefusedHere};
-  }
-  return running;
-}
-
-// "[#########           ] 45 %  312.0 kB of 690.3 kB  41.2 kB/s" on one line.
-void show_progress(std::ostream& err, std::uint32_t done, std::uint32_t total,
-                   Clock::time_point start) {
-  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  const unsigned width = 30;
-  const unsigned filled =
-      total == 0 ? width : static_cast<unsigned>(std::uint64_t{done} * width / total);
-  char line[160];
-  std::snprintf(line, sizeof line, "\r[%s%s] %3u %%  %.1f of %.1f kB  %.1f kB/s",
-                std::string(filled, '#').c_str(), std::string(width - filled, ' ').c_str(),
-                total == 0 ? 100u : static_cast<unsigned>(std::uint64_t{done} * 100 / total),
-                done / 1024.0, total / 1024.0, seconds > 0 ? done / 1024.0 / seconds : 0.0);
-  err << line << std::flush;
-}
-
-// Clear, then the block download; a transfer that fails on the bus (no
-// answer, a timeout) starts over, up to --retries times. The outcome of the
-// last attempt.
-delta::can::SdoOutcome download(ControllerSession& s, const std::vector<std::uint8_t>& image,
-                                const FlashOptions& o, std::ostream& err) {
-  delta::can::SdoOutcome outcome;
-  for (int attempt = 0; attempt <= o.retries; ++attempt) {
-    s.write_u8(0x1F51, 1, 3);  // clear
-    const auto start = Clock::now();
-    auto last_shown = start;
-    const auto total = static_cast<std::uint32_t>(image.size());
-    s.channel().set_progress([&](std::uint32_t done) {
-      if (Clock::now() - last_shown < std::chrono::milliseconds(200) && done != total) return;
-      last_shown = Clock::now();
-      show_progress(err, done, total, start);
-    });
-    outcome = s.channel().download(0x1F50, 1, image, sdo::Transfer::kBlock);
-    s.channel().set_progress(nullptr);
-    err << "\n";
-    if (outcome.ok() || outcome.by_server) return outcome;
-    if (attempt < o.retries) {
-      err << "host_id: the transfer failed (" << s.channel().describe(0x1F50, 1, outcome)
-          << "); starting over (" << attempt + 1 << " of " << o.retries << " retries)\n";
-    }
-  }
-  return outcome;
-}
-
-// After "start": the new program's boot-up, then its confirmation (0x2F00:1
-// = 2) with the image's version; a roll-back shows as a reason in 0x2F00:2.
-void await_confirmation(ControllerSession& s, const up::ImageHeader& h, const FlashOptions& o) {
-  const auto until =
-      Clock::now() + std::chrono::milliseconds(static_cast<long>(o.confirm_timeout_s * 1000));
-  if (!s.await_boot_up(until)) {
-    throw FlashError{"node " + std::to_string(o.node) + " did not restart within " +
-                         std::to_string(o.confirm_timeout_s) + " s of the start command",
-                     kExitNotConfirmed};
-  }
-  while (Clock::now() < until) {
-    try {
-      const std::uint32_t rolled_back = s.read_u32(0x2F00, 2);
-      if (rolled_back != 0) {
-        throw FlashError{"the controller rolled the new program back (reason " +
-                             std::to_string(rolled_back) + ", docs/flashing.md) and runs " +
-                             s.read_text(0x100A) + " again",
-                         kExitNotConfirmed};
-      }
-      if (s.read_u32(0x2F00, 1) == 2 && s.read_text(0x100A) == up::version_text(h.version)) return;
-    } catch (const FlashError& e) {
-      if (e.exit_code == kExitNotConfirmed) throw;  // else: not answering while it restarts
-    }
-    s.await_boot_up(Clock::now() + std::chrono::milliseconds(100));  // paces the polling
-  }
-  throw FlashError{
-      "the new program did not confirm within " + std::to_string(o.confirm_timeout_s) + " s",
-      kExitNotConfirmed};
-}
-
-void flash(const FlashOptions& o, CommandContext& context) {
-  std::ostream& err = context.err;
-  const up::CheckedImage image = up::read_image(o.image);
-  if (image.verdict != up::Verdict::kOk) {
-    const std::string what = o.image + ": " + up::describe(image.verdict);
-    if (!o.force || !image.header) {
-      throw FlashError{what + (image.header ? " (--force sends it anyway)" : ""), kExitRefusedHere};
-    }
-    err << "host_id: warning: " << what << "; sending it as --force asks\n";
-  }
-  const up::ImageHeader& h = *image.header;
-  ControllerSession session(o);
-  // An earlier flash that was killed mid-transfer may have left the node's
-  // server in the transfer: end it now (CiA 301 abort, general error).
-  session.channel().abort(0x1F50, 1, sdo::kAbortGeneral);
-  const up::Version running = check_target(session, h, o, err);
-  err << "host_id: node " << o.node << " runs " << up::version_text(running) << "; sending "
-      << o.image << " (version " << up::version_text(h.version) << ", " << image.bytes.size()
-      << " bytes)\n";
-  const delta::can::SdoOutcome sent = download(session, image.bytes, o, err);
-  if (!sent.ok()) throw session.failure(0x1F50, 1, sent);
-  const double seconds = static_cast<double>(sent.elapsed_us) * 1e-6;
-  const std::uint32_t crc = session.read_u32(0x1F56, 1);
-  if (crc != h.payload_crc32) {
-    throw FlashError{"node " + std::to_string(o.node) + " holds a program with CRC-32 " +
-                         hex32(crc) + ", the image's is " + hex32(h.payload_crc32),
-                     kExitVerifyFailed};
-  }
-  session.write_u8(0x1F51, 1, 1);  // start
-  err << "host_id: verified (CRC-32 " << hex32(crc) << "); started; waiting for it to confirm\n";
-  await_confirmation(session, h, o);
-  char rate[64];
-  std::snprintf(rate, sizeof rate, "%.2f s, %.1f kB/s", seconds,
-                seconds > 0 ? static_cast<double>(image.bytes.size()) / 1024.0 / seconds : 0.0);
-  context.out << "flashed " << o.image << ": node " << o.node << " runs version "
-              << up::version_text(h.version) << " (was " << up::version_text(running)
-              << "), confirmed; " << image.bytes.size() << " bytes in " << rate << ", "
-              << sent.frames_sent << " frames sent\n";
-  context.exit_code = 0;
-}
-
-}  // namespace
 
 void add_flash_command(CLI::App& command, CommandContext& context) {
   auto o = std::make_shared<FlashOptions>();
@@ -308,7 +44,15 @@ void add_flash_command(CLI::App& command, CommandContext& context) {
       ->capture_default_str();
   c->callback([o, &context] {
     try {
-      flash(*o, context);
+      const FlashReport r = flash_image(*o, context.err);
+      char rate[64];
+      std::snprintf(rate, sizeof rate, "%.2f s, %.1f kB/s", r.seconds,
+                    r.seconds > 0 ? static_cast<double>(r.bytes) / 1024.0 / r.seconds : 0.0);
+      context.out << "flashed " << o->image << ": node " << o->node << " runs version "
+                  << delta::update::version_text(r.flashed) << " (was "
+                  << delta::update::version_text(r.running_before) << "), confirmed; " << r.bytes
+                  << " bytes in " << rate << ", " << r.frames_sent << " frames sent\n";
+      context.exit_code = 0;
     } catch (const FlashError& e) {
       context.err << "host_id: error: flash: " << e.message << "\n";
       context.exit_code = e.exit_code;
