@@ -5,8 +5,8 @@
 #include <ostream>
 
 #include "commands/command.hpp"
-#include "commands/controller_text.hpp"
 #include "host_id/controller_link.hpp"
+#include "host_id/controller_text.hpp"
 
 namespace host_id {
 

@@ -1,4 +1,4 @@
-#include "commands/controller_text.hpp"
+#include "host_id/controller_text.hpp"
 
 #include "delta/controller/vocabulary.hpp"
 #include "host_id/controller_link.hpp"
