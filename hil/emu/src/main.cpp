@@ -67,6 +67,21 @@ void configure_plant(const std::string& plant, const std::string& robot_path,
   }  // else the default lumped parameters (within 0.2 % of the default robot's)
 }
 
+// CLI::Range and CLI::NonNegativeNumber let NaN through: these compare so
+// that it fails.
+const CLI::Validator kInitialAngle(
+    [](std::string& s) {
+      const double q = number(s);
+      return q >= -1.5 && q <= 1.5 ? std::string() : "must be in [-1.5, 1.5]";
+    },
+    "[-1.5, 1.5]");
+const CLI::Validator kCurrentNoise(
+    [](std::string& s) {
+      const double a = number(s);
+      return a >= 0 && a < 1e3 ? std::string() : "must be from 0 to 1000";
+    },
+    ">= 0");
+
 // The command line into config, or the exit code when it asked for help or
 // was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
@@ -97,21 +112,10 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
                  "overcurrent:N (repeatable)")
       ->allow_extra_args(false);
   double initial_q = config.initial_q_rad[0];
-  // CLI::Range and CLI::NonNegativeNumber let NaN through: compare so that it fails.
   auto* initial = app.add_option("--initial-q", initial_q, "the three joints' angle at start, rad")
-                      ->check(CLI::Validator(
-                          [](std::string& s) {
-                            const double q = number(s);
-                            return q >= -1.5 && q <= 1.5 ? std::string() : "must be in [-1.5, 1.5]";
-                          },
-                          "[-1.5, 1.5]"));
+                      ->check(kInitialAngle);
   app.add_option("--current-noise", config.current_noise_A, "current noise, A (standard deviation)")
-      ->check(CLI::Validator(
-          [](std::string& s) {
-            const double a = number(s);
-            return a >= 0 && a < 1e3 ? std::string() : "must be from 0 to 1000";
-          },
-          ">= 0"))
+      ->check(kCurrentNoise)
       ->capture_default_str();
   app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
   std::string eds_path;
@@ -136,6 +140,43 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
     return 2;
   }
   return std::nullopt;
+}
+
+// The drives' frames on the bus: the emulator fed with what arrives,
+// delayed frames sent when due, until SIGINT or SIGTERM. Returns the exit
+// status.
+int serve(delta::can::Socket& socket, emu::Emulator& emulator,
+          std::multimap<std::uint64_t, delta::can::Frame>& delayed, std::uint64_t& send_failures) {
+  std::string reported_error;
+  while (!g_stop.load()) {
+    std::uint64_t now = monotonic_us();
+    int timeout_ms = 10;
+    if (!delayed.empty()) {
+      const std::uint64_t due = delayed.begin()->first;
+      timeout_ms =
+          due <= now ? 0 : static_cast<int>(std::min<std::uint64_t>(10, (due - now + 999) / 1000));
+    }
+    pollfd pfd{socket.fd(), POLLIN, 0};
+    poll(&pfd, 1, timeout_ms);
+    // Frames first, each stamped with the time it is read, then the
+    // clocks' checks: a heartbeat that waited in the socket while this
+    // process was not scheduled still counts.
+    emu::pump_frames(
+        emulator, [&socket] { return socket.receive(); }, monotonic_us, kFramesPerPass);
+    while (!delayed.empty() && delayed.begin()->first <= monotonic_us()) {
+      if (socket.send(delayed.begin()->second) != delta::can::SendResult::kOk) ++send_failures;
+      delayed.erase(delayed.begin());
+    }
+    if (!emulator.plant_error().empty() && reported_error.empty()) {
+      reported_error = emulator.plant_error();
+      std::cerr << "delta_drive_emu: " << reported_error << "\n";
+    }
+  }
+  std::cerr << "delta_drive_emu: stopped after " << emulator.syncs() << " SYNCs, "
+            << emulator.simulated_s() << " s simulated, the longest wait between SYNCs "
+            << emulator.longest_sync_gap_s() << " s; send failures " << send_failures << "\n"
+            << emulator.describe();
+  return reported_error.empty() ? 0 : 3;
 }
 
 }  // namespace
@@ -180,37 +221,7 @@ int main(int argc, char** argv) {
     emulator.on_wall_time(monotonic_us());
     emulator.boot();
     std::cout << "delta_drive_emu: ready on " << iface << std::endl;
-    std::string reported_error;
-    while (!g_stop.load()) {
-      std::uint64_t now = monotonic_us();
-      int timeout_ms = 10;
-      if (!delayed.empty()) {
-        const std::uint64_t due = delayed.begin()->first;
-        timeout_ms = due <= now
-                         ? 0
-                         : static_cast<int>(std::min<std::uint64_t>(10, (due - now + 999) / 1000));
-      }
-      pollfd pfd{socket.fd(), POLLIN, 0};
-      poll(&pfd, 1, timeout_ms);
-      // Frames first, each stamped with the time it is read, then the
-      // clocks' checks: a heartbeat that waited in the socket while this
-      // process was not scheduled still counts.
-      emu::pump_frames(
-          emulator, [&socket] { return socket.receive(); }, monotonic_us, kFramesPerPass);
-      while (!delayed.empty() && delayed.begin()->first <= monotonic_us()) {
-        if (socket.send(delayed.begin()->second) != delta::can::SendResult::kOk) ++send_failures;
-        delayed.erase(delayed.begin());
-      }
-      if (!emulator.plant_error().empty() && reported_error.empty()) {
-        reported_error = emulator.plant_error();
-        std::cerr << "delta_drive_emu: " << reported_error << "\n";
-      }
-    }
-    std::cerr << "delta_drive_emu: stopped after " << emulator.syncs() << " SYNCs, "
-              << emulator.simulated_s() << " s simulated, the longest wait between SYNCs "
-              << emulator.longest_sync_gap_s() << " s; send failures " << send_failures << "\n"
-              << emulator.describe();
-    return reported_error.empty() ? 0 : 3;
+    return serve(socket, emulator, delayed, send_failures);
   } catch (const delta::can::CanError& e) {
     std::cerr << "delta_drive_emu: " << e.what() << "\n";
     return 1;
