@@ -79,19 +79,6 @@ TEST(PreprocessTest, PreprocessingThatReleasesTheLogGivesTheSameRegression) {
   EXPECT_FALSE(log.name.empty());
 }
 
-// The rows of `r` (built in time order) with those of joints slower than
-// min_speed_rad_s after the others, each group in its order: the order the
-// fit asks preprocessing for, by the plain definition.
-std::vector<Eigen::Index> fast_then_slow(const Regression& r, double min_speed_rad_s) {
-  std::vector<Eigen::Index> fast, slow;
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    (std::abs(r.velocity_rad_s[row]) >= min_speed_rad_s ? fast : slow)
-        .push_back(static_cast<Eigen::Index>(row));
-  }
-  fast.insert(fast.end(), slow.begin(), slow.end());
-  return fast;
-}
-
 // A log preprocessed once for the friction's shape gives, for another
 // shape, bit for bit what preprocessing with that shape gives: every value
 // of psi and tau, the fast rows and each joint's nonzero columns; on a log
