@@ -1,6 +1,7 @@
 // libFuzzer harness: the EDS reader. Any text is either refused with
 // EdsError naming a line inside the text, or read into a dictionary whose
-// every variable has a known data type and whose mandatory objects exist.
+// every variable has a known data type and whose mandatory objects exist;
+// the completeness check then names the file in each finding.
 #include <cstdint>
 #include <cstdlib>
 #include <string>
@@ -24,5 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     (void)v.default_value(127);
   }
   if (!eds.has_object(0x1000) || !eds.has_object(0x1001) || !eds.has_object(0x1018)) std::abort();
+  for (const std::string& finding : delta::canopen::check_eds_complete(eds)) {
+    if (finding.rfind("f.eds:", 0) != 0) std::abort();
+  }
   return 0;
 }

@@ -251,6 +251,26 @@ class Reader {
     }
   }
 
+  // What check_eds_complete reads besides the objects.
+  void keep_for_checks(Eds& eds) const {
+    const auto keys = [](const Section& s) {
+      std::map<std::string, EdsKey> out;
+      for (const auto& [k, v] : s.keys) out[k] = {v.text, v.line};
+      return out;
+    };
+    if (const Section* s = section("deviceinfo")) {
+      eds.device_info = keys(*s);
+      eds.device_info_line = s->line;
+    }
+    if (const Section* s = section("dummyusage")) eds.dummy_usage = keys(*s);
+    for (const auto& [name, s] : sections_) {
+      if (name.size() != 4 || name.find_first_not_of("0123456789abcdef") != std::string::npos) {
+        continue;
+      }
+      eds.object_sections[static_cast<std::uint16_t>(std::stoul(name, nullptr, 16))] = s.line;
+    }
+  }
+
  private:
   std::string name_;
   std::map<std::string, Section> sections_;
@@ -319,6 +339,10 @@ std::string_view data_type_name(std::uint16_t type) {
       return "UNSIGNED16";
     case data_type::kUnsigned32:
       return "UNSIGNED32";
+    case 0x0010:
+      return "INTEGER24";
+    case 0x0016:
+      return "UNSIGNED24";
     case data_type::kReal32:
       return "REAL32";
     case data_type::kVisibleString:
@@ -416,8 +440,12 @@ Eds parse_eds(std::string_view text, const std::string& name) {
   eds.path = name;
   eds.identity = reader.identity();
   for (const char* list : {"MandatoryObjects", "OptionalObjects", "ManufacturerObjects"}) {
-    for (const auto& [index, line] : reader.listed(list)) reader.object(eds, index, line);
+    for (const auto& [index, line] : reader.listed(list)) {
+      reader.object(eds, index, line);
+      eds.listed.push_back({index, list, line});
+    }
   }
+  reader.keep_for_checks(eds);
   for (const auto& [index, what] : {std::pair<std::uint16_t, const char*>{0x1000, "device type"},
                                     {0x1001, "error register"},
                                     {0x1018, "identity"}}) {

@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 namespace delta::canopen {
 namespace {
@@ -207,6 +210,216 @@ TEST(EdsTest, TheProductsOwnEdsFilesAreValid) {
   EXPECT_EQ(drive.identity.product_code, 0x00000402u);
   EXPECT_EQ(drive.find(0x1018, 4)->default_value(2), 0x00010002u);
   EXPECT_EQ(drive.find(0x1801, 1)->default_value(2), 0x80000282u);
+}
+
+// A complete EDS by CiA 306: every [DeviceInfo] key, every object listed in
+// its list, TPDO1 with its mapping (the error register and a dummy byte).
+// A finding's line is that of its section's first key.
+std::string complete_eds(const std::string& device_info_extra = "NrOfTXPDO=1\n") {
+  return R"([DeviceInfo]
+VendorName=Example
+VendorNumber=0x000000AB
+ProductName=Example drive
+ProductNumber=1234
+RevisionNumber=0x00020003
+OrderCode=EX-1
+BaudRate_10=0
+BaudRate_20=0
+BaudRate_50=0
+BaudRate_125=1
+BaudRate_250=1
+BaudRate_500=1
+BaudRate_800=0
+BaudRate_1000=1
+SimpleBootUpMaster=0
+SimpleBootUpSlave=1
+Granularity=8
+DynamicChannelsSupported=0
+GroupMessaging=0
+NrOfRXPDO=0
+LSS_Supported=0
+)" + device_info_extra +
+         R"(
+[DummyUsage]
+Dummy0005=1
+
+[MandatoryObjects]
+SupportedObjects=3
+1=0x1000
+2=0x1001
+3=0x1018
+
+[1000]
+ParameterName=Device type
+DataType=0x0007
+AccessType=ro
+DefaultValue=0x00020192
+
+[1001]
+ParameterName=Error register
+DataType=0x0005
+AccessType=ro
+PDOMapping=1
+
+[1018]
+ParameterName=Identity
+ObjectType=0x9
+SubNumber=2
+
+[1018sub0]
+ParameterName=Highest sub-index
+DataType=0x0005
+AccessType=const
+DefaultValue=1
+
+[1018sub1]
+ParameterName=Vendor-ID
+DataType=0x0007
+AccessType=ro
+DefaultValue=0x000000AB
+
+[OptionalObjects]
+SupportedObjects=2
+1=0x1800
+2=0x1A00
+
+[1800]
+ParameterName=TPDO1 communication
+ObjectType=0x9
+SubNumber=3
+
+[1800sub0]
+ParameterName=Highest sub-index
+DataType=0x0005
+AccessType=const
+DefaultValue=2
+
+[1800sub1]
+ParameterName=COB-ID
+DataType=0x0007
+AccessType=rw
+DefaultValue=$NODEID+0x180
+
+[1800sub2]
+ParameterName=Transmission type
+DataType=0x0005
+AccessType=rw
+DefaultValue=1
+
+[1A00]
+ParameterName=TPDO1 mapping
+ObjectType=0x9
+SubNumber=3
+
+[1A00sub0]
+ParameterName=Number of entries
+DataType=0x0005
+AccessType=rw
+DefaultValue=2
+
+[1A00sub1]
+ParameterName=Entry 1
+DataType=0x0007
+AccessType=rw
+DefaultValue=0x10010008
+
+[1A00sub2]
+ParameterName=Entry 2
+DataType=0x0007
+AccessType=rw
+DefaultValue=0x00050008
+)";
+}
+
+// The findings of the completeness check on `text`.
+std::vector<std::string> findings_of(const std::string& text) {
+  return check_eds_complete(parse_eds(text, "drive.eds"));
+}
+
+// Whether one of `findings` is `expected` exactly.
+::testing::AssertionResult has_finding(const std::vector<std::string>& findings,
+                                       const std::string& expected) {
+  if (std::find(findings.begin(), findings.end(), expected) != findings.end()) {
+    return ::testing::AssertionSuccess();
+  }
+  auto failure = ::testing::AssertionFailure() << "no finding '" << expected << "'; found:";
+  for (const std::string& f : findings) failure << "\n  " << f;
+  return failure;
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? text : text.replace(at, from.size(), to);
+}
+
+TEST(EdsCompletenessTest, ACompleteEdsHasNoFinding) {
+  EXPECT_TRUE(findings_of(complete_eds()).empty());
+}
+
+TEST(EdsCompletenessTest, APdoCommunicationObjectWithoutItsMappingIsFound) {
+  std::string text = complete_eds();
+  text = replaced(text, "SupportedObjects=2\n1=0x1800\n2=0x1A00", "SupportedObjects=1\n1=0x1800");
+  text = text.substr(0, text.find("[1A00]"));
+  EXPECT_TRUE(has_finding(findings_of(text),
+                          "drive.eds:68: PDO communication object 0x1800 has no mapping object "
+                          "0x1A00"));
+}
+
+TEST(EdsCompletenessTest, MappingEntriesMustNameMappableObjectsOfTheirLength) {
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "0x10010008", "0x10000020")),
+                          "drive.eds:103: 0x1A00:01 maps 0x1000:00, which is not PDOMapping=1"));
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "0x10010008", "0x10010010")),
+                          "drive.eds:103: 0x1A00:01 maps 0x1001:00 with 16 bits; it has 8"));
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "0x10010008", "0x60710010")),
+                          "drive.eds:103: 0x1A00:01 maps 0x6071:00, which the EDS does not have"));
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "Dummy0005=1", "Dummy0005=0")),
+                          "drive.eds:109: 0x1A00:02 maps dummy 0x0005, which [DummyUsage] does "
+                          "not enable"));
+}
+
+TEST(EdsCompletenessTest, ObjectListsMatchTheSections) {
+  const std::string unlisted = replaced(complete_eds(), "SupportedObjects=2\n1=0x1800\n2=0x1A00",
+                                        "SupportedObjects=1\n1=0x1800");
+  EXPECT_TRUE(has_finding(findings_of(unlisted),
+                          "drive.eds:91: object 0x1A00 has a section but no object list names it "
+                          "(add it to [OptionalObjects])"));
+  const std::string misplaced =
+      replaced(complete_eds(), "SupportedObjects=2\n1=0x1800\n2=0x1A00",
+               "SupportedObjects=3\n1=0x1800\n2=0x1A00\n3=0x2000") +
+      "\n[2000]\nParameterName=Vendor's\nDataType=0x0005\nAccessType=ro\n";
+  EXPECT_TRUE(has_finding(findings_of(misplaced),
+                          "drive.eds:67: [OptionalObjects] names 0x2000, which belongs in "
+                          "[ManufacturerObjects]"));
+}
+
+TEST(EdsCompletenessTest, DeviceInfoHasEveryKeyAndCountsThePdos) {
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "Granularity=8\n", "")),
+                          "drive.eds:2: [DeviceInfo] has no Granularity"));
+  EXPECT_TRUE(has_finding(findings_of(complete_eds("NrOfTXPDO=2\n")),
+                          "drive.eds:23: [DeviceInfo] NrOfTXPDO=2 but the EDS has 1 TPDO "
+                          "communication objects (0x1800..)"));
+  EXPECT_TRUE(
+      has_finding(findings_of(replaced(complete_eds(), "BaudRate_1000=1", "BaudRate_1000=2")),
+                  "drive.eds:15: [DeviceInfo] BaudRate_1000=2: must be 0 or 1"));
+  EXPECT_TRUE(has_finding(findings_of(replaced(complete_eds(), "DefaultValue=2\n\n[1800sub1]",
+                                               "DefaultValue=4\n\n[1800sub1]")),
+                          "drive.eds:74: 0x1800:00 says 4 sub-indices, but the highest is 2"));
+}
+
+// Every EDS the project ships is complete, so that the CANopen tools users
+// have can build a node from it.
+TEST(EdsCompletenessTest, EveryShippedEdsIsComplete) {
+  std::vector<std::string> paths;
+  for (const auto& entry : std::filesystem::directory_iterator(DELTA_EDS_DIR)) {
+    if (entry.path().extension() == ".eds") paths.push_back(entry.path().string());
+  }
+  EXPECT_GE(paths.size(), 3u);
+  for (const std::string& path : paths) {
+    const std::vector<std::string> findings = check_eds_complete(read_eds(path));
+    EXPECT_TRUE(findings.empty()) << path << ": " << findings.size() << " findings, first "
+                                  << (findings.empty() ? "" : findings.front());
+  }
 }
 
 }  // namespace

@@ -122,5 +122,41 @@ TEST(ControllerNodeTest, ItsEdsListsExactlyItsObjects) {
   EXPECT_EQ(eds.find(0x1017, 0)->default_value(16), rig.config.heartbeat_ms);
 }
 
+// TPDO1-3 (the log frames) are mapped in 0x1A00-0x1A02 onto 0x2100-0x2102,
+// which hold the latest record: a master that reads the mapping and the
+// objects by SDO finds in them what the frames carry, every value at the
+// bits the mapping says.
+TEST(ControllerNodeTest, TheLogFramesMappingDescribesWhatTheyCarry) {
+  NodeRig rig;
+  rig.step();
+  const p::LogPayloads frames =
+      p::pack_log(1234, true, {1 << 20, -(1 << 19), 7}, {-3, 1 << 16, -(1 << 17)});
+  rig.node.note_log_frames(frames.data);
+  for (unsigned tpdo = 0; tpdo < 3; ++tpdo) {
+    const auto mapping = static_cast<std::uint16_t>(0x1A00 + tpdo);
+    ASSERT_EQ(rig.read(mapping, 0), 3u) << mapping;
+    unsigned bit = 0;
+    for (std::uint8_t k = 1; k <= 3; ++k) {
+      const std::uint32_t entry = rig.read(mapping, k);
+      const auto index = static_cast<std::uint16_t>(entry >> 16);
+      const auto sub = static_cast<std::uint8_t>(entry >> 8);
+      const unsigned bits = entry & 0xFF;
+      std::uint64_t carried = 0;
+      for (unsigned b = 0; b < bits; ++b) {
+        const unsigned at = bit + b;
+        carried |= std::uint64_t{(frames.data[tpdo][at / 8] >> (at % 8)) & 1u} << b;
+      }
+      EXPECT_EQ(rig.read(index, sub), carried)
+          << "TPDO" << tpdo + 1 << " entry " << int{k} << ": 0x" << std::hex << entry;
+      bit += bits;
+    }
+    EXPECT_EQ(bit, 64u) << "TPDO" << tpdo + 1;
+  }
+  // The values themselves: seq 1234 with the stale bit, q2 = -0.5 rad.
+  EXPECT_EQ(rig.read(0x2100, 0), 1234u | 1u << 15);
+  EXPECT_EQ(rig.read(0x2101, 2), static_cast<std::uint32_t>(-(1 << 19)) & 0xFFFFFFu);
+  EXPECT_EQ(rig.read(0x2102, 3), static_cast<std::uint32_t>(-(1 << 17)) & 0xFFFFFFu);
+}
+
 }  // namespace
 }  // namespace fw_linux

@@ -69,14 +69,17 @@ void set_realtime(int priority, std::ostream& out) {
 
 }  // namespace
 
-bool send_log_frames(FrameSink& bus, const fw::LogRecord& r) {
+p::LogPayloads log_payloads(const fw::LogRecord& r) {
   std::array<std::int32_t, 3> q{};
   std::array<std::int32_t, 3> tau{};
   for (unsigned j = 0; j < 3; ++j) {
     q[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.q_rad[j].raw(), 8));
     tau[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.tau_Nm[j].raw(), 3));
   }
-  const p::LogPayloads payloads = p::pack_log(r.seq, r.stale, q, tau);
+  return p::pack_log(r.seq, r.stale, q, tau);
+}
+
+bool send_log_frames(FrameSink& bus, const p::LogPayloads& payloads) {
   const p::Message* messages[3] = {&p::kLogA, &p::kLogB, &p::kLogC};
   bool ok = true;
   for (unsigned i = 0; i < 3; ++i) {

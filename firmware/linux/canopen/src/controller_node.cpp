@@ -20,6 +20,31 @@ constexpr std::uint32_t log_cob_id(unsigned tpdo) {
 
 constexpr std::uint32_t kSyncProducer = 1u << 30;  // 0x1005 bit 30
 
+// TPDO1-3's mapping (0x1A00-0x1A02): each log frame is the sequence and
+// stale flag (0x2100, 16 bits), then two of the six logged values
+// (0x2101:1-3 the angles, 0x2102:1-3 the torques, 24 bits each), in the
+// order of the protocol table's signals.
+constexpr std::uint32_t mapping_entry(std::uint16_t index, std::uint8_t sub, std::uint8_t bits) {
+  return std::uint32_t{index} << 16 | std::uint32_t{sub} << 8 | bits;
+}
+constexpr std::uint32_t kMapSeq = mapping_entry(0x2100, 0, 16);
+constexpr std::uint32_t kLogMapping[3][3] = {
+    {kMapSeq, mapping_entry(0x2101, 1, 24), mapping_entry(0x2101, 2, 24)},
+    {kMapSeq, mapping_entry(0x2101, 3, 24), mapping_entry(0x2102, 1, 24)},
+    {kMapSeq, mapping_entry(0x2102, 2, 24), mapping_entry(0x2102, 3, 24)}};
+static_assert(p::kLogAQ1.start_bit == 16 && p::kLogAQ2.start_bit == 40 && p::kLogAQ1.length == 24 &&
+              p::kLogASeq.length + p::kLogAStale.length == 16);
+
+// The latest record's logged values as 0x2101:1-3 (angles) and 0x2102:1-3
+// (torques) give them: 24-bit two's complement.
+std::uint32_t logged_value(const std::array<std::array<std::uint8_t, 8>, 3>& frames,
+                           unsigned value) {
+  static constexpr const p::Signal* kSignals[6] = {&p::kLogAQ1,   &p::kLogAQ2,   &p::kLogBQ3,
+                                                   &p::kLogBTau1, &p::kLogCTau2, &p::kLogCTau3};
+  static constexpr unsigned kFrame[6] = {0, 0, 1, 1, 2, 2};
+  return static_cast<std::uint32_t>(p::unpack(frames[kFrame[value]], *kSignals[value])) & 0xFFFFFFu;
+}
+
 }  // namespace
 
 StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
@@ -66,6 +91,18 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1802, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1802, 1, 4, [](const Context&) { return log_cob_id(2); }, nullptr},
       {0x1802, 2, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1A00, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x1A00, 1, 4, [](const Context&) { return kLogMapping[0][0]; }, nullptr},
+      {0x1A00, 2, 4, [](const Context&) { return kLogMapping[0][1]; }, nullptr},
+      {0x1A00, 3, 4, [](const Context&) { return kLogMapping[0][2]; }, nullptr},
+      {0x1A01, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x1A01, 1, 4, [](const Context&) { return kLogMapping[1][0]; }, nullptr},
+      {0x1A01, 2, 4, [](const Context&) { return kLogMapping[1][1]; }, nullptr},
+      {0x1A01, 3, 4, [](const Context&) { return kLogMapping[1][2]; }, nullptr},
+      {0x1A02, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x1A02, 1, 4, [](const Context&) { return kLogMapping[2][0]; }, nullptr},
+      {0x1A02, 2, 4, [](const Context&) { return kLogMapping[2][1]; }, nullptr},
+      {0x1A02, 3, 4, [](const Context&) { return kLogMapping[2][2]; }, nullptr},
       // Program download (CiA 302-3): one program, 0x1F50:1 (a domain, below).
       {0x1F50, 0, 1, [](const Context&) { return 1u; }, nullptr},
       {0x1F51, 0, 1, [](const Context&) { return 1u; }, nullptr},
@@ -77,6 +114,27 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1F56, 1, 4, [](const Context& c) { return c.node.program_.program_crc32(); }, nullptr},
       {0x1F57, 0, 1, [](const Context&) { return 1u; }, nullptr},
       {0x1F57, 1, 4, [](const Context& c) { return c.node.program_.flash_status(); }, nullptr},
+      // The latest log record, as TPDO1-3 map it.
+      {0x2100, 0, 2,
+       [](const Context& c) {
+         const auto& a = c.node.log_frames_[0];
+         return std::uint32_t{a[0]} | std::uint32_t{a[1]} << 8;
+       },
+       nullptr, true},
+      {0x2101, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x2101, 1, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 0); }, nullptr,
+       true},
+      {0x2101, 2, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 1); }, nullptr,
+       true},
+      {0x2101, 3, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 2); }, nullptr,
+       true},
+      {0x2102, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x2102, 1, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 3); }, nullptr,
+       true},
+      {0x2102, 2, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 4); }, nullptr,
+       true},
+      {0x2102, 3, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 5); }, nullptr,
+       true},
       // How this program runs under delta_boot, and the last roll-back's reason.
       {0x2F00, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x2F00, 1, 1,

@@ -89,10 +89,31 @@ struct EdsIdentity {
   std::string product_name;
 };
 
+// A key of the file as written, and its line.
+struct EdsKey {
+  std::string text;
+  int line{0};
+};
+
+// An object as an object list names it.
+struct EdsListing {
+  std::uint16_t index{0};
+  std::string list;  // "MandatoryObjects", "OptionalObjects" or "ManufacturerObjects"
+  int line{0};
+};
+
 struct Eds {
   std::string path;
   EdsIdentity identity;
   std::map<std::pair<std::uint16_t, std::uint8_t>, EdsVariable> variables;
+  // What the completeness check reads (check_eds_complete): [DeviceInfo]'s
+  // keys (lower case), [DummyUsage]'s, every object the lists name, and
+  // every object section ([XXXX], four hexadecimal digits) with its line.
+  std::map<std::string, EdsKey> device_info;
+  int device_info_line{0};
+  std::map<std::string, EdsKey> dummy_usage;
+  std::vector<EdsListing> listed;
+  std::map<std::uint16_t, int> object_sections;
 
   const EdsVariable* find(std::uint16_t index, std::uint8_t subindex) const;
   bool has_object(std::uint16_t index) const;
@@ -102,6 +123,17 @@ struct Eds {
 Eds read_eds(const std::string& path);
 // The same from text; `name` stands for the file in messages.
 Eds parse_eds(std::string_view text, const std::string& name);
+
+// Where an EDS is not complete and consistent by CiA 306 and 301, beyond
+// what read_eds refuses: [DeviceInfo]'s keys (the baud rates, the
+// granularity, the PDO counts), object sections that no list names or
+// that sit in the wrong list, PDO communication objects without their
+// mapping objects (and the reverse), mapping entries that name no
+// mappable object or the wrong length, and sub-index 0 of a mapping or
+// communication object against its sub-indices. Each finding is
+// "PATH:LINE: what"; none for a complete EDS. For the EDS files the
+// project ships.
+std::vector<std::string> check_eds_complete(const Eds& eds);
 
 // An EDS number: decimal, 0x hexadecimal or 0-prefixed octal (CiA 306),
 // optionally "$NODEID+" before it. nullopt if it is not one.

@@ -29,8 +29,10 @@ class SocketSink : public FrameSink {
   std::uint64_t failures_{0};
 };
 
-// The log record as the three log frames (docs/protocol.md).
-bool send_log_frames(FrameSink& bus, const fw::LogRecord& r);
+// The log record as the three log frames' payloads (docs/protocol.md).
+delta::can::protocol::LogPayloads log_payloads(const fw::LogRecord& r);
+// The three log frames on the bus.
+bool send_log_frames(FrameSink& bus, const delta::can::protocol::LogPayloads& payloads);
 
 class LinuxHardware {
  public:
@@ -51,14 +53,17 @@ class LinuxHardware {
   }
   // With log frames switched off (Modbus log_enable 0) a record is dropped
   // here, and the core's sequence still counts it.
+  // The node's mapped objects (0x2100-0x2102) hold the latest record either way.
   bool log(const fw::LogRecord& r) {
+    const delta::can::protocol::LogPayloads payloads = log_payloads(r);
+    if (node_ != nullptr) node_->note_log_frames(payloads.data);
     if (log_enabled_ != nullptr && !log_enabled_->load(std::memory_order_relaxed)) return true;
     if (node_ != nullptr && !node_->pdos_allowed()) return true;  // NMT: not operational
-    return send_log_frames(log_bus_, r);
+    return send_log_frames(log_bus_, payloads);
   }
   void gate_log(const std::atomic<bool>* enabled) { log_enabled_ = enabled; }
   // The log frames are the controller node's TPDOs: sent while it is operational.
-  void gate_pdos(const ControllerNode* node) { node_ = node; }
+  void gate_pdos(ControllerNode* node) { node_ = node; }
 
   // What the last cycle read and wrote on the safety lines.
   bool last_estop_open() const { return estop_open_; }
@@ -69,7 +74,7 @@ class LinuxHardware {
   SafetyIo& io_;
   FrameSink& log_bus_;
   const std::atomic<bool>* log_enabled_{nullptr};
-  const ControllerNode* node_{nullptr};
+  ControllerNode* node_{nullptr};
   bool estop_open_{false};
   fw::SafetyOutputs outputs_{};
 };

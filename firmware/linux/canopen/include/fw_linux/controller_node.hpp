@@ -51,6 +51,12 @@ class ControllerNode {
   // SDO server's timeouts.
   void after_step(const StepReport& step, std::uint64_t now_us);
 
+  // The latest log record's three frames (LOG_A..C), which 0x2100-0x2102
+  // give by SDO as TPDO1-3 map them.
+  void note_log_frames(const std::array<std::array<std::uint8_t, 8>, 3>& frames) {
+    log_frames_ = frames;
+  }
+
   // CiA 301: PDOs only in operational.
   bool pdos_allowed() const { return nmt_ == kOperational; }
   std::uint8_t nmt_state() const { return nmt_; }
@@ -87,6 +93,7 @@ class ControllerNode {
   bool safe_to_update_{false};         // as of the last step
   bool revert_reported_{false};
   fw::Fault last_reported_{fw::Fault::kNone};
+  std::array<std::array<std::uint8_t, 8>, 3> log_frames_{};
   Table table_;
   std::optional<delta::can::sdo::Server> server_;
 };
