@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace delta::canopen {
@@ -22,6 +23,46 @@ std::string hex4(std::uint32_t v) {
   char b[16];
   std::snprintf(b, sizeof b, "0x%04X", v);
   return b;
+}
+
+// Whether text is well-formed UTF-8 (no overlong forms, no surrogates).
+bool valid_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const std::size_t n = c < 0x80           ? 1
+                          : (c >> 5) == 0x6  ? 2
+                          : (c >> 4) == 0xE  ? 3
+                          : (c >> 3) == 0x1E ? 4
+                                             : 0;
+    if (n == 0 || i + n > text.size()) return false;
+    std::uint32_t cp = n == 1 ? c : c & (0x7F >> n);
+    for (std::size_t k = 1; k < n; ++k) {
+      const auto d = static_cast<unsigned char>(text[i + k]);
+      if ((d >> 6) != 0x2) return false;
+      cp = cp << 6 | (d & 0x3F);
+    }
+    static constexpr std::uint32_t kLeast[] = {0, 0, 0x80, 0x800, 0x10000};
+    if (cp < kLeast[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    i += n;
+  }
+  return true;
+}
+
+// Latin-1 (ISO 8859-1) text as UTF-8: each byte is its code point.
+std::string latin1_to_utf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size() + text.size() / 8);
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x80) {
+      out += ch;
+    } else {
+      out += static_cast<char>(0xC0 | c >> 6);
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
 }
 
 // What inih handed over: per section (lower case), per key (lower case),
@@ -111,10 +152,13 @@ class Reader {
     const Section* s = section("deviceinfo");
     if (s == nullptr) fail(1, "no [DeviceInfo] section");
     EdsIdentity id;
-    const auto u32 = [&](const char* key) {
-      const Value& v = required(*s, "DeviceInfo", key);
-      const std::int64_t n = number("DeviceInfo", key, v);
-      if (n < 0 || n > 0xFFFFFFFFll) fail(v.line, std::string(key) + " is not an UNSIGNED32");
+    const auto u32 = [&](const char* key) -> std::optional<std::uint32_t> {
+      const auto it = s->keys.find(lower(key));
+      if (it == s->keys.end()) return std::nullopt;
+      const std::int64_t n = number("DeviceInfo", key, it->second);
+      if (n < 0 || n > 0xFFFFFFFFll) {
+        fail(it->second.line, std::string(key) + " is not an UNSIGNED32");
+      }
       return static_cast<std::uint32_t>(n);
     };
     id.vendor_id = u32("VendorNumber");
@@ -171,10 +215,9 @@ class Reader {
     v.name = required(s, name, "ParameterName").text;
     const Value& type = required(s, name, "DataType");
     const std::int64_t t = number(name, "DataType", type);
-    if (t < 0 || t > 0xFFFF || !data_type_size(static_cast<std::uint16_t>(t))) {
-      fail(type.line, "[" + name + "] DataType=" + type.text + ": not a CiA 301 basic data type");
-    }
-    v.data_type = static_cast<std::uint16_t>(t);
+    if (t < 0 || t > 0xFFFF)
+      fail(type.line, "[" + name + "] DataType=" + type.text + ": not a type");
+    resolve_type(v, static_cast<std::uint16_t>(t), name, type);
     const Value& access_value = required(s, name, "AccessType");
     bool ok = false;
     v.access = access(access_value.text, ok);
@@ -191,10 +234,37 @@ class Reader {
       v.default_text = it->second.text;
       check_default(v, name, it->second);
     }
+    if (const auto it = s.keys.find("parametervalue"); it != s.keys.end()) {
+      v.parameter_text = it->second.text;
+      check_default(v, name, it->second);
+    }
     return v;
   }
 
+  // A basic type as it is; a DEFTYPE of one that this file defines as its
+  // base; anything else opaque, with a note.
+  void resolve_type(EdsVariable& v, std::uint16_t code, const std::string& name,
+                    const Value& type) const {
+    v.declared_type = code;
+    v.data_type = code;
+    if (data_type_size(code)) return;
+    if (const auto base = deftypes_.find(code); base != deftypes_.end()) {
+      v.data_type = base->second;
+      return;
+    }
+    v.opaque = true;
+    char text[160];
+    std::snprintf(text, sizeof text, ":%d: [%s] DataType=0x%04X is ", type.line, name.c_str(),
+                  code);
+    notes_.push_back(name_ + text +
+                     (defstructs_.count(code) ? std::string("a DEFSTRUCT of this file")
+                                              : std::string("not a basic type nor a DEFTYPE of "
+                                                            "one in this file")) +
+                     ": kept as opaque (its size is not known)");
+  }
+
   void check_default(const EdsVariable& v, const std::string& name, const Value& value) const {
+    if (v.opaque) return;
     const std::uint32_t size = v.size_bytes();
     const bool real = v.data_type == data_type::kReal32 || v.data_type == data_type::kReal64;
     if (size == 0 || real || value.text.empty()) return;
@@ -222,13 +292,15 @@ class Reader {
     if (const auto it = s->keys.find("objecttype"); it != s->keys.end()) {
       type = number(name, "ObjectType", it->second);
     }
+    if ((type == 0x5 || type == 0x6) && index < 0x1000) return;  // a type definition
     if (type == 0x7 || type == 0x2) {
       eds.variables[{index, 0}] = variable(*s, name, index, 0);
       return;
     }
     if (type != 0x8 && type != 0x9) {
       fail(s->line, "[" + name + "] ObjectType=" + std::to_string(type) +
-                        ": not VAR (0x7), ARRAY (0x8), RECORD (0x9) or DOMAIN (0x2)");
+                        ": not VAR (0x7), ARRAY (0x8), RECORD (0x9) or DOMAIN (0x2); "
+                        "DEFTYPE (0x5) and DEFSTRUCT (0x6) define types below 0x1000");
     }
     if (s->keys.count("compactsubobj") != 0) {
       fail(s->keys.at("compactsubobj").line, "[" + name + "] CompactSubObj is not supported");
@@ -248,6 +320,46 @@ class Reader {
     if (found != count) {
       fail(count_value.line, "[" + name + "] SubNumber=" + std::to_string(count) + " but " +
                                  std::to_string(found) + " [" + name + "subN] sections");
+    }
+  }
+
+  // The data types this file defines (sections [0001]..[0FFF] with
+  // ObjectType DEFTYPE 0x5 or DEFSTRUCT 0x6): a DEFTYPE's base type, where
+  // it is a basic one.
+  void read_type_definitions() {
+    for (const auto& [name, s] : sections_) {
+      if (name.size() != 4 || name.find_first_not_of("0123456789abcdef") != std::string::npos) {
+        continue;
+      }
+      const auto code = static_cast<std::uint16_t>(std::stoul(name, nullptr, 16));
+      const auto kind = s.keys.find("objecttype");
+      if (code >= 0x1000 || kind == s.keys.end()) continue;
+      const std::int64_t k = number(name, "ObjectType", kind->second);
+      if (k == 0x6) defstructs_.insert(code);
+      if (k != 0x5) continue;
+      const auto base = s.keys.find("datatype");
+      const std::optional<std::int64_t> b =
+          base == s.keys.end() ? std::nullopt : parse_eds_number(base->second.text, 0);
+      if (b && *b > 0 && *b <= 0xFFFF && data_type_size(static_cast<std::uint16_t>(*b))) {
+        deftypes_[code] = static_cast<std::uint16_t>(*b);
+      } else {
+        defstructs_.insert(code);  // a DEFTYPE of no basic type: opaque like a structure
+      }
+    }
+  }
+
+  std::vector<std::string> take_notes() { return std::move(notes_); }
+
+  // A DCF's [DeviceComissioning] (CiA 306's spelling): the node ID the
+  // file was configured for, which its $NODEID values use.
+  void commissioning(Eds& eds) const {
+    const Section* s = section("devicecomissioning");
+    if (s == nullptr) return;
+    eds.dcf = true;
+    if (const auto it = s->keys.find("nodeid"); it != s->keys.end()) {
+      const std::int64_t n = number("DeviceComissioning", "NodeID", it->second);
+      if (n < 1 || n > 127) fail(it->second.line, "[DeviceComissioning] NodeID must be 1 to 127");
+      eds.node_id = static_cast<std::uint8_t>(n);
     }
   }
 
@@ -274,6 +386,9 @@ class Reader {
  private:
   std::string name_;
   std::map<std::string, Section> sections_;
+  std::map<std::uint16_t, std::uint16_t> deftypes_;  // code -> basic base type
+  std::set<std::uint16_t> defstructs_;
+  mutable std::vector<std::string> notes_;
 };
 
 }  // namespace
@@ -407,6 +522,13 @@ std::optional<std::int64_t> parse_eds_number(std::string_view text, std::uint8_t
   return base + (negative ? -magnitude : magnitude);
 }
 
+std::optional<std::uint64_t> EdsVariable::value(std::uint8_t node_id) const {
+  if (parameter_text.empty()) return default_value(node_id);
+  EdsVariable configured = *this;
+  configured.default_text = parameter_text;
+  return configured.default_value(node_id);
+}
+
 std::optional<std::uint64_t> EdsVariable::default_value(std::uint8_t node_id) const {
   const std::uint32_t size = size_bytes();
   if (size == 0 || default_text.empty()) return std::nullopt;
@@ -426,7 +548,12 @@ bool Eds::has_object(std::uint16_t index) const {
   return it != variables.end() && it->first.first == index;
 }
 
-Eds parse_eds(std::string_view text, const std::string& name) {
+Eds parse_eds(std::string_view raw, const std::string& name) {
+  // Vendors write EDS files in Latin-1 as often as in UTF-8: a file that is
+  // not valid UTF-8 is read as Latin-1, so that names and messages are text.
+  const bool latin1 = !valid_utf8(raw);
+  const std::string converted = latin1 ? latin1_to_utf8(raw) : std::string();
+  const std::string_view text = latin1 ? std::string_view(converted) : raw;
   Collector c;
   c.text = text;
   const int status = ini_parse_stream(read_line, &c, on_key, &c);
@@ -436,9 +563,12 @@ Eds parse_eds(std::string_view text, const std::string& name) {
                    ": not an INI line (expected [Section], Key=Value or a ; comment)");
   }
   Reader reader(name, std::move(c.sections));
+  reader.read_type_definitions();
   Eds eds;
   eds.path = name;
+  if (latin1) eds.notes.push_back(name + ":1: not UTF-8: read as Latin-1 (ISO 8859-1)");
   eds.identity = reader.identity();
+  reader.commissioning(eds);
   for (const char* list : {"MandatoryObjects", "OptionalObjects", "ManufacturerObjects"}) {
     for (const auto& [index, line] : reader.listed(list)) {
       reader.object(eds, index, line);
@@ -446,6 +576,7 @@ Eds parse_eds(std::string_view text, const std::string& name) {
     }
   }
   reader.keep_for_checks(eds);
+  for (std::string& note : reader.take_notes()) eds.notes.push_back(std::move(note));
   for (const auto& [index, what] : {std::pair<std::uint16_t, const char*>{0x1000, "device type"},
                                     {0x1001, "error register"},
                                     {0x1018, "identity"}}) {

@@ -226,9 +226,10 @@ auto Emulator::DriveObjects::texts() -> std::span<const DriveTable::Text> {
 
 EmulatedProduct product_of(const delta::canopen::Eds& eds) {
   EmulatedProduct id;
-  id.vendor_id = eds.identity.vendor_id;
-  id.product_code = eds.identity.product_code;
-  id.revision = eds.identity.revision;
+  // What [DeviceInfo] leaves out keeps the built-in value.
+  id.vendor_id = eds.identity.vendor_id.value_or(id.vendor_id);
+  id.product_code = eds.identity.product_code.value_or(id.product_code);
+  id.revision = eds.identity.revision.value_or(id.revision);
   if (const delta::canopen::EdsVariable* name = eds.find(0x1008, 0); name != nullptr) {
     id.device_name = name->default_text;
   }

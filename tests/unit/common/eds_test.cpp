@@ -160,8 +160,8 @@ TEST(EdsTest, MalformedFilesAreRefusedWithFileLineAndWhat) {
   text.replace(text.find("3=0x1018"), 8, "3=0x1017");
   EXPECT_EQ(error_of(text), "drive.eds:12: object 0x1017 is listed but has no [1017] section");
   text = kHeader;
-  text.replace(text.find("DataType=0x0005\nAccessType=ro\nPDOMapping"), 15, "DataType=0x0042");
-  EXPECT_EQ(error_of(text), "drive.eds:23: [1001] DataType=0x0042: not a CiA 301 basic data type");
+  text.replace(text.find("DataType=0x0005\nAccessType=ro\nPDOMapping"), 15, "DataType=0x10000");
+  EXPECT_EQ(error_of(text), "drive.eds:23: [1001] DataType=0x10000: not a type");
   text = kHeader;
   text.replace(text.find("AccessType=ro\nPDOMapping"), 13, "AccessType=rx");
   EXPECT_EQ(error_of(text),
@@ -192,6 +192,126 @@ TEST(EdsTest, MalformedFilesAreRefusedWithFileLineAndWhat) {
   EXPECT_EQ(error_of(kHeader + "[X]\nK=" + std::string(300, 'v') + "\n"),
             "drive.eds:44: the line is longer than 198 characters");
   EXPECT_EQ(error_of(kHeader), "");
+}
+
+// What vendors ship: their own data types (a DEFTYPE of a basic type is
+// that type; a DEFSTRUCT or a code nothing defines is kept as opaque, with
+// a note, never refused) in objects a controller may not use.
+TEST(EdsTest, ManufacturerTypesAreResolvedOrKeptOpaqueWithANote) {
+  const Eds eds = parse_eds(kHeader + R"(
+[0040]
+ParameterName=Vendor's 32-bit type
+ObjectType=0x5
+DataType=0x0007
+
+[0041]
+ParameterName=Vendor's structure
+ObjectType=0x6
+SubNumber=1
+
+[0041sub0]
+ParameterName=Number of members
+DataType=0x0005
+AccessType=const
+DefaultValue=2
+
+[ManufacturerObjects]
+SupportedObjects=3
+1=0x2000
+2=0x2001
+3=0x2002
+
+[2000]
+ParameterName=Counter
+DataType=0x0040
+AccessType=ro
+DefaultValue=0x12345678
+
+[2001]
+ParameterName=Tuning set
+DataType=0x0041
+AccessType=rw
+
+[2002]
+ParameterName=Diagnostics
+DataType=0x0047
+AccessType=ro
+DefaultValue=not a number
+)",
+                            "drive.eds");
+  const EdsVariable* counter = eds.find(0x2000, 0);
+  ASSERT_NE(counter, nullptr);
+  EXPECT_EQ(counter->data_type, data_type::kUnsigned32);
+  EXPECT_EQ(counter->declared_type, 0x0040);
+  EXPECT_EQ(counter->size_bytes(), 4u);
+  EXPECT_EQ(counter->default_value(1), 0x12345678u);
+  ASSERT_NE(eds.find(0x2001, 0), nullptr);
+  EXPECT_TRUE(eds.find(0x2001, 0)->opaque);
+  EXPECT_EQ(eds.find(0x2001, 0)->size_bytes(), 0u);
+  EXPECT_TRUE(eds.find(0x2002, 0)->opaque);
+  EXPECT_FALSE(eds.find(0x2002, 0)->default_value(1));
+  ASSERT_EQ(eds.notes.size(), 2u);
+  EXPECT_EQ(eds.notes[0],
+            "drive.eds:74: [2001] DataType=0x0041 is a DEFSTRUCT of this file: kept as opaque "
+            "(its size is not known)");
+  EXPECT_EQ(eds.notes[1],
+            "drive.eds:79: [2002] DataType=0x0047 is not a basic type nor a DEFTYPE of one in "
+            "this file: kept as opaque (its size is not known)");
+}
+
+// Latin-1 text (a vendor's umlaut in a name) is read as such, and said.
+TEST(EdsTest, Latin1TextIsReadAsLatin1) {
+  std::string text = kHeader;
+  text.replace(text.find("Example drive"), 13, "Antrieb f\xFCr Achsen");
+  const Eds eds = parse_eds(text, "drive.eds");
+  EXPECT_EQ(eds.identity.product_name, "Antrieb f\xC3\xBCr Achsen");
+  ASSERT_EQ(eds.notes.size(), 1u);
+  EXPECT_EQ(eds.notes[0], "drive.eds:1: not UTF-8: read as Latin-1 (ISO 8859-1)");
+  std::string utf8 = kHeader;
+  utf8.replace(utf8.find("Example drive"), 13, "Antrieb f\xC3\xBCr Achsen");
+  const Eds as_utf8 = parse_eds(utf8, "drive.eds");
+  EXPECT_EQ(as_utf8.identity.product_name, "Antrieb f\xC3\xBCr Achsen");
+  EXPECT_TRUE(as_utf8.notes.empty());
+}
+
+// A DCF: the device's configured values (ParameterValue) over the
+// defaults, and the node ID it was configured for.
+TEST(EdsTest, ADcfsParameterValuesAreTheDevicesValues) {
+  const Eds dcf = parse_eds(kHeader + R"(
+[DeviceComissioning]
+NodeID=5
+Baudrate=1000
+
+[OptionalObjects]
+SupportedObjects=1
+1=0x1017
+
+[1017]
+ParameterName=Producer heartbeat time
+DataType=0x0006
+AccessType=rw
+DefaultValue=0
+ParameterValue=100
+)",
+                            "drive.dcf");
+  EXPECT_TRUE(dcf.dcf);
+  EXPECT_EQ(dcf.node_id, 5);
+  EXPECT_EQ(dcf.find(0x1017, 0)->default_value(5), 0u);
+  EXPECT_EQ(dcf.find(0x1017, 0)->value(5), 100u);
+  EXPECT_EQ(dcf.find(0x1000, 0)->value(5), 0x00020192u);  // no ParameterValue: the default
+  std::string bad = kHeader + "\n[DeviceComissioning]\nNodeID=200\n";
+  EXPECT_EQ(error_of(bad), "drive.eds:45: [DeviceComissioning] NodeID must be 1 to 127");
+}
+
+// Identity numbers a file leaves out are unknown, not an error.
+TEST(EdsTest, IdentityNumbersAreOptional) {
+  std::string text = kHeader;
+  text.replace(text.find("ProductNumber=1234\n"), 19, "");
+  text.replace(text.find("RevisionNumber=0x00020003\n"), 26, "");
+  const Eds eds = parse_eds(text, "drive.eds");
+  EXPECT_EQ(eds.identity.vendor_id, 0xABu);
+  EXPECT_FALSE(eds.identity.product_code);
+  EXPECT_FALSE(eds.identity.revision);
 }
 
 TEST(EdsTest, AMissingFileIsNamed) {

@@ -164,13 +164,16 @@ TEST(PortConfigTest, ADrivesEdsGivesTheIdentityToExpect) {
 }
 
 TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
-  // Malformed: the EDS's own file:line after the configuration's.
+  // An object of a type the file does not define, which the bring-up
+  // writes: the EDS's own file:line after the configuration's.
   std::string path = edited_eds(
       "DataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]",
       "DataType=0x0066\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]", "bad_type.eds");
   std::string e = config_error("joint1.eds = " + path + "\n");
   EXPECT_NE(e.find("port_test.conf:1:14: joint1.eds: " + path + ":"), std::string::npos) << e;
-  EXPECT_NE(e.find("[1017] DataType=0x0066: not a CiA 301 basic data type"), std::string::npos)
+  EXPECT_NE(e.find(": 0x1017:00 (producer heartbeat time) is of data type 0x0066, which is not "
+                   "a basic type nor a DEFTYPE of one in this file, and the bring-up writes it"),
+            std::string::npos)
       << e;
   // An object the bring-up writes, read-only in this drive.
   path =

@@ -79,6 +79,13 @@ std::uint32_t parse_unsigned(const std::string& v, const std::string& where, con
   return static_cast<std::uint32_t>(d);
 }
 
+// "0x0066": a data type's code as CiA 306 writes it.
+std::string type_text(std::uint16_t code) {
+  char b[16];
+  std::snprintf(b, sizeof b, "0x%04X", code);
+  return b;
+}
+
 std::string object_text(delta::can::od::Object o) {
   char b[32];
   std::snprintf(b, sizeof b, "0x%04X:%02X", o.index, o.subindex);
@@ -105,6 +112,13 @@ delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& w
       throw ConfigError(where + ": " + path + " has no object " + name + ", which the bring-up " +
                         (b.write ? "writes" : "reads"));
     }
+    if (v->opaque) {
+      throw ConfigError(where + ": " + path + ":" + std::to_string(v->line) + ": " + name +
+                        " is of data type " + type_text(v->declared_type) +
+                        ", which is not a basic type nor a DEFTYPE of one in this file, and the "
+                        "bring-up " +
+                        (b.write ? "writes" : "reads") + " it");
+    }
     const bool ok =
         b.write ? delta::canopen::writable(v->access) : delta::canopen::readable(v->access);
     if (!ok) {
@@ -123,9 +137,11 @@ delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& w
   }
   for (const delta::can::od::Object o : kPdoObjects) {
     const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
-    if (v == nullptr || !v->pdo_mappable) {
+    if (v == nullptr || !v->pdo_mappable || v->opaque) {
       throw ConfigError(where + ": " + path + ": object " + object_text(o) +
-                        (v == nullptr ? " is missing" : " is not PDO-mappable") +
+                        (v == nullptr ? " is missing"
+                         : v->opaque  ? " is of a data type this file does not define"
+                                      : " is not PDO-mappable") +
                         "; the drive's PDOs carry it (docs/protocol.md)");
     }
   }

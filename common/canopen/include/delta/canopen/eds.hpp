@@ -68,23 +68,35 @@ struct EdsVariable {
   std::uint16_t index{0};
   std::uint8_t subindex{0};
   std::string name;
+  // A CiA 301 basic type; a manufacturer's DEFTYPE of one is resolved to it
+  // (declared_type keeps the file's code). A type this file does not define
+  // (a DEFSTRUCT, an unknown code) leaves the variable opaque: kept, its
+  // size unknown (0), and a note in Eds::notes.
   std::uint16_t data_type{0};
+  std::uint16_t declared_type{0};
+  bool opaque{false};
   Access access{Access::kReadOnly};
   bool pdo_mappable{false};
   // DefaultValue as written; "$NODEID+..." is resolved by default_value().
   std::string default_text;
+  // A DCF's ParameterValue (the value configured for the device), if any.
+  std::string parameter_text;
   int line{0};  // of its section header, for messages
 
-  std::uint32_t size_bytes() const { return data_type_size(data_type).value_or(0); }
+  std::uint32_t size_bytes() const { return opaque ? 0 : data_type_size(data_type).value_or(0); }
   // The default as the object's bit pattern (integers two's complement),
   // for node `node_id`; nullopt when none is given or it is a string.
   std::optional<std::uint64_t> default_value(std::uint8_t node_id) const;
+  // The value the device has: a DCF's ParameterValue over the DefaultValue.
+  std::optional<std::uint64_t> value(std::uint8_t node_id) const;
 };
 
+// [DeviceInfo]'s identity; a number the file does not give is unknown, and
+// only the known ones are checked against a device.
 struct EdsIdentity {
-  std::uint32_t vendor_id{0};
-  std::uint32_t product_code{0};
-  std::uint32_t revision{0};
+  std::optional<std::uint32_t> vendor_id;
+  std::optional<std::uint32_t> product_code;
+  std::optional<std::uint32_t> revision;
   std::string vendor_name;
   std::string product_name;
 };
@@ -105,6 +117,12 @@ struct EdsListing {
 struct Eds {
   std::string path;
   EdsIdentity identity;
+  // A DCF ([DeviceComissioning]): its NodeID where given.
+  bool dcf{false};
+  std::optional<std::uint8_t> node_id;
+  // What the reader accepted but a user may want to know ("PATH:LINE:
+  // ..."): opaque types, Latin-1 text.
+  std::vector<std::string> notes;
   std::map<std::pair<std::uint16_t, std::uint8_t>, EdsVariable> variables;
   // What the completeness check reads (check_eds_complete): [DeviceInfo]'s
   // keys (lower case), [DummyUsage]'s, every object the lists name, and
@@ -119,7 +137,8 @@ struct Eds {
   bool has_object(std::uint16_t index) const;
 };
 
-// Reads and checks an EDS; throws EdsError ("PATH:LINE: ...").
+// Reads and checks an EDS or a DCF (CiA 306), UTF-8 or Latin-1 text;
+// throws EdsError ("PATH:LINE: ...").
 Eds read_eds(const std::string& path);
 // The same from text; `name` stands for the file in messages.
 Eds parse_eds(std::string_view text, const std::string& name);
