@@ -1,6 +1,7 @@
 #include "host_id/cli.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
+#include "delta/atomic_file.hpp"
 #include "host_id/controller_link.hpp"
 
 namespace host_id {
@@ -57,6 +59,60 @@ constexpr const char* kDescription =
 std::string which_command(const CLI::App& app) {
   const auto chosen = app.get_subcommands();
   return chosen.empty() ? std::string("host_id") : "host_id " + chosen.front()->get_name();
+}
+
+// The edit distance between a and b: insertions, deletions, substitutions
+// and swaps of two neighbours ("fti" is one edit from "fit").
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min(
+          {d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// The candidate closest to `word`, if it is close enough to be a slip of
+// the keyboard: at most 2 edits, and at most a third of its letters.
+std::string closest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_distance = 3;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_distance && 3 * d <= std::max<std::size_t>(word.size(), 3)) {
+      best = c;
+      best_distance = d;
+    }
+  }
+  return best;
+}
+
+// " (did you mean --method?)" for the first argument CLI11 did not expect
+// that looks like a misspelt option of the command; "" otherwise.
+std::string option_suggestion(const CLI::App& app, const std::vector<std::string>& args) {
+  const auto chosen = app.get_subcommands();
+  if (chosen.empty()) return "";
+  std::vector<std::string> names;
+  for (const CLI::Option* o : chosen.front()->get_options()) {
+    for (const std::string& n : o->get_lnames()) names.push_back("--" + n);
+  }
+  for (const CLI::App* sub : chosen.front()->get_subcommands({})) names.push_back(sub->get_name());
+  for (const std::string& a : args) {
+    if (!a.starts_with("--")) continue;
+    const std::string word = a.substr(0, a.find('='));
+    if (std::find(names.begin(), names.end(), word) != names.end()) continue;
+    if (const std::string near = closest(word, names); !near.empty()) {
+      return " (did you mean " + near + "?)";
+    }
+  }
+  return "";
 }
 
 std::string version_text() {
@@ -115,6 +171,9 @@ const CLI::Validator kSvgPath(
     },
     "FILE.svg");
 
+const CLI::Validator kOutputPath(
+    [](std::string& s) -> std::string { return delta::output_path_problem(s); }, "FILE");
+
 int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CommandContext context{out, err};
   CLI::App app(kDescription, "host_id");
@@ -125,8 +184,12 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     std::string names;
     for (const Command& command : kCommands)
       names += (names.empty() ? "" : ", ") + std::string(command.name);
-    err << "host_id: error: unknown command '" << args[0] << "' (commands: " << names
-        << "; see host_id --help)\n";
+    std::vector<std::string> all;
+    for (const Command& command : kCommands) all.emplace_back(command.name);
+    const std::string near = closest(args[0], all);
+    err << "host_id: error: unknown command '" << args[0] << "'"
+        << (near.empty() ? "" : " (did you mean '" + near + "'?)") << "; the commands are " << names
+        << " (see host_id --help)\n";
     return 2;
   }
   add_commands(app, chosen, context);
@@ -140,7 +203,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (args.empty()) err << app.help();
     const std::string command = which_command(app);
     err << "host_id: error: " << (command == "host_id" ? "" : command.substr(8) + ": ") << e.what()
-        << " (see " << command << " --help)\n";
+        << option_suggestion(app, args) << " (see " << command << " --help)\n";
     return 2;
   } catch (const UsageError& e) {
     err << "host_id: error: " << e.what() << "\n";

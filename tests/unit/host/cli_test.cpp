@@ -47,6 +47,41 @@ class CliTest : public ::testing::Test {
   std::ostringstream out_, err_;
 };
 
+// A misspelt command or option gets the nearest real one named.
+TEST_F(CliTest, AMisspeltCommandOrOptionIsAnsweredWithTheNearestOne) {
+  EXPECT_EQ(run({"fti", "log.csv"}), 2);
+  EXPECT_NE(err_.str().find("unknown command 'fti' (did you mean 'fit'?)"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"xyz"}), 2);
+  EXPECT_EQ(err_.str().find("did you mean"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"fit", "docs/examples/path1.csv", "--metod", "ls"}), 2);
+  EXPECT_NE(err_.str().find("(did you mean --method?)"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"simulate", "--duraton", "2", "-o", path("s.csv")}), 2);
+  EXPECT_NE(err_.str().find("(did you mean --duration?)"), std::string::npos) << err_.str();
+  EXPECT_FALSE(std::filesystem::exists(path("s.csv")));
+}
+
+// An output that cannot be written is refused before any work, with the
+// reason; fit takes -o like the other commands.
+TEST_F(CliTest, AnOutputThatCannotBeWrittenIsRefusedBeforeTheWork) {
+  const std::string log = "docs/examples/path1.csv";
+  EXPECT_EQ(run({"fit", log, "--method", "ls", "-o", path("no/such/folder/r.json")}), 2);
+  EXPECT_NE(err_.str().find("fit: --out: cannot write '" + path("no/such/folder/r.json") +
+                            "': the folder '" + path("no/such/folder") +
+                            "' does not exist (create it first)"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(out_.str(), "");  // no fit was made
+  EXPECT_EQ(run({"simulate", "--duration", "1", "-o", dir_}), 2);
+  EXPECT_NE(err_.str().find("simulate: --out: '" + dir_ + "' is a folder; give a file name"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", log, "--method", "ls", "--plot", path("none/fit.svg")}), 2);
+  EXPECT_NE(err_.str().find("fit: --plot: cannot write"), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"fit", log, "--method", "ls", "--quiet", "-o", path("r.json")}), 0) << err_.str();
+  EXPECT_TRUE(std::filesystem::exists(path("r.json")));
+}
+
 TEST_F(CliTest, NoArgumentsPrintsUsageAndFails) {
   EXPECT_EQ(run({}), 2);
   EXPECT_NE(err_.str().find("Usage: host_id [OPTIONS] SUBCOMMAND"), std::string::npos)
@@ -80,8 +115,8 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_NE(err_.str().find("unknown command 'frobnicate'"), std::string::npos);
   EXPECT_EQ(run({"fit", path("a.csv"), "--itertions", "5"}), 2);
   EXPECT_EQ(err_.str(),
-            "host_id: error: fit: The following arguments were not expected: 5 --itertions (see "
-            "host_id fit --help)\n");
+            "host_id: error: fit: The following arguments were not expected: 5 --itertions (did "
+            "you mean --iterations?) (see host_id fit --help)\n");
   EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "many"}), 2);
   EXPECT_NE(err_.str().find("fit: --iterations: Value many not in range 1 to 100000000"),
             std::string::npos)

@@ -22,6 +22,12 @@ void write_file_atomically(const std::string& path, std::string_view content, mo
 // on failure, `to` then as it was.
 void rename_durably(const std::string& from, const std::string& to);
 
+// Why write_file_atomically could not write `path`, found before any work
+// is done: its folder is missing, is not a folder or is not writable, or
+// the path is a folder itself; "" when it can. A command checks its
+// outputs with it first, so that a missing folder costs no computation.
+std::string output_path_problem(const std::string& path);
+
 // Where a command keeps what it has when it could not finish:
 // "run.csv" -> "run.partial.csv"; "run" -> "run.partial".
 std::string partial_log_path(const std::string& path);

@@ -80,6 +80,25 @@ void write_file_atomically(const std::string& path, std::string_view content, mo
   sync_folder(path);
 }
 
+std::string output_path_problem(const std::string& path) {
+  if (path.empty()) return "no file name";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    return "'" + path + "' is a folder; give a file name";
+  }
+  const std::string folder = folder_of(path);
+  if (::stat(folder.c_str(), &st) != 0) {
+    return "cannot write '" + path + "': the folder '" + folder + "' " +
+           (errno == ENOENT ? "does not exist" : std::strerror(errno)) + " (create it first)";
+  }
+  if (!S_ISDIR(st.st_mode)) return "cannot write '" + path + "': '" + folder + "' is not a folder";
+  if (::access(folder.c_str(), W_OK | X_OK) != 0) {
+    return "cannot write '" + path + "': the folder '" + folder + "' is not writable (" +
+           std::strerror(errno) + ")";
+  }
+  return "";
+}
+
 std::string partial_log_path(const std::string& path) {
   const auto slash = path.find_last_of('/');
   const auto dot = path.find_last_of('.');

@@ -37,6 +37,9 @@ CLI::Validator finite_range(double lo, double hi, bool open_above = false);
 extern const CLI::Validator kHostPort;
 // A file name ending in .svg.
 extern const CLI::Validator kSvgPath;
+// A file the command will write: its folder exists and is writable
+// (delta::output_path_problem), checked before any work.
+extern const CLI::Validator kOutputPath;
 
 // Exit statuses of the commands that talk SDO to a node (sdo, flash):
 // the node aborted the transfer, or it did not answer.

@@ -15,7 +15,7 @@ void add_dbc_command(CLI::App& command, CommandContext& context) {
       "Writes the DBC description of the controller's CAN bus (the protocol table, "
       "docs/protocol.md) to FILE or stdout.");
   auto path = std::make_shared<std::string>();
-  c->add_option("-o,--out", *path, "the DBC file to write (atomically)");
+  c->add_option("-o,--out", *path, "the DBC file to write (atomically)")->check(kOutputPath);
   c->callback([path, &context] {
     if (path->empty()) {
       context.out << make_dbc();

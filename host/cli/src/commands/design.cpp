@@ -224,7 +224,9 @@ void add_design_command(CLI::App& command, CommandContext& context) {
       "(docs/trajectory-file.md) and prints the condition number and the parameters' expected "
       "standard deviations beside a preset's.");
   auto a = std::make_shared<DesignArguments>();
-  c->add_option("-o,--out", a->out_path, "the trajectory file to write (atomically)")->required();
+  c->add_option("-o,--out", a->out_path, "the trajectory file to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   c->add_option("--robot", a->robot_path,
                 "the robot description (docs/robot-description.md; default: the built-in robot)");
   c->add_flag("--json", a->json, "print the design's summary as JSON");

@@ -39,14 +39,17 @@ void add_excite_command(CLI::App& command, CommandContext& context) {
       "controller's custom trajectory registers and run as trajectory 'custom'");
   named->excludes(file);
   c->add_option("--can", a->iface, "the CAN interface to record")->required();
-  c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
+  c->add_option("-o,--out", a->out_path, "the log to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   c->add_option("--amplitude-scale", a->amplitude_scale, "the trajectory's amplitude")
       ->check(finite_range(0.001, 2.0))
       ->capture_default_str();
   c->add_option("--repetitions", a->repetitions,
                 "Fourier periods or pick-and-place cycles (default: the trajectory's own, 2 or 3)")
       ->check(CLI::Range(1, 100));
-  c->add_option("--raw", a->raw_path, "also write every CAN frame of the session (candump -L)");
+  c->add_option("--raw", a->raw_path, "also write every CAN frame of the session (candump -L)")
+      ->check(kOutputPath);
   c->add_option("--rated-current-A", a->rated_current_A,
                 "the drives' rated current, for the i1..i3 columns")
       ->check(kPositive)

@@ -175,7 +175,9 @@ void add_output_options(CLI::App& c, FitArguments& a) {
   c.add_option("--validate", a.validate, "torque RMSE on another log (repeatable)")
       ->allow_extra_args(false)
       ->group("output");
-  c.add_option("--out", a.out_path, "save the result as JSON (atomically)")->group("output");
+  c.add_option("-o,--out", a.out_path, "save the result as JSON (atomically)")
+      ->check(kOutputPath)
+      ->group("output");
   c.add_flag("--json", a.json, "print the whole report as JSON instead of text")->group("output");
   c.add_option("--truth", a.truth_path,
                "a robot description (docs/robot-description.md): print each parameter's truth "
@@ -183,6 +185,7 @@ void add_output_options(CLI::App& c, FitArguments& a) {
       ->group("output");
   c.add_option("--plot", a.plot_path, "measured vs predicted torque and the residuals")
       ->check(kSvgPath)
+      ->check(kOutputPath)
       ->group("output");
   c.add_flag("--quiet", a.quiet, "no progress bar")->group("output");
 }

@@ -145,7 +145,9 @@ void add_image_command(CLI::App& command, CommandContext& context) {
   auto make = std::make_shared<MakeOptions>();
   CLI::App* m = c->add_subcommand("make", "write an image of a program");
   m->add_option("PROGRAM", make->program, "the program (for delta_fw: its executable)")->required();
-  m->add_option("-o,--out", make->out, "the image to write (atomically)")->required();
+  m->add_option("-o,--out", make->out, "the image to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   m->add_option("--version", make->version, "the program's version, MAJOR.MINOR.PATCH")->required();
   m->add_option("--build-id", make->build_id, "up to 32 characters, e.g. a git commit");
   m->add_option("--vendor", make->vendor, "the vendor ID (0x1018:1)")->capture_default_str();
@@ -167,7 +169,8 @@ void add_image_command(CLI::App& command, CommandContext& context) {
   CLI::App* s = c->add_subcommand("sign", "sign an image (Ed25519)");
   s->add_option("IMAGE", *sign_path, "the image")->required();
   s->add_option("--key", *sign_key, "the secret key file (host_id image keygen)")->required();
-  s->add_option("-o,--out", *sign_out, "write the signed image here (default: in place)");
+  s->add_option("-o,--out", *sign_out, "write the signed image here (default: in place)")
+      ->check(kOutputPath);
   s->callback([=, &context] { run_sign(*sign_path, *sign_key, *sign_out, context); });
 
   auto secret = std::make_shared<std::string>();

@@ -68,7 +68,9 @@ void add_predict_command(CLI::App& command, CommandContext& context) {
   auto a = std::make_shared<PredictArguments>();
   c->add_option("result", a->result_path, "RESULT.json saved by host_id fit --out")->required();
   c->add_option("log", a->log_path, "the delta-log/1 file")->required();
-  c->add_option("-o,--out", a->out_path, "the prediction to write (atomically)")->required();
+  c->add_option("-o,--out", a->out_path, "the prediction to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   c->add_flag("--json", a->json, "print a JSON summary instead of text");
   c->callback([a, &context] { context.exit_code = run_predict(*a, context.out, context.err); });
 }

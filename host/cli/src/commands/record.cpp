@@ -82,14 +82,17 @@ void add_record_command(CLI::App& command, CommandContext& context) {
   auto a = std::make_shared<RecordArguments>();
   RecordOptions& r = a->record;
   c->add_option("--can", r.iface, "the CAN interface (can0, vcan0)")->required();
-  c->add_option("-o,--out", r.out_path, "the log to write (atomically)")->required();
+  c->add_option("-o,--out", r.out_path, "the log to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   add_limit_options(*c, r);
   c->add_option("--rate", r.sample_rate_hz, "the controller's cycle rate, for t")
       ->check(kPositive)
       ->capture_default_str();
   c->add_option("--raw", a->raw_path,
                 "also write every frame of the session (all IDs) in candump -L format, for "
-                "canplayer and DBC tools");
+                "canplayer and DBC tools")
+      ->check(kOutputPath);
   c->add_option("--rated-current-A", r.rated_current_A,
                 "the drives' rated current (0x6075), for the i1..i3 columns in A")
       ->check(kPositive)

@@ -117,7 +117,8 @@ void add_sdo_command(CLI::App& command, CommandContext& context) {
   auto read = std::make_shared<SdoOptions>();
   CLI::App* r = c->add_subcommand("read", "read an object; prints its value");
   add_common_options(r, *read);
-  r->add_option("-o,--out", read->file, "write the bytes to this file (atomically)");
+  r->add_option("-o,--out", read->file, "write the bytes to this file (atomically)")
+      ->check(kOutputPath);
   r->callback([read, &context] { run_sdo(*read, false, context); });
   auto write = std::make_shared<SdoOptions>();
   CLI::App* w = c->add_subcommand("write", "write an object");

@@ -71,7 +71,9 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
       "robot) follows the path under a stiff PD controller with feed-forward, and the log has "
       "the torques applied.");
   auto a = std::make_shared<SimulateArguments>();
-  c->add_option("-o,--out", a->out_path, "the log to write (atomically)")->required();
+  c->add_option("-o,--out", a->out_path, "the log to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
   add_path_options(*c, a->simulate);
   add_measurement_options(*c, a->simulate);
   c->add_option("--plant", a->plant, "lumped (inverse dynamics) or mujoco (multibody, followed)")

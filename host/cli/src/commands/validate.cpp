@@ -60,7 +60,8 @@ void add_validate_command(CLI::App& command, CommandContext& context) {
   c->add_option("logs", a->logs, "the delta-log/1 files (one or more)")->required();
   c->add_flag("--json", a->json, "print JSON instead of text");
   c->add_option("--plot", a->plot_path, "measured vs predicted torque and the residuals")
-      ->check(kSvgPath);
+      ->check(kSvgPath)
+      ->check(kOutputPath);
   c->callback([a, &context] { context.exit_code = run_validate(*a, context.out, context.err); });
 }
 
