@@ -3,6 +3,7 @@
 #include <fast_float/fast_float.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -236,7 +237,8 @@ class LogParser {
     const auto has = [&](const std::string& n) { return seen.count(n) > 0; };
     for (const char* required : {"t", "q1", "q2", "q3", "tau1", "tau2", "tau3"}) {
       if (!has(required)) {
-        cur_.fail(1, std::string("required column '") + required + "' is missing from the header");
+        cur_.fail(1, std::string("required column '") + required + "' is missing from the header" +
+                         header_hint(line, seen, required));
       }
     }
     for (const char* group : {"qd", "qdd"}) {
@@ -252,6 +254,43 @@ class LogParser {
     bind_columns();
     if (log_.sample_rate_hz) nominal_dt_ = 1.0 / *log_.sample_rate_hz;
     reserve_rows();
+  }
+
+  // What the header has, and the likely cause where it looks like one:
+  // another separator, quoted names, names in another case, a pandas index.
+  static std::string header_hint(std::string_view line,
+                                 const std::map<std::string, std::size_t>& seen,
+                                 const std::string& required) {
+    std::vector<std::pair<std::size_t, std::string>> by_column;
+    for (const auto& [name, col] : seen) by_column.emplace_back(col, name);
+    std::sort(by_column.begin(), by_column.end());
+    std::string found;
+    for (std::size_t i = 0; i < by_column.size() && i < 8; ++i) {
+      found += (i == 0 ? "'" : ", '") + by_column[i].second + "'";
+    }
+    if (by_column.size() > 8) found += ", ...";
+    std::string text = "; it has " + std::to_string(seen.size()) + " column(s): " + found;
+    const auto lowered = [](std::string v) {
+      for (char& c : v) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      return v;
+    };
+    if (seen.size() == 1 && (line.find(';') != line.npos || line.find('\t') != line.npos)) {
+      return text + " (the names are separated by '" +
+             (line.find(';') != line.npos ? std::string(";") : std::string("a tab")) +
+             "'; delta-log/1 separates them by ',', docs/log-format.md)";
+    }
+    for (const auto& [name, col] : seen) {
+      const std::string bare = name.size() >= 2 && (name.front() == '"' || name.front() == '\'')
+                                   ? name.substr(1, name.size() - 2)
+                                   : name;
+      if (bare == required) {
+        return text + " (the names are quoted; write them bare: t,q1,q2,q3,tau1,tau2,tau3)";
+      }
+      if (lowered(bare) == required) {
+        return text + " ('" + name + "': column names are lower case: '" + required + "')";
+      }
+    }
+    return text + " (docs/log-format.md lists the columns)";
   }
 
   void check_required_metadata() {
@@ -281,7 +320,12 @@ class LogParser {
       std::size_t lead = 0;
       const std::string col_name(trim(field, &lead));
       const std::size_t col = start + lead + 1;
-      if (col_name.empty()) cur_.fail(col, "empty column name in the header");
+      if (col_name.empty()) {
+        cur_.fail(col, std::string("empty column name in the header") +
+                           (col == 1 ? " (a first column without a name is what pandas writes "
+                                       "for its index: write the CSV with index=False)"
+                                     : ""));
+      }
       if (seen.count(col_name))
         cur_.fail(col, "column '" + col_name + "' appears twice in the header");
       seen[col_name] = col;

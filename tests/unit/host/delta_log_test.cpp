@@ -127,11 +127,35 @@ TEST(DeltaLogTest, InvalidGeometryIsRejectedWithTheReason) {
 
 TEST(DeltaLogTest, MissingColumnAndPartialGroups) {
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau3\n"),
-            "log.csv:6:1: required column 'tau2' is missing from the header");
+            "log.csv:6:1: required column 'tau2' is missing from the header; it has 6 column(s): "
+            "'t', 'q1', 'q2', 'q3', 'tau1', 'tau3' (docs/log-format.md lists the columns)");
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2\n"),
             "log.csv:6:1: columns qd1..qd3 must be given all three or none");
   EXPECT_EQ(error_of(kMeta + "t,q1,q2,q3,tau1,tau2,tau3,q1\n"),
             "log.csv:6:27: column 'q1' appears twice in the header");
+}
+
+// A header it cannot use is answered with what it has and the likely
+// cause: another separator, quoted names, upper case, a pandas index.
+TEST(DeltaLogTest, AnUnusableHeaderSaysWhatItHasAndWhy) {
+  EXPECT_EQ(error_of(kMeta + "t;q1;q2;q3;tau1;tau2;tau3\n"),
+            "log.csv:6:1: required column 't' is missing from the header; it has 1 column(s): "
+            "'t;q1;q2;q3;tau1;tau2;tau3' (the names are separated by ';'; delta-log/1 separates "
+            "them by ',', docs/log-format.md)");
+  EXPECT_NE(error_of(kMeta + "t\tq1\tq2\tq3\ttau1\ttau2\ttau3\n")
+                .find("(the names are separated by 'a tab'"),
+            std::string::npos);
+  EXPECT_EQ(error_of(kMeta + "\"t\",\"q1\",\"q2\",\"q3\",\"tau1\",\"tau2\",\"tau3\"\n"),
+            "log.csv:6:1: required column 't' is missing from the header; it has 7 column(s): "
+            "'\"t\"', '\"q1\"', '\"q2\"', '\"q3\"', '\"tau1\"', '\"tau2\"', '\"tau3\"' (the "
+            "names are quoted; write them bare: t,q1,q2,q3,tau1,tau2,tau3)");
+  EXPECT_EQ(error_of(kMeta + "T,Q1,Q2,Q3,TAU1,TAU2,TAU3\n"),
+            "log.csv:6:1: required column 't' is missing from the header; it has 7 column(s): "
+            "'T', 'Q1', 'Q2', 'Q3', 'TAU1', 'TAU2', 'TAU3' ('T': column names are lower case: "
+            "'t')");
+  EXPECT_EQ(error_of(kMeta + ",t,q1,q2,q3,tau1,tau2,tau3\n"),
+            "log.csv:6:1: empty column name in the header (a first column without a name is what "
+            "pandas writes for its index: write the CSV with index=False)");
 }
 
 // Plain numbers take the reader's quick path, fields with spaces or a '+'
