@@ -496,7 +496,27 @@ class LogParser {
       w << "time jumps by " << dt << " s from " << log_.t[k - 1] << " s, "
         << "more than 1.5 sample periods (" << nominal_dt_ << " s)";
       log_.gaps.push_back({k, cur_.line, w.str()});
+      ++time_gaps_;
     }
+  }
+
+  // A declared sample rate that most time steps contradict is wrong, not
+  // a log full of gaps: refused at its metadata line, with the rate the
+  // time column shows.
+  void check_declared_rate() {
+    const std::size_t steps = log_.t.size() - 1;
+    if (!log_.sample_rate_hz || steps < 4 || 2 * time_gaps_ <= steps) return;
+    std::vector<double> dt(steps);
+    for (std::size_t k = 0; k < steps; ++k) dt[k] = log_.t[k + 1] - log_.t[k];
+    std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(steps / 2), dt.end());
+    const double median = dt[steps / 2];
+    std::ostringstream m;
+    m << "sample_rate_hz = " << *log_.sample_rate_hz << " declares a step of " << nominal_dt_
+      << " s, but " << time_gaps_ << " of the " << steps
+      << " time steps are longer than 1.5 of it (the median step is " << median << " s, "
+      << 1.0 / median << " Hz): correct sample_rate_hz or remove it";
+    cur_.line = key_line_["sample_rate_hz"];
+    cur_.fail(1, m.str());
   }
 
   DeltaLog finish() {
@@ -508,6 +528,7 @@ class LogParser {
       cur_.line = header_line_;
       cur_.fail(1, "no data rows after the header");
     }
+    check_declared_rate();
     for (std::size_t i = 0; i < extra_names_.size(); ++i) {
       log_.extra_columns.emplace_back(extra_names_[i], std::move(extra_storage_[i]));
     }
@@ -525,6 +546,7 @@ class LogParser {
   bool header_seen_{false};
   std::size_t header_line_{0};
   double nominal_dt_{0.0};
+  std::size_t time_gaps_{0};   // gaps found by time (not by seq)
   std::size_t blank_line_{0};  // first blank line seen, only allowed at the end
   bool has_seq_{false};        // the header names a seq column
   double last_value_{0.0};     // of the field just read
@@ -628,9 +650,15 @@ void release_samples(DeltaLog& log) {
 }
 
 void warn_about_gaps(std::ostream& err, const DeltaLog& log) {
-  for (const auto& g : log.gaps) {
+  const std::size_t shown = std::min(log.gaps.size(), kGapWarningsShown);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const SampleGap& g = log.gaps[i];
     err << log.name << ":" << g.line << ": warning: " << g.what
         << "; segments are fitted separately\n";
+  }
+  if (log.gaps.size() > shown) {
+    err << log.name << ": warning: ... and " << log.gaps.size() - shown << " more gaps, up to line "
+        << log.gaps.back().line << "\n";
   }
 }
 

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "delta/input_error.hpp"
 
@@ -156,6 +159,51 @@ TEST(DeltaLogTest, AnUnusableHeaderSaysWhatItHasAndWhy) {
   EXPECT_EQ(error_of(kMeta + ",t,q1,q2,q3,tau1,tau2,tau3\n"),
             "log.csv:6:1: empty column name in the header (a first column without a name is what "
             "pandas writes for its index: write the CSV with index=False)");
+}
+
+// Rows at times 0, step, 2 step, ... (n of them), with optional seq
+// holes: a sample whose index is in `dropped` is left out.
+std::string rows(std::size_t n, double step, const std::vector<std::size_t>& dropped = {}) {
+  std::string out = "seq,t,q1,q2,q3,tau1,tau2,tau3\n";
+  for (std::size_t k = 0; k < n; ++k) {
+    if (std::find(dropped.begin(), dropped.end(), k) != dropped.end()) continue;
+    out +=
+        std::to_string(k) + "," + format_number(step * static_cast<double>(k)) + ",0,0,0,0,0,0\n";
+  }
+  return out;
+}
+
+// A 500 Hz log that says 1000 Hz would be a gap at every sample: the
+// declared rate is refused at its line, with the rate the times show.
+TEST(DeltaLogTest, ADeclaredRateTheTimesContradictIsRefused) {
+  EXPECT_EQ(error_of(kMeta + "# sample_rate_hz = 1000\n" + rows(40, 0.002)),
+            "log.csv:6:1: sample_rate_hz = 1000 declares a step of 0.001 s, but 39 of the 39 time "
+            "steps are longer than 1.5 of it (the median step is 0.002 s, 500 Hz): correct "
+            "sample_rate_hz or remove it");
+  // The same log declaring its own rate, or none, is read.
+  EXPECT_EQ(error_of(kMeta + "# sample_rate_hz = 500\n" + rows(40, 0.002)), "");
+  EXPECT_EQ(error_of(kMeta + rows(40, 0.002)), "");
+}
+
+// Every gap is a warning, but a log with hundreds prints ten and counts
+// the rest.
+TEST(DeltaLogTest, GapWarningsAreCappedWithACount) {
+  std::vector<std::size_t> dropped;
+  for (std::size_t k = 5; k < 400; k += 10) dropped.push_back(k);  // 40 lost samples
+  const DeltaLog log = parse_delta_log(kMeta + rows(400, 0.001, dropped), "log.csv");
+  ASSERT_EQ(log.gaps.size(), 40u);
+  std::ostringstream err;
+  warn_about_gaps(err, log);
+  const std::string text = err.str();
+  EXPECT_EQ(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')),
+            kGapWarningsShown + 1);
+  EXPECT_NE(text.find("log.csv:12: warning: seq jumps from 4 to 6 (1 samples lost)"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("log.csv: warning: ... and 30 more gaps, up to line " +
+                      std::to_string(log.gaps.back().line) + "\n"),
+            std::string::npos)
+      << text;
 }
 
 // Plain numbers take the reader's quick path, fields with spaces or a '+'

@@ -71,7 +71,9 @@ std::string format_delta_log(const DeltaLog& log);
 void release_samples(DeltaLog& log);
 
 // One warning line per gap in the log ("LOG:LINE: warning: ...; segments
-// are fitted separately"), for every log a command fits or validates.
+// are fitted separately"), for every log a command fits or validates: the
+// first kGapWarningsShown, then one line counting the rest.
+inline constexpr std::size_t kGapWarningsShown = 10;
 void warn_about_gaps(std::ostream& err, const DeltaLog& log);
 
 // Shortest round-trip decimal form of a double.
