@@ -649,7 +649,14 @@ void release_samples(DeltaLog& log) {
   log.extra_columns.shrink_to_fit();
 }
 
-void warn_about_gaps(std::ostream& err, const DeltaLog& log) {
+void warn_about_log(std::ostream& err, const DeltaLog& log) {
+  if (log.has_qd != log.has_qdd) {
+    const char* given = log.has_qd ? "qd1..qd3" : "qdd1..qdd3";
+    const char* missing = log.has_qd ? "qdd1..qdd3" : "qd1..qd3";
+    err << log.name << ": warning: the log has " << given << " but not " << missing << ", so "
+        << given << " are not used: q is filtered and differentiated (give both, or "
+        << "neither; docs/log-format.md)\n";
+  }
   const std::size_t shown = std::min(log.gaps.size(), kGapWarningsShown);
   for (std::size_t i = 0; i < shown; ++i) {
     const SampleGap& g = log.gaps[i];

@@ -193,7 +193,7 @@ TEST(DeltaLogTest, GapWarningsAreCappedWithACount) {
   const DeltaLog log = parse_delta_log(kMeta + rows(400, 0.001, dropped), "log.csv");
   ASSERT_EQ(log.gaps.size(), 40u);
   std::ostringstream err;
-  warn_about_gaps(err, log);
+  warn_about_log(err, log);
   const std::string text = err.str();
   EXPECT_EQ(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')),
             kGapWarningsShown + 1);
@@ -204,6 +204,24 @@ TEST(DeltaLogTest, GapWarningsAreCappedWithACount) {
                       std::to_string(log.gaps.back().line) + "\n"),
             std::string::npos)
       << text;
+}
+
+// qd without qdd (or the reverse) cannot be used: q is differentiated
+// instead, and the user is told, not left to find out.
+TEST(DeltaLogTest, ADerivativeGroupWithoutTheOtherIsSaidToBeUnused) {
+  const DeltaLog log = parse_delta_log(
+      kMeta + "t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3\n0,0,0,0,0,0,0,0,0,0\n", "log.csv");
+  std::ostringstream err;
+  warn_about_log(err, log);
+  EXPECT_EQ(err.str(),
+            "log.csv: warning: the log has qd1..qd3 but not qdd1..qdd3, so qd1..qd3 are not used: "
+            "q is filtered and differentiated (give both, or neither; docs/log-format.md)\n");
+  const DeltaLog both = parse_delta_log(
+      kMeta + "t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n0,0,0,0,0,0,0,0,0,0,0,0,0\n",
+      "log.csv");
+  std::ostringstream none;
+  warn_about_log(none, both);
+  EXPECT_EQ(none.str(), "");
 }
 
 // Plain numbers take the reader's quick path, fields with spaces or a '+'

@@ -257,8 +257,8 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   DeltaLog log = read_delta_log(a.log);
   std::vector<DeltaLog> validation_logs;
   for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
-  warn_about_gaps(err, log);
-  for (const DeltaLog& l : validation_logs) warn_about_gaps(err, l);
+  warn_about_log(err, log);
+  for (const DeltaLog& l : validation_logs) warn_about_log(err, l);
   const std::optional<delta::RobotDescription> robot =
       a.truth_path.empty() ? std::nullopt
                            : std::optional(delta::read_robot_description(a.truth_path));

@@ -26,7 +26,7 @@ int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err)
   const SavedResult saved = read_saved_result(a.result_path);
   const auto model = make_model(saved.model);
   const DeltaLog log = read_delta_log(a.log_path);
-  warn_about_gaps(err, log);
+  warn_about_log(err, log);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
   delta::write_file_atomically(a.out_path, format_delta_log(p.log));
   const std::size_t left_out = log.size() - p.log.size();

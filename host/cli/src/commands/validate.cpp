@@ -29,7 +29,7 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
   std::vector<LogRmse> rows;
   std::vector<Prediction> predictions;
   for (const auto& l : logs) {
-    warn_about_gaps(err, l);
+    warn_about_log(err, l);
     predictions.push_back(predict(*model, saved.beta, l, saved.prepare, 0));
     rows.push_back(predictions.back().rmse());
   }

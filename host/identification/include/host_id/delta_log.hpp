@@ -70,11 +70,12 @@ std::string format_delta_log(const DeltaLog& log);
 // name, metadata and gaps stay.
 void release_samples(DeltaLog& log);
 
-// One warning line per gap in the log ("LOG:LINE: warning: ...; segments
-// are fitted separately"), for every log a command fits or validates: the
-// first kGapWarningsShown, then one line counting the rest.
+// What a command should say of a log it fits, validates or predicts: a
+// derivative group given without the other (then unused), and one line
+// per gap ("LOG:LINE: warning: ...; segments are fitted separately"), the
+// first kGapWarningsShown of them, then one line counting the rest.
 inline constexpr std::size_t kGapWarningsShown = 10;
-void warn_about_gaps(std::ostream& err, const DeltaLog& log);
+void warn_about_log(std::ostream& err, const DeltaLog& log);
 
 // Shortest round-trip decimal form of a double.
 std::string format_number(double v);
