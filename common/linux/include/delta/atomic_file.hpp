@@ -18,6 +18,19 @@ namespace delta {
 // (0600 for a secret key, 0755 for a program).
 void write_file_atomically(const std::string& path, std::string_view content, mode_t mode = 0644);
 
+// Makes SIGINT and SIGTERM remove the temporary files write_file_atomically
+// has open before the process ends by the signal as it would have, so that
+// Ctrl-C leaves nothing beside the outputs (host_id's main calls it; a
+// program with its own handlers for these signals does not).
+void remove_temporaries_on_signals();
+
+// The registry behind it, for write_file_atomically and the tests: a path
+// to remove if a signal comes (async-signal-safe: fixed slots, no heap).
+// Returns the slot, or -1 when all are taken (the file is then not
+// removed on a signal, as before).
+int register_temporary(const std::string& path);
+void release_temporary(int slot);
+
 // Renames `from` over `to` (same folder) and flushes the folder; InputError
 // on failure, `to` then as it was.
 void rename_durably(const std::string& from, const std::string& to);

@@ -4,7 +4,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 
@@ -33,7 +35,53 @@ void sync_folder(const std::string& path) {
   if (rc != 0) throw InputError(folder + ": fsync of the folder failed: " + std::strerror(error));
 }
 
+// The temporary files being written, for the signal handler: fixed slots
+// of fixed size, claimed and released with atomics, so that the handler
+// reads them without locks or heap.
+constexpr int kTemporarySlots = 16;
+constexpr std::size_t kTemporaryPathBytes = 4096;
+struct TemporarySlot {
+  std::atomic<bool> claimed{false};
+  std::atomic<bool> ready{false};
+  char path[kTemporaryPathBytes];
+};
+TemporarySlot g_temporaries[kTemporarySlots];
+
+extern "C" void remove_temporaries_and_reraise(int signal_number) {
+  for (TemporarySlot& slot : g_temporaries) {
+    if (slot.ready.load()) ::unlink(slot.path);
+  }
+  ::signal(signal_number, SIG_DFL);
+  ::raise(signal_number);
+}
+
 }  // namespace
+
+int register_temporary(const std::string& path) {
+  if (path.size() >= kTemporaryPathBytes) return -1;
+  for (int i = 0; i < kTemporarySlots; ++i) {
+    bool expected = false;
+    if (!g_temporaries[i].claimed.compare_exchange_strong(expected, true)) continue;
+    std::memcpy(g_temporaries[i].path, path.c_str(), path.size() + 1);
+    g_temporaries[i].ready.store(true);
+    return i;
+  }
+  return -1;
+}
+
+void release_temporary(int slot) {
+  if (slot < 0 || slot >= kTemporarySlots) return;
+  g_temporaries[slot].ready.store(false);
+  g_temporaries[slot].claimed.store(false);
+}
+
+void remove_temporaries_on_signals() {
+  struct sigaction action {};
+  action.sa_handler = remove_temporaries_and_reraise;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
 
 void rename_durably(const std::string& from, const std::string& to) {
   if (std::rename(from.c_str(), to.c_str()) != 0) {
@@ -43,8 +91,24 @@ void rename_durably(const std::string& from, const std::string& to) {
 }
 
 void write_file_atomically(const std::string& path, std::string_view content, mode_t mode) {
-  std::string tmpl = path + ".tmp.XXXXXX";
-  const int fd = mkstemp(tmpl.data());
+  // The temporary's name is registered for the signal handler before the
+  // file exists, so that no moment leaves it unregistered; O_EXCL makes
+  // it this call's own.
+  static std::atomic<unsigned> counter{0};
+  std::string tmpl;
+  int fd = -1;
+  int slot = -1;
+  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
+    release_temporary(slot);
+    tmpl = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    slot = register_temporary(tmpl);
+    fd = ::open(tmpl.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0 && errno != EEXIST) break;
+  }
+  struct Registered {
+    int slot;
+    ~Registered() { release_temporary(slot); }
+  } registered{slot};
   if (fd < 0) {
     throw InputError(path + ": cannot create a temporary file beside it: " + std::strerror(errno));
   }
