@@ -22,15 +22,22 @@ namespace {
 // adds its description, options and callback to its subcommand.
 struct Command {
   const char* name;
+  const char* summary;  // its line in `host_id --help`; its own --help says all
   void (*add)(CLI::App& command, CommandContext& context);
 };
 constexpr std::array kCommands{
-    Command{"fit", add_fit_command},           Command{"validate", add_validate_command},
-    Command{"predict", add_predict_command},   Command{"design", add_design_command},
-    Command{"simulate", add_simulate_command}, Command{"record", add_record_command},
-    Command{"excite", add_excite_command},     Command{"status", add_status_command},
-    Command{"sdo", add_sdo_command},           Command{"dbc", add_dbc_command},
-    Command{"image", add_image_command},       Command{"flash", add_flash_command}};
+    Command{"fit", "estimate the dynamic parameters from a log", add_fit_command},
+    Command{"validate", "a saved fit's torque RMSE on more logs", add_validate_command},
+    Command{"predict", "the model's torque at every sample of a log", add_predict_command},
+    Command{"design", "design an excitation trajectory for your robot", add_design_command},
+    Command{"simulate", "write a log of a simulated robot, with known truth", add_simulate_command},
+    Command{"record", "record the controller's CAN log into a log", add_record_command},
+    Command{"excite", "run an excitation on the controller and record it", add_excite_command},
+    Command{"status", "the controller's state, faults and settings (Modbus)", add_status_command},
+    Command{"sdo", "read or write any node's object by SDO", add_sdo_command},
+    Command{"dbc", "write the CAN bus's DBC description", add_dbc_command},
+    Command{"image", "make, sign and check firmware images", add_image_command},
+    Command{"flash", "update the controller's firmware over CAN", add_flash_command}};
 
 // The command args name first, if any.
 const Command* named_command(const std::vector<std::string>& args) {
@@ -49,6 +56,8 @@ void add_commands(CLI::App& app, const Command* chosen, CommandContext& context)
     CLI::App* sub = app.add_subcommand(command.name);
     command.add(*sub, context);
     sub->fallthrough();
+    // The top level lists each command in a line; its own --help has all.
+    if (chosen == nullptr) sub->description(command.summary);
   }
 }
 

@@ -116,6 +116,13 @@ std::size_t sample_count(const SimulateOptions& o) {
   throw delta::InputError(m.str());
 }
 
+// Sample k of n done: the caller's progress every 1 % and at the end.
+void report_progress(const SimulateOptions& o, std::size_t k, std::size_t n) {
+  if (o.progress && ((k + 1) % std::max<std::size_t>(1, n / 100) == 0 || k + 1 == n)) {
+    o.progress(k + 1, n);
+  }
+}
+
 // The lumped plant: the path sampled, the torques by inverse dynamics.
 DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
   const std::size_t n = sample_count(o);
@@ -128,6 +135,7 @@ DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
       no_kinematics_at(t);
     }
     append_sample(log, k, t, s, tau);
+    report_progress(o, k, n);
   }
   return log;
 }
@@ -152,6 +160,7 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
     if (plant.step(tau, dt) != delta::PlantStatus::kOk) throw delta::InputError(plant.fault());
     s.qdd_rad_s2 = plant.state().qdd_rad_s2;
     append_sample(log, k, t, s, tau);
+    report_progress(o, k, n);
   }
   return log;
 }

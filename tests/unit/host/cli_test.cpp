@@ -89,6 +89,12 @@ TEST_F(CliTest, NoArgumentsPrintsUsageAndFails) {
   EXPECT_NE(err_.str().find("host_id: error: A subcommand is required"), std::string::npos);
   EXPECT_EQ(run({"--help"}), 0);
   EXPECT_NE(out_.str().find("record"), std::string::npos);
+  // Short: a line a command, none wider than a terminal's 100 columns
+  // (the first, the program's description, wraps as a paragraph).
+  std::istringstream help(out_.str());
+  std::string line;
+  std::getline(help, line);
+  while (std::getline(help, line)) EXPECT_LE(line.size(), 100u) << line;
   EXPECT_EQ(run({"fit", "--help"}), 0);
   EXPECT_NE(out_.str().find("--validate"), std::string::npos);
   // The documented default of --min-speed is the code's.

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "commands/command.hpp"
+#include "commands/progress.hpp"
 #include "delta/atomic_file.hpp"
 #include "delta/controller/vocabulary.hpp"
 #include "delta/robot_description.hpp"
@@ -24,6 +25,7 @@ struct DesignArguments {
   std::string compare{"path1"};
   std::vector<double> centre{0.0, 0.0, -0.42};
   bool json{false};
+  bool quiet{false};
   DesignOptions design{default_design_options()};
 };
 
@@ -192,7 +194,14 @@ int run_design(DesignArguments a, std::ostream& out) {
   const delta::RobotDescription robot = a.robot_path.empty()
                                             ? delta::default_robot_description()
                                             : delta::read_robot_description(a.robot_path);
+  ProgressBar bar("design", a.quiet);
+  a.design.pso.progress = [&bar](std::size_t it, std::size_t max, double c) {
+    char cost[48];
+    std::snprintf(cost, sizeof cost, "cost %.6g", c);
+    bar.show(it, max, cost);
+  };
   const DesignResult d = design_excitation(a.design, robot);
+  bar.finish();
   const ExcitationQuality preset =
       excitation_quality(preset_trajectory(a.compare, robot, a.design.blend_s), a.design, robot);
   const auto model = make_model(a.design.model);
@@ -230,6 +239,7 @@ void add_design_command(CLI::App& command, CommandContext& context) {
   c->add_option("--robot", a->robot_path,
                 "the robot description (docs/robot-description.md; default: the built-in robot)");
   c->add_flag("--json", a->json, "print the design's summary as JSON");
+  c->add_flag("--quiet", a->quiet, "no progress bar");
   add_trajectory_options(*c, *a);
   add_limit_options(*c, a->design.limits);
   add_search_options(*c, *a);

@@ -8,6 +8,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
+#include "commands/progress.hpp"
 #include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
@@ -18,28 +19,6 @@
 namespace host_id {
 
 namespace {
-
-class ProgressBar {
- public:
-  explicit ProgressBar(bool enabled) : enabled_(enabled) {}
-  void operator()(std::size_t it, std::size_t max, double cost) const {
-    if (!enabled_) return;
-    const int width = 40;
-    const int filled = max ? static_cast<int>(static_cast<double>(width) * static_cast<double>(it) /
-                                              static_cast<double>(max))
-                           : width;
-    std::fprintf(stderr, "\rpso [%-*s] %6zu/%zu  cost %.6e", width,
-                 std::string(static_cast<std::size_t>(std::min(filled, width)), '#').c_str(), it,
-                 max, cost);
-    std::fflush(stderr);
-  }
-  void finish() const {
-    if (enabled_) std::fprintf(stderr, "\r%*s\r", 90, "");
-  }
-
- private:
-  bool enabled_;
-};
 
 std::vector<const DeltaLog*> pointers(const std::vector<DeltaLog>& logs) {
   std::vector<const DeltaLog*> out;
@@ -249,8 +228,12 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
 
 int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   FitOptions f = fit_options(a);
-  const ProgressBar bar(!a.quiet && isatty(STDERR_FILENO) && f.method == Method::kPso);
-  f.pso.progress = [&bar](std::size_t it, std::size_t max, double c) { bar(it, max, c); };
+  ProgressBar bar("pso", a.quiet || f.method != Method::kPso);
+  f.pso.progress = [&bar](std::size_t it, std::size_t max, double c) {
+    char cost[48];
+    std::snprintf(cost, sizeof cost, "cost %.6e", c);
+    bar.show(it, max, cost);
+  };
   f.pso.progress_every = 200;
 
   // Read every input before doing any work, so a bad validation log fails fast.

@@ -5,6 +5,7 @@
 #include <ostream>
 
 #include "commands/command.hpp"
+#include "commands/progress.hpp"
 #include "delta/atomic_file.hpp"
 #include "delta/parameter_file.hpp"
 #include "delta/robot_description.hpp"
@@ -23,6 +24,7 @@ struct SimulateArguments {
   std::string params_path;
   std::string plant{"lumped"};
   std::string robot_path;
+  bool quiet{false};
   SimulateOptions simulate;
 };
 
@@ -86,6 +88,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
                 "a trajectory file (docs/trajectory-file.md, from host_id design) instead of "
                 "--trajectory: run from rest to rest as the controller runs it; --duration "
                 "defaults to its length");
+  c->add_flag("--quiet", a->quiet, "no progress bar");
   a->duration_given = c->get_option("--duration");
   a->trajectory_given = c->get_option("--trajectory");
   c->callback([a, &context] {
@@ -109,7 +112,10 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
       s.plant = SimulatedPlant::kMujoco;
     }
     if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
+    ProgressBar bar("simulate", a->quiet);
+    s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
     const DeltaLog log = simulate_log(s);
+    bar.finish();
     delta::write_file_atomically(a->out_path, format_delta_log(log));
     context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
                 << s.trajectory << ")\n";

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -43,6 +44,8 @@ struct SimulateOptions {
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};
   // The multibody plant's robot (its geometry and gravity are the log's):
   delta::RobotDescription robot{delta::default_robot_description()};
+  // Called now and then (every 1 % of the samples) with the samples done.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 // Throws delta::InputError for options out of range or a trajectory that leaves
