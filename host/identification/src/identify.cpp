@@ -254,6 +254,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
   r.gaps = log.gaps;
+  r.geometry = log.geometry;
   r.segments_used = pre.report.segments_used;
   r.segments_dropped = pre.report.segments_dropped;
   const Equations reg(all_rows, pre.fast_rows);

@@ -323,6 +323,11 @@ nlohmann::json json_report(const FitResult& r) {
         {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s},
         {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
       {"method", o.method == Method::kPso ? "pso" : "ls"},
+      {"geometry",
+       {{"upper_arm_length_m", r.geometry.upper_arm_length_m},
+        {"forearm_length_m", r.geometry.forearm_length_m},
+        {"base_radius_m", r.geometry.base_radius_m},
+        {"platform_radius_m", r.geometry.platform_radius_m}}},
       {"preprocessing",
        {{"cutoff_hz", o.prepare.cutoff_hz},
         {"trim_samples", o.prepare.trim_samples},
@@ -374,6 +379,13 @@ SavedResult read_saved_result(const std::string& path) {
     s.model.coulomb_smoothing_rad_s = need(m, "coulomb_smoothing_rad_s", "model.").get<double>();
     // Results saved before the Stribeck term have no key: no term.
     s.model.stribeck_velocity_rad_s = m.value("stribeck_velocity_rad_s", 0.0);
+    if (j.contains("geometry")) {
+      const json& g = j["geometry"];
+      s.geometry = delta::Geometry{need(g, "upper_arm_length_m", "geometry.").get<double>(),
+                                   need(g, "forearm_length_m", "geometry.").get<double>(),
+                                   need(g, "base_radius_m", "geometry.").get<double>(),
+                                   need(g, "platform_radius_m", "geometry.").get<double>()};
+    }
     const json& pre = need(j, "preprocessing", "");
     s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
     s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();

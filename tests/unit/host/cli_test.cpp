@@ -82,6 +82,49 @@ TEST_F(CliTest, AnOutputThatCannotBeWrittenIsRefusedBeforeTheWork) {
   EXPECT_TRUE(std::filesystem::exists(path("r.json")));
 }
 
+// A copy of `from` with its forearm length changed: another robot.
+void write_with_forearm(const std::string& from, const std::string& to, const char* forearm) {
+  std::ifstream in(from);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string key = "# forearm_length_m = 0.46";
+  text.replace(text.find(key), key.size(), std::string("# forearm_length_m = ") + forearm);
+  std::ofstream(to) << text;
+}
+
+// Parameters fitted on one robot are refused for another, unless asked:
+// the result records its geometry, and predict, validate and fit's
+// --validate and --truth compare it.
+TEST_F(CliTest, AnotherRobotsLogIsRefusedUnlessAllowed) {
+  simulate("a.csv");
+  write_with_forearm(path("a.csv"), path("other.csv"), "0.5");
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "-o", path("r.json")}), 0) << err_.str();
+  const std::string other =
+      "is of another robot (upper arm 0.2 m, forearm 0.5 m, base 0.1 m, platform 0.035 m) than ";
+  EXPECT_EQ(run({"predict", path("r.json"), path("other.csv"), "-o", path("p.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("other.csv") + " " + other + path("r.json") +
+                            " was fitted for (upper arm 0.2 m, forearm 0.46 m"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("(--allow-other-geometry to go on anyway)"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(path("p.csv")));
+  EXPECT_EQ(run({"predict", path("r.json"), path("other.csv"), "-o", path("p.csv"),
+                 "--allow-other-geometry"}),
+            0)
+      << err_.str();
+  EXPECT_NE(err_.str().find("warning: " + path("other.csv") + " " + other), std::string::npos);
+  EXPECT_EQ(run({"validate", path("r.json"), path("other.csv")}), 1);
+  EXPECT_NE(err_.str().find(other), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"validate", path("r.json"), path("a.csv")}), 0) << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--validate", path("other.csv")}), 1);
+  EXPECT_NE(err_.str().find(other + "the fitted " + path("a.csv")), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(
+      run({"fit", path("other.csv"), "--method", "ls", "--truth", "docs/examples/robot.json"}), 1);
+  EXPECT_NE(err_.str().find(other + "the robot of --truth docs/examples/robot.json"),
+            std::string::npos)
+      << err_.str();
+}
+
 TEST_F(CliTest, NoArgumentsPrintsUsageAndFails) {
   EXPECT_EQ(run({}), 2);
   EXPECT_NE(err_.str().find("Usage: host_id [OPTIONS] SUBCOMMAND"), std::string::npos)

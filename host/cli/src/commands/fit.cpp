@@ -11,6 +11,7 @@
 #include "commands/progress.hpp"
 #include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
@@ -43,6 +44,7 @@ struct FitArguments {
   std::string truth_path;
   bool json{false};
   bool quiet{false};
+  bool allow_other_geometry{false};
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
@@ -167,6 +169,10 @@ void add_output_options(CLI::App& c, FitArguments& a) {
       ->check(kOutputPath)
       ->group("output");
   c.add_flag("--quiet", a.quiet, "no progress bar")->group("output");
+  c.add_flag("--allow-other-geometry", a.allow_other_geometry,
+             "go on (with a warning) where a --validate log or the --truth robot has another "
+             "geometry than the fitted log")
+      ->group("output");
 }
 
 // The options the strings and the optional values stand for.
@@ -245,6 +251,14 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   const std::optional<delta::RobotDescription> robot =
       a.truth_path.empty() ? std::nullopt
                            : std::optional(delta::read_robot_description(a.truth_path));
+  for (std::size_t i = 0; i < validation_logs.size(); ++i) {
+    check_geometry(a.validate[i], validation_logs[i].geometry, "the fitted " + a.log, log.geometry,
+                   a.allow_other_geometry, err);
+  }
+  if (robot) {
+    check_geometry(a.log, log.geometry, "the robot of --truth " + a.truth_path, robot->geometry,
+                   a.allow_other_geometry, err);
+  }
   std::vector<FitResult> results;
   for (std::size_t i = 0; i < a.models.size(); ++i) {
     const FitOptions fi = i == 0 ? f : options_for_model(f, a.models[i]);

@@ -9,6 +9,7 @@
 #include "commands/command.hpp"
 #include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/geometry_check.hpp"
 #include "host_id/report.hpp"
 
 namespace host_id {
@@ -20,12 +21,17 @@ struct PredictArguments {
   std::string log_path;
   std::string out_path;
   bool json{false};
+  bool allow_other_geometry{false};
 };
 
 int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err) {
   const SavedResult saved = read_saved_result(a.result_path);
   const auto model = make_model(saved.model);
   const DeltaLog log = read_delta_log(a.log_path);
+  if (saved.geometry) {
+    check_geometry(a.log_path, log.geometry, a.result_path + " was fitted for", *saved.geometry,
+                   a.allow_other_geometry, err);
+  }
   warn_about_log(err, log);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
   delta::write_file_atomically(a.out_path, format_delta_log(p.log));
@@ -72,6 +78,9 @@ void add_predict_command(CLI::App& command, CommandContext& context) {
       ->check(kOutputPath)
       ->required();
   c->add_flag("--json", a->json, "print a JSON summary instead of text");
+  c->add_flag("--allow-other-geometry", a->allow_other_geometry,
+              "go on (with a warning) where the log's geometry is not the one the result was "
+              "fitted for");
   c->callback([a, &context] { context.exit_code = run_predict(*a, context.out, context.err); });
 }
 

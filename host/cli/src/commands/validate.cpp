@@ -6,6 +6,7 @@
 #include "commands/command.hpp"
 #include "delta/atomic_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
@@ -19,13 +20,20 @@ struct ValidateArguments {
   std::vector<std::string> logs;
   bool json{false};
   std::string plot_path;
+  bool allow_other_geometry{false};
 };
 
 int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& err) {
   const SavedResult saved = read_saved_result(a.result_path);
   const auto model = make_model(saved.model);
   std::vector<DeltaLog> logs;
-  for (const auto& path : a.logs) logs.push_back(read_delta_log(path));
+  for (const auto& path : a.logs) {
+    logs.push_back(read_delta_log(path));
+    if (saved.geometry) {
+      check_geometry(path, logs.back().geometry, a.result_path + " was fitted for", *saved.geometry,
+                     a.allow_other_geometry, err);
+    }
+  }
   std::vector<LogRmse> rows;
   std::vector<Prediction> predictions;
   for (const auto& l : logs) {
@@ -59,6 +67,9 @@ void add_validate_command(CLI::App& command, CommandContext& context) {
   c->add_option("result", a->result_path, "RESULT.json saved by host_id fit --out")->required();
   c->add_option("logs", a->logs, "the delta-log/1 files (one or more)")->required();
   c->add_flag("--json", a->json, "print JSON instead of text");
+  c->add_flag("--allow-other-geometry", a->allow_other_geometry,
+              "go on (with a warning) where a log's geometry is not the one the result was "
+              "fitted for");
   c->add_option("--plot", a->plot_path, "measured vs predicted torque and the residuals")
       ->check(kSvgPath)
       ->check(kOutputPath);

@@ -107,7 +107,8 @@ struct Prediction {
 
 struct FitResult {
   FitOptions options;
-  LogRmse fit;  // over every sample of the fit log, slow ones included
+  delta::Geometry geometry{};  // of the fit log: the robot the parameters are for
+  LogRmse fit;                 // over every sample of the fit log, slow ones included
   double min_speed_rad_s{0};
   std::array<std::size_t, 3> equations_used{};  // per joint, of fit.samples each
   std::size_t samples_in_log{0};

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "host_id/identify.hpp"
@@ -16,6 +17,9 @@ nlohmann::json json_report(const FitResult& r);
 // A saved result, as read back by `host_id validate`.
 struct SavedResult {
   ModelOptions model;
+  // The robot it was fitted for; results saved before it was recorded
+  // have none, and are not checked.
+  std::optional<delta::Geometry> geometry;
   PrepareOptions prepare;
   Eigen::VectorXd beta;  // in the model's parameter order
 };
