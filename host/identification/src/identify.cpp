@@ -271,7 +271,10 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();
   const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, options.threads);
-  if (r.pso) r.cost_Nm2 = squares.cost(r.joint_weights, reg.rows());
+  if (r.pso) {
+    r.cost_Nm2 = squares.cost(r.joint_weights, reg.rows());
+    require_pso_at_optimum(r, log.name);
+  }
   r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
   r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
   if (keep_predictions) r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
@@ -282,6 +285,18 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.seconds_total = seconds_since(t0);
   return r;
+}
+
+void require_pso_at_optimum(const FitResult& r, const std::string& log_name) {
+  const double gap = (r.cost_Nm2 - r.ls_cost_Nm2) / r.ls_cost_Nm2;
+  if (!(gap > kPsoOptimumTolerance)) return;
+  std::ostringstream m;
+  m << log_name << ": PSO stopped at a cost " << gap << " (relative) above the optimum of the same "
+    << "bounded problem (" << r.cost_Nm2 << " against " << r.ls_cost_Nm2
+    << " N^2 m^2, least squares): its parameters are not the fit, so nothing is reported; use "
+    << "--method ls (the exact optimum), or give the swarm more room (--iterations, "
+    << "--particles, --restarts)";
+  throw PsoShortOfOptimumError(m.str());
 }
 
 Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,

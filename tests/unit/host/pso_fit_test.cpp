@@ -87,7 +87,6 @@ TEST(PsoFitTest, LeastSquaresAndPsoAgreeOnTheBoundedOptimum) {
 TEST(PsoFitTest, PsoIsDeterministicForASeed) {
   const DeltaLog log = simulated(1, 0.015, 0, false, "fourier", 4.0);
   FitOptions f;
-  f.pso.iterations = 300;
   f.pso.seed = 42;
   const FitResult a = fit_log(log, f);
   const FitResult b = fit_log(log, f);
@@ -96,6 +95,23 @@ TEST(PsoFitTest, PsoIsDeterministicForASeed) {
   f.pso.seed = 43;
   const FitResult c = fit_log(log, f);
   EXPECT_NE(a.beta, c.beta);
+}
+
+// A swarm that stops short of the optimum (here: far too few iterations)
+// is not reported as a fit: the error names the gap and the remedies.
+TEST(PsoFitTest, ASwarmShortOfTheOptimumIsRefused) {
+  const DeltaLog log = simulated(1, 0.015, 0, false, "fourier", 4.0);
+  FitOptions f;
+  f.pso.iterations = 30;
+  try {
+    (void)fit_log(log, f);
+    FAIL() << "a swarm of 30 iterations was reported as the fit";
+  } catch (const PsoShortOfOptimumError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(log.name + ": PSO stopped at a cost ", 0), 0u) << what;
+    EXPECT_NE(what.find("above the optimum of the same bounded problem"), std::string::npos);
+    EXPECT_NE(what.find("use --method ls (the exact optimum)"), std::string::npos);
+  }
 }
 
 }  // namespace

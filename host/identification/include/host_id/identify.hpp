@@ -145,6 +145,18 @@ struct FitResult {
 // The log is taken by value: a caller that moves it in lets the fit free
 // its samples once they are preprocessed (the CLI does, for a long log's
 // memory).
+// PSO searches the same bounded problem that least squares solves exactly:
+// a swarm that stops more than this (relative) above that optimum has not
+// found it, and fit_log refuses its result rather than report it.
+inline constexpr double kPsoOptimumTolerance = 1e-6;
+class PsoShortOfOptimumError : public delta::InputError {
+ public:
+  using delta::InputError::InputError;
+};
+// Throws PsoShortOfOptimumError naming the gap and the remedies when r's
+// PSO cost is above its least-squares cost by more than the tolerance.
+void require_pso_at_optimum(const FitResult& r, const std::string& log_name);
+
 FitResult fit_log(DeltaLog log, const FitOptions& options,
                   const std::vector<const DeltaLog*>& validation = {},
                   bool keep_predictions = false);
