@@ -57,16 +57,70 @@ Box pso_box(const LeastSquaresResult& ls, std::size_t rows,
 
 // PSO on the least-squares cost of `ls` (weighted as it was) within its
 // box: r.pso and r.beta (fit_log sums the cost at it directly over the rows).
+// The swarm searches coordinates whitened by the least-squares
+// information: with u the box's normalised coordinates and A = S H S the
+// cost's Hessian there (H = Psi^T Psi, S the spans), A = U^T U and
+// u = u0 + U^-1 z make the cost c + |z|^2 / rows plus a linear term, round
+// in every direction, however ill-conditioned Psi is (the paper's model's
+// columns are nearly collinear, and a swarm in u crawled along the valley
+// without reaching the optimum). Its box in z holds the image of the whole
+// u box; a point is evaluated where it lands in the u box (each coordinate
+// clamped to [0, 1]), so the search is still of the bounded problem.
 void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
                const std::vector<ParameterInfo>& parameters, const FitOptions& options,
                FitResult& r, Box& box) {
   box = pso_box(ls, reg.rows(), parameters, options);
+  const Eigen::VectorXd span = box.upper - box.lower;
   const QuadraticCost cost = QuadraticCost(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
                                            ls.cost * static_cast<double>(reg.rows()), reg.rows())
                                  .over_box(box.lower, box.upper);
-  r.pso = run_pso_normalized([&cost](const double* u) { return cost.at(u); }, box.lower, box.upper,
-                             options.pso);
-  r.beta = r.pso->best;
+  const Eigen::LLT<Eigen::MatrixXd> llt(span.asDiagonal() * ls.psi_t_psi * span.asDiagonal());
+  if (llt.info() != Eigen::Success) {
+    // An optimum on the box's walls: the round coordinates' clamping is not
+    // aligned with the walls, and the swarm does better in the box's own.
+    r.pso = run_pso_normalized([&cost](const double* u) { return cost.at(u); }, box.lower,
+                               box.upper, options.pso);
+    r.beta = r.pso->best;
+    return;
+  }
+  const Eigen::Index p = span.size();
+  const Eigen::VectorXd u0 = (ls.beta - box.lower).cwiseQuotient(span);
+  const Eigen::MatrixXd upper_factor = llt.matrixU();
+  const Eigen::MatrixXd whiten =
+      upper_factor.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(p, p));
+  Eigen::VectorXd z_lower(p), z_upper(p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    z_lower(i) = z_upper(i) = 0.0;
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const double a = upper_factor(i, j) * -u0(j), b = upper_factor(i, j) * (1.0 - u0(j));
+      z_lower(i) += std::min(a, b);
+      z_upper(i) += std::max(a, b);
+    }
+    // Within the region where the cost is at most 10 times the optimum's:
+    // |z|^2 / rows <= 10 c*.
+    const double reach =
+        std::sqrt(10.0 * std::max(ls.cost, 1e-300) * static_cast<double>(reg.rows()));
+    z_lower(i) = std::max(z_lower(i), -reach);
+    z_upper(i) = std::min(z_upper(i), reach);
+    if (!(z_upper(i) > z_lower(i))) z_upper(i) = z_lower(i) + reach;
+  }
+  const auto in_box = [&](const Eigen::VectorXd& z) {
+    return Eigen::VectorXd((u0 + whiten * z).cwiseMax(0.0).cwiseMin(1.0));
+  };
+  // Outside the u box the cost is that of the nearest point in it plus the
+  // distance to it in the round metric, so that the walls do not flatten
+  // the landscape near an optimum close to them.
+  const double per_row = 1.0 / static_cast<double>(reg.rows());
+  r.pso = run_pso(
+      [&](const Eigen::VectorXd& z) {
+        const Eigen::VectorXd u = u0 + whiten * z;
+        const Eigen::VectorXd inside = u.cwiseMax(0.0).cwiseMin(1.0);
+        const double outside = (upper_factor * (u - inside)).squaredNorm() * per_row;
+        return cost.at(inside.data()) + outside;
+      },
+      z_lower, z_upper, options.pso);
+  r.beta = box.lower + span.cwiseProduct(in_box(r.pso->best));
+  r.pso->best = r.beta;
 }
 
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
