@@ -178,7 +178,7 @@ void text_method(const FitResult& r, std::ostream& s) {
       << " iterations (stopped on " << p.stop_reason << "), " << p.restarts_done << " restart(s), "
       << p.evaluations << " cost evaluations\n";
     s << "            " << p.particles_on_bound << " of " << o.pso.particles
-      << " particles ended on a bound\n";
+      << " particles ended on the edge of the search region\n";
   } else {
     s << "  method    ls: " << (o.solver == LsSolver::kQr ? "QR" : "SVD")
       << (o.weights == LsWeights::kJoint ? ", weighted per joint" : ", ordinary") << "\n";
