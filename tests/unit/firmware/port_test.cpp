@@ -165,28 +165,31 @@ TEST(PortConfigTest, ADrivesEdsGivesTheIdentityToExpect) {
 
 TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
   // An object of a type the file does not define, which the bring-up
-  // writes: the EDS's own file:line after the configuration's.
+  // writes: the joint's key and the EDS's own file:line.
   std::string path = edited_eds(
       "DataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]",
       "DataType=0x0066\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n\n[1019]", "bad_type.eds");
   std::string e = config_error("joint1.eds = " + path + "\n");
-  EXPECT_NE(e.find("port_test.conf:1:14: joint1.eds: " + path + ":"), std::string::npos) << e;
-  EXPECT_NE(e.find(": 0x1017:00 (producer heartbeat time) is of data type 0x0066, which is not "
-                   "a basic type nor a DEFTYPE of one in this file, and the bring-up writes it"),
+  EXPECT_NE(e.find("joint1.eds (" + path + ":"), std::string::npos) << e;
+  EXPECT_NE(e.find("): 0x1017:00 (producer heartbeat time) is of data type 0x0066, which this "
+                   "file does not define: the controller supervises the drive by its heartbeat"),
             std::string::npos)
       << e;
   // An object the bring-up writes, read-only in this drive.
   path =
       edited_eds("DataType=0x0002\nAccessType=rw", "DataType=0x0002\nAccessType=ro", "ro_mode.eds");
   e = config_error("joint3.eds = " + path + "\n");
-  EXPECT_NE(e.find("0x6060:00 (modes of operation) is not writable, and the bring-up writes it"),
+  EXPECT_NE(e.find("joint3.eds (" + path +
+                   ":355): 0x6060:00 (modes of operation) is not "
+                   "writable: the controller cannot select a torque mode"),
             std::string::npos)
       << e;
-  // A PDO's object that the drive cannot map.
+  // A PDO's object that the drive cannot map: refused only where it is used.
   path = edited_eds("DataType=0x0004\nAccessType=ro\nPDOMapping=1\n\n[6071]",
                     "DataType=0x0004\nAccessType=ro\nPDOMapping=0\n\n[6071]", "unmapped.eds");
-  e = config_error("joint1.eds = " + path + "\n");
-  EXPECT_NE(e.find("object 0x606C:00 is not PDO-mappable; the drive's PDOs carry it"),
+  EXPECT_EQ(config_error("joint1.eds = " + path + "\n"), "");
+  e = config_error("joint1.eds = " + path + "\nvelocity_pdo = true\n");
+  EXPECT_NE(e.find(": 0x606C:00 (velocity actual value) is not PDO-mappable: TPDO2 must carry it"),
             std::string::npos)
       << e;
   e = config_error("joint1.eds = /nonexistent/drive.eds\n");
@@ -215,8 +218,9 @@ TEST(PortConfigTest, ASyncCounterNeedsCiA301sRangeAndDrivesThatCanEchoIt) {
       "PDOMapping=0",
       "no_echo.eds");
   const std::string e = config_error("joint3.eds = " + unmapped + "\nsync_counter_overflow = 16\n");
-  EXPECT_NE(e.find("sync_counter_overflow = 16: joint3.eds: " + unmapped +
-                   ": 0x2019:00 is not PDO-mappable, which the SYNC counter's TPDO3 needs"),
+  EXPECT_NE(e.find("joint3.eds (" + unmapped +
+                   ":783): 0x2019:00 (SYNC counter of the sample) is not PDO-mappable: "
+                   "sync_counter_overflow = 16 needs it in TPDO3"),
             std::string::npos)
       << e;
   // Without the counter the same drive is fine.
@@ -269,8 +273,8 @@ TEST(DriveUnitsTest, ConversionsAgreeWithTheDriveModel) {
   EXPECT_EQ(u.current(1000).raw(), 2 << 19);     // 1000 per mille of 2 A
   EXPECT_EQ(u.current(-250).raw(), -(1 << 18));  // -0.5 A
   // 1 A at k_t 0.1 N m/A is 0.1 N m: 500 per mille of 0.2 N m.
-  EXPECT_EQ(u.target_torque_per_mille(delta::fx::Q12_19::from(1.0)), 500);
-  EXPECT_EQ(u.target_torque_per_mille(delta::fx::Q12_19::from(-200.0)), INT16_MIN);  // saturated
+  EXPECT_EQ(u.target_torque(delta::fx::Q12_19::from(1.0)), 500);
+  EXPECT_EQ(u.target_torque(delta::fx::Q12_19::from(-200.0)), INT16_MIN);  // saturated
   delta::DriveModel inv = m;
   inv.inverted = true;
   inv.joint_zero_rad = 0.5;

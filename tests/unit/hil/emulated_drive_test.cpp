@@ -453,7 +453,7 @@ TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
                          "[ManufacturerObjects]\nSupportedObjects=2\n1=0x2019\n2=0x2000\n"
                          "[2000]\nParameterName=Extra\nDataType=0x0007\n"
                          "AccessType=rw")),
-            "x.eds:780: 0x2000:00 (Extra) is not an object of the emulated drive");
+            "x.eds:783: 0x2000:00 (Extra) is not an object of the emulated drive");
 }
 
 }  // namespace

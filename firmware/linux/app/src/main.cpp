@@ -9,6 +9,7 @@
 
 #include "delta/can/socketcan.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/drive_plan.hpp"
 #include "fw_linux/exit_codes.hpp"
 #include "fw_linux/gpio_safety_io.hpp"
 #include "fw_linux/modbus_server.hpp"
@@ -36,6 +37,7 @@ struct Arguments {
   std::vector<std::string> overrides;  // KEY=VALUE
   bool lockstep{false};
   bool realtime{false};
+  bool check_config{false};
 };
 
 // The command line, or the exit code when it asked for help or was wrong.
@@ -45,7 +47,12 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
                                         std::to_string(DELTA_FW_VERSION_MAJOR) + "." +
                                         std::to_string(DELTA_FW_VERSION_MINOR) + "." +
                                         std::to_string(DELTA_FW_VERSION_PATCH));
-  app.add_option("--can", a.run.iface, "the CAN interface (can0, vcan0)")->required();
+  auto* can = app.add_option("--can", a.run.iface, "the CAN interface (can0, vcan0)");
+  auto* check = app.add_flag("--check-config", a.check_config,
+                             "check the configuration with every drive's EDS and print each "
+                             "drive's bring-up plan (exit 0), or every problem (exit 2); needs no "
+                             "CAN interface (docs/drives.md)");
+  can->excludes(check);
   app.add_option("--config", a.config_path, "key = value settings (docs/firmware.md)");
   app.add_option("--set", a.overrides, "KEY=VALUE: override one setting (repeatable)")
       ->allow_extra_args(false)
@@ -70,6 +77,9 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
       ->check(CLI::Range(1, 99));
   try {
     app.parse(argc, argv);
+    if (!a.check_config && a.run.iface.empty()) {
+      throw CLI::RequiredError("--can (or --check-config)");
+    }
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     std::cerr << "delta_fw: " << e.what() << " (see delta_fw --help)\n";
@@ -78,19 +88,51 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   return std::nullopt;
 }
 
-fw_linux::PortConfig load_config(const Arguments& a) {
+// The file, then --set, then the checks; with `problems`, every problem
+// is kept there instead of thrown.
+fw_linux::PortConfig load_config(const Arguments& a, std::vector<std::string>* problems) {
   fw_linux::PortConfig config;
-  if (!a.config_path.empty()) config = fw_linux::read_port_config(a.config_path);
+  if (!a.config_path.empty()) fw_linux::read_config_lines(config, a.config_path, problems);
   for (const std::string& kv : a.overrides) {
     const auto eq = kv.find('=');
     const std::string key = kv.substr(0, eq);
-    fw_linux::set_config_value(config, key, kv.substr(eq + 1), "--set " + key);
+    try {
+      fw_linux::set_config_value(config, key, kv.substr(eq + 1), "--set " + key);
+    } catch (const fw_linux::ConfigError& e) {
+      if (problems == nullptr) throw;
+      problems->emplace_back(e.what());
+    }
   }
   if (a.lockstep) config.mode = fw_linux::CycleMode::kLockStep;
   if (a.realtime) config.mode = fw_linux::CycleMode::kRealTime;
-  fw_linux::validate(config);
-  (void)fw_linux::controller_config(config);
+  fw_linux::finish_config(config, problems);
   return config;
+}
+
+// --check-config: each drive's plan, or every problem.
+int check_config(const Arguments& a) {
+  std::vector<std::string> problems;
+  fw_linux::PortConfig config;
+  try {
+    config = load_config(a, &problems);
+  } catch (const fw_linux::ConfigError& e) {  // a file that cannot be opened
+    problems.emplace_back(e.what());
+  }
+  if (!problems.empty()) {
+    std::cerr << "delta_fw --check-config: " << problems.size()
+              << (problems.size() == 1 ? " problem" : " problems") << ":\n";
+    for (const std::string& p : problems) std::cerr << "  " << p << "\n";
+    return fw_linux::kExitUsage;
+  }
+  const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);
+  std::size_t transfers = 0;
+  for (const fw_linux::DrivePlan& plan : plans.drives) {
+    std::cout << fw_linux::describe_plan(plan);
+    transfers += plan.actions.size();
+  }
+  std::cout << "The configuration is sound: " << transfers
+            << " SDO transfers bring the three drives up.\n";
+  return 0;
 }
 
 std::unique_ptr<fw_linux::SafetyIo> open_safety_io(const fw_linux::PortConfig& config) {
@@ -149,9 +191,10 @@ int main(int argc, char** argv) {
   if (const auto exit_code = parse_arguments(argc, argv, arguments)) return *exit_code;
   arguments.run.program.version = {DELTA_FW_VERSION_MAJOR, DELTA_FW_VERSION_MINOR,
                                    DELTA_FW_VERSION_PATCH};
+  if (arguments.check_config) return check_config(arguments);
   fw_linux::PortConfig config;
   try {
-    config = load_config(arguments);
+    config = load_config(arguments, nullptr);
     arguments.run.supervision = fw_linux::boot::supervision_from_environment();
     if (arguments.run.supervision) {
       arguments.run.program.rolled_back = arguments.run.supervision->reverted;

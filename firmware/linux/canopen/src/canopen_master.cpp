@@ -1,13 +1,13 @@
 #include "fw_linux/canopen_master.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 
 #include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
 #include "fw/torque_from_current.hpp"
-#include "fw_linux/bring_up.hpp"
 
 namespace fw_linux {
 
@@ -18,10 +18,6 @@ using delta::can::Frame;
 using delta::can::cia402::State;
 
 namespace {
-
-od::Object object_of(unsigned step, unsigned mapping_write) {
-  return mapping_step(step) ? mapping_writes(step)[mapping_write].object : kBringUp[step].object;
-}
 
 std::string hex(std::uint32_t v, int digits) {
   char b[16];
@@ -41,10 +37,41 @@ Frame frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8
   return f;
 }
 
+// A mapped object's bytes in a PDO, little endian, sign-extended when
+// `is_signed`; 0 when the layout does not carry it.
+std::int64_t pdo_field(const std::array<std::uint8_t, 8>& data, const PdoLayout& layout,
+                       od::Object o, unsigned bytes, bool is_signed) {
+  const int at = layout.offset_of(o);
+  if (at < 0 || static_cast<unsigned>(at) + bytes > 8) return 0;
+  std::uint64_t v = 0;
+  for (unsigned i = 0; i < bytes; ++i)
+    v |= std::uint64_t{data[static_cast<unsigned>(at) + i]} << (8 * i);
+  if (is_signed && bytes < 8 && (v >> (8 * bytes - 1)) != 0) v |= ~std::uint64_t{0} << (8 * bytes);
+  return static_cast<std::int64_t>(v);
+}
+
+// Every entry of an RPDO's layout from `fill` (object -> value); what the
+// controller does not know (dummy entries) is 0.
+template <class Fill>
+void pack_pdo(std::array<std::uint8_t, 8>& data, const PdoLayout& layout, Fill fill) {
+  unsigned at = 0;
+  for (unsigned i = 0; i < layout.count; ++i) {
+    const std::uint32_t e = layout.entries[i];
+    const auto v = static_cast<std::uint64_t>(
+        fill(od::Object{static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8)}));
+    const unsigned bytes = (e & 0xFF) / 8;
+    for (unsigned b = 0; b < bytes && at + b < 8; ++b) {
+      data[at + b] = static_cast<std::uint8_t>(v >> (8 * b));
+    }
+    at += bytes;
+  }
+}
+
 }  // namespace
 
 CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
-    : config_(config), core_(controller_config(config)), bus_(bus) {
+    : config_(config), plans_(plan_drives(config)), core_(controller_config(config)), bus_(bus) {
+  if (!plans_.problems.empty()) throw ConfigError(plans_.problems.front());
   // In lock-step a slow machine must not look like a silent drive: an SDO
   // answer is awaited at least as long as a PDO answer.
   const std::uint32_t sdo_ms = config.mode == CycleMode::kLockStep
@@ -53,6 +80,7 @@ CanopenMaster::CanopenMaster(const PortConfig& config, FrameSink& bus)
   sdo_timeout_us_ = std::uint64_t{sdo_ms} * 1000;
   for (unsigned j = 0; j < 3; ++j) {
     drives_[j].node = config.joints[j].node;
+    drives_[j].plan = &plans_.drives[j];
     drives_[j].sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
   }
   const std::uint64_t timeout_us = std::uint64_t{config.heartbeat_timeout_ms} * 1000;
@@ -75,8 +103,10 @@ void CanopenMaster::fail(const std::string& why) {
 void CanopenMaster::restart() {
   for (Drive& d : drives_) {
     const std::uint8_t node = d.node;
+    const DrivePlan* plan = d.plan;
     d = Drive{};
     d.node = node;
+    d.plan = plan;
     d.sdo = sdo::Client(static_cast<std::uint32_t>(sdo_timeout_us_));
   }
   phase_ = Phase::kIdle;
@@ -85,55 +115,14 @@ void CanopenMaster::restart() {
   clear_problem();
 }
 
-// The value a bring-up step writes, and its size in bytes (0: a read).
-std::uint32_t CanopenMaster::step_value(const Drive& d, std::uint8_t& size) const {
-  switch (d.sdo_step) {
-    case kWriteMode:
-      size = 1;
-      return delta::can::cia402::kModeCyclicSynchronousTorque;
-    case kClearCyclePeriod:
-      size = 4;
-      return 0;
-    case kWriteSyncCounter:
-      size = 1;
-      return config_.sync_counter_overflow;
-    case kWriteCyclePeriod:
-      size = 4;
-      return config_.period_us;
-    case kWriteHeartbeat:
-      size = 2;
-      return config_.heartbeat_ms;
-    case kWriteConsumerHeartbeat:
-      // A timeout of 0 turns the drive's supervision off (CiA 301).
-      size = 4;
-      return od::consumer_heartbeat(p::kControllerNode, config_.controller_heartbeat_timeout_ms);
-    case kWritePdoMapping:
-    case kWriteSyncPdoMapping: {
-      const PdoMappingWrite& w = mapping_writes(d.sdo_step)[d.mapping_write];
-      size = w.size;
-      return w.node_relative ? w.value + d.node : w.value;
-    }
-    case kWriteTpdo2: {
-      size = 4;
-      const std::uint32_t cob = p::cob_id(p::kTpdo2, d.node);
-      return config_.velocity_pdo ? cob : (cob | od::kPdoInvalid);
-    }
-    default:
-      size = 0;
-      return 0;
-  }
-}
-
 void CanopenMaster::send_sdo(Drive& d, std::uint64_t now_us) {
-  const od::Object o = object_of(d.sdo_step, d.mapping_write);
-  std::uint8_t size = 0;
-  const std::uint32_t value = step_value(d, size);
-  if (size == 0) {
-    d.sdo.upload(o.index, o.subindex, d.sdo_bytes, sdo::Transfer::kAuto, now_us);
+  const SdoAction& a = d.plan->actions[d.sdo_step];
+  if (a.size == 0) {
+    d.sdo.upload(a.object.index, a.object.subindex, d.sdo_bytes, sdo::Transfer::kAuto, now_us);
   } else {
-    for (unsigned i = 0; i < 4; ++i) d.sdo_bytes[i] = static_cast<std::uint8_t>(value >> (8 * i));
-    d.sdo.download(o.index, o.subindex, std::span(d.sdo_bytes).first(size), sdo::Transfer::kAuto,
-                   now_us);
+    for (unsigned i = 0; i < 4; ++i) d.sdo_bytes[i] = static_cast<std::uint8_t>(a.value >> (8 * i));
+    d.sdo.download(a.object.index, a.object.subindex, std::span(d.sdo_bytes).first(a.size),
+                   sdo::Transfer::kAuto, now_us);
   }
   ++d.sdo_attempts;
   pump_sdo(d);
@@ -181,13 +170,13 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
   bool all_done = true;
   for (Drive& d : drives_) {
     if (phase_ == Phase::kFailed) break;
-    if (d.sdo_step >= kBringUpStepCount) continue;
+    if (bring_up_done(d)) continue;
     all_done = false;
     d.sdo.tick(now_us_);
     pump_sdo(d);
     if (d.sdo.status() == sdo::ClientStatus::kBusy) continue;
     if (d.sdo.status() == sdo::ClientStatus::kAborted && d.sdo_attempts > config_.sdo_retries) {
-      const od::Object o = object_of(d.sdo_step, d.mapping_write);
+      const od::Object o = d.plan->actions[d.sdo_step].object;
       fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
            object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
            std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
@@ -219,7 +208,7 @@ void CanopenMaster::leave_network() {
 
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
   if (d.sdo.status() != sdo::ClientStatus::kBusy) return;  // a duplicate or stray answer
-  const od::Object o = object_of(d.sdo_step, d.mapping_write);
+  const od::Object o = d.plan->actions[d.sdo_step].object;
   const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
   if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
   d.sdo.on_frame(f.data, now_us_);
@@ -242,60 +231,76 @@ void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
 }
 
 // A bring-up step's answer: what was read is checked and kept; then the
-// next step.
+// next step, or the drive's units once it was the last.
 void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::string& at) {
-  switch (d.sdo_step) {
-    case kReadDeviceType:
-      if ((value & 0xFFFF) != (od::kDeviceTypeServo & 0xFFFF)) {
-        return fail(at + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
-      }
-      break;
-    case kReadVendorId:
-    case kReadProductCode:
-    case kReadRevisionNumber:
-    case kReadSerialNumber:
-      if (!identity_matches(d, value, at)) return;
-      break;
-    case kReadRatedCurrent:
-      if (value == 0) return fail(at + "the drive reports a rated current of 0 mA");
-      d.rated_current_mA = value;
-      break;
-    case kReadRatedTorque:
-      if (value == 0) return fail(at + "the drive reports a rated torque of 0 mN m");
-      d.rated_torque_mNm = value;
-      break;
-    case kReadEncoderIncrements:
-      if (value != joint(d).model.counts_per_rev) {
-        return fail(at + "the encoder has " + std::to_string(value) +
-                    " counts per revolution; the configuration says " +
-                    std::to_string(joint(d).model.counts_per_rev) + " (joint" +
-                    std::to_string(&d - drives_.data() + 1) + ".counts_per_rev)");
-      }
-      d.units = DriveUnits(joint(d).model, d.rated_current_mA, d.rated_torque_mNm);
-      break;
-    default:
-      break;
-  }
+  if (!checked(d, value, at)) return;
   d.sdo_attempts = 0;
-  if (mapping_step(d.sdo_step) && ++d.mapping_write < mapping_writes(d.sdo_step).size()) {
-    return send_sdo(d, now_us_);  // the mapping's next write
-  }
-  d.mapping_write = 0;
-  next_step(d);
-  if (d.sdo_step < kBringUpStepCount) send_sdo(d, now_us_);
+  ++d.sdo_step;
+  if (!bring_up_done(d)) return send_sdo(d, now_us_);
+  const DrivePlan& plan = *d.plan;
+  if (plan.rated_current_mA != 0) d.rated_current_mA = plan.rated_current_mA;
+  if (plan.rated_torque_mNm != 0) d.rated_torque_mNm = plan.rated_torque_mNm;
+  d.units = DriveUnits(joint(d).model, d.rated_current_mA, d.rated_torque_mNm, plan.torque_unit);
 }
 
-// The vendor ID is always read (0x1018:1 is mandatory); the product code,
-// revision and serial number only when the configuration expects them.
-void CanopenMaster::next_step(Drive& d) const {
-  const DriveIdentity& id = joint(d).identity;
-  for (++d.sdo_step; d.sdo_step < kBringUpStepCount; ++d.sdo_step) {
-    const bool skip = (d.sdo_step == kReadProductCode && !id.product_code) ||
-                      (d.sdo_step == kReadRevisionNumber && !id.revision) ||
-                      (d.sdo_step == kReadSerialNumber && !id.serial) ||
-                      (sync_counter_step(d.sdo_step) && !counted());
-    if (!skip) return;
+// A rated value the drive reports (0x6075 mA, 0x6076 mN m): kept; it must
+// not be 0, and must be the configured one where the configuration sets it.
+bool CanopenMaster::rated_value(Drive& d, std::uint32_t value, const std::string& at,
+                                std::uint32_t& kept, bool set, double configured,
+                                const std::string& key) {
+  const SdoAction& a = d.plan->actions[d.sdo_step];
+  const char* unit = a.check == SdoCheck::kRatedCurrent ? "mA" : "mN m";
+  const auto expected = static_cast<std::uint32_t>(std::llround(configured * 1000.0));
+  if (value == 0) {
+    fail(at + "the drive reports a " + a.what + " of 0 " + unit + ": set it in the drive");
+    return false;
   }
+  if (set && value != expected) {
+    fail(at + "the drive's " + a.what + " is " + std::to_string(value) + " " + unit + "; " + key +
+         " says " + std::to_string(expected) + " " + unit + ": which is the motor's?");
+    return false;
+  }
+  kept = value;
+  return true;
+}
+
+// What a read says, against the plan and the configuration.
+bool CanopenMaster::checked(Drive& d, std::uint32_t value, const std::string& at) {
+  const SdoAction& a = d.plan->actions[d.sdo_step];
+  const JointDrive& jd = joint(d);
+  const std::string key = "joint" + std::to_string(&d - drives_.data() + 1) + ".";
+  switch (a.check) {
+    case SdoCheck::kNone:
+      return true;
+    case SdoCheck::kDeviceType:
+      if ((value & 0xFFFF) == (od::kDeviceTypeServo & 0xFFFF)) return true;
+      fail(at + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
+      return false;
+    case SdoCheck::kVendorId:
+    case SdoCheck::kProductCode:
+    case SdoCheck::kRevision:
+    case SdoCheck::kSerial:
+      return identity_matches(d, value, at);
+    case SdoCheck::kRatedCurrent:
+      return rated_value(d, value, at, d.rated_current_mA, jd.rated_current_set,
+                         jd.model.rated_current_A, key + "rated_current_A");
+    case SdoCheck::kRatedTorque:
+      return rated_value(d, value, at, d.rated_torque_mNm, jd.rated_torque_set,
+                         jd.model.rated_torque_Nm, key + "rated_torque_Nm");
+    case SdoCheck::kEncoderIncrements:
+      if (value == jd.model.counts_per_rev) return true;
+      fail(at + "the encoder has " + std::to_string(value) +
+           " counts per revolution; the configuration says " +
+           std::to_string(jd.model.counts_per_rev) + " (" + key + "counts_per_rev)");
+      return false;
+    case SdoCheck::kModeDisplay:
+      if (static_cast<std::int8_t>(value & 0xFF) == d.plan->mode) return true;
+      fail(at + "the drive shows mode " + std::to_string(static_cast<std::int8_t>(value & 0xFF)) +
+           " after mode " + std::to_string(d.plan->mode) +
+           " was written to 0x6060: it does not take it (docs/drives.md)");
+      return false;
+  }
+  return true;
 }
 
 // 0x1018 against the configuration: the vendor ID, product code and serial
@@ -303,30 +308,32 @@ void CanopenMaster::next_step(Drive& d) const {
 // changes without changing the CANopen behaviour).
 bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::string& at) {
   const DriveIdentity& id = joint(d).identity;
+  const SdoAction& a = d.plan->actions[d.sdo_step];
   const std::optional<std::uint32_t> expected[] = {id.vendor_id, id.product_code, id.revision,
                                                    id.serial};
-  const std::optional<std::uint32_t>& want = expected[d.sdo_step - kReadVendorId];
+  const std::optional<std::uint32_t>& want =
+      expected[static_cast<unsigned>(a.check) - static_cast<unsigned>(SdoCheck::kVendorId)];
   if (!want) return true;
-  const bool revision = d.sdo_step == kReadRevisionNumber;
+  const bool revision = a.check == SdoCheck::kRevision;
   const bool same = revision ? (found >> 16) == (*want >> 16) : found == *want;
   if (same) return true;
-  fail(at + std::string(kBringUp[d.sdo_step].what) + " " + hex(found, 8) + "; " + id.source +
-       " expects " + hex(*want, 8) +
+  fail(at + a.what + " " + hex(found, 8) + "; " + id.source + " expects " + hex(*want, 8) +
        (revision ? " (major revision " + std::to_string(*want >> 16) + ")" : "") +
        ": is this the drive the configuration describes?");
   return false;
 }
 
-// A TPDO in the cycle's window: TPDO1 and TPDO2 are held; without a SYNC
-// counter they count at once, with one when TPDO3 confirms the cycle.
-void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, unsigned pdo) {
-  static constexpr const p::Message* kTpdos[] = {&p::kTpdo1, &p::kTpdo2, &p::kTpdo3};
-  const std::uint8_t expected = kTpdos[pdo - 1]->dlc;
-  const auto number = static_cast<std::uint8_t>(pdo);
+// A TPDO in the cycle's window: the sample and the velocity are held;
+// without a SYNC counter they count at once, with one when the echo
+// confirms the cycle. Fields are where the plan's layout maps them.
+void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, const PlannedPdo& pdo) {
+  const DrivePlan& plan = *d.plan;
+  const auto expected = static_cast<std::uint8_t>(pdo.layout.bytes());
+  const auto number = static_cast<std::uint8_t>(pdo.number);
   if (f.dlc != expected) {
     d.malformed = true;
-    if (pdo == 1) d.got_tpdo1 = true;  // answered, if badly
-    if (pdo == 2) d.got_tpdo2 = true;
+    if (&pdo == &plan.sample) d.got_tpdo1 = true;  // answered, if badly
+    if (&pdo == &plan.velocity) d.got_tpdo2 = true;
     record({.kind = CyclicProblem::Kind::kMalformedPdo,
             .node = d.node,
             .pdo = number,
@@ -341,15 +348,20 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, unsigned pdo) {
     record({.kind = CyclicProblem::Kind::kLatePdo, .node = d.node, .pdo = number, .can_id = f.id});
     return;
   }
-  if (pdo == 3) return take_sync_echo(d, f);
-  if (pdo == 2) {
+  if (&pdo == &plan.echo) return take_sync_echo(d, f);
+  if (&pdo == &plan.velocity) {
     d.held.velocity_counts_s =
-        static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo2VelocityActual));
+        static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x606C, 0}, 4, true));
     d.held.tpdo2 = true;
   } else {
-    d.held.statusword = static_cast<std::uint16_t>(p::unpack(f.data, p::kTpdo1Statusword));
-    d.held.position_counts = static_cast<std::int32_t>(p::unpack(f.data, p::kTpdo1PositionActual));
-    d.held.current_per_mille = static_cast<std::int16_t>(p::unpack(f.data, p::kTpdo1CurrentActual));
+    const od::Object feedback =
+        plan.feedback == Feedback::kCurrent ? od::Object{0x6078, 0} : od::Object{0x6077, 0};
+    d.held.statusword =
+        static_cast<std::uint16_t>(pdo_field(f.data, pdo.layout, od::kStatusword, 2, false));
+    d.held.position_counts =
+        static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x6064, 0}, 4, true));
+    d.held.current_per_mille =
+        static_cast<std::int16_t>(pdo_field(f.data, pdo.layout, feedback, 2, true));
     d.held.tpdo1 = true;
   }
   if (!counted()) take_held(d);
@@ -358,7 +370,8 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, unsigned pdo) {
 // TPDO3: the counter of the SYNC the drive's held TPDOs answer. Another
 // SYNC's counter means they are an earlier cycle's, late: dropped.
 void CanopenMaster::take_sync_echo(Drive& d, const Frame& f) {
-  const auto counter = static_cast<std::uint8_t>(p::unpack(f.data, p::kTpdo3SyncCounter));
+  const auto counter = static_cast<std::uint8_t>(
+      pdo_field(f.data, d.plan->echo.layout, od::kSyncCounterOfSample, 1, false));
   if (counter == sync_counter_) return take_held(d);
   d.held = {};
   d.late = true;
@@ -403,14 +416,15 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
   const std::uint32_t function = p::function_code(f.id);
   Drive* d = drive_for(node);
   if (d == nullptr) return;
+  const DrivePlan& plan = *d->plan;
   if (function == p::kSdoTx.base_id) {
     handle_sdo_response(*d, f);
-  } else if (function == p::kTpdo1.base_id) {
-    if (cyclic()) handle_tpdo(*d, f, 1);
-  } else if (function == p::kTpdo2.base_id) {
-    if (cyclic()) handle_tpdo(*d, f, 2);
-  } else if (function == p::kTpdo3.base_id) {
-    if (cyclic() && counted()) handle_tpdo(*d, f, 3);
+  } else if (f.id == plan.sample.cob_id) {
+    if (cyclic()) handle_tpdo(*d, f, plan.sample);
+  } else if (plan.velocity.used && f.id == plan.velocity.cob_id) {
+    if (cyclic()) handle_tpdo(*d, f, plan.velocity);
+  } else if (plan.echo.used && f.id == plan.echo.cob_id) {
+    if (cyclic() && counted()) handle_tpdo(*d, f, plan.echo);
   } else if (function == p::kEmcy.base_id) {
     const auto code = static_cast<std::uint16_t>(p::unpack(f.data, p::kEmcyErrorCode));
     if (code != od::kEmcyErrorReset) {
@@ -505,7 +519,9 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
     }
     fb.position_rad = d.units.joint_angle(d.position_counts);
     fb.velocity_rad_s = d.units.joint_velocity(d.velocity_counts_s);
-    fb.current_A = d.units.current(d.current_per_mille);
+    fb.current_A = d.plan->feedback == Feedback::kCurrent
+                       ? d.units.current(d.current_per_mille)
+                       : d.units.current_from_torque(d.current_per_mille);
     fb.fresh = sample && (!config_.velocity_pdo || d.got_tpdo2) && heartbeat_ok;
     fb.fault = d.emergency || d.rebooted || d.state == State::kFault ||
                d.state == State::kFaultReactionActive;
@@ -572,12 +588,24 @@ void CanopenMaster::send_commands() {
                         ? delta::can::cia402::controlword_towards(d.state, true, d.controlword)
                         : delta::can::cia402::controlword_towards(d.state, enable_, d.controlword);
     const bool driving = enable_ && d.state == State::kOperationEnabled;
+    const std::int16_t torque = driving ? d.units.target_torque(d.command_current_A) : 0;
     std::array<std::uint8_t, 8> data{};
-    p::pack(data, p::kRpdo1Controlword, d.controlword);
-    p::pack(data, p::kRpdo1TargetTorque,
-            driving ? d.units.target_torque_per_mille(d.command_current_A) : 0);
-    p::pack(data, p::kRpdo1TargetPosition, d.position_counts);
-    bus_.send(frame(p::cob_id(p::kRpdo1, d.node), 8, data));
+    pack_pdo(data, d.plan->rpdo.layout, [&](od::Object o) -> std::int64_t {
+      switch (o.index) {
+        case 0x6040:
+          return d.controlword;
+        case 0x6071:
+          return torque;
+        case 0x607A:
+          return d.position_counts;
+        case 0x6060:
+          return d.plan->mode;
+        default:
+          return 0;  // a dummy entry
+      }
+    });
+    bus_.send(
+        frame(d.plan->rpdo.cob_id, static_cast<std::uint8_t>(d.plan->rpdo.layout.bytes()), data));
   }
 }
 

@@ -31,7 +31,7 @@ std::int64_t mul_div_round(std::int64_t a, std::int64_t b, std::int64_t c) {
 // The configuration-time factors are computed in double once; the cyclic
 // conversions below are integer only.
 DriveUnits::DriveUnits(const delta::DriveModel& model, std::uint32_t rated_current_mA,
-                       std::uint32_t rated_torque_mNm)
+                       std::uint32_t rated_torque_mNm, TorqueUnit torque_unit)
     : rad_per_count_q60_(std::llround(
           std::ldexp(2.0 * 3.141592653589793238 / (model.counts_per_rev * model.gear_ratio), 60))),
       zero_q28_(std::llround(std::ldexp(model.joint_zero_rad, 28))),
@@ -39,7 +39,8 @@ DriveUnits::DriveUnits(const delta::DriveModel& model, std::uint32_t rated_curre
       inverted_(model.inverted),
       rated_current_mA_(rated_current_mA == 0 ? 1 : rated_current_mA),
       rated_torque_mNm_(rated_torque_mNm == 0 ? 1 : rated_torque_mNm),
-      torque_constant_uNm_per_A_(std::llround(model.torque_constant_Nm_per_A() * 1e6)) {}
+      torque_constant_uNm_per_A_(std::llround(model.torque_constant_Nm_per_A() * 1e6)),
+      torque_unit_(torque_unit) {}
 
 Q3_28 DriveUnits::joint_angle(std::int32_t counts) const {
   const std::int64_t c = inverted_ ? -std::int64_t{counts} : counts;
@@ -57,14 +58,32 @@ Q12_19 DriveUnits::current(std::int16_t per_mille) const {
       saturate32(mul_div_round(std::int64_t{per_mille} * rated_current_mA_, 1 << 19, 1000000)));
 }
 
-std::int16_t DriveUnits::target_torque_per_mille(Q12_19 current_A) const {
-  // motor torque [uN m] = k_t * i; per mille = torque / rated torque * 1000.
-  const std::int64_t torque_uNm =
-      mul_div_round(std::int64_t{current_A.raw()}, torque_constant_uNm_per_A_, 1 << 19);
-  const std::int64_t pm = mul_div_round(torque_uNm, 1, rated_torque_mNm_);
-  if (pm > INT16_MAX) return INT16_MAX;
-  if (pm < INT16_MIN) return INT16_MIN;
-  return static_cast<std::int16_t>(pm);
+Q12_19 DriveUnits::current_from_torque(std::int16_t torque) const {
+  if (torque_unit_ == TorqueUnit::kMilliamp) {
+    return Q12_19::from_raw(saturate32(mul_div_round(torque, 1 << 19, 1000)));
+  }
+  // motor torque [uN m]: per mille of the rated torque [mN m], or mN m.
+  const std::int64_t torque_uNm = torque_unit_ == TorqueUnit::kPerMille
+                                      ? std::int64_t{torque} * rated_torque_mNm_
+                                      : std::int64_t{torque} * 1000;
+  return Q12_19::from_raw(
+      saturate32(mul_div_round(torque_uNm, 1 << 19, torque_constant_uNm_per_A_)));
+}
+
+std::int16_t DriveUnits::target_torque(Q12_19 current_A) const {
+  std::int64_t v = 0;
+  if (torque_unit_ == TorqueUnit::kMilliamp) {
+    v = mul_div_round(current_A.raw(), 1000, 1 << 19);
+  } else {
+    // motor torque [uN m] = k_t * i; per mille = torque / rated torque * 1000.
+    const std::int64_t torque_uNm =
+        mul_div_round(std::int64_t{current_A.raw()}, torque_constant_uNm_per_A_, 1 << 19);
+    v = torque_unit_ == TorqueUnit::kPerMille ? mul_div_round(torque_uNm, 1, rated_torque_mNm_)
+                                              : mul_div_round(torque_uNm, 1, 1000);
+  }
+  if (v > INT16_MAX) return INT16_MAX;
+  if (v < INT16_MIN) return INT16_MIN;
+  return static_cast<std::int16_t>(v);
 }
 
 std::int32_t DriveUnits::counts(Q3_28 joint_angle) const {

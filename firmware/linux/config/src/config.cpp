@@ -16,7 +16,7 @@
 #include "delta/dynamics.hpp"
 #include "delta/input_error.hpp"
 #include "delta/trajectory_file.hpp"
-#include "fw_linux/bring_up.hpp"
+#include "fw_linux/drive_plan.hpp"
 
 namespace fw_linux {
 namespace {
@@ -77,96 +77,6 @@ std::uint32_t parse_unsigned(const std::string& v, const std::string& where, con
                       " to " + std::to_string(hi) + ", got '" + v + "'");
   }
   return static_cast<std::uint32_t>(d);
-}
-
-// "0x0066": a data type's code as CiA 306 writes it.
-std::string type_text(std::uint16_t code) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%04X", code);
-  return b;
-}
-
-std::string object_text(delta::can::od::Object o) {
-  char b[32];
-  std::snprintf(b, sizeof b, "0x%04X:%02X", o.index, o.subindex);
-  return b;
-}
-
-// A drive's EDS, checked against what the bring-up and the PDOs use: each
-// object must exist, be readable or writable as used, and a PDO's objects
-// mappable.
-delta::canopen::Eds read_drive_eds(const std::string& path, const std::string& where) {
-  delta::canopen::Eds eds;
-  try {
-    eds = delta::canopen::read_eds(path);
-  } catch (const delta::canopen::EdsError& e) {
-    throw ConfigError(where + ": " + e.what());
-  }
-  for (unsigned step = 0; step < kBringUpStepCount; ++step) {
-    if (step == kReadSerialNumber) continue;  // only with jointN.serial; optional in CiA 301
-    if (sync_counter_step(step)) continue;    // sync_counter_gap() says what is missing
-    const BringUpObject& b = kBringUp[step];
-    const delta::canopen::EdsVariable* v = eds.find(b.object.index, b.object.subindex);
-    const std::string name = object_text(b.object) + " (" + b.what + ")";
-    if (v == nullptr) {
-      throw ConfigError(where + ": " + path + " has no object " + name + ", which the bring-up " +
-                        (b.write ? "writes" : "reads"));
-    }
-    if (v->opaque) {
-      throw ConfigError(where + ": " + path + ":" + std::to_string(v->line) + ": " + name +
-                        " is of data type " + type_text(v->declared_type) +
-                        ", which is not a basic type nor a DEFTYPE of one in this file, and the "
-                        "bring-up " +
-                        (b.write ? "writes" : "reads") + " it");
-    }
-    const bool ok =
-        b.write ? delta::canopen::writable(v->access) : delta::canopen::readable(v->access);
-    if (!ok) {
-      throw ConfigError(where + ": " + path + ":" + std::to_string(v->line) + ": " + name +
-                        " is not " + (b.write ? "writable" : "readable") + ", and the bring-up " +
-                        (b.write ? "writes" : "reads") + " it");
-    }
-  }
-  for (const PdoMappingWrite& w : kPdoMapping) {
-    const delta::canopen::EdsVariable* v = eds.find(w.object.index, w.object.subindex);
-    if (v == nullptr || !delta::canopen::writable(v->access)) {
-      throw ConfigError(where + ": " + path + ": object " + object_text(w.object) +
-                        (v == nullptr ? " is missing" : " is not writable") +
-                        "; the bring-up writes the PDOs' mapping there (docs/protocol.md)");
-    }
-  }
-  for (const delta::can::od::Object o : kPdoObjects) {
-    const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
-    if (v == nullptr || !v->pdo_mappable || v->opaque) {
-      throw ConfigError(where + ": " + path + ": object " + object_text(o) +
-                        (v == nullptr ? " is missing"
-                         : v->opaque  ? " is of a data type this file does not define"
-                                      : " is not PDO-mappable") +
-                        "; the drive's PDOs carry it (docs/protocol.md)");
-    }
-  }
-  return eds;
-}
-
-// What an EDS lacks for a SYNC counter (sync_counter_overflow > 0): 0x1019
-// writable, TPDO3's communication and mapping writable, 0x2019 mappable;
-// "" if nothing.
-std::string sync_counter_gap(const delta::canopen::Eds& eds, const std::string& path) {
-  const auto missing = [&](delta::can::od::Object o, bool mappable) -> std::string {
-    const delta::canopen::EdsVariable* v = eds.find(o.index, o.subindex);
-    if (v == nullptr) return path + " has no object " + object_text(o);
-    if (mappable && !v->pdo_mappable) return path + ": " + object_text(o) + " is not PDO-mappable";
-    if (!mappable && !delta::canopen::writable(v->access)) {
-      return path + ":" + std::to_string(v->line) + ": " + object_text(o) + " is not writable";
-    }
-    return "";
-  };
-  std::string gap = missing(delta::can::od::kSyncCounterOverflow, false);
-  for (const PdoMappingWrite& w : kSyncPdoMapping) {
-    if (gap.empty()) gap = missing(w.object, false);
-  }
-  if (gap.empty()) gap = missing(delta::can::od::kSyncCounterOfSample, true);
-  return gap;
 }
 
 bool parse_bool(const std::string& v, const std::string& where, const std::string& key) {
@@ -324,17 +234,18 @@ std::map<std::string, Setter> make_setters() {
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     auto joint_number = [&s, j, p](const std::string& name, double delta::DriveModel::*field,
-                                   const Range& range) {
+                                   const Range& range, bool JointDrive::*set = nullptr) {
       const std::string key = p + name;
       s[key] = [=](PortConfig& c, const std::string& v, const std::string& w) {
         c.joints[j].model.*field = parse_in_range(v, w, key, range);
+        if (set != nullptr) c.joints[j].*set = true;
       };
     };
     joint_number("gear_ratio", &delta::DriveModel::gear_ratio, {0.0, 4000.0, "", false});
-    joint_number("rated_current_A", &delta::DriveModel::rated_current_A,
-                 {0.0, 1000.0, " A", false});
+    joint_number("rated_current_A", &delta::DriveModel::rated_current_A, {0.0, 1000.0, " A", false},
+                 &JointDrive::rated_current_set);
     joint_number("rated_torque_Nm", &delta::DriveModel::rated_torque_Nm,
-                 {0.0, 10000.0, " N m", false});
+                 {0.0, 10000.0, " N m", false}, &JointDrive::rated_torque_set);
     joint_number("gearbox_efficiency", &delta::DriveModel::gearbox_efficiency,
                  {0.0, 1.0, "", false});
     joint_number("zero_rad", &delta::DriveModel::joint_zero_rad, {-kPi, kPi, " rad", true});
@@ -343,6 +254,7 @@ std::map<std::string, Setter> make_setters() {
     };
     s[p + "counts_per_rev"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].model.counts_per_rev = parse_unsigned(v, w, p + "counts_per_rev", 4, 1u << 30);
+      c.joints[j].counts_per_rev_set = true;
     };
     s[p + "inverted"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].model.inverted = parse_bool(v, w, p + "inverted");
@@ -350,15 +262,32 @@ std::map<std::string, Setter> make_setters() {
     s[p + "torque_offset_Nm"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].torque_offset_Nm = parse_number(v, w, p + "torque_offset_Nm");
     };
+    // The EDS is read here; what the drive can do is planned once the
+    // whole configuration is read (plan_drives).
     s[p + "eds"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].eds_path = v;
-      const delta::canopen::Eds eds = read_drive_eds(v, w + ": " + p + "eds");
+      try {
+        c.joints[j].eds = std::make_shared<const delta::canopen::Eds>(delta::canopen::read_eds(v));
+      } catch (const delta::canopen::EdsError& e) {
+        throw ConfigError(w + ": " + p + "eds: " + e.what());
+      }
       DriveIdentity& id = c.joints[j].identity;
-      id.vendor_id = eds.identity.vendor_id;
-      id.product_code = eds.identity.product_code;
-      id.revision = eds.identity.revision;
+      id.vendor_id = c.joints[j].eds->identity.vendor_id;
+      id.product_code = c.joints[j].eds->identity.product_code;
+      id.revision = c.joints[j].eds->identity.revision;
       id.source = p + "eds = " + v;
-      c.joints[j].sync_counter_gap = sync_counter_gap(eds, v);
+    };
+    s[p + "torque_unit"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
+      static const std::map<std::string, TorqueUnit> kUnits = {
+          {"per_mille", TorqueUnit::kPerMille},
+          {"mA", TorqueUnit::kMilliamp},
+          {"mNm", TorqueUnit::kMilliNewtonMetre}};
+      const auto it = kUnits.find(v);
+      if (it == kUnits.end()) {
+        throw ConfigError(w + ": " + p + "torque_unit must be per_mille, mA or mNm, got '" + v +
+                          "'");
+      }
+      c.joints[j].torque_unit = it->second;
     };
     s[p + "serial"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
       c.joints[j].identity.serial = parse_unsigned(v, w, p + "serial", 0, 0xFFFFFFFFu);
@@ -382,14 +311,16 @@ std::string trim(const std::string& s, std::size_t& first) {
   return s.substr(first, last - first + 1);
 }
 
-void require(bool ok, const std::string& message) {
-  if (!ok) throw ConfigError(message);
+// A problem of the configuration as a whole, kept with the others.
+void require(std::vector<std::string>& problems, bool ok, const std::string& message) {
+  if (!ok) problems.push_back(message);
 }
 
 // The torque constant rated_torque / rated_current in its Q format (Q7.24)
 // must keep three significant digits; a tiny one would round to 0 and make
 // every torque 0.
-void require_representable_torque_constant(const std::string& p, const delta::DriveModel& m) {
+void require_representable_torque_constant(std::vector<std::string>& problems, const std::string& p,
+                                           const delta::DriveModel& m) {
   const double kt = m.torque_constant_Nm_per_A();
   const double q = std::ldexp(std::round(std::ldexp(kt, 24)), -24);
   if (!(std::fabs(q - kt) <= 1e-3 * kt)) {
@@ -397,7 +328,7 @@ void require_representable_torque_constant(const std::string& p, const delta::Dr
     msg << p << "rated_torque_Nm / " << p << "rated_current_A = " << kt
         << " N m/A is below what its Q7.24 format keeps to 0.1 % ("
         << std::ldexp(1.0, -24) / 1e-3 * 0.5 << " N m/A)";
-    throw ConfigError(msg.str());
+    problems.push_back(msg.str());
   }
 }
 
@@ -432,59 +363,104 @@ void set_config_value(PortConfig& c, const std::string& key, const std::string& 
   it->second(c, value, where);
 }
 
-PortConfig read_port_config(const std::string& path) {
+// The EDS's non-zero defaults of 0x6075, 0x6076 and 0x608F:1 where the
+// configuration does not set the rated current, torque and encoder
+// resolution (the bring-up reads and checks the drive's own).
+void adopt_eds_values(PortConfig& c) {
+  for (JointDrive& jd : c.joints) {
+    if (!jd.eds) continue;
+    const auto given = [&jd](std::uint16_t index,
+                             std::uint8_t sub) -> std::optional<std::uint64_t> {
+      const delta::canopen::EdsVariable* v = jd.eds->find(index, sub);
+      if (v == nullptr || v->opaque) return std::nullopt;
+      const auto value = v->value(jd.node);
+      return value && *value != 0 && *value <= 0xFFFFFFFFu ? value : std::nullopt;
+    };
+    if (const auto v = given(0x6075, 0); v && !jd.rated_current_set)
+      jd.model.rated_current_A = static_cast<double>(*v) / 1000.0;
+    if (const auto v = given(0x6076, 0); v && !jd.rated_torque_set)
+      jd.model.rated_torque_Nm = static_cast<double>(*v) / 1000.0;
+    if (const auto v = given(0x608F, 1); v && !jd.counts_per_rev_set && *v <= (1u << 30))
+      jd.model.counts_per_rev = static_cast<std::uint32_t>(*v);
+  }
+}
+
+// One line of a configuration file into c. Throws ConfigError.
+void read_config_line(PortConfig& c, const std::string& line, const std::string& at,
+                      std::set<std::string>& seen) {
+  std::size_t col = 0;
+  const std::string text = trim(line.substr(0, line.find('#')), col);
+  if (text.empty()) return;
+  const std::size_t eq = text.find('=');
+  if (eq == std::string::npos) {
+    throw ConfigError(at + std::to_string(col + 1) + ": expected 'key = value'");
+  }
+  std::size_t key_col = 0;
+  std::size_t value_col = 0;
+  const std::string key = trim(text.substr(0, eq), key_col);
+  const std::string value = trim(text.substr(eq + 1), value_col);
+  const std::string key_at = at + std::to_string(col + key_col + 1);
+  if (key.empty()) throw ConfigError(key_at + ": a key is missing before '='");
+  if (!seen.insert(key).second) throw ConfigError(key_at + ": '" + key + "' is set twice");
+  if (setters().count(key) == 0) set_config_value(c, key, value, key_at);  // throws: unknown
+  set_config_value(c, key, value, at + std::to_string(col + eq + 1 + value_col + 1));
+}
+
+void read_config_lines(PortConfig& c, const std::string& path, std::vector<std::string>* problems) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the configuration file");
-  PortConfig c;
   std::set<std::string> seen;
   std::string line;
   for (int n = 1; std::getline(in, line); ++n) {
-    const std::string at = path + ":" + std::to_string(n) + ":";
-    std::size_t col = 0;
-    const std::string text = trim(line.substr(0, line.find('#')), col);
-    if (text.empty()) continue;
-    const std::size_t eq = text.find('=');
-    if (eq == std::string::npos) {
-      throw ConfigError(at + std::to_string(col + 1) + ": expected 'key = value'");
+    try {
+      read_config_line(c, line, path + ":" + std::to_string(n) + ":", seen);
+    } catch (const ConfigError& e) {
+      if (problems == nullptr) throw;
+      problems->emplace_back(e.what());
     }
-    std::size_t key_col = 0;
-    std::size_t value_col = 0;
-    const std::string key = trim(text.substr(0, eq), key_col);
-    const std::string value = trim(text.substr(eq + 1), value_col);
-    const std::string key_at = at + std::to_string(col + key_col + 1);
-    if (key.empty()) throw ConfigError(key_at + ": a key is missing before '='");
-    if (!seen.insert(key).second) throw ConfigError(key_at + ": '" + key + "' is set twice");
-    if (setters().count(key) == 0) set_config_value(c, key, value, key_at);  // throws: unknown
-    set_config_value(c, key, value, at + std::to_string(col + eq + 1 + value_col + 1));
   }
-  validate(c);
+}
+
+PortConfig read_port_config(const std::string& path, std::vector<std::string>* problems) {
+  PortConfig c;
+  read_config_lines(c, path, problems);
+  finish_config(c, problems);
   return c;
+}
+
+void finish_config(PortConfig& c, std::vector<std::string>* problems) {
+  adopt_eds_values(c);
+  if (problems == nullptr) return validate(c);
+  for (std::string& p : configuration_problems(c)) problems->push_back(std::move(p));
 }
 
 namespace {
 
 // The cycle, the limits, the gains and the heartbeats.
-void validate_control(const PortConfig& c) {
-  require(1000000 % c.period_us == 0,
+void validate_control(const PortConfig& c, std::vector<std::string>& problems) {
+  require(problems, 1000000 % c.period_us == 0,
           "period_us = " + std::to_string(c.period_us) + " must divide one second exactly");
-  require(c.response_window_us < c.period_us, "response_window_us must be shorter than period_us");
+  require(problems, c.response_window_us < c.period_us,
+          "response_window_us must be shorter than period_us");
   const std::string geometry = delta::describe_geometry_fault(c.geometry);
-  require(geometry.empty(), "geometry: " + geometry);
-  require(c.min_rad < c.max_rad, "limits.min_rad must be below limits.max_rad");
-  require(c.max_velocity_rad_s > 0 && c.max_acceleration_rad_s2 > 0 && c.max_tracking_error_rad > 0,
+  require(problems, geometry.empty(), "geometry: " + geometry);
+  require(problems, c.min_rad < c.max_rad, "limits.min_rad must be below limits.max_rad");
+  require(problems,
+          c.max_velocity_rad_s > 0 && c.max_acceleration_rad_s2 > 0 && c.max_tracking_error_rad > 0,
           "limits: velocity, acceleration and tracking limits must be positive");
-  require(c.kp_Nm_per_rad >= 0 && c.kd_Nm_s_per_rad >= 0 && c.ki_Nm_per_rad_s >= 0,
+  require(problems, c.kp_Nm_per_rad >= 0 && c.kd_Nm_s_per_rad >= 0 && c.ki_Nm_per_rad_s >= 0,
           "gains must not be negative");
-  require(c.max_torque_Nm > 0, "gains.max_torque_Nm must be positive");
-  require(c.approach_s > 0 && c.stop_s > 0 && c.blend_s > 0,
+  require(problems, c.max_torque_Nm > 0, "gains.max_torque_Nm must be positive");
+  require(problems, c.approach_s > 0 && c.stop_s > 0 && c.blend_s > 0,
           "approach_s, stop_s and blend_s must be positive");
-  require(c.heartbeat_timeout_ms > c.heartbeat_ms,
+  require(problems, c.heartbeat_timeout_ms > c.heartbeat_ms,
           "heartbeat_timeout_ms must be longer than heartbeat_ms");
   // The heartbeat leaves after a control step: every heartbeat_ms rounded
   // up to whole cycles. The drives must not time out between two.
   const std::uint64_t heartbeat_interval_us =
       (std::uint64_t{c.heartbeat_ms} * 1000 + c.period_us - 1) / c.period_us * c.period_us;
-  require(c.controller_heartbeat_timeout_ms == 0 ||
+  require(problems,
+          c.controller_heartbeat_timeout_ms == 0 ||
               (c.heartbeat_ms != 0 &&
                std::uint64_t{c.controller_heartbeat_timeout_ms} * 1000 > heartbeat_interval_us),
           "controller_heartbeat_timeout_ms must be 0 (off) or longer than heartbeat_ms: the "
@@ -497,23 +473,18 @@ void validate_control(const PortConfig& c) {
 }
 
 // Each joint's drive: its model, its node, its SYNC counter.
-void validate_joints(const PortConfig& c) {
+void validate_joints(const PortConfig& c, std::vector<std::string>& problems) {
   for (unsigned j = 0; j < 3; ++j) {
     const std::string p = "joint" + std::to_string(j + 1) + ".";
     const delta::DriveModel& m = c.joints[j].model;
-    require(m.gear_ratio > 0, p + "gear_ratio must be positive");
-    require(m.rated_current_A > 0 && m.rated_torque_Nm > 0,
+    require(problems, m.gear_ratio > 0, p + "gear_ratio must be positive");
+    require(problems, m.rated_current_A > 0 && m.rated_torque_Nm > 0,
             p + "rated_current_A and rated_torque_Nm must be positive");
-    require(m.gearbox_efficiency > 0 && m.gearbox_efficiency <= 1,
+    require(problems, m.gearbox_efficiency > 0 && m.gearbox_efficiency <= 1,
             p + "gearbox_efficiency must be in (0, 1]");
-    require_representable_torque_constant(p, m);
-    require(c.sync_counter_overflow == 0 || c.joints[j].sync_counter_gap.empty(),
-            "sync_counter_overflow = " + std::to_string(c.sync_counter_overflow) + ": " + p +
-                "eds: " + c.joints[j].sync_counter_gap +
-                ", which the SYNC counter's TPDO3 needs (docs/protocol.md); set "
-                "sync_counter_overflow = 0 for this drive");
+    require_representable_torque_constant(problems, p, m);
     for (unsigned k = 0; k < j; ++k) {
-      require(c.joints[k].node != c.joints[j].node,
+      require(problems, c.joints[k].node != c.joints[j].node,
               p + "node = " + std::to_string(c.joints[j].node) + " is also joint" +
                   std::to_string(k + 1) + "'s node");
     }
@@ -521,16 +492,21 @@ void validate_joints(const PortConfig& c) {
 }
 
 // The Modbus address and the GPIO lines.
-void validate_io(const PortConfig& c) {
-  if (!c.modbus.tcp.empty()) (void)split_host_port(c.modbus.tcp, "modbus.tcp");
+void validate_io(const PortConfig& c, std::vector<std::string>& problems) {
+  try {
+    if (!c.modbus.tcp.empty()) (void)split_host_port(c.modbus.tcp, "modbus.tcp");
+  } catch (const ConfigError& e) {
+    problems.emplace_back(e.what());
+  }
   if (!c.gpio.chip.empty()) {
     const std::uint32_t l[] = {c.gpio.estop_line, c.gpio.enable_line, c.gpio.brake_line,
                                c.gpio.status_line};
     const char* names[] = {"estop_line", "enable_line", "brake_line", "status_line"};
     for (unsigned i = 0; i < 4; ++i) {
       for (unsigned k = 0; k < i; ++k) {
-        require(l[i] != l[k], std::string("gpio.") + names[i] + " = " + std::to_string(l[i]) +
-                                  " is also gpio." + names[k]);
+        require(problems, l[i] != l[k],
+                std::string("gpio.") + names[i] + " = " + std::to_string(l[i]) + " is also gpio." +
+                    names[k]);
       }
     }
   }
@@ -538,11 +514,26 @@ void validate_io(const PortConfig& c) {
 
 }  // namespace
 
+std::vector<std::string> configuration_problems(const PortConfig& c) {
+  std::vector<std::string> problems;
+  validate_control(c, problems);
+  validate_joints(c, problems);
+  validate_io(c, problems);
+  try {
+    (void)controller_config(c);  // every value fits its Q format
+  } catch (const ConfigError& e) {
+    problems.emplace_back(e.what());
+  }
+  for (std::string& p : plan_drives(c).problems) problems.push_back(std::move(p));
+  return problems;
+}
+
 void validate(const PortConfig& c) {
-  validate_control(c);
-  validate_joints(c);
-  validate_io(c);
-  (void)controller_config(c);  // every value fits its Q format
+  const std::vector<std::string> problems = configuration_problems(c);
+  if (problems.empty()) return;
+  std::string text = problems.front();
+  for (std::size_t i = 1; i < problems.size(); ++i) text += "\n" + problems[i];
+  throw ConfigError(text);
 }
 
 std::pair<std::string, int> split_host_port(const std::string& text, const std::string& what) {

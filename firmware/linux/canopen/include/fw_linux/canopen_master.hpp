@@ -22,6 +22,7 @@
 #include "delta/can/socketcan.hpp"
 #include "fw/hardware.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/drive_plan.hpp"
 #include "fw_linux/drive_units.hpp"
 
 namespace fw_linux {
@@ -35,6 +36,8 @@ class FrameSink {
 
 class CanopenMaster {
  public:
+  // Plans each drive's bring-up (drive_plan.hpp); throws ConfigError when
+  // a plan has problems (validate() reports them first).
   CanopenMaster(const PortConfig& config, FrameSink& bus);
 
   // --- the cycle ---
@@ -74,9 +77,9 @@ class CanopenMaster {
   struct Drive {
     std::uint8_t node{0};
     DriveUnits units{};
-    // bring-up
+    const DrivePlan* plan{nullptr};
+    // bring-up: the plan's transfers
     unsigned sdo_step{0};
-    unsigned mapping_write{0};  // in a mapping step: which of its writes (mapping_writes())
     delta::can::sdo::Client sdo{};
     std::array<std::uint8_t, 4> sdo_bytes{};  // the value written or read
     unsigned sdo_attempts{0};
@@ -113,15 +116,17 @@ class CanopenMaster {
     Q12_19 command_current_A{};
   };
 
-  std::uint32_t step_value(const Drive& d, std::uint8_t& size) const;
+  static bool bring_up_done(const Drive& d) { return d.sdo_step >= d.plan->actions.size(); }
   void send_sdo(Drive& d, std::uint64_t now_us);
   void pump_sdo(Drive& d);
   void take_step_result(Drive& d, std::uint32_t value, const std::string& at);
-  void next_step(Drive& d) const;
   bool identity_matches(Drive& d, std::uint32_t found, const std::string& at);
+  bool checked(Drive& d, std::uint32_t value, const std::string& at);
+  bool rated_value(Drive& d, std::uint32_t value, const std::string& at, std::uint32_t& kept,
+                   bool set, double configured, const std::string& key);
   void handle_sdo_response(Drive& d, const delta::can::Frame& f);
   bool counted() const { return config_.sync_counter_overflow != 0; }
-  void handle_tpdo(Drive& d, const delta::can::Frame& f, unsigned pdo);
+  void handle_tpdo(Drive& d, const delta::can::Frame& f, const PlannedPdo& pdo);
   void take_sync_echo(Drive& d, const delta::can::Frame& f);
   static void take_held(Drive& d);
   void fail(const std::string& why);
@@ -131,6 +136,7 @@ class CanopenMaster {
   }
 
   PortConfig config_;
+  DrivePlans plans_;
   fw::ControllerConfig core_;
   FrameSink& bus_;
   std::array<Drive, 3> drives_{};

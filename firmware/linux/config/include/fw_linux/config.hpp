@@ -6,12 +6,14 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "delta/canopen/eds.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/geometry.hpp"
 #include "fw/controller.hpp"
@@ -39,15 +41,24 @@ struct DriveIdentity {
   std::string source;  // where the expectation comes from, for messages
 };
 
+// The unit of a drive's target torque (0x6071) and torque actual value
+// (0x6077): CiA 402's per mille of the motor rated torque (0x6076), or,
+// as some vendors do, the motor current in mA or the torque in mN m.
+enum class TorqueUnit : std::uint8_t { kPerMille, kMilliamp, kMilliNewtonMetre };
+
 struct JointDrive {
   std::uint8_t node{1};
   delta::DriveModel model{delta::kDefaultDrive};
   double torque_offset_Nm{0.0};
   std::string eds_path;  // empty: the generic CiA 402 profile, any identity
+  std::shared_ptr<const delta::canopen::Eds> eds;  // read from eds_path
   DriveIdentity identity;
-  // What the drive's EDS lacks for a SYNC counter (0x1019, TPDO3 with
-  // 0x2019), in words; empty: nothing (or no EDS: the generic profile).
-  std::string sync_counter_gap;
+  TorqueUnit torque_unit{TorqueUnit::kPerMille};
+  // Which of the drive's values the configuration sets (else the EDS, the
+  // drive or the default drive gives them).
+  bool rated_current_set{false};
+  bool rated_torque_set{false};
+  bool counts_per_rev_set{false};
 };
 
 inline JointDrive joint_on_node(std::uint8_t node) {
@@ -129,16 +140,31 @@ struct PortConfig {
 // "ADDRESS:PORT" split; throws ConfigError naming `what`.
 std::pair<std::string, int> split_host_port(const std::string& text, const std::string& what);
 
-// Reads a configuration file over the defaults. Throws ConfigError.
-PortConfig read_port_config(const std::string& path);
+// Reads a configuration file over the defaults. Throws ConfigError; with
+// `problems`, a wrong line or value is added there and the reading goes on
+// (only a file that cannot be opened throws).
+PortConfig read_port_config(const std::string& path, std::vector<std::string>* problems = nullptr);
+
+// Only the file's keys over c, without finish_config(). Throws ConfigError
+// (with `problems`, as read_port_config).
+void read_config_lines(PortConfig& c, const std::string& path,
+                       std::vector<std::string>* problems = nullptr);
+
+// What comes after the keys (a file's, or --set's): the EDS's values for
+// what the configuration does not set, then validate() (or, with
+// `problems`, every problem added there).
+void finish_config(PortConfig& c, std::vector<std::string>* problems = nullptr);
 
 // Applies one `key = value` (the file's lines and --set on the command line
 // use it). `where` prefixes error messages ("file:line:column").
 void set_config_value(PortConfig& c, const std::string& key, const std::string& value,
                       const std::string& where);
 
-// Checks the whole configuration (ranges, distinct nodes, a period that
-// divides one second). Throws ConfigError.
+// Every problem of the whole configuration (ranges, distinct nodes, a
+// period that divides one second, each drive's plan: drive_plan.hpp).
+std::vector<std::string> configuration_problems(const PortConfig& c);
+
+// Throws ConfigError with every problem, a line each.
 void validate(const PortConfig& c);
 
 // The core's configuration in Q formats. Throws ConfigError when a value
