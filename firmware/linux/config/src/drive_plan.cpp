@@ -100,6 +100,11 @@ class Planner {
   }
 
   void run() {
+    if (eds_ != nullptr && eds_->node_id && *eds_->node_id != jd_.node) {
+      problems_.push_back(key_ + "eds (" + jd_.eds_path + ") is a DCF commissioned for node " +
+                          std::to_string(*eds_->node_id) + ", but " + key_ +
+                          "node = " + std::to_string(jd_.node) + ": which node is the drive?");
+    }
     decide_feedback();
     identity();
     scaling();
@@ -307,13 +312,13 @@ void Planner::rated_value(od::Object o, SdoCheck check, const std::string& name,
                         "): which is the motor's?");
   }
   if (!set && !eds_gives) {
-    problems_.push_back(
-        key_ + key + " is not set, and " + where(o) + " gives " + object_text(o) + " (" + name +
-        ") " +
-        (find(o) == nullptr ? "no object"
-         : v                ? "a default of 0"
-                            : "no default") +
-        ": set it from the motor's data sheet, as the drive is configured (docs/drives.md)");
+    const std::string what = object_text(o) + " (" + name + ")";
+    problems_.push_back(key_ + key + " is not set, and " + where(o) +
+                        (find(o) == nullptr ? " has no object " + what
+                         : v                ? " gives " + what + " a default of 0"
+                                            : " gives " + what + " no default") +
+                        ": set it from the motor's data sheet, as the drive is configured "
+                        "(docs/drives.md)");
   }
   if (readable(o)) {
     read(o, check, name);
@@ -433,10 +438,19 @@ void Planner::limits() {
     }
     return;
   }
-  if (jd_.torque_unit != TorqueUnit::kPerMille) {
-    plan_.warnings.push_back(
-        "0x6072 (max torque) is left as it is: its unit is per mille, the "
-        "drive's torques are not");
+  if (jd_.torque_unit != TorqueUnit::kPerMille && !jd_.rated_torque_set) {
+    // 0x6072 is per mille of the rated torque, which is not known here.
+    const auto v = value(kMaxTorque);
+    if (v && *v == 0) {
+      problem(kMaxTorque, "max torque",
+              "the drive would give no torque; set " + key_ +
+                  "rated_torque_Nm so that the controller can write it in per mille",
+              "defaults to 0");
+    } else {
+      plan_.warnings.push_back(
+          "0x6072 (max torque) is left as the drive has it: it is per mille "
+          "of a rated torque the configuration does not give");
+    }
     return;
   }
   const delta::DriveModel& m = jd_.model;
@@ -508,6 +522,7 @@ void Planner::pdo(PlannedPdo& planned, PdoObjects which, const std::vector<Wante
   } else {
     for (const Wanted& w : wanted) {
       if (w.optional && !mappable(w.object)) continue;
+      if (!has(w.object)) continue;  // mode() or decide_feedback() said so
       if (!mappable(w.object)) {
         const co::EdsVariable* v = find(w.object);
         const std::string why =

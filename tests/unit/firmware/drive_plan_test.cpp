@@ -1,0 +1,234 @@
+// Each drive's bring-up planned from its EDS and the configuration
+// (fw_linux/drive_plan.hpp), on the test corpus of drive descriptions
+// (tests/data/drives/, each modelled on a drive family), and
+// `delta_fw --check-config`.
+#include "fw_linux/drive_plan.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "../../support/scratch_directory.hpp"
+#include "fw_linux/config.hpp"
+
+namespace fw_linux {
+namespace {
+
+std::string drive(const std::string& name) {
+  return std::string(DELTA_DRIVES_DIR) + "/" + name;
+}
+
+// A configuration from `key = value` lines; with `problems`, every problem
+// is kept there.
+PortConfig config(const std::string& text, std::vector<std::string>* problems = nullptr) {
+  const std::string path = testsupport::process_scratch("drive_plan_test").file("drives.conf");
+  std::ofstream(path) << text;
+  return read_port_config(path, problems);
+}
+
+std::vector<std::string> problems_of(const std::string& text) {
+  std::vector<std::string> problems;
+  (void)config(text, &problems);
+  return problems;
+}
+
+std::string joined(const std::vector<std::string>& lines) {
+  std::string text;
+  for (const std::string& l : lines) text += l + "\n";
+  return text;
+}
+
+bool writes(const DrivePlan& plan, std::uint16_t index, std::uint8_t subindex,
+            std::uint32_t value) {
+  for (const SdoAction& a : plan.actions) {
+    if (a.size != 0 && a.object.index == index && a.object.subindex == subindex && a.value == value)
+      return true;
+  }
+  return false;
+}
+
+bool touches(const DrivePlan& plan, std::uint16_t index) {
+  for (const SdoAction& a : plan.actions) {
+    if (a.object.index == index) return true;
+  }
+  return false;
+}
+
+// The EPOS4: CST, torque feedback (no 0x6078), 0x6076 a setting whose
+// default is 0, no 0x608F: served once the configuration gives the rated
+// torque and the encoder resolution; TPDO1's transmission type written.
+TEST(DrivePlanTest, AnEpos4LikeDriveServesWithTheValuesItsEdsCannotGive) {
+  const auto missing = problems_of("joint1.eds = " + drive("epos4.eds") + "\n");
+  ASSERT_EQ(missing.size(), 2u) << joined(missing);
+  EXPECT_NE(
+      missing[0].find("joint1.rated_torque_Nm is not set, and joint1.eds (" + drive("epos4.eds") +
+                      ":1196) gives 0x6076:00 (motor rated torque) a default of 0"),
+      std::string::npos)
+      << missing[0];
+  EXPECT_NE(missing[1].find("no object 0x608F:01 (position encoder resolution), and "
+                            "joint1.counts_per_rev is not set"),
+            std::string::npos)
+      << missing[1];
+
+  const PortConfig c = config("joint1.eds = " + drive("epos4.eds") +
+                              "\njoint1.rated_torque_Nm = 0.128\njoint1.counts_per_rev = 4096\n");
+  const DrivePlan plan = plan_drives(c).drives[0];
+  EXPECT_EQ(plan.mode, 10);
+  EXPECT_EQ(plan.feedback, Feedback::kTorque);
+  EXPECT_EQ(plan.sample.layout.entries[2], 0x60770010u);
+  EXPECT_TRUE(writes(plan, 0x1800, 2, 1));     // TPDO1 on every SYNC (default 255)
+  EXPECT_TRUE(writes(plan, 0x1006, 0, 2000));  // the cycle period
+  EXPECT_TRUE(writes(plan, 0x6072, 0, 6945));  // 8 N m at the joint: 0.889 N m at the motor
+  EXPECT_TRUE(writes(plan, 0x1803, 1, 0x80000181 + 0x300));  // TPDO4 off
+  EXPECT_TRUE(writes(plan, 0x6060, 0, 10));
+  EXPECT_FALSE(touches(plan, 0x3000));  // the manufacturer DEFTYPE object
+  EXPECT_FALSE(touches(plan, 0x608F));
+  EXPECT_EQ(plan.rated_torque_mNm, 0u);  // read from 0x6076 at bring-up, checked against 128
+}
+
+// The EPOS2 has no torque mode and no target torque: refused, naming both.
+TEST(DrivePlanTest, ADriveWithoutATorqueModeIsRefusedNamingWhatItLacks) {
+  const auto p = problems_of("joint2.eds = " + drive("epos2.eds") +
+                             "\njoint2.rated_current_A = 2\njoint2.rated_torque_Nm = 0.2\n"
+                             "joint2.counts_per_rev = 2000\n");
+  const std::string text = joined(p);
+  ASSERT_EQ(p.size(), 2u) << text;
+  EXPECT_NE(text.find("joint2.eds (" + drive("epos2.eds") +
+                      "): no object 0x6071:00 (target torque): the drive cannot take a torque "
+                      "command"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find(":1181): 0x6502:00 (supported drive modes) is 0x00000065: neither cyclic "
+                      "synchronous torque (bit 9) nor profile torque (bit 3)"),
+            std::string::npos)
+      << text;
+}
+
+// The Trinamic-like module: profile torque with a warning, torques in mA,
+// 0x6072 defaults to 0, and no cycle-period object.
+TEST(DrivePlanTest, ADriveWithProfileTorqueOnlyIsUsedWithAWarning) {
+  const std::string eds = "joint3.eds = " + drive("tmcm_bldc.eds") + "\njoint3.torque_unit = mA\n";
+  const auto p = problems_of(eds);
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_NE(p[0].find("0x6072:00 (max torque) defaults to 0: the drive would give no torque"),
+            std::string::npos)
+      << p[0];
+  const PortConfig c = config(eds + "joint3.rated_torque_Nm = 0.4\n");
+  const DrivePlan plan = plan_drives(c).drives[2];
+  EXPECT_EQ(plan.mode, 4);
+  EXPECT_EQ(plan.torque_unit, TorqueUnit::kMilliamp);
+  EXPECT_NE(joined(plan.warnings).find("profile torque (mode 4) is not synchronous"),
+            std::string::npos);
+  EXPECT_NE(joined(plan.warnings).find("not told the cycle period"), std::string::npos);
+  EXPECT_FALSE(touches(plan, 0x1006));
+  EXPECT_TRUE(touches(plan, 0x6072));
+}
+
+// A DCF: its ParameterValue (0x6075 = 2000 mA) is the configuration's
+// rated current; its NodeID must be the joint's node.
+TEST(DrivePlanTest, ADcfGivesItsCommissionedValuesAndNode) {
+  const std::string dcf =
+      "joint2.eds = " + drive("nanotec_pd4c.dcf") + "\njoint2.rated_torque_Nm = 0.5\n";
+  const PortConfig c = config(dcf);
+  EXPECT_DOUBLE_EQ(c.joints[1].model.rated_current_A, 2.0);
+  const DrivePlan plan = plan_drives(c).drives[1];
+  EXPECT_TRUE(writes(plan, 0x6060, 0, 10));
+  EXPECT_EQ(plan.rated_torque_mNm, 500u);  // no 0x6076: the configured value
+  const auto p =
+      problems_of("joint1.eds = " + drive("nanotec_pd4c.dcf") + "\njoint1.rated_torque_Nm = 0.5\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_NE(p[0].find("is a DCF commissioned for node 2, but joint1.node = 1"), std::string::npos)
+      << p[0];
+}
+
+// Read-only mappings: their defaults are used as they are, and the PDOs
+// are decoded by them; a configured value the EDS contradicts is refused.
+TEST(DrivePlanTest, AFixedMappingIsUsedAsItIsAndAContradictionIsNamed) {
+  const PortConfig c = config("joint1.eds = " + drive("fixed_mapping.eds") + "\n");
+  EXPECT_DOUBLE_EQ(c.joints[0].model.rated_torque_Nm, 1.27);  // the EDS's 0x6076
+  const DrivePlan plan = plan_drives(c).drives[0];
+  EXPECT_FALSE(plan.rpdo.mapping_written);
+  EXPECT_FALSE(plan.sample.mapping_written);
+  EXPECT_EQ(plan.rpdo.layout.bytes(), 4u);
+  EXPECT_EQ(plan.sample.layout.offset_of({0x6077, 0}), 6);
+  EXPECT_FALSE(touches(plan, 0x1600));
+  EXPECT_FALSE(touches(plan, 0x1A00));
+  EXPECT_TRUE(writes(plan, 0x1800, 2, 1));
+  const auto p = problems_of("joint1.eds = " + drive("fixed_mapping.eds") +
+                             "\njoint1.rated_torque_Nm = 1.0\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_NE(p[0].find("0x6076:00 (motor rated torque) is 1270 in the EDS, but "
+                      "joint1.rated_torque_Nm = 1"),
+            std::string::npos)
+      << p[0];
+  // velocity_pdo needs TPDO2's fixed mapping to carry 0x606C: it does.
+  EXPECT_TRUE(problems_of("joint1.eds = " + drive("fixed_mapping.eds") + "\nvelocity_pdo = true\n")
+                  .empty());
+}
+
+// Without an EDS the plan is the generic profile's (docs/protocol.md):
+// the rated values read from the drive, nothing else assumed away.
+TEST(DrivePlanTest, WithoutAnEdsThePlanIsTheGenericProfiles) {
+  const DrivePlan plan = plan_drives(PortConfig{}).drives[0];
+  EXPECT_EQ(plan.mode, 10);
+  EXPECT_EQ(plan.feedback, Feedback::kCurrent);
+  EXPECT_TRUE(touches(plan, 0x6075));
+  EXPECT_TRUE(touches(plan, 0x608F));
+  EXPECT_FALSE(touches(plan, 0x1800) && writes(plan, 0x1800, 2, 1));
+  EXPECT_TRUE(writes(plan, 0x1801, 1, 0x80000281));  // TPDO2 off without velocity_pdo
+  EXPECT_EQ(plan.actions.size(), 24u);
+}
+
+// delta_fw --check-config: the plans and exit 0, or every problem and 2.
+struct CommandRun {
+  int status;
+  std::string out;
+};
+
+CommandRun run_delta_fw(const std::string& arguments) {
+  const std::string command = std::string(DELTA_FW_BINARY) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  CommandRun r{-1, ""};
+  if (pipe == nullptr) return r;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr)
+    r.out += buffer.data();
+  const int status = pclose(pipe);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+TEST(CheckConfigTest, PrintsEachDrivesPlanOrEveryProblem) {
+  const CommandRun ok =
+      run_delta_fw("--check-config --set joint1.eds=" + drive("ipos.eds") +
+                   " --set joint1.rated_current_A=3 --set joint1.rated_torque_Nm=0.3");
+  EXPECT_EQ(ok.status, 0) << ok.out;
+  EXPECT_NE(ok.out.find("joint1: node 1, " + drive("ipos.eds")), std::string::npos) << ok.out;
+  EXPECT_NE(ok.out.find("TPDO1:    COB-ID 0x181, transmission type 1: 0x6041:00 (16 bits), "
+                        "0x6064:00 (32 bits), 0x6078:00 (16 bits)"),
+            std::string::npos)
+      << ok.out;
+  EXPECT_NE(ok.out.find("write 0x6060:00  modes of operation = 10, cyclic synchronous torque"),
+            std::string::npos)
+      << ok.out;
+  EXPECT_NE(ok.out.find("The configuration is sound"), std::string::npos) << ok.out;
+
+  const CommandRun bad = run_delta_fw("--check-config --set joint1.eds=" + drive("epos2.eds") +
+                                      " --set joint2.eds=" + drive("epos4.eds") +
+                                      " --set period_us=3000 --set joint3.node=x");
+  EXPECT_EQ(bad.status, 2) << bad.out;
+  for (const char* expected :
+       {"--set joint3.node: joint3.node needs", "period_us = 3000 must divide one second",
+        "joint1.eds (" DELTA_DRIVES_DIR "/epos2.eds): no object 0x6071:00 (target torque)",
+        "joint2.rated_torque_Nm is not set"}) {
+    EXPECT_NE(bad.out.find(expected), std::string::npos) << expected << "\n" << bad.out;
+  }
+  EXPECT_EQ(run_delta_fw("--check-config --config /nonexistent/delta.conf").status, 2);
+}
+
+}  // namespace
+}  // namespace fw_linux
