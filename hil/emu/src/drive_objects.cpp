@@ -24,8 +24,6 @@ namespace {
 
 constexpr std::string_view kHardwareVersion = "vcan";
 constexpr std::string_view kEmulatorSoftwareVersion = "delta_drive_emu " DELTA_VERSION;
-// CiA 402: bit 9 of 0x6502, cyclic synchronous torque mode; the only one.
-constexpr std::uint32_t kSupportedModesCst = 1u << 9;
 
 // The objects a PDO may carry (PDOMapping=1 in docs/eds/delta_drive_emu.eds).
 constexpr std::uint16_t kMappable[] = {0x1001, 0x2019, 0x6040, 0x6041, 0x6060, 0x6061,
@@ -132,11 +130,15 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x6041, 0, 2,
        [](const DriveContext& c) { return std::uint32_t{cia::encode_statusword(c.d.state)}; },
        nullptr},
+      // The torque modes the product offers (0x6502) and the emulator has.
       {0x6060, 0, 1,
        [](const DriveContext& c) { return std::uint32_t{static_cast<std::uint8_t>(c.d.mode)}; },
        [](DriveContext& c, std::uint32_t v) {
          const auto mode = static_cast<std::int8_t>(v & 0xFF);
-         if (mode != cia::kModeCyclicSynchronousTorque) return sdo::kAbortValueRange;
+         const std::uint32_t bit = mode == cia::kModeCyclicSynchronousTorque ? kModeBitCst
+                                   : mode == cia::kModeProfileTorque             ? kModeBitProfileTorque
+                                                                            : 0;
+         if ((c.e.product_.supported_modes & bit) == 0) return sdo::kAbortValueRange;
          c.d.mode = mode;
          return ok;
        }},
@@ -194,7 +196,7 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x608F, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
       {0x608F, 1, 4, [](const DriveContext& c) { return c.d.model.counts_per_rev; }, nullptr},
       {0x608F, 2, 4, [](const DriveContext&) { return 1u; }, nullptr},
-      {0x6502, 0, 4, [](const DriveContext&) { return kSupportedModesCst; }, nullptr},
+      {0x6502, 0, 4, [](const DriveContext& c) { return c.e.product_.supported_modes; }, nullptr},
   };
   // The mapping objects of RPDO1, TPDO1 to TPDO3: sub-index 0 the count,
   // 1 to 8 the entries.
@@ -210,6 +212,91 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       for (const std::uint16_t index : kMappable)
         o.pdo_mappable = o.pdo_mappable || o.index == index;
     }
+    return all;
+  }();
+  return kObjects;
+}
+
+// A PDO's transmission type (0x1400:2, 0x1800:2 to 0x1803:2).
+template <unsigned Pdo>
+std::uint32_t Emulator::DriveObjects::transmission_get(const DriveContext& c) {
+  return c.d.pdos[Pdo].transmission;
+}
+
+template <unsigned Pdo>
+sdo::AbortCode Emulator::DriveObjects::transmission_set(DriveContext& c, std::uint32_t v) {
+  if (v > 240 && v < 252) return sdo::kAbortValueRange;  // CiA 301: reserved
+  c.d.pdos[Pdo].transmission = static_cast<std::uint8_t>(v);
+  c.d.syncs_since[Pdo] = 0;
+  return sdo::kNoAbort;
+}
+
+// What vendors' drives have beyond the built-in drive (delta_drive_emu
+// --eds only): writable transmission types, TPDO4, max torque (0x6072),
+// torque actual value (0x6077), torque slope (0x6087), the interpolation
+// time period (0x60C2, which sets the cycle like 0x1006).
+auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Scalar> {
+  constexpr sdo::AbortCode ok = sdo::kNoAbort;
+  static const DriveTable::Scalar kFixed[] = {
+      {0x1400, 2, 1, &transmission_get<0>, &transmission_set<0>},
+      {0x1800, 2, 1, &transmission_get<1>, &transmission_set<1>},
+      {0x1801, 2, 1, &transmission_get<2>, &transmission_set<2>},
+      {0x1802, 2, 1, &transmission_get<3>, &transmission_set<3>},
+      {0x1803, 1, 4, &cob_id_get<4>, &cob_id_set<4>},
+      {0x1803, 2, 1, &transmission_get<4>, &transmission_set<4>},
+      {0x6072, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.max_torque_pm}; },
+       [](DriveContext& c, std::uint32_t v) {
+         c.d.max_torque_pm = static_cast<std::uint16_t>(v);
+         return ok;
+       }},
+      // The motor's rated values where a drive lets them be set (the EPOS4's
+      // 0x6076): they scale the per-mille torques from then on.
+      {0x6075, 0, 4,
+       [](const DriveContext& c) {
+         return static_cast<std::uint32_t>(std::lround(c.d.model.rated_current_A * 1000.0));
+       },
+       [](DriveContext& c, std::uint32_t v) {
+         if (v == 0) return sdo::kAbortValueRange;
+         c.d.model.rated_current_A = v / 1000.0;
+         return ok;
+       }},
+      {0x6076, 0, 4,
+       [](const DriveContext& c) {
+         return static_cast<std::uint32_t>(std::lround(c.d.model.rated_torque_Nm * 1000.0));
+       },
+       [](DriveContext& c, std::uint32_t v) {
+         if (v == 0) return sdo::kAbortValueRange;
+         c.d.model.rated_torque_Nm = v / 1000.0;
+         return ok;
+       }},
+      {0x6077, 0, 2,
+       [](const DriveContext& c) {
+         return std::uint32_t{static_cast<std::uint16_t>(c.d.torque_measured)};
+       },
+       nullptr, true},
+      {0x6087, 0, 4, [](const DriveContext& c) { return c.d.torque_slope_pm_s; },
+       [](DriveContext& c, std::uint32_t v) {
+         c.d.torque_slope_pm_s = v;
+         return ok;
+       }},
+      {0x60C2, 1, 1, [](const DriveContext& c) { return std::uint32_t{c.d.interpolation_value}; },
+       [](DriveContext& c, std::uint32_t v) {
+         c.d.interpolation_value = static_cast<std::uint8_t>(v);
+         return c.e.set_interpolation_period(c.d);
+       }},
+      {0x60C2, 2, 1,
+       [](const DriveContext& c) {
+         return std::uint32_t{static_cast<std::uint8_t>(c.d.interpolation_index)};
+       },
+       [](DriveContext& c, std::uint32_t v) {
+         c.d.interpolation_index = static_cast<std::int8_t>(v & 0xFF);
+         return c.e.set_interpolation_period(c.d);
+       }},
+  };
+  static const std::vector<DriveTable::Scalar> kObjects = [] {
+    std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
+    const auto mapping = mapping_objects<4>(0x1A03, std::make_index_sequence<9>());
+    all.insert(all.end(), mapping.begin(), mapping.end());
     return all;
   }();
   return kObjects;
@@ -234,12 +321,15 @@ EmulatedProduct product_of(const delta::canopen::Eds& eds) {
     id.device_name = name->default_text;
   }
   // The PDOs' defaults; what the EDS leaves out keeps the built-in value.
-  const std::uint16_t communication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802};
-  const std::uint16_t mapping[kPdoCount] = {0x1600, 0x1A00, 0x1A01, 0x1A02};
+  const std::uint16_t communication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802, 0x1803};
+  const std::uint16_t mapping[kPdoCount] = {0x1600, 0x1A00, 0x1A01, 0x1A02, 0x1A03};
   for (unsigned pdo = 0; pdo < kPdoCount; ++pdo) {
     PdoMapping& m = id.pdos[pdo];
     if (const auto* cob = eds.find(communication[pdo], 1)) {
       if (const auto v = cob->default_value(1)) m.valid = (*v & od::kPdoInvalid) == 0;
+    }
+    if (const auto* type = eds.find(communication[pdo], 2)) {
+      if (const auto v = type->value(1)) m.transmission = static_cast<std::uint8_t>(*v);
     }
     if (const auto* count = eds.find(mapping[pdo], 0)) {
       if (const auto v = count->default_value(1)) m.count = static_cast<std::uint8_t>(*v);
@@ -250,6 +340,9 @@ EmulatedProduct product_of(const delta::canopen::Eds& eds) {
           m.entries[sub - 1] = static_cast<std::uint32_t>(*v);
       }
     }
+  }
+  if (const auto* modes = eds.find(0x6502, 0)) {
+    if (const auto v = modes->value(1)) id.supported_modes = static_cast<std::uint32_t>(*v);
   }
   return id;
 }

@@ -20,6 +20,7 @@ struct Emulator::DriveContext {
 class Emulator::DriveObjects {
  public:
   static std::span<const DriveTable::Scalar> scalars();
+  static std::span<const DriveTable::Scalar> vendor_scalars();
   static std::span<const DriveTable::Text> texts();
 
  private:
@@ -27,6 +28,10 @@ class Emulator::DriveObjects {
   static std::uint32_t cob_id_get(const DriveContext& c);
   template <unsigned Pdo>
   static delta::can::sdo::AbortCode cob_id_set(DriveContext& c, std::uint32_t v);
+  template <unsigned Pdo>
+  static std::uint32_t transmission_get(const DriveContext& c);
+  template <unsigned Pdo>
+  static delta::can::sdo::AbortCode transmission_set(DriveContext& c, std::uint32_t v);
   template <unsigned Pdo, std::size_t Sub>
   static std::uint32_t mapping_get(const DriveContext& c);
   template <unsigned Pdo, std::size_t Sub>

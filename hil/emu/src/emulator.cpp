@@ -10,6 +10,7 @@
 #include "delta/can/protocol.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "drive_objects.hpp"
+#include "eds_objects.hpp"
 
 namespace emu {
 
@@ -280,6 +281,10 @@ void Emulator::handle_nmt(const Frame& f) {
         d.consumer_armed = false;
         d.sync_counter_overflow = 0;
         d.pdos = product_.pdos;
+        d.last_sent = {};
+        d.syncs_since = {};
+        const auto j = static_cast<std::size_t>(&d - drives_.data());
+        if (eds_objects_[j]) eds_objects_[j]->apply_defaults();
         if (!d.silent) {
           std::array<std::uint8_t, 8> data{};
           send(p::cob_id(p::kHeartbeat, d.node), 1, data);  // boot-up
@@ -301,6 +306,9 @@ void Emulator::reset_application(Drive& d) {
   d.target_position = 0;
   d.mode = 0;
   d.max_current_pm = Drive{}.max_current_pm;
+  d.max_torque_pm = Drive{}.max_torque_pm;
+  d.torque_slope_pm_s = 0;
+  d.ramped_A = 0.0;
 }
 
 // CiA 301: in NMT stopped a node answers NMT and error control only. A
@@ -347,13 +355,14 @@ void Emulator::handle_rpdo(unsigned j, const Frame& f) {
   for (unsigned i = 0; i < m.count; ++i) {
     const std::uint32_t e = m.entries[i];
     const unsigned n = (e & 0xFF) / 8;
-    objects_[j]->write(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
-                       std::span<const std::uint8_t>(f.data).subspan(at, n), true);
+    dictionary(j).write(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
+                        std::span<const std::uint8_t>(f.data).subspan(at, n), true);
     at += n;
   }
 }
 
-// A TPDO as mapped, each entry read from its object.
+// A TPDO as mapped, each entry read from its object, when its
+// transmission type says this SYNC.
 void Emulator::send_tpdo(unsigned j, unsigned pdo) {
   Drive& d = drives_[j];
   const PdoMapping& m = d.pdos[pdo];
@@ -363,10 +372,14 @@ void Emulator::send_tpdo(unsigned j, unsigned pdo) {
   for (unsigned i = 0; i < m.count; ++i) {
     const std::uint32_t e = m.entries[i];
     const unsigned n = (e & 0xFF) / 8;
-    objects_[j]->read(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
-                      std::span<std::uint8_t>(data).subspan(at, n));
+    dictionary(j).read(static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>(e >> 8), 0,
+                       std::span<std::uint8_t>(data).subspan(at, n));
     at += n;
   }
+  std::array<std::uint8_t, 9> payload{};
+  std::copy(data.begin(), data.end(), payload.begin());
+  payload[8] = static_cast<std::uint8_t>(at);
+  if (!tpdo_due(d, pdo, payload)) return;
   auto dlc = static_cast<std::uint8_t>(at);
   if (pdo == 1 && d.corrupt_next) {
     dlc = 5;
@@ -375,10 +388,75 @@ void Emulator::send_tpdo(unsigned j, unsigned pdo) {
   send(pdo_cob_id(d, pdo), dlc, data, d.delay_us);
 }
 
+// CiA 301's transmission types: 1 to 240 every that many SYNCs; 0 at the
+// SYNC when the data changed; 254 and 255 event-driven, when the data
+// changed (the emulated data change only at SYNCs); 252 and 253 on a
+// remote request, which this bus does not use.
+bool Emulator::tpdo_due(Drive& d, unsigned pdo, const std::array<std::uint8_t, 9>& payload) {
+  const std::uint8_t type = d.pdos[pdo].transmission;
+  bool due = false;
+  if (type >= 1 && type <= 240) {
+    due = ++d.syncs_since[pdo] >= type;
+    if (due) d.syncs_since[pdo] = 0;
+  } else if (type == 0 || type >= 254) {
+    due = payload != d.last_sent[pdo];
+  }
+  if (due) d.last_sent[pdo] = payload;
+  return due;
+}
+
 std::uint32_t Emulator::pdo_cob_id(const Drive& d, unsigned pdo) const {
-  static constexpr const p::Message* kMessageOf[kPdoCount] = {&p::kRpdo1, &p::kTpdo1, &p::kTpdo2,
-                                                              &p::kTpdo3};
+  if (pdo == 4) return 0x480u + d.node;  // TPDO4, CiA 301's predefined connection set
+  static constexpr const p::Message* kMessageOf[kPdoCount - 1] = {&p::kRpdo1, &p::kTpdo1,
+                                                                  &p::kTpdo2, &p::kTpdo3};
   return p::cob_id(*kMessageOf[pdo], d.node);
+}
+
+delta::can::sdo::ObjectDictionary& Emulator::dictionary(unsigned j) {
+  if (eds_objects_[j]) return *eds_objects_[j];
+  return *objects_[j];
+}
+
+bool Emulator::mappable(unsigned j, std::uint16_t index, std::uint8_t subindex) const {
+  return eds_objects_[j] ? eds_objects_[j]->mappable(index, subindex)
+                         : objects_[j]->mappable(index, subindex);
+}
+
+sdo::AbortCode Emulator::set_interpolation_period(Drive& d) {
+  if (d.interpolation_index < -6 || d.interpolation_index > 0) return sdo::kAbortValueRange;
+  std::uint64_t us = d.interpolation_value;
+  for (int k = -6; k < d.interpolation_index; ++k) us *= 10;
+  if (us != 0 && (us < 100 || us > 1000000)) return sdo::kAbortValueRange;
+  d.cycle_us = static_cast<std::uint32_t>(us);
+  return sdo::kNoAbort;
+}
+
+std::size_t Emulator::use_eds(const delta::canopen::Eds& eds) {
+  eds_ = std::make_unique<delta::canopen::Eds>(eds);
+  set_product(product_of(*eds_));
+  for (unsigned j = 0; j < 3; ++j) {
+    Drive& d = drives_[j];
+    // The rated values and encoder resolution it gives (non-zero).
+    const auto given = [&](std::uint16_t index, std::uint8_t sub) -> double {
+      const delta::canopen::EdsVariable* v = eds_->find(index, sub);
+      const auto value = v != nullptr && !v->opaque ? v->value(d.node) : std::nullopt;
+      return value && *value != 0 ? static_cast<double>(*value) : 0.0;
+    };
+    if (const double mA = given(0x6075, 0); mA != 0) d.model.rated_current_A = mA / 1000.0;
+    if (const double mNm = given(0x6076, 0); mNm != 0) d.model.rated_torque_Nm = mNm / 1000.0;
+    if (const double counts = given(0x608F, 1); counts != 0) {
+      d.model.counts_per_rev = static_cast<std::uint32_t>(counts);
+    }
+    vendor_objects_[j] =
+        std::make_unique<DriveTable>(DriveContext{*this, d}, DriveObjects::vendor_scalars(),
+                                     std::span<const DriveTable::Text>());
+    eds_objects_[j] = std::make_unique<EdsObjects>(
+        *eds_, d.node,
+        std::vector<sdo::ObjectDictionary*>{vendor_objects_[j].get(), objects_[j].get()});
+    eds_objects_[j]->apply_defaults();
+    sdo_servers_[j] = std::make_unique<sdo::Server>(*eds_objects_[j]);
+  }
+  return eds_objects_[0]->behaviour_count();
 }
 
 // The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
@@ -416,15 +494,14 @@ sdo::AbortCode Emulator::set_mapping(Drive& d, unsigned pdo, unsigned sub, std::
   return sdo::kNoAbort;
 }
 
-sdo::AbortCode Emulator::check_mapping_entry(const Drive& d, unsigned pdo,
-                                             std::uint32_t entry) const {
+sdo::AbortCode Emulator::check_mapping_entry(const Drive& d, unsigned pdo, std::uint32_t entry) {
   const auto index = static_cast<std::uint16_t>(entry >> 16);
   const auto sub = static_cast<std::uint8_t>(entry >> 8);
   const unsigned j = d.node - p::kFirstDriveNode;
   sdo::ObjectInfo info;
-  if (const sdo::AbortCode c = objects_[j]->find(index, sub, info); c != sdo::kNoAbort) return c;
+  if (const sdo::AbortCode c = dictionary(j).find(index, sub, info); c != sdo::kNoAbort) return c;
   const bool usable = pdo == 0 ? info.writable : info.readable;
-  if (!objects_[j]->mappable(index, sub) || !usable) return sdo::kAbortNotMappable;
+  if (!mappable(j, index, sub) || !usable) return sdo::kAbortNotMappable;
   if ((entry & 0xFF) != info.size * 8) return sdo::kAbortParameterIncompatible;
   return sdo::kNoAbort;
 }
@@ -508,13 +585,7 @@ void Emulator::advance(double dt_s) {
     for (unsigned j = 0; j < 3; ++j) {
       Drive& d = drives_[j];
       const bool on = d.state == cia::State::kOperationEnabled;
-      // The current loop limits its set-point to the maximum current (0x6073).
-      const double limit_A = d.max_current_pm / 1000.0 * d.model.rated_current_A;
-      const double target_A =
-          on ? std::clamp(d.target_torque_pm / 1000.0 * d.model.rated_torque_Nm /
-                              d.model.torque_constant_Nm_per_A(),
-                          -limit_A, limit_A)
-             : 0.0;
+      const double target_A = on ? target_current_A(d, h) : 0.0;
       // Exact first-order response over the sub-step; the plant gets its
       // mean torque over it.
       const double mean_A = target_A + (d.current_A - target_A) * mean_share;
@@ -580,14 +651,65 @@ void Emulator::handle_sync(const Frame& f) {
       send_heartbeat(d);
     }
     if (d.nmt != p::kNmtStateOperational || d.silent) continue;
-    // The current is measured, with its noise, once per SYNC (0x6078).
-    const double measured_A = d.current_A + config_.current_noise_A * noise();
-    const long pm = std::lround(measured_A / d.model.rated_current_A * 1000.0);
-    d.current_measured_pm = static_cast<std::int16_t>(std::max(-32768L, std::min(32767L, pm)));
+    measure(d);
     send_tpdo(j, 1);
     send_tpdo(j, 2);
+    send_tpdo(j, 4);
     send_tpdo(j, 3);  // last: it tells which SYNC the others answer
   }
+}
+
+// The current, with its noise, once per SYNC: 0x6078 per mille of the
+// rated current, 0x6077 in the torque unit.
+void Emulator::measure(Drive& d) {
+  const double measured_A = d.current_A + config_.current_noise_A * noise();
+  const auto i16 = [](double v) {
+    const long r = std::lround(v);
+    return static_cast<std::int16_t>(std::max(-32768L, std::min(32767L, r)));
+  };
+  d.current_measured_pm = i16(measured_A / d.model.rated_current_A * 1000.0);
+  const double torque_Nm = measured_A * d.model.torque_constant_Nm_per_A();
+  switch (config_.torque_unit) {
+    case TorqueUnit::kPerMille:
+      d.torque_measured = i16(torque_Nm / d.model.rated_torque_Nm * 1000.0);
+      break;
+    case TorqueUnit::kMilliamp:
+      d.torque_measured = i16(measured_A * 1000.0);
+      break;
+    case TorqueUnit::kMilliNewtonMetre:
+      d.torque_measured = i16(torque_Nm * 1000.0);
+      break;
+  }
+}
+
+// The current set-point of the target torque (0x6071 in the torque unit),
+// within the maximum current (0x6073) and torque (0x6072); in profile
+// torque the set-point follows at the torque slope (0x6087, 0: at once).
+double Emulator::target_current_A(Drive& d, double dt_s) {
+  const double kt = d.model.torque_constant_Nm_per_A();
+  double target_A = 0.0;
+  switch (config_.torque_unit) {
+    case TorqueUnit::kPerMille:
+      target_A = d.target_torque_pm / 1000.0 * d.model.rated_torque_Nm / kt;
+      break;
+    case TorqueUnit::kMilliamp:
+      target_A = d.target_torque_pm / 1000.0;
+      break;
+    case TorqueUnit::kMilliNewtonMetre:
+      target_A = d.target_torque_pm / 1000.0 / kt;
+      break;
+  }
+  double limit_A = d.max_current_pm / 1000.0 * d.model.rated_current_A;
+  if (d.max_torque_pm != 0xFFFF) {
+    limit_A = std::min(limit_A, d.max_torque_pm / 1000.0 * d.model.rated_torque_Nm / kt);
+  }
+  target_A = std::clamp(target_A, -limit_A, limit_A);
+  if (d.mode == cia::kModeProfileTorque && d.torque_slope_pm_s != 0) {
+    const double step_A = d.torque_slope_pm_s / 1000.0 * d.model.rated_torque_Nm / kt * dt_s;
+    target_A = std::clamp(target_A, d.ramped_A - step_A, d.ramped_A + step_A);
+  }
+  d.ramped_A = target_A;
+  return target_A;
 }
 
 std::string Emulator::describe() const {

@@ -120,15 +120,25 @@ std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
   app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
   std::string eds_path;
   app.add_option("--eds", eds_path,
-                 "the drives' EDS (CiA 306), for their identity (0x1018) and name (0x1008); it "
-                 "must list exactly the emulated drive's objects (default: the identity of "
-                 "docs/eds/delta_drive_emu.eds)");
+                 "the drives' EDS or DCF (CiA 306): the drives then behave as it describes, "
+                 "with exactly its objects, access types, sizes, defaults (transmission types "
+                 "and mappings included) and supported modes (0x6502); without it, the drive of "
+                 "docs/eds/delta_drive_emu.eds (docs/drives.md)");
+  std::string torque_unit = "per_mille";
+  app.add_option("--torque-unit", torque_unit,
+                 "the unit of target torque (0x6071) and torque actual value (0x6077), as the "
+                 "drive of --eds has it")
+      ->check(CLI::IsMember({"per_mille", "mA", "mNm"}))
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
     if (!eds_path.empty()) {
       eds = delta::canopen::read_eds(eds_path);
     }
     if (initial->count()) config.initial_q_rad = {initial_q, initial_q, initial_q};
+    config.torque_unit = torque_unit == "mA"    ? emu::TorqueUnit::kMilliamp
+                         : torque_unit == "mNm" ? emu::TorqueUnit::kMilliNewtonMetre
+                                                : emu::TorqueUnit::kPerMille;
     configure_plant(plant, robot_path, truth->count() ? truth_path : std::string(), config);
     for (const std::string& f : faults) config.faults.push_back(emu::parse_fault(f));
   } catch (const CLI::ParseError& e) {
@@ -212,11 +222,11 @@ int main(int argc, char** argv) {
       }
     });
     if (eds) {
-      emulator.set_product(emu::product_of(*eds));
-      if (const std::string m = emulator.eds_mismatch(*eds); !m.empty()) {
-        std::cerr << "delta_drive_emu: " << m << ": the EDS does not describe the emulated drive\n";
-        return 2;
-      }
+      const std::size_t emulated = emulator.use_eds(*eds);
+      std::cout << "delta_drive_emu: the drives of " << eds->path << ": " << eds->variables.size()
+                << " objects, " << emulated
+                << " with an emulated behaviour, the others keep their values" << std::endl;
+      for (const std::string& note : eds->notes) std::cerr << "delta_drive_emu: " << note << "\n";
     }
     emulator.on_wall_time(monotonic_us());
     emulator.boot();

@@ -458,3 +458,73 @@ TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
 
 }  // namespace
 }  // namespace emu
+
+// delta_drive_emu --eds: the drive is exactly the EDS's objects, with
+// their access, sizes, defaults and modes; anything else is refused with
+// its CiA 301 abort code (tests/data/drives/epos4.eds: no 0x6078, no
+// 0x608F; 0x6076 a writable setting; TPDOs at 255; 0x6502 without profile
+// torque).
+namespace emu {
+namespace {
+
+TEST(EmulatedVendorDriveTest, AnswersForExactlyTheObjectsOfItsEds) {
+  Bus bus;
+  bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/epos4.eds"));
+  EXPECT_EQ(bus.abort_code(sdo::upload_request(0x6078, 0)), sdo::kAbortObjectDoesNotExist);
+  EXPECT_EQ(bus.abort_code(sdo::upload_request(0x608F, 1)), sdo::kAbortObjectDoesNotExist);
+  EXPECT_EQ(bus.abort_code(sdo::upload_request(0x1018, 5)), sdo::kAbortSubindexDoesNotExist);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6041, 0, 1, 2)), sdo::kAbortReadOnly);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1006, 0, 2000, 2)), sdo::kAbortLengthTooLow);
+  EXPECT_EQ(bus.read(0x6502, 0), 0x000003A5u);
+  EXPECT_EQ(bus.read(0x1800, 2), 255u);  // the vendor's transmission type
+  EXPECT_EQ(bus.read(0x1018, 1), 0x000000FBu);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6060, 0, 4, 1)), sdo::kAbortValueRange);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6060, 0, 10, 1)), 0u);
+  EXPECT_EQ(bus.read(0x6061, 0), 10u);
+  // 0x6076, a setting (default 0 in the EDS): the emulated motor's until
+  // written; 0 is refused. A manufacturer object of a DEFTYPE, which the
+  // emulation keeps as a value: its default, then what is written.
+  EXPECT_EQ(bus.read(0x6076, 0), 200u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6076, 0, 0, 4)), sdo::kAbortValueRange);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6076, 0, 300, 4)), 0u);
+  EXPECT_EQ(bus.read(0x6076, 0), 300u);
+  EXPECT_EQ(bus.read(0x3000, 0), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x3000, 0, 7, 4)), 0u);
+  EXPECT_EQ(bus.read(0x3000, 0), 7u);
+  // 0x60C2 sets the cycle period like 0x1006.
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x60C2, 1, 4, 1)), 0u);
+  EXPECT_EQ(bus.read(0x1006, 0), 4000u);
+}
+
+// Transmission type 255 (event-driven): a TPDO goes when its data change,
+// not on every SYNC; type 1 on every SYNC.
+TEST(EmulatedVendorDriveTest, TransmissionTypesDecideWhenATpdoGoes) {
+  Bus bus;
+  bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/epos4.eds"));
+  bus.nmt(p::kNmtStart, 0);
+  const auto tpdo1_count = [&bus](int syncs) {
+    int n = 0;
+    for (int i = 0; i < syncs; ++i) {
+      bus.out.clear();
+      bus.send(p::cob_id(p::kSync, 0), 0, {});
+      for (const Frame& f : bus.out) n += f.id == 0x181;
+    }
+    return n;
+  };
+  EXPECT_EQ(tpdo1_count(10), 1) << "TPDO1 maps the statusword only, which does not change";
+  bus.nmt(p::kNmtEnterPreOperational, 0);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1800, 2, 1, 1)), 0u);
+  bus.nmt(p::kNmtStart, 0);
+  EXPECT_EQ(tpdo1_count(10), 10);
+}
+
+// A DCF's ParameterValue is the value the drive has.
+TEST(EmulatedVendorDriveTest, ADcfsParameterValuesAreTheDrivesValues) {
+  Bus bus;
+  bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/nanotec_pd4c.dcf"));
+  EXPECT_EQ(bus.read(0x6075, 0), 2000u);
+  EXPECT_EQ(bus.read(0x1800, 2), 0u);
+}
+
+}  // namespace
+}  // namespace emu

@@ -95,6 +95,7 @@ CanopenMaster::Drive* CanopenMaster::drive_for(std::uint8_t node) {
 }
 
 void CanopenMaster::fail(const std::string& why) {
+  if (phase_ == Phase::kFailed) return;  // the first problem is the one to tell
   phase_ = Phase::kFailed;
   bring_up_problem_ = why;
   cyclic_problem_.kind = CyclicProblem::Kind::kNone;

@@ -62,6 +62,7 @@ Q12_19 DriveUnits::current_from_torque(std::int16_t torque) const {
   if (torque_unit_ == TorqueUnit::kMilliamp) {
     return Q12_19::from_raw(saturate32(mul_div_round(torque, 1 << 19, 1000)));
   }
+  if (torque_constant_uNm_per_A_ == 0) return Q12_19{};  // not brought up yet
   // motor torque [uN m]: per mille of the rated torque [mN m], or mN m.
   const std::int64_t torque_uNm = torque_unit_ == TorqueUnit::kPerMille
                                       ? std::int64_t{torque} * rated_torque_mNm_

@@ -56,7 +56,6 @@ constexpr od::Object kTorqueSlope{0x6087, 0};
 constexpr od::Object kSupportedModes{0x6502, 0};
 constexpr od::Object kInterpolationPeriodValue{0x60C2, 1};
 constexpr od::Object kInterpolationPeriodIndex{0x60C2, 2};
-constexpr std::int8_t kModeProfileTorque = 4;
 // 0x6502's bits (CiA 402): profile torque, cyclic synchronous torque.
 constexpr std::uint32_t kSupportsProfileTorque = 1u << 3;
 constexpr std::uint32_t kSupportsCst = 1u << 9;
@@ -346,7 +345,7 @@ void Planner::mode() {
   } else if (*modes & kSupportsCst) {
     plan_.mode_reason = "0x6502 = " + hex(static_cast<std::uint32_t>(*modes), 8) + " offers it";
   } else if (*modes & kSupportsProfileTorque) {
-    plan_.mode = kModeProfileTorque;
+    plan_.mode = delta::can::cia402::kModeProfileTorque;
     plan_.mode_reason = "0x6502 = " + hex(static_cast<std::uint32_t>(*modes), 8) +
                         " offers profile torque, not cyclic synchronous torque";
     plan_.warnings.push_back(

@@ -73,28 +73,44 @@ struct PdoMapping {
   bool valid{false};  // bit 31 of the COB-ID clear
   std::uint8_t count{0};
   std::array<std::uint32_t, 8> entries{};
+  // CiA 301: 0 synchronous when changed, 1 to 240 every that many SYNCs,
+  // 254 and 255 when changed (event-driven), 252 and 253 on request only.
+  std::uint8_t transmission{1};
 };
 
-// RPDO1, TPDO1, TPDO2, TPDO3 as docs/protocol.md's table lays them out.
-inline constexpr unsigned kPdoCount = 4;
+// RPDO1, TPDO1 to TPDO4: TPDO1 to TPDO3 as docs/protocol.md's table lays
+// them out; TPDO4 only where a drive's EDS has it (--eds).
+inline constexpr unsigned kPdoCount = 5;
 inline constexpr std::array<PdoMapping, kPdoCount> kDefaultPdos{
     PdoMapping{true, 3, {0x60400010, 0x60710010, 0x607A0020}},
     PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}}, PdoMapping{false, 1, {0x606C0020}},
-    PdoMapping{false, 1, {0x20190008}}};
+    PdoMapping{false, 1, {0x20190008}}, PdoMapping{false, 0, {}}};
+
+// The CiA 402 modes a drive takes in 0x6060 (bits of 0x6502): cyclic
+// synchronous torque (bit 9) and profile torque (bit 3) are emulated.
+inline constexpr std::uint32_t kModeBitCst = 1u << 9;
+inline constexpr std::uint32_t kModeBitProfileTorque = 1u << 3;
+
+// The unit of 0x6071 and 0x6077 (CiA 402: per mille of 0x6076).
+enum class TorqueUnit : std::uint8_t { kPerMille, kMilliamp, kMilliNewtonMetre };
 
 struct EmulatedProduct {
   std::uint32_t vendor_id{kEmulatorVendorId};
   std::uint32_t product_code{kEmulatorProductCode};
   std::uint32_t revision{kEmulatorRevision};
   std::string device_name{"Delta emulated CiA 402 drive"};
-  std::array<PdoMapping, kPdoCount> pdos{kDefaultPdos};  // RPDO1, TPDO1, TPDO2, TPDO3
+  std::array<PdoMapping, kPdoCount> pdos{kDefaultPdos};  // RPDO1, TPDO1 to TPDO4
+  std::uint32_t supported_modes{kModeBitCst};            // 0x6502
   // The serial number is 0x00010000 + the node ID.
 };
 
 // The product an EDS describes: [DeviceInfo], 0x1008's DefaultValue, the
-// default PDO validity (0x1400:1, 0x1800:1 to 0x1802:1) and mapping
-// (0x1600, 0x1A00 to 0x1A02).
+// default PDO validity (0x1400:1, 0x1800:1 to 0x1803:1), transmission
+// types and mappings (0x1600, 0x1A00 to 0x1A03), the supported modes
+// (0x6502).
 EmulatedProduct product_of(const delta::canopen::Eds& eds);
+
+class EdsObjects;
 
 struct EmulatorConfig {
   PlantKind plant{PlantKind::kLumped};
@@ -112,6 +128,7 @@ struct EmulatorConfig {
   int substeps{0};
   std::uint64_t seed{1};
   std::vector<FaultInjection> faults;
+  TorqueUnit torque_unit{TorqueUnit::kPerMille};
 };
 
 // Frames leave with a delay (wall clock, microseconds; 0 = now).
@@ -143,6 +160,12 @@ class Emulator {
   delta::Joint3 qd_rad_s() const { return plant_->state().qd_rad_s; }
   delta::can::cia402::State drive_state(unsigned j) const { return drives_[j].state; }
   std::uint8_t nmt_state(unsigned j) const { return drives_[j].nmt; }
+  // A drive's motor current [A] (the current loop's state).
+  double current_A(unsigned j) const { return drives_[j].current_A; }
+  // A PDO's transmission type (0 RPDO1, 1 to 4 TPDO1 to TPDO4).
+  std::uint8_t tpdo_transmission(unsigned j, unsigned pdo) const {
+    return drives_[j].pdos[pdo].transmission;
+  }
   // The drives' identity and name (default: EmulatedProduct{}).
   void set_product(const EmulatedProduct& product) {
     product_ = product;
@@ -151,6 +174,12 @@ class Emulator {
   // Where an EDS and the emulated drive's objects disagree (an object one
   // has and the other not, a size, an access), in words; "" if they agree.
   std::string eds_mismatch(const delta::canopen::Eds& eds);
+  // The drives become the drive `eds` describes (delta_drive_emu --eds):
+  // exactly its objects with their access, sizes and defaults, its
+  // product (product_of), its rated values (0x6075, 0x6076, 0x608F:1
+  // where it gives them). Objects without an emulated behaviour keep their
+  // values. Returns how many of the EDS's objects have one.
+  std::size_t use_eds(const delta::canopen::Eds& eds);
   // A line per drive: node, NMT state, CiA 402 state; then a line per EMCY
   // the drives sent (the first kEmergenciesKept).
   std::string describe() const;
@@ -169,7 +198,17 @@ class Emulator {
     std::int8_t mode{0};
     std::uint32_t cycle_us{0};
     std::uint16_t heartbeat_ms{0};
-    std::array<PdoMapping, kPdoCount> pdos{};  // RPDO1, TPDO1, TPDO2, TPDO3
+    std::array<PdoMapping, kPdoCount> pdos{};  // RPDO1, TPDO1 to TPDO4
+    // What each TPDO sent last (event-driven and type 0 send on change),
+    // and the SYNCs since (types 2 to 240).
+    std::array<std::array<std::uint8_t, 9>, kPdoCount> last_sent{};
+    std::array<std::uint8_t, kPdoCount> syncs_since{};
+    std::uint16_t max_torque_pm{0xFFFF};  // 0x6072 (0xFFFF: no limit of its own)
+    std::uint32_t torque_slope_pm_s{0};   // 0x6087, profile torque (0: none)
+    std::int16_t torque_measured{0};      // 0x6077 in the torque unit, per SYNC
+    double ramped_A{0.0};                 // profile torque: the set-point after the slope
+    std::uint8_t interpolation_value{0};  // 0x60C2:1
+    std::int8_t interpolation_index{-3};  // 0x60C2:2: 10^index s
     // The SYNC consumer (CiA 301): 0x1019, the counter of the last SYNC
     // (0x2019, TPDO3 carries it), and whether a SYNC of the wrong length
     // was reported (EMCY 0x8240, once until a SYNC of the right one).
@@ -198,6 +237,14 @@ class Emulator {
   struct DriveContext;  // a drive's object dictionary (drive_objects.hpp)
   class DriveObjects;
   using DriveTable = delta::canopen::ObjectTable<DriveContext>;
+  // The drive's dictionary: the EDS's (use_eds) or the built-in table.
+  delta::can::sdo::ObjectDictionary& dictionary(unsigned j);
+  bool mappable(unsigned j, std::uint16_t index, std::uint8_t subindex) const;
+  bool tpdo_due(Drive& d, unsigned pdo, const std::array<std::uint8_t, 9>& payload);
+  // 0x60C2 into the cycle period (as 0x1006 sets it).
+  delta::can::sdo::AbortCode set_interpolation_period(Drive& d);
+  double target_current_A(Drive& d, double dt_s);
+  void measure(Drive& d);
 
   void handle_nmt(const delta::can::Frame& f);
   void handle_sdo(unsigned j, const delta::can::Frame& f);
@@ -209,8 +256,7 @@ class Emulator {
   std::uint32_t pdo_cob_id(const Drive& d, unsigned pdo) const;
   delta::can::sdo::AbortCode set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v);
   delta::can::sdo::AbortCode set_mapping(Drive& d, unsigned pdo, unsigned sub, std::uint32_t v);
-  delta::can::sdo::AbortCode check_mapping_entry(const Drive& d, unsigned pdo,
-                                                 std::uint32_t entry) const;
+  delta::can::sdo::AbortCode check_mapping_entry(const Drive& d, unsigned pdo, std::uint32_t entry);
   void handle_sync(const delta::can::Frame& f);
   void check_sync_length(Drive& d, const delta::can::Frame& f);
   void handle_consumed_heartbeat(std::uint8_t node);
@@ -233,7 +279,11 @@ class Emulator {
   Outbox out_;
   std::array<Drive, 3> drives_{};
   std::array<std::unique_ptr<DriveTable>, 3> objects_;
+  // Objects vendors' drives have beyond the built-in ones (--eds only).
+  std::array<std::unique_ptr<DriveTable>, 3> vendor_objects_;
+  std::array<std::unique_ptr<EdsObjects>, 3> eds_objects_;
   std::array<std::unique_ptr<delta::can::sdo::Server>, 3> sdo_servers_;
+  std::unique_ptr<delta::canopen::Eds> eds_;  // use_eds()
   std::unique_ptr<delta::Plant> plant_;
   std::uint64_t sim_us_{0};
   std::uint64_t syncs_{0};

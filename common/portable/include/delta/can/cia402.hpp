@@ -132,6 +132,7 @@ constexpr std::uint16_t controlword_towards(State s, bool enable,
 }
 
 // Modes of operation (object 0x6060).
+inline constexpr std::int8_t kModeProfileTorque = 4;
 inline constexpr std::int8_t kModeCyclicSynchronousPosition = 8;
 inline constexpr std::int8_t kModeCyclicSynchronousTorque = 10;
 
