@@ -460,9 +460,9 @@ std::size_t Emulator::use_eds(const delta::canopen::Eds& eds) {
 }
 
 // The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
-// PDO off and on.
+// PDO off and on; bit 30 (no remote request) is taken either way.
 sdo::AbortCode Emulator::set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v) {
-  if ((v & 0x7FFFFFFF) != pdo_cob_id(d, pdo)) return sdo::kAbortValueRange;
+  if ((v & 0x3FFFFFFF) != pdo_cob_id(d, pdo)) return sdo::kAbortValueRange;
   d.pdos[pdo].valid = (v & od::kPdoInvalid) == 0;
   return sdo::kNoAbort;
 }

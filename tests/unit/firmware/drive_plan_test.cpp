@@ -83,7 +83,10 @@ TEST(DrivePlanTest, AnEpos4LikeDriveServesWithTheValuesItsEdsCannotGive) {
   EXPECT_TRUE(writes(plan, 0x1800, 2, 1));     // TPDO1 on every SYNC (default 255)
   EXPECT_TRUE(writes(plan, 0x1006, 0, 2000));  // the cycle period
   EXPECT_TRUE(writes(plan, 0x6072, 0, 6945));  // 8 N m at the joint: 0.889 N m at the motor
-  EXPECT_TRUE(writes(plan, 0x1803, 1, 0x80000181 + 0x300));  // TPDO4 off
+  // TPDO COB-IDs keep the EDS's bit 30 (no remote request): off, then on.
+  EXPECT_TRUE(writes(plan, 0x1800, 1, 0xC0000181));
+  EXPECT_TRUE(writes(plan, 0x1800, 1, 0x40000181));
+  EXPECT_TRUE(writes(plan, 0x1803, 1, 0xC0000481));  // TPDO4 off
   EXPECT_TRUE(writes(plan, 0x6060, 0, 10));
   EXPECT_FALSE(touches(plan, 0x3000));  // the manufacturer DEFTYPE object
   EXPECT_FALSE(touches(plan, 0x608F));
@@ -102,7 +105,7 @@ TEST(DrivePlanTest, ADriveWithoutATorqueModeIsRefusedNamingWhatItLacks) {
                       "command"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find(":1181): 0x6502:00 (supported drive modes) is 0x00000065: neither cyclic "
+  EXPECT_NE(text.find(":1190): 0x6502:00 (supported drive modes) is 0x00000065: neither cyclic "
                       "synchronous torque (bit 9) nor profile torque (bit 3)"),
             std::string::npos)
       << text;

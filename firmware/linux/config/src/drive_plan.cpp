@@ -59,6 +59,8 @@ constexpr od::Object kInterpolationPeriodIndex{0x60C2, 2};
 // 0x6502's bits (CiA 402): profile torque, cyclic synchronous torque.
 constexpr std::uint32_t kSupportsProfileTorque = 1u << 3;
 constexpr std::uint32_t kSupportsCst = 1u << 9;
+// A PDO COB-ID's bit 30: no remote transmission request (CiA 301).
+constexpr std::uint32_t kNoRtr = 1u << 30;
 
 // One PDO's objects: its communication (0x1400/0x1800 + n - 1) and
 // mapping (0x1600/0x1A00 + n - 1) indices.
@@ -562,7 +564,7 @@ void Planner::cob_id(PlannedPdo& planned, PdoObjects which) {
   if (writable(cob)) return;
   const auto v = value(cob);
   if (has(cob) && v && (*v & od::kPdoInvalid) == 0) {
-    planned.cob_id = static_cast<std::uint32_t>(*v & 0x7FF);
+    planned.cob_id = static_cast<std::uint32_t>(*v & 0x7FF);  // 11-bit IDs
     return;
   }
   problem(cob, which.name() + " COB-ID", "the controller cannot turn " + which.name() + " on",
@@ -599,7 +601,12 @@ void Planner::fixed_layout(PlannedPdo& planned, PdoObjects which,
 void Planner::pdo_writes(const PlannedPdo& planned, PdoObjects which, bool cob_writable) {
   const od::Object cob{which.communication(), 1};
   const std::string name = which.name();
-  if (cob_writable) write(cob, 4, planned.cob_id | od::kPdoInvalid, name + " COB-ID", "off");
+  // Bit 30 (no remote request) as the drive has it by default: drives
+  // without RTR refuse a COB-ID that clears it.
+  const std::uint32_t rtr = static_cast<std::uint32_t>(value(cob).value_or(0)) & kNoRtr;
+  if (cob_writable) {
+    write(cob, 4, planned.cob_id | rtr | od::kPdoInvalid, name + " COB-ID", "off");
+  }
   const od::Object type{which.communication(), 2};
   if (!which.receive && eds_ != nullptr && writable(type)) {
     write(type, 1, planned.transmission_type, name + " transmission type", "1 (every SYNC)");
@@ -614,15 +621,17 @@ void Planner::pdo_writes(const PlannedPdo& planned, PdoObjects which, bool cob_w
     write({map, 0}, 1, planned.layout.count, name + " mapping count",
           std::to_string(planned.layout.count));
   }
-  if (cob_writable)
-    write(cob, 4, planned.cob_id, name + " COB-ID", hex(planned.cob_id, 3) + ", on");
+  if (cob_writable) {
+    write(cob, 4, planned.cob_id | rtr, name + " COB-ID", hex(planned.cob_id, 3) + ", on");
+  }
 }
 
 // A TPDO the controller does not use: off, where the drive lets it.
 void Planner::turn_off(PdoObjects which) {
   const od::Object cob{which.communication(), 1};
   if (!writable(cob)) return;
-  write(cob, 4, which.cob_id(jd_.node) | od::kPdoInvalid, which.name() + " COB-ID",
+  const std::uint32_t rtr = static_cast<std::uint32_t>(value(cob).value_or(0)) & kNoRtr;
+  write(cob, 4, which.cob_id(jd_.node) | rtr | od::kPdoInvalid, which.name() + " COB-ID",
         "off (not used)");
 }
 
