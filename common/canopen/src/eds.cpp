@@ -302,8 +302,8 @@ class Reader {
                         ": not VAR (0x7), ARRAY (0x8), RECORD (0x9) or DOMAIN (0x2); "
                         "DEFTYPE (0x5) and DEFSTRUCT (0x6) define types below 0x1000");
     }
-    if (s->keys.count("compactsubobj") != 0) {
-      fail(s->keys.at("compactsubobj").line, "[" + name + "] CompactSubObj is not supported");
+    if (const auto it = s->keys.find("compactsubobj"); it != s->keys.end()) {
+      return compact_array(eds, *s, name, index, it->second);
     }
     const Value& count_value = required(*s, name, "SubNumber");
     const std::int64_t count = number(name, "SubNumber", count_value);
@@ -320,6 +320,41 @@ class Reader {
     if (found != count) {
       fail(count_value.line, "[" + name + "] SubNumber=" + std::to_string(count) + " but " +
                                  std::to_string(found) + " [" + name + "subN] sections");
+    }
+  }
+
+  // CiA 306's compact storage of an ARRAY: CompactSubObj=n sub-indices of
+  // the section's DataType, AccessType and PDOMapping, their names in
+  // [XXXXName] and values in [XXXXValue] (else the section's ParameterName
+  // with the sub-index, and its DefaultValue); sub-index 0, UNSIGNED8
+  // read-only, holds n.
+  void compact_array(Eds& eds, const Section& s, const std::string& name, std::uint16_t index,
+                     const Value& count_value) const {
+    const std::int64_t n = number(name, "CompactSubObj", count_value);
+    if (n < 1 || n > 0xFE) fail(count_value.line, "[" + name + "] CompactSubObj must be 1 to 254");
+    EdsVariable count;
+    count.index = index;
+    count.line = s.line;
+    count.name = "Number of entries";
+    count.data_type = count.declared_type = data_type::kUnsigned8;
+    count.access = Access::kReadOnly;
+    count.default_text = std::to_string(n);
+    eds.variables[{index, 0}] = count;
+    const Section* names = section(name + "name");
+    const Section* values = section(name + "value");
+    for (int sub = 1; sub <= n; ++sub) {
+      EdsVariable v = variable(s, name, index, static_cast<std::uint8_t>(sub));
+      const std::string key = std::to_string(sub);
+      if (names != nullptr && names->keys.count(key) != 0) {
+        v.name = names->keys.at(key).text;
+      } else {
+        v.name += " " + key;
+      }
+      if (values != nullptr && values->keys.count(key) != 0) {
+        v.default_text = values->keys.at(key).text;
+        check_default(v, name + "Value", values->keys.at(key));
+      }
+      eds.variables[{index, static_cast<std::uint8_t>(sub)}] = v;
     }
   }
 

@@ -303,6 +303,49 @@ ParameterValue=100
   EXPECT_EQ(error_of(bad), "drive.eds:45: [DeviceComissioning] NodeID must be 1 to 127");
 }
 
+// CiA 306's compact storage: an ARRAY's sub-indices from one section,
+// their names and values from [XXXXName] and [XXXXValue].
+TEST(EdsTest, ACompactArrayHasItsSubIndices) {
+  const Eds eds = parse_eds(kHeader + R"(
+[OptionalObjects]
+SupportedObjects=1
+1=0x1016
+
+[1016]
+ParameterName=Consumer heartbeat time
+ObjectType=0x8
+DataType=0x0007
+AccessType=rw
+DefaultValue=0
+PDOMapping=0
+CompactSubObj=3
+
+[1016Name]
+NrOfEntries=1
+2=Second consumer
+
+[1016Value]
+NrOfEntries=1
+3=0x00100096
+)",
+                            "drive.eds");
+  ASSERT_NE(eds.find(0x1016, 0), nullptr);
+  EXPECT_EQ(eds.find(0x1016, 0)->value(1), 3u);
+  EXPECT_FALSE(writable(eds.find(0x1016, 0)->access));
+  ASSERT_NE(eds.find(0x1016, 3), nullptr);
+  EXPECT_EQ(eds.find(0x1016, 4), nullptr);
+  EXPECT_TRUE(writable(eds.find(0x1016, 1)->access));
+  EXPECT_EQ(eds.find(0x1016, 1)->size_bytes(), 4u);
+  EXPECT_EQ(eds.find(0x1016, 1)->value(1), 0u);
+  EXPECT_EQ(eds.find(0x1016, 3)->value(1), 0x00100096u);
+  EXPECT_EQ(eds.find(0x1016, 1)->name, "Consumer heartbeat time 1");
+  EXPECT_EQ(eds.find(0x1016, 2)->name, "Second consumer");
+  EXPECT_EQ(error_of(kHeader + "\n[OptionalObjects]\nSupportedObjects=1\n1=0x1016\n\n[1016]\n"
+                               "ParameterName=C\nObjectType=0x8\nDataType=0x0007\n"
+                               "AccessType=rw\nCompactSubObj=0\n"),
+            "drive.eds:53: [1016] CompactSubObj must be 1 to 254");
+}
+
 // Identity numbers a file leaves out are unknown, not an error.
 TEST(EdsTest, IdentityNumbersAreOptional) {
   std::string text = kHeader;
