@@ -234,10 +234,9 @@ void Planner::decide_feedback() {
   }
   plan_.feedback = current || !torque ? Feedback::kCurrent : Feedback::kTorque;
   if (!current && !torque) {
-    problem(kCurrentActual, "current actual value",
-            "nor is 0x6077 (torque actual value) PDO-mappable in TPDO1: the controller cannot "
-            "log the drive's torque",
-            "is not PDO-mappable");
+    problems_.push_back(where(kCurrentActual) +
+                        ": neither 0x6078 (current actual value) nor 0x6077 (torque actual "
+                        "value) can be in TPDO1: the controller could not log the drive's torque");
   }
 }
 
@@ -259,6 +258,14 @@ void Planner::identity() {
       {id.serial.has_value(), od::kSerialNumber, SdoCheck::kSerial, "serial number"}};
   for (const auto& part : parts) {
     if (!part.expected) continue;
+    // [DeviceInfo]'s numbers are checked where the drive has the object;
+    // a configured serial number must be checkable.
+    if (part.check != SdoCheck::kSerial && !has(part.object)) {
+      plan_.warnings.push_back(std::string("the ") + part.what +
+                               " of [DeviceInfo] is not checked: " + "the drive has no " +
+                               object_text(part.object));
+      continue;
+    }
     if (need(part.object, false, part.what, id.source + " expects one")) {
       read(part.object, part.check, part.what);
     }
@@ -523,7 +530,10 @@ void Planner::pdo(PlannedPdo& planned, PdoObjects which, const std::vector<Wante
   } else {
     for (const Wanted& w : wanted) {
       if (w.optional && !mappable(w.object)) continue;
-      if (!has(w.object)) continue;  // mode() or decide_feedback() said so
+      const bool said = w.object.index == kTargetTorque.index ||
+                        w.object.index == kTorqueActual.index ||
+                        w.object.index == kCurrentActual.index;
+      if (!has(w.object) && said) continue;  // mode() or decide_feedback() said so
       if (!mappable(w.object)) {
         const co::EdsVariable* v = find(w.object);
         const std::string why =
