@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "../../support/scratch_directory.hpp"
@@ -171,6 +172,26 @@ TEST(DrivePlanTest, AFixedMappingIsUsedAsItIsAndAContradictionIsNamed) {
   // velocity_pdo needs TPDO2's fixed mapping to carry 0x606C: it does.
   EXPECT_TRUE(problems_of("joint1.eds = " + drive("fixed_mapping.eds") + "\nvelocity_pdo = true\n")
                   .empty());
+}
+
+// A drive without an object the PDOs need (the statusword) is refused,
+// naming it: tmcm_bldc.eds with 0x6041 renamed 0x6042.
+TEST(DrivePlanTest, AMissingStatuswordIsNamed) {
+  std::ifstream in(drive("tmcm_bldc.eds"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* from : {"=0x6041\n", "[6041]"}) {
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text[at + (from[0] == '=' ? 6 : 4)] = '2';
+  }
+  const std::string path =
+      testsupport::process_scratch("drive_plan_test").file("no_statusword.eds");
+  std::ofstream(path) << text;
+  const auto p = problems_of("joint1.eds = " + path + "\njoint1.torque_unit = mA\n" +
+                             "joint1.rated_torque_Nm = 0.2\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_EQ(p[0],
+            "joint1.eds (" + path + "): no object 0x6041:00 (statusword): TPDO1 must carry it");
 }
 
 // Without an EDS the plan is the generic profile's (docs/protocol.md):

@@ -593,6 +593,14 @@ void Planner::fixed_layout(PlannedPdo& planned, PdoObjects which,
             std::string("it does not carry ") + object_text(w.object) + " (" + w.name + ")",
             "is read-only");
   }
+  for (unsigned i = 0; i < planned.layout.count; ++i) {
+    const od::Object o{static_cast<std::uint16_t>(planned.layout.entries[i] >> 16),
+                       static_cast<std::uint8_t>(planned.layout.entries[i] >> 8)};
+    if (o.index >= 0x0008 && !has(o)) {
+      problem({which.mapping(), 0}, which.name() + " mapping",
+              "it maps " + object_text(o) + ", which the file does not have", "is read-only");
+    }
+  }
   for (unsigned i = 0; which.receive && i < planned.layout.count; ++i) {
     const od::Object o{static_cast<std::uint16_t>(planned.layout.entries[i] >> 16),
                        static_cast<std::uint8_t>(planned.layout.entries[i] >> 8)};
