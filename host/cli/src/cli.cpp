@@ -153,6 +153,21 @@ const CLI::Validator kFinite = number_where([](double) { return true; }, "finite
 const CLI::Validator kPositive = number_where([](double v) { return v > 0; }, "> 0");
 const CLI::Validator kNonNegative = number_where([](double v) { return v >= 0; }, ">= 0");
 
+CLI::Option* add_time_steps_option(CLI::App& c, std::string& value) {
+  return c
+      .add_option("--time-steps", value,
+                  "where q is differentiated: 'check' refuses time steps that spread more than "
+                  "5 %; 'nominal' takes the samples as even, at the declared rate or the mean step "
+                  "(their timestamps jitter); 'as-logged' differentiates on the timestamps")
+      ->check(CLI::IsMember({"check", "nominal", "as-logged"}));
+}
+
+TimeSteps time_steps_named(const std::string& value) {
+  return value == "nominal"     ? TimeSteps::kNominal
+         : value == "as-logged" ? TimeSteps::kAsLogged
+                                : TimeSteps::kCheck;
+}
+
 CLI::Validator finite_range(double lo, double hi, bool open_above) {
   const std::string description = "in [" + CLI::detail::to_string(lo) + ", " +
                                   CLI::detail::to_string(hi) + (open_above ? ")" : "]");

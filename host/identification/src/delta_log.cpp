@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iomanip>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -649,7 +650,57 @@ void release_samples(DeltaLog& log) {
   log.extra_columns.shrink_to_fit();
 }
 
-void warn_about_log(std::ostream& err, const DeltaLog& log) {
+TimeStepSpread time_step_spread(const DeltaLog& log) {
+  TimeStepSpread out;
+  std::vector<double> dt;
+  dt.reserve(log.size());
+  std::size_t gap = 0;
+  for (std::size_t i = 1; i < log.size(); ++i) {
+    while (gap < log.gaps.size() && log.gaps[gap].index < i) ++gap;
+    if (gap < log.gaps.size() && log.gaps[gap].index == i) continue;  // across a gap
+    dt.push_back(log.t[i] - log.t[i - 1]);
+  }
+  if (dt.empty()) return out;
+  const auto median = [](std::vector<double> v) {
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    return *mid;
+  };
+  out.median_s = median(dt);
+  if (!(out.median_s > 0)) return out;
+  std::vector<double> deviation(dt.size());
+  for (std::size_t i = 0; i < dt.size(); ++i) {
+    deviation[i] = std::abs(dt[i] - out.median_s);
+    out.largest = std::max(out.largest, deviation[i] / out.median_s);
+  }
+  out.spread = 1.4826 * median(deviation) / out.median_s;
+  return out;
+}
+
+std::string check_time_steps(const DeltaLog& log, TimeSteps mode) {
+  if (mode != TimeSteps::kCheck || (log.has_qd && log.has_qdd)) return "";
+  const TimeStepSpread s = time_step_spread(log);
+  if (s.spread <= kTimeStepWarning) return "";
+  std::ostringstream text;
+  text << "the time steps spread by " << std::setprecision(2) << 100.0 * s.spread
+       << " % of the median step (" << std::setprecision(4) << 1e3 * s.median_s
+       << " ms; the largest departs by " << std::setprecision(2) << 100.0 * s.largest << " %)";
+  if (s.spread <= kTimeStepError) {
+    return text.str() +
+           ": q is differentiated on these times; if the samples were taken "
+           "evenly, --time-steps nominal is more accurate";
+  }
+  text << ": differentiated on these times, q's derivatives are noisy and bias the fit "
+          "(docs/identification.md, \"Timestamps\"). If the samples were taken evenly and only "
+          "their timestamps jitter (a logger on a host), use --time-steps nominal; if they were "
+          "taken at these times, use --time-steps as-logged";
+  throw delta::InputError(log.name + ": " + text.str());
+}
+
+void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
+  if (const std::string w = check_time_steps(log, mode); !w.empty()) {
+    err << log.name << ": warning: " << w << "\n";
+  }
   if (log.has_qd != log.has_qdd) {
     const char* given = log.has_qd ? "qd1..qd3" : "qdd1..qdd3";
     const char* missing = log.has_qd ? "qdd1..qdd3" : "qd1..qd3";

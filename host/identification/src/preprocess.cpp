@@ -30,7 +30,8 @@ struct FilterDesign {
   std::size_t pad{0};   // reflected samples at each end of a filtered series
   std::size_t trim{0};  // samples dropped at each segment end after filtering
   double sample_rate_hz{0};
-  double median_step_s{0};  // of the whole log
+  double median_step_s{0};    // of the whole log
+  bool nominal_steps{false};  // differentiate at the median step, whatever the times
 };
 
 // Joint states and torques of every sample of every segment long enough to
@@ -56,7 +57,9 @@ double median_step(const double* t, std::size_t n) {
 }
 
 FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
+  (void)check_time_steps(log, options.time_steps);  // throws where they cannot be trusted
   FilterDesign d;
+  d.nominal_steps = options.time_steps == TimeSteps::kNominal;
   const double h_median = median_step(log.t.data(), log.t.size());
   d.median_step_s = h_median;
   const double fs =
@@ -152,9 +155,16 @@ void append_segment(const DeltaLog& log, const FilterDesign& d, std::size_t b, s
   const std::size_t n = e - b;
   const std::size_t first = out.states.size();
   out.segments.push_back({first, first + n, b});
-  // The whole log's median step serves a log without gaps.
-  const double h = b == 0 && e == log.size() ? d.median_step_s : median_step(log.t.data() + b, n);
-  const bool uniform = d.logged_derivatives || uniform_steps(log.t.data() + b, n, h);
+  // The whole log's median step serves a log without gaps. The nominal
+  // step is the declared rate's, else the segment's mean (unbiased by
+  // jitter that does not accumulate, unlike the median of jittered steps).
+  const double h = d.nominal_steps             ? (log.sample_rate_hz
+                                                      ? 1.0 / *log.sample_rate_hz
+                                                      : (log.t[e - 1] - log.t[b]) / static_cast<double>(n - 1))
+                   : b == 0 && e == log.size() ? d.median_step_s
+                                               : median_step(log.t.data() + b, n);
+  const bool uniform =
+      d.logged_derivatives || d.nominal_steps || uniform_steps(log.t.data() + b, n, h);
   out.any_nonuniform = out.any_nonuniform || !uniform;
   const std::size_t workers = workers_for(n, threads, kSamplesPerThread);
   std::array<std::vector<double>, 3> filtered_q;
@@ -210,8 +220,10 @@ std::string describe(const FilterDesign& d, const PrepareOptions& options, const
   } else {
     text << "q low-pass filtered at " << options.cutoff_hz
          << " Hz (4th-order Butterworth, forward-backward), "
-         << (s.any_nonuniform ? "three-point differences on uneven time"
-                              : "five-point central differences")
+         << (s.any_nonuniform  ? "three-point differences on uneven time"
+             : d.nominal_steps ? "five-point central differences at the nominal step (the "
+                                 "timestamps' jitter set aside: --time-steps nominal)"
+                               : "five-point central differences")
          << "; tau and the regressor filtered alike; " << d.trim
          << " samples trimmed at each segment end";
   }

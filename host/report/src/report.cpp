@@ -331,6 +331,9 @@ nlohmann::json json_report(const FitResult& r) {
       {"preprocessing",
        {{"cutoff_hz", o.prepare.cutoff_hz},
         {"trim_samples", o.prepare.trim_samples},
+        {"time_steps", o.prepare.time_steps == TimeSteps::kNominal    ? "nominal"
+                       : o.prepare.time_steps == TimeSteps::kAsLogged ? "as-logged"
+                                                                      : "check"},
         {"min_speed_rad_s", r.min_speed_rad_s},
         {"equations_used", r.equations_used},
         {"derivatives", r.derivatives},
@@ -389,6 +392,16 @@ SavedResult read_saved_result(const std::string& path) {
     const json& pre = need(j, "preprocessing", "");
     s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
     s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();
+    if (const auto it = pre.find("time_steps"); it != pre.end()) {
+      const std::string steps = it->get<std::string>();
+      if (steps != "check" && steps != "nominal" && steps != "as-logged") {
+        throw delta::InputError(path + ": preprocessing.time_steps is '" + steps +
+                                "', not check, nominal or as-logged");
+      }
+      s.prepare.time_steps = steps == "nominal"     ? TimeSteps::kNominal
+                             : steps == "as-logged" ? TimeSteps::kAsLogged
+                                                    : TimeSteps::kCheck;
+    }
   } catch (const json::type_error& e) {
     throw delta::InputError(path +
                             ": a model or preprocessing value has the wrong type: " + e.what());

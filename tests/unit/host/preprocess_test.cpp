@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <iostream>
 #include <limits>
 #include <map>
 
 #include "delta/input_error.hpp"
+#include "delta/splitmix.hpp"
 #include "fit_fixtures.hpp"
 #include "held_joint_log.hpp"
 #include "host_id/identify.hpp"
@@ -198,6 +200,76 @@ TEST(PreprocessTest, CutoffAboveNyquistIsRejected) {
               std::string::npos)
         << e.what();
   }
+}
+
+}  // namespace
+}  // namespace host_id
+
+// Timestamps that jitter (docs/identification.md, "Timestamps"): a log
+// sampled evenly at 1 kHz whose timestamps are off by up to +-0.2 ms, as a
+// host-side logger stamps them. Differentiated on those times the fit is
+// wrong (the test measures how wrong); so `check` refuses the log naming
+// the spread and the options, and `nominal` differentiates at the median
+// step and gets the clean log's fit back.
+namespace host_id {
+namespace {
+
+TEST(TimeStepsTest, JitteredTimestampsAreRefusedAndTheNominalPeriodFitsThemRight) {
+  using namespace test;
+  const DeltaLog clean = simulated(11, 0.0, 17, false, "fourier", 8.0);
+  DeltaLog jittered = clean;
+  delta::SplitMix64 rng(5);
+  for (std::size_t i = 1; i + 1 < jittered.size(); ++i) {
+    jittered.t[i] += 2e-4 * (2.0 * rng.uniform() - 1.0);
+  }
+  const TimeStepSpread spread = time_step_spread(jittered);
+  EXPECT_NEAR(spread.median_s, 1e-3, 2e-5);
+  EXPECT_GT(spread.spread, kTimeStepError);
+  EXPECT_LT(time_step_spread(clean).spread, 1e-9);
+
+  FitOptions o = least_squares(model_named("lumped"));
+  try {
+    (void)fit_log(jittered, o);
+    ADD_FAILURE() << "a log with jittered timestamps was fitted silently";
+  } catch (const delta::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(": the time steps spread by "), std::string::npos) << what;
+    EXPECT_NE(what.find("use --time-steps nominal"), std::string::npos) << what;
+  }
+  const FitResult reference = fit_log(clean, o);
+  o.prepare.time_steps = TimeSteps::kAsLogged;
+  const FitResult as_logged = fit_log(jittered, o);
+  o.prepare.time_steps = TimeSteps::kNominal;
+  const FitResult nominal = fit_log(jittered, o);
+  const auto error = [&reference](const FitResult& r) {
+    double worst = 0;
+    for (std::size_t k = 0; k < r.parameters.size(); ++k) {
+      const double ref = reference.parameters[k].value;
+      worst = std::max(worst, std::abs(r.parameters[k].value - ref) / std::abs(ref));
+    }
+    return worst;
+  };
+  std::cout << "[ jitter ] largest parameter error against the clean log's fit: as logged "
+            << error(as_logged) << ", nominal " << error(nominal) << "\n";
+  EXPECT_GT(error(as_logged), 0.05) << "the wrong fit the check prevents";
+  EXPECT_LT(error(nominal), 1e-9);  // measured 1e-14
+}
+
+TEST(TimeStepsTest, ASmallSpreadIsAWarningAndLoggedDerivativesAreNotChecked) {
+  using namespace test;
+  DeltaLog log = simulated(12, 0.0, 17, false, "fourier", 4.0);
+  delta::SplitMix64 rng(6);
+  for (std::size_t i = 1; i + 1 < log.size(); ++i) log.t[i] += 3e-5 * (2.0 * rng.uniform() - 1.0);
+  const std::string w = check_time_steps(log, TimeSteps::kCheck);
+  EXPECT_NE(w.find("if the samples were taken evenly, --time-steps nominal is more accurate"),
+            std::string::npos)
+      << w;
+  EXPECT_EQ(check_time_steps(log, TimeSteps::kAsLogged), "");
+  DeltaLog with_derivatives = simulated(12, 0.0, 17, true, "fourier", 4.0);
+  for (std::size_t i = 1; i + 1 < with_derivatives.size(); ++i) {
+    with_derivatives.t[i] += 3e-4 * (2.0 * rng.uniform() - 1.0);
+  }
+  EXPECT_EQ(check_time_steps(with_derivatives, TimeSteps::kCheck), "");
 }
 
 }  // namespace

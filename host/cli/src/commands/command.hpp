@@ -10,6 +10,7 @@
 
 #include "delta/hex.hpp"
 #include "delta/input_error.hpp"
+#include "host_id/delta_log.hpp"
 
 namespace host_id {
 
@@ -40,6 +41,12 @@ extern const CLI::Validator kSvgPath;
 // A file the command will write: its folder exists and is writable
 // (delta::output_path_problem), checked before any work.
 extern const CLI::Validator kOutputPath;
+
+// --time-steps nominal|as-logged (docs/identification.md, "Timestamps"):
+// how the samples' times are taken where q is differentiated; `given`
+// tells whether the option was on the command line.
+CLI::Option* add_time_steps_option(CLI::App& c, std::string& value);
+TimeSteps time_steps_named(const std::string& value);
 
 // Exit statuses of the commands that talk SDO to a node (sdo, flash):
 // the node aborted the transfer, or it did not answer.

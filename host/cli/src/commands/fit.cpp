@@ -45,6 +45,7 @@ struct FitArguments {
   bool json{false};
   bool quiet{false};
   bool allow_other_geometry{false};
+  std::string time_steps{"check"};
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
@@ -144,6 +145,7 @@ void add_sample_options(CLI::App& c, FitArguments& a) {
                               "auto)")
                      ->check(CLI::Range(0, 1000000))
                      ->group("samples");
+  add_time_steps_option(c, a.time_steps)->capture_default_str()->group("samples");
   a.min_speed_given =
       c.add_option("--min-speed", a.min_speed_rad_s,
                    "leave out a joint's equation where its |qd| < W rad/s (delta: 0.05, paper14: "
@@ -184,6 +186,7 @@ FitOptions fit_options(const FitArguments& a) {
   f.solver = a.solver == "qr" ? LsSolver::kQr : LsSolver::kSvd;
   f.weights = a.weights == "none" ? LsWeights::kNone : LsWeights::kJoint;
   f.prepare.trim_samples = a.trim_given->count() ? static_cast<long>(a.trim) : -1;
+  f.prepare.time_steps = time_steps_named(a.time_steps);
   if (a.min_speed_given->count()) f.min_speed_rad_s = a.min_speed_rad_s;
   return f;
 }
@@ -246,8 +249,8 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   DeltaLog log = read_delta_log(a.log);
   std::vector<DeltaLog> validation_logs;
   for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
-  warn_about_log(err, log);
-  for (const DeltaLog& l : validation_logs) warn_about_log(err, l);
+  warn_about_log(err, log, f.prepare.time_steps);
+  for (const DeltaLog& l : validation_logs) warn_about_log(err, l, f.prepare.time_steps);
   const std::optional<delta::RobotDescription> robot =
       a.truth_path.empty() ? std::nullopt
                            : std::optional(delta::read_robot_description(a.truth_path));

@@ -22,17 +22,19 @@ struct PredictArguments {
   std::string out_path;
   bool json{false};
   bool allow_other_geometry{false};
+  std::string time_steps;  // "": as the result was fitted
 };
 
 int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err) {
-  const SavedResult saved = read_saved_result(a.result_path);
+  SavedResult saved = read_saved_result(a.result_path);
+  if (!a.time_steps.empty()) saved.prepare.time_steps = time_steps_named(a.time_steps);
   const auto model = make_model(saved.model);
   const DeltaLog log = read_delta_log(a.log_path);
   if (saved.geometry) {
     check_geometry(a.log_path, log.geometry, a.result_path + " was fitted for", *saved.geometry,
                    a.allow_other_geometry, err);
   }
-  warn_about_log(err, log);
+  warn_about_log(err, log, saved.prepare.time_steps);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
   delta::write_file_atomically(a.out_path, format_delta_log(p.log));
   const std::size_t left_out = log.size() - p.log.size();
@@ -81,6 +83,7 @@ void add_predict_command(CLI::App& command, CommandContext& context) {
   c->add_flag("--allow-other-geometry", a->allow_other_geometry,
               "go on (with a warning) where the log's geometry is not the one the result was "
               "fitted for");
+  add_time_steps_option(*c, a->time_steps);  // default: as the result was fitted
   c->callback([a, &context] { context.exit_code = run_predict(*a, context.out, context.err); });
 }
 

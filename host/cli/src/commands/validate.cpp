@@ -21,10 +21,12 @@ struct ValidateArguments {
   bool json{false};
   std::string plot_path;
   bool allow_other_geometry{false};
+  std::string time_steps;  // "": as the result was fitted
 };
 
 int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& err) {
-  const SavedResult saved = read_saved_result(a.result_path);
+  SavedResult saved = read_saved_result(a.result_path);
+  if (!a.time_steps.empty()) saved.prepare.time_steps = time_steps_named(a.time_steps);
   const auto model = make_model(saved.model);
   std::vector<DeltaLog> logs;
   for (const auto& path : a.logs) {
@@ -37,7 +39,7 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
   std::vector<LogRmse> rows;
   std::vector<Prediction> predictions;
   for (const auto& l : logs) {
-    warn_about_log(err, l);
+    warn_about_log(err, l, saved.prepare.time_steps);
     predictions.push_back(predict(*model, saved.beta, l, saved.prepare, 0));
     rows.push_back(predictions.back().rmse());
   }
@@ -70,6 +72,7 @@ void add_validate_command(CLI::App& command, CommandContext& context) {
   c->add_flag("--allow-other-geometry", a->allow_other_geometry,
               "go on (with a warning) where a log's geometry is not the one the result was "
               "fitted for");
+  add_time_steps_option(*c, a->time_steps);  // default: as the result was fitted
   c->add_option("--plot", a->plot_path, "measured vs predicted torque and the residuals")
       ->check(kSvgPath)
       ->check(kOutputPath);

@@ -75,7 +75,37 @@ void release_samples(DeltaLog& log);
 // per gap ("LOG:LINE: warning: ...; segments are fitted separately"), the
 // first kGapWarningsShown of them, then one line counting the rest.
 inline constexpr std::size_t kGapWarningsShown = 10;
-void warn_about_log(std::ostream& err, const DeltaLog& log);
+
+// How the times of a log's samples are taken where q is differentiated
+// (docs/identification.md, "Timestamps"):
+//   kCheck    the time steps must be even: a spread above kTimeStepError
+//             is refused, one above kTimeStepWarning is warned of;
+//   kNominal  the samples were taken evenly and only their timestamps
+//             jitter (a host-side logger): differentiate at the declared
+//             rate's step, else the segment's mean step;
+//   kAsLogged the samples were taken at their timestamps: differentiate
+//             on them, however uneven.
+enum class TimeSteps : std::uint8_t { kCheck, kNominal, kAsLogged };
+inline constexpr double kTimeStepWarning = 0.01;
+inline constexpr double kTimeStepError = 0.05;
+
+// The spread of a log's time steps within its segments (gaps left out),
+// relative to the median step: robust (1.4826 MAD, a standard deviation for
+// Gaussian jitter) and the largest departure.
+struct TimeStepSpread {
+  double median_s{0};
+  double spread{0};
+  double largest{0};
+};
+TimeStepSpread time_step_spread(const DeltaLog& log);
+
+// With kCheck: throws InputError where the log's time steps spread more
+// than kTimeStepError (q differentiated, not logged), naming the spread and
+// the options. Returns the warning (without the log's name) for a spread
+// above kTimeStepWarning, else "".
+std::string check_time_steps(const DeltaLog& log, TimeSteps mode);
+
+void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode = TimeSteps::kCheck);
 
 // Shortest round-trip decimal form of a double.
 std::string format_number(double v);

@@ -25,6 +25,9 @@ constexpr double kDefaultCutoffHz = 20.0;
 
 struct PrepareOptions {
   double cutoff_hz{kDefaultCutoffHz};
+  // The samples' times where q is differentiated (delta_log.hpp): checked
+  // (uneven steps refused), the nominal median step, or as logged.
+  TimeSteps time_steps{TimeSteps::kCheck};
   // Samples dropped at each end of every segment after filtering; negative:
   // automatic, three periods of the cut-off frequency (150 samples at 1 kHz
   // and 20 Hz). Measured on a noise-free 8 s log: one period leaves errors
