@@ -123,6 +123,32 @@ void run_swarm(const Equations& reg, const LeastSquaresResult& ls,
   r.pso->best = r.beta;
 }
 
+// Torques (or angles) of the sign opposite to docs/conventions.md's: the
+// bounded fit of -tau, from the same moments, explains the log far better
+// than that of tau, which pins parameters at their bounds. Throws.
+void check_torque_sign(const LeastSquaresResult& ls, const std::vector<ParameterInfo>& parameters,
+                       std::size_t rows, const std::string& log_name) {
+  if (ls.active_bounds.empty() || ls.psi_t_psi.size() == 0 || rows == 0) return;
+  const Eigen::LLT<Eigen::MatrixXd> llt(ls.psi_t_psi);
+  if (llt.info() != Eigen::Success) return;
+  std::vector<bool> nonnegative;
+  for (const ParameterInfo& p : parameters) nonnegative.push_back(p.nonnegative);
+  const Eigen::MatrixXd upper = llt.matrixU();
+  const Eigen::VectorXd x =
+      bounded_least_squares(upper, llt.matrixL().solve(-ls.psi_t_tau), nonnegative);
+  const double flipped = (ls.tau_t_tau + 2.0 * x.dot(ls.psi_t_tau) + x.dot(ls.psi_t_psi * x)) /
+                         static_cast<double>(rows);
+  if (!(flipped < kSignFlipRatio * ls.cost)) return;
+  std::ostringstream m;
+  m << log_name << ": the torques look opposite in sign to the model's: fitted to -tau the model "
+    << "explains the log " << ls.cost / std::max(flipped, 1e-300) << " times better (cost "
+    << flipped << " against " << ls.cost << " N^2 m^2), while fitted to tau "
+    << ls.active_bounds.size() << " parameter(s) sit at their bound 0. Check the signs of "
+    << "tau1..tau3 and q1..q3 against docs/conventions.md (a positive torque turns its joint "
+    << "towards positive angles) and negate the columns that differ";
+  throw delta::InputError(m.str());
+}
+
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
 // the conditioning and the box.
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
@@ -131,6 +157,7 @@ LeastSquaresResult estimate_on(const Equations& reg, const std::vector<Parameter
   const bool pso = options.method == Method::kPso;
   const LeastSquaresResult ls = solve_least_squares(
       reg, parameters, options.solver, options.weights, log_name, lags, options.threads);
+  check_torque_sign(ls, parameters, reg.rows(), log_name);
   if (pso) run_swarm(reg, ls, parameters, options, r, box);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
@@ -239,6 +266,9 @@ std::vector<ParameterEstimate> parameter_estimates(const Model& model, const Lea
     e.std_dev = ls.std_dev(c);
     e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * ls.std_dev(c) / std::abs(ls.beta(c))
                                           : std::numeric_limits<double>::infinity();
+    if (ls.psi_t_psi.rows() == beta.size() && ls.tau_t_tau > 0.0) {
+      e.std_torque_share = ls.std_dev(c) * std::sqrt(ls.psi_t_psi(c, c) / ls.tau_t_tau);
+    }
     e.lower = box.lower(c);
     e.upper = box.upper(c);
     for (const std::size_t a : ls.active_bounds)
@@ -322,6 +352,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
       correlation_lags_for(pre.report.sample_rate_hz, options.prepare.cutoff_hz), log.name, r, box);
   r.seconds_estimator = seconds_since(te);
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
+  r.doubts = doubts_of(r);
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();
   const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, options.threads);
@@ -339,6 +370,41 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.seconds_total = seconds_since(t0);
   return r;
+}
+
+std::vector<std::string> doubts_of(const FitResult& r) {
+  std::vector<std::string> doubts;
+  std::ostringstream m;
+  if (r.condition_number_scaled > kConditionDoubt) {
+    m << "the log excites the parameters poorly: the scaled condition number is "
+      << r.condition_number_scaled << " (a good excitation's is about 30); a larger or richer "
+      << "motion (host_id design) separates them";
+    doubts.push_back(m.str());
+  }
+  std::string loose;
+  double loosest = 0;
+  std::string pinned;
+  std::size_t pinned_count = 0;
+  for (const ParameterEstimate& e : r.parameters) {
+    if (!e.identifiable()) continue;
+    if (e.at_bound) {
+      pinned += (pinned_count++ ? ", " : "") + e.info.name;
+    } else if (std::isfinite(e.std_torque_share) && e.std_torque_share > kStdShareDoubt) {
+      loose += (loose.empty() ? "" : ", ") + e.info.name;
+      loosest = std::max(loosest, e.std_torque_share);
+    }
+  }
+  if (!loose.empty()) {
+    m.str("");
+    m << loose << ": the log determines them so loosely that one standard deviation stands for "
+      << "up to " << 100.0 * loosest << " % of the torque; their values are not to be used";
+    doubts.push_back(m.str());
+  }
+  if (pinned_count >= kPinnedDoubt) {
+    doubts.push_back(std::to_string(pinned_count) + " parameters sit at their bound 0 (" + pinned +
+                     "): the log cannot tell them from 0");
+  }
+  return doubts;
 }
 
 void require_pso_at_optimum(const FitResult& r, const std::string& log_name) {

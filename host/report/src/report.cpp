@@ -71,8 +71,10 @@ std::string parameter_table(const FitResult& r) {
       s << buf;
       continue;
     }
-    const std::string rel =
-        std::isfinite(e.rel_std_percent) ? fmt("%8.3f %%", e.rel_std_percent) : "       - ";
+    // A huge spread (1.59e+04) keeps its column.
+    const std::string rel = !std::isfinite(e.rel_std_percent) ? "       - "
+                            : e.rel_std_percent < 1e4         ? fmt("%8.3f %%", e.rel_std_percent)
+                                                              : fmt("%8.2e %%", e.rel_std_percent);
     std::string against;
     if (truth) {
       const std::optional<double> t = parameter_truth_of(r, e);
@@ -235,6 +237,7 @@ std::string text_report(const FitResult& r) {
   s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
     << r.std_dev_lags << " samples)\n";
   text_cost(r, s);
+  for (const std::string& d : r.doubts) s << "  DOUBTFUL  " << d << "\n";
   s << "\n";
   std::vector<LogRmse> rows{r.fit};
   rows.insert(rows.end(), r.validation.begin(), r.validation.end());
@@ -323,6 +326,7 @@ nlohmann::json json_report(const FitResult& r) {
         {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s},
         {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
       {"method", o.method == Method::kPso ? "pso" : "ls"},
+      {"doubts", r.doubts},
       {"geometry",
        {{"upper_arm_length_m", r.geometry.upper_arm_length_m},
         {"forearm_length_m", r.geometry.forearm_length_m},

@@ -275,3 +275,80 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
 
 }  // namespace
 }  // namespace host_id
+
+// Torques of the opposite sign (docs/conventions.md): fitted as they are,
+// the bounded optimum pins parameters at 0 and negates the rest, so the
+// fit is refused, naming the cause and the remedy.
+namespace host_id {
+namespace {
+
+TEST(TrustTest, TorquesOfTheOppositeSignAreRefusedPointingToTheConventions) {
+  using namespace test;
+  DeltaLog log = simulated(21, 0.01, 17, false, "fourier", 8.0);
+  const FitResult sound = fit_log(log, least_squares());
+  EXPECT_TRUE(sound.doubts.empty()) << sound.doubts.front();
+  for (unsigned j = 0; j < 3; ++j) {
+    for (double& tau : log.tau[j]) tau = -tau;
+  }
+  try {
+    (void)fit_log(log, least_squares());
+    ADD_FAILURE() << "torques of the wrong sign were fitted";
+  } catch (const delta::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("the torques look opposite in sign"), std::string::npos) << what;
+    EXPECT_NE(what.find("docs/conventions.md"), std::string::npos) << what;
+  }
+}
+
+// A robot that barely moves (0.005 rad of amplitude): the fit is flagged
+// doubtful (here by its conditioning, 1.2e3 against about 30), in the
+// result itself, where a sound excitation's is not (the test above).
+TEST(TrustTest, ABarelyMovingRobotGivesADoubtfulResultSaidSo) {
+  SimulateOptions o;
+  o.seed = 22;
+  o.torque_noise = 0.01;
+  o.encoder_bits = 17;
+  o.duration_s = 8.0;
+  o.base_frequency_hz = 0.25;
+  o.amplitude_rad = 0.005;
+  DeltaLog log = simulate_log(o);
+  log.name = "still";
+  FitOptions f = test::least_squares();
+  f.min_speed_rad_s = 0.0;
+  const FitResult r = fit_log(log, f);
+  ASSERT_FALSE(r.doubts.empty());
+  std::string all;
+  for (const std::string& d : r.doubts) all += d + "\n";
+  EXPECT_NE(all.find("the log excites the parameters poorly"), std::string::npos) << all;
+  std::cout << "[ doubts ] condition " << r.condition_number_scaled << "\n" << all;
+}
+
+// The rules of doubts_of: a parameter whose uncertainty stands for more
+// than 10 % of the torque, three parameters at their bounds; a near-zero
+// parameter with a huge relative spread but a small share is no doubt.
+TEST(TrustTest, DoubtsNameTheLooseAndThePinnedParameters) {
+  FitResult r;
+  r.condition_number_scaled = 30;
+  const auto estimate = [](const std::string& name, double share, bool at_bound) {
+    ParameterEstimate e;
+    e.info.name = name;
+    e.std_torque_share = share;
+    e.rel_std_percent = 5e4;
+    e.at_bound = at_bound;
+    return e;
+  };
+  r.parameters = {estimate("arm_gravity_sin", 0.001, false), estimate("a", 0.02, true),
+                  estimate("b", 0.02, true)};
+  EXPECT_TRUE(doubts_of(r).empty());
+  r.parameters.push_back(estimate("c", 0.0, true));
+  r.parameters.push_back(estimate("platform_inertial_mass", 0.35, false));
+  const std::vector<std::string> d = doubts_of(r);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0],
+            "platform_inertial_mass: the log determines them so loosely that one standard "
+            "deviation stands for up to 35 % of the torque; their values are not to be used");
+  EXPECT_EQ(d[1], "3 parameters sit at their bound 0 (a, b, c): the log cannot tell them from 0");
+}
+
+}  // namespace
+}  // namespace host_id

@@ -272,6 +272,13 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
     if (robot) results.back().truth = parameter_truth(fi.model, *robot);
   }
   bar.finish();
+  // A doubtful result is written, and said so on stderr as well as in it.
+  for (const FitResult& r : results) {
+    for (const std::string& d : r.doubts) {
+      err << a.log << ": warning: the " << r.options.model.name << " fit is doubtful: " << d
+          << "\n";
+    }
+  }
   write_outputs(a, results, out);
   return 0;
 }

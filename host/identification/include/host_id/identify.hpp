@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <array>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -70,6 +71,11 @@ struct ParameterEstimate {
   double unconstrained_value{0};  // the least-squares optimum without bounds
   double std_dev{0};              // from the least-squares covariance
   double rel_std_percent{0};
+  // One standard deviation of the parameter times its regressor column's
+  // RMS, over the torque's RMS: how much of the torque its uncertainty
+  // stands for (a near-zero parameter can have a huge rel_std and a tiny
+  // share); NaN where not known.
+  double std_torque_share{std::numeric_limits<double>::quiet_NaN()};
   double lower{0}, upper{0};  // the PSO bounds
   bool at_bound{false};       // held at its physical bound by the bounded optimum
   // Where the log cannot separate every parameter (FitResult::identifiability):
@@ -126,6 +132,9 @@ struct FitResult {
   std::optional<PsoResult> pso;
   // Parameters held at their physical bound (0) by the bounded optimum.
   std::vector<std::string> active_bounds;
+  // Why the result cannot be trusted as it stands (poor excitation:
+  // doubts_of()); empty for a sound one. Reported, not refused.
+  std::vector<std::string> doubts;
   double seconds_estimator{0};
   double seconds_total{0};
   std::vector<LogRmse> validation;
@@ -148,6 +157,21 @@ struct FitResult {
 // PSO searches the same bounded problem that least squares solves exactly:
 // a swarm that stops more than this (relative) above that optimum has not
 // found it, and fit_log refuses its result rather than report it.
+// A fit is doubtful (FitResult::doubts) where the scaled condition number
+// passes kConditionDoubt (good excitations: about 30), where a parameter's
+// uncertainty stands for more than kStdShareDoubt of the torque
+// (ParameterEstimate::std_torque_share), or where kPinnedDoubt or more
+// parameters sit at their bounds.
+inline constexpr double kConditionDoubt = 1e3;
+inline constexpr double kStdShareDoubt = 0.1;
+inline constexpr std::size_t kPinnedDoubt = 3;
+std::vector<std::string> doubts_of(const FitResult& r);
+
+// Torques of the sign opposite to docs/conventions.md's are refused: where
+// parameters sit at their bounds and the bounded fit of -tau costs less
+// than kSignFlipRatio times that of tau.
+inline constexpr double kSignFlipRatio = 0.25;
+
 inline constexpr double kPsoOptimumTolerance = 1e-6;
 class PsoShortOfOptimumError : public delta::InputError {
  public:
