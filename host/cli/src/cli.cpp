@@ -226,17 +226,17 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (e.get_exit_code() == 0) return app.exit(e, out, err);  // --help, --version
     if (args.empty()) err << app.help();
     const std::string command = which_command(app);
-    err << "host_id: error: " << (command == "host_id" ? "" : command.substr(8) + ": ") << e.what()
-        << option_suggestion(app, args) << " (see " << command << " --help)\n";
+    err << command << ": error: " << e.what() << option_suggestion(app, args) << " (see " << command
+        << " --help)\n";
     return 2;
   } catch (const UsageError& e) {
-    err << "host_id: error: " << e.what() << "\n";
+    err << which_command(app) << ": error: " << e.what() << "\n";
     return 2;
   } catch (const std::bad_alloc&) {
-    err << "host_id: error: out of memory\n";
+    err << which_command(app) << ": error: out of memory\n";
     return 1;
   } catch (const std::exception& e) {  // delta::InputError: bad input, named where
-    err << "host_id: error: " << e.what() << "\n";
+    err << which_command(app) << ": error: " << e.what() << "\n";
     return 1;
   }
 }

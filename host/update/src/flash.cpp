@@ -211,7 +211,7 @@ up::CheckedImage checked_image(const FlashOptions& o, std::ostream& err) {
       throw FlashError{what + (image.header ? " (--force sends it anyway)" : ""),
                        kExitFlashRefusedHere};
     }
-    err << "host_id: warning: " << what << "; sending it as --force asks\n";
+    err << "host_id flash: warning: " << what << "; sending it as --force asks\n";
   }
   return image;
 }
@@ -229,7 +229,7 @@ FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
       {session.read_u32(0x1018, 1), session.read_u32(0x1018, 2), session.read_u32(0x1018, 3)},
       session.read_text(0x100A)};
   const TargetCheck target = check_target(h, node, o);
-  if (target.warning) err << "host_id: warning: " << *target.warning << "\n";
+  if (target.warning) err << "host_id flash: warning: " << *target.warning << "\n";
   err << "host_id: node " << o.node << " runs " << up::version_text(target.running) << "; sending "
       << o.image << " (version " << up::version_text(h.version) << ", " << image.bytes.size()
       << " bytes)\n";

@@ -66,18 +66,20 @@ TEST_F(CliTest, AMisspeltCommandOrOptionIsAnsweredWithTheNearestOne) {
 TEST_F(CliTest, AnOutputThatCannotBeWrittenIsRefusedBeforeTheWork) {
   const std::string log = "docs/examples/path1.csv";
   EXPECT_EQ(run({"fit", log, "--method", "ls", "-o", path("no/such/folder/r.json")}), 2);
-  EXPECT_NE(err_.str().find("fit: --out: cannot write '" + path("no/such/folder/r.json") +
-                            "': the folder '" + path("no/such/folder") +
-                            "' does not exist (create it first)"),
+  EXPECT_NE(err_.str().find("host_id fit: error: --out: cannot write '" +
+                            path("no/such/folder/r.json") + "': the folder '" +
+                            path("no/such/folder") + "' does not exist (create it first)"),
             std::string::npos)
       << err_.str();
   EXPECT_EQ(out_.str(), "");  // no fit was made
   EXPECT_EQ(run({"simulate", "--duration", "1", "-o", dir_}), 2);
-  EXPECT_NE(err_.str().find("simulate: --out: '" + dir_ + "' is a folder; give a file name"),
+  EXPECT_NE(err_.str().find("host_id simulate: error: --out: '" + dir_ +
+                            "' is a folder; give a file name"),
             std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", log, "--method", "ls", "--plot", path("none/fit.svg")}), 2);
-  EXPECT_NE(err_.str().find("fit: --plot: cannot write"), std::string::npos) << err_.str();
+  EXPECT_NE(err_.str().find("host_id fit: error: --plot: cannot write"), std::string::npos)
+      << err_.str();
   EXPECT_EQ(run({"fit", log, "--method", "ls", "--quiet", "-o", path("r.json")}), 0) << err_.str();
   EXPECT_TRUE(std::filesystem::exists(path("r.json")));
 }
@@ -164,10 +166,11 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_NE(err_.str().find("unknown command 'frobnicate'"), std::string::npos);
   EXPECT_EQ(run({"fit", path("a.csv"), "--itertions", "5"}), 2);
   EXPECT_EQ(err_.str(),
-            "host_id: error: fit: The following arguments were not expected: 5 --itertions (did "
+            "host_id fit: error: The following arguments were not expected: 5 --itertions (did "
             "you mean --iterations?) (see host_id fit --help)\n");
   EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "many"}), 2);
-  EXPECT_NE(err_.str().find("fit: --iterations: Value many not in range 1 to 100000000"),
+  EXPECT_NE(err_.str().find("host_id fit: error: --iterations: Value many not in range 1 to "
+                            "100000000"),
             std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--iterations", "0"}), 2);
@@ -228,7 +231,7 @@ TEST_F(CliTest, BadLogFailsWithFileLineColumnAndWritesNothing) {
                                     "# platform_radius_m = 0.035\nt,q1,q2,q3,tau1,tau2,tau3\n"
                                     "0,0.3,0.3,0.3,-1,-1,-1\n0.001,0.3,0.3,0.3,-1,NaN,-1\n";
   EXPECT_EQ(run({"fit", path("bad.csv"), "--out", path("r.json"), "--plot", path("p.svg")}), 1);
-  EXPECT_EQ(err_.str(), "host_id: error: " + path("bad.csv") +
+  EXPECT_EQ(err_.str(), "host_id fit: error: " + path("bad.csv") +
                             ":8:22: column 'tau2': NaN or Inf is not allowed\n");
   EXPECT_FALSE(exists("r.json"));
   EXPECT_FALSE(exists("p.svg"));
@@ -316,7 +319,8 @@ TEST_F(CliTest, MinSpeedLeavesOutSlowEquationsAndSaysHowMany) {
     EXPECT_GT(used.get<std::size_t>(), samples / 2);
   }
   EXPECT_EQ(run({"fit", path("p1.csv"), "--min-speed", "-1"}), 2);
-  EXPECT_NE(err_.str().find("fit: --min-speed: must be >= 0, got '-1'"), std::string::npos)
+  EXPECT_NE(err_.str().find("host_id fit: error: --min-speed: must be >= 0, got '-1'"),
+            std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "100"}), 1);
   EXPECT_NE(err_.str().find("p1.csv: joint 1 is never faster than the minimum speed of 100"),

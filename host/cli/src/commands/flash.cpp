@@ -54,7 +54,7 @@ void add_flash_command(CLI::App& command, CommandContext& context) {
                   << " bytes in " << rate << ", " << r.frames_sent << " frames sent\n";
       context.exit_code = 0;
     } catch (const FlashError& e) {
-      context.err << "host_id: error: flash: " << e.message << "\n";
+      context.err << "host_id flash: error: " << e.message << "\n";
       context.exit_code = e.exit_code;
     }
   });

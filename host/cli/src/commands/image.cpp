@@ -71,7 +71,7 @@ std::string sha_text(const up::Sha256Digest& d) {
 void run_info(const std::string& path, const std::string& key_path, CommandContext& context) {
   const up::CheckedImage c = up::read_image(path);
   if (!c.header) {
-    context.err << "host_id: error: " << path << ": " << up::describe(c.verdict) << "\n";
+    context.err << "host_id image: error: " << path << ": " << up::describe(c.verdict) << "\n";
     context.exit_code = kExitInvalidImage;
     return;
   }
@@ -97,7 +97,7 @@ void run_info(const std::string& path, const std::string& key_path, CommandConte
   const up::Verdict verdict = c.verdict != up::Verdict::kOk ? c.verdict : signature;
   out << "check:        " << up::describe(verdict) << "\n";
   if (verdict != up::Verdict::kOk) {
-    context.err << "host_id: error: " << path << ": " << up::describe(verdict) << "\n";
+    context.err << "host_id image: error: " << path << ": " << up::describe(verdict) << "\n";
   }
   context.exit_code = verdict == up::Verdict::kOk ? 0 : kExitInvalidImage;
 }

@@ -74,7 +74,7 @@ void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
       write ? channel.download(m.index, m.subindex, bytes, transfer)
             : channel.upload(m.index, m.subindex, bytes, transfer);
   if (!outcome.ok()) {
-    context.err << "host_id: error: " << channel.describe(m.index, m.subindex, outcome) << "\n";
+    context.err << "host_id sdo: error: " << channel.describe(m.index, m.subindex, outcome) << "\n";
     context.exit_code = outcome.by_server ? kExitSdoAborted : kExitNoAnswer;
     return;
   }
