@@ -708,6 +708,13 @@ void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
         << given << " are not used: q is filtered and differentiated (give both, or "
         << "neither; docs/log-format.md)\n";
   }
+  if (!log.extra_columns.empty()) {
+    std::string names;
+    for (const auto& [name, series] : log.extra_columns)
+      names += (names.empty() ? "" : ", ") + name;
+    err << log.name << ": warning: column(s) " << names
+        << " are not used by the model (docs/log-format.md lists the columns it reads)\n";
+  }
   const std::size_t shown = std::min(log.gaps.size(), kGapWarningsShown);
   for (std::size_t i = 0; i < shown; ++i) {
     const SampleGap& g = log.gaps[i];

@@ -224,6 +224,17 @@ TEST(DeltaLogTest, ADerivativeGroupWithoutTheOtherIsSaidToBeUnused) {
   EXPECT_EQ(none.str(), "");
 }
 
+// Columns the model does not read are kept, and said to be unused.
+TEST(DeltaLogTest, ColumnsTheModelDoesNotReadAreSaidToBeUnused) {
+  const DeltaLog log = parse_delta_log(
+      kMeta + "t,q1,q2,q3,tau1,tau2,tau3,temp1,i_ref\n0,0,0,0,0,0,0,25,0\n", "log.csv");
+  std::ostringstream err;
+  warn_about_log(err, log);
+  EXPECT_EQ(err.str(),
+            "log.csv: warning: column(s) temp1, i_ref are not used by the model "
+            "(docs/log-format.md lists the columns it reads)\n");
+}
+
 // Plain numbers take the reader's quick path, fields with spaces or a '+'
 // its careful one: both give the same values.
 TEST(DeltaLogTest, SpacesAndPlusSignsReadAsThePlainNumbers) {

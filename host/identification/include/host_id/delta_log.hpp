@@ -70,8 +70,9 @@ std::string format_delta_log(const DeltaLog& log);
 // name, metadata and gaps stay.
 void release_samples(DeltaLog& log);
 
-// What a command should say of a log it fits, validates or predicts: a
-// derivative group given without the other (then unused), and one line
+// What a command should say of a log it fits, validates or predicts: time
+// steps that spread (check_time_steps), a derivative group given without
+// the other (then unused), columns the model does not read, and one line
 // per gap ("LOG:LINE: warning: ...; segments are fitted separately"), the
 // first kGapWarningsShown of them, then one line counting the rest.
 inline constexpr std::size_t kGapWarningsShown = 10;
