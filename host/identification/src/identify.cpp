@@ -224,6 +224,16 @@ LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitO
     ls.beta = spread(ls.beta, id, p, 0.0);
     ls.unconstrained_beta = spread(ls.unconstrained_beta, id, p, 0.0);
     ls.std_dev = spread(ls.std_dev, id, p, std::numeric_limits<double>::quiet_NaN());
+    Eigen::MatrixXd correlation =
+        Eigen::MatrixXd::Constant(p, p, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t a = 0; a < id.independent.size(); ++a) {
+      for (std::size_t b = 0; b < id.independent.size(); ++b) {
+        correlation(static_cast<Eigen::Index>(id.independent[a]),
+                    static_cast<Eigen::Index>(id.independent[b])) =
+            ls.correlation(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+      }
+    }
+    ls.correlation = std::move(correlation);
     for (std::size_t& c : ls.active_bounds) c = id.independent[c];
     return ls;
   }
@@ -352,6 +362,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
       correlation_lags_for(pre.report.sample_rate_hz, options.prepare.cutoff_hz), log.name, r, box);
   r.seconds_estimator = seconds_since(te);
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
+  r.correlation = ls.correlation;
   r.doubts = doubts_of(r);
   r.fit.log = log.name;
   r.fit.samples = all_rows.samples();

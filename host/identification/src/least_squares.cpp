@@ -475,6 +475,9 @@ void add_covariance(const Equations& r, const RowScale& scale,
   const Eigen::MatrixXd cov_scaled =
       dof * inv_ata * lagged_score_covariance(r, scale, col_norm, e, lags, threads) * inv_ata;
   out.std_dev = cov_scaled.diagonal().cwiseMax(0.0).cwiseSqrt().cwiseQuotient(col_norm);
+  // The columns' scaling cancels in the correlations.
+  const Eigen::VectorXd sd = cov_scaled.diagonal().cwiseMax(1e-300).cwiseSqrt();
+  out.correlation = cov_scaled.cwiseQuotient(sd * sd.transpose());
   out.correlation_lags = lags;
   out.condition_number_scaled = sv(0) / sv(p - 1);
   // Psi = Q R D: its singular values are those of R D.

@@ -227,6 +227,26 @@ void text_cost(const FitResult& r, std::ostream& s) {
   }
 }
 
+// The two parameters the log tells apart worst: their correlation.
+void text_strongest_correlation(const FitResult& r, std::ostream& s) {
+  double strongest = 0;
+  Eigen::Index a = -1, b = -1;
+  for (Eigen::Index i = 0; i < r.correlation.rows(); ++i) {
+    for (Eigen::Index k = i + 1; k < r.correlation.cols(); ++k) {
+      const double c = r.correlation(i, k);
+      if (std::isfinite(c) && std::abs(c) > std::abs(strongest)) {
+        strongest = c;
+        a = i;
+        b = k;
+      }
+    }
+  }
+  if (a < 0) return;
+  s << "  correlation  strongest between " << r.parameters[static_cast<std::size_t>(a)].info.name
+    << " and " << r.parameters[static_cast<std::size_t>(b)].info.name << ": "
+    << fmt("%+.3f", strongest) << " (all of them: --json, \"correlation\")\n";
+}
+
 }  // namespace
 
 std::string text_report(const FitResult& r) {
@@ -237,6 +257,7 @@ std::string text_report(const FitResult& r) {
   s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
     << r.std_dev_lags << " samples)\n";
   text_cost(r, s);
+  text_strongest_correlation(r, s);
   for (const std::string& d : r.doubts) s << "  DOUBTFUL  " << d << "\n";
   s << "\n";
   std::vector<LogRmse> rows{r.fit};
@@ -288,6 +309,23 @@ nlohmann::json json_friction_shape(const FitResult& r) {
           {"seconds", f.seconds}};
 }
 
+// The parameters' correlations: their names, and the matrix row by row
+// (null where a parameter is not identifiable).
+nlohmann::json json_correlation(const FitResult& r) {
+  nlohmann::json names = nlohmann::json::array();
+  for (const auto& e : r.parameters) names.push_back(e.info.name);
+  nlohmann::json rows = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < r.correlation.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index k = 0; k < r.correlation.cols(); ++k) {
+      const double c = r.correlation(i, k);
+      row.push_back(std::isfinite(c) ? nlohmann::json(c) : nlohmann::json(nullptr));
+    }
+    rows.push_back(std::move(row));
+  }
+  return {{"parameters", names}, {"matrix", rows}};
+}
+
 nlohmann::json json_pso(const FitResult& r) {
   if (!r.pso) return nullptr;
   const auto& o = r.options;
@@ -327,6 +365,7 @@ nlohmann::json json_report(const FitResult& r) {
         {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
       {"method", o.method == Method::kPso ? "pso" : "ls"},
       {"doubts", r.doubts},
+      {"correlation", json_correlation(r)},
       {"geometry",
        {{"upper_arm_length_m", r.geometry.upper_arm_length_m},
         {"forearm_length_m", r.geometry.forearm_length_m},

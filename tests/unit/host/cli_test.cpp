@@ -298,6 +298,10 @@ TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
   EXPECT_TRUE(j["pso"].is_null());
   EXPECT_TRUE(j["validation"].is_array());
   EXPECT_GT(j["least_squares"]["condition_number"].get<double>(), 1.0);
+  EXPECT_TRUE(j["doubts"].is_array());
+  EXPECT_EQ(j["correlation"]["parameters"].size(), 14u);
+  EXPECT_EQ(j["correlation"]["matrix"].size(), 14u);
+  EXPECT_NEAR(j["correlation"]["matrix"][3][3].get<double>(), 1.0, 1e-12);
   // 4 s at 1 kHz filtered at 20 Hz: residuals correlated over 2 * 1000 / 20 samples.
   EXPECT_EQ(j["least_squares"]["std_dev_correlation_lags"], 100);
   // paper14 fits every sample, as the paper does.

@@ -213,9 +213,18 @@ TEST(LeastSquaresTest, CorrelatedResidualCovarianceEqualsTheDoubleSum) {
     }
     const Eigen::MatrixXd inv = (reg.psi.transpose() * reg.psi).inverse();
     const double dof = static_cast<double>(rows) / static_cast<double>(rows - p);
-    const Eigen::VectorXd expected = (dof * inv * sum * inv).diagonal().cwiseSqrt();
+    const Eigen::MatrixXd cov = dof * inv * sum * inv;
+    const Eigen::VectorXd expected = cov.diagonal().cwiseSqrt();
     for (Eigen::Index c = 0; c < p; ++c)
       EXPECT_NEAR(ls.std_dev(c), expected(c), 1e-6 * expected(c)) << c;
+    // The correlations are the same covariance's.
+    ASSERT_EQ(ls.correlation.rows(), p);
+    for (Eigen::Index a = 0; a < p; ++a) {
+      for (Eigen::Index b = 0; b < p; ++b) {
+        EXPECT_NEAR(ls.correlation(a, b), cov(a, b) / (expected(a) * expected(b)), 1e-6)
+            << a << "," << b;
+      }
+    }
   }
 }
 

@@ -128,6 +128,9 @@ struct FitResult {
   double condition_number{0};
   double condition_number_scaled{0};
   std::size_t std_dev_lags{0};  // residual correlation allowed for (least_squares.hpp)
+  // The parameters' correlations from the least-squares covariance, in the
+  // order of `parameters`; NaN for a parameter not identifiable on the log.
+  Eigen::MatrixXd correlation;
   std::array<double, 3> joint_weights{1, 1, 1};
   std::optional<PsoResult> pso;
   // Parameters held at their physical bound (0) by the bounded optimum.

@@ -50,6 +50,7 @@ struct LeastSquaresResult {
   Eigen::VectorXd unconstrained_beta;
   std::vector<std::size_t> active_bounds;  // parameters held at 0 by their bound
   Eigen::VectorXd std_dev;                 // sqrt of the covariance's diagonal
+  Eigen::MatrixXd correlation;             // the covariance as correlations (unit diagonal)
   std::size_t correlation_lags{0};         // of the covariance estimate (0: white residuals)
   double cost{0};                          // mean squared error of the (weighted) rows at beta
   double unconstrained_cost{0};            // ... at unconstrained_beta
