@@ -192,12 +192,36 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   EXPECT_TRUE(hw.outputs.brake_release);
   double worst = 0.0;
   int cycles = 0;
+  // The tracking error over the trajectory (after the approach), in double
+  // from the plant, against the controller's own integer statistics.
+  std::array<double, 3> sum_sq{}, largest{};
+  int trajectory_ticks = 0;
   while (ctl.state() == State::kRunning && cycles < 20000) {
+    const bool on_trajectory = ctl.run_tick() >= config.approach_ticks;
+    const std::array<double, 3> q_seen = hw.plant.q;  // what this tick's feedback carries
     tick();
     ++cycles;
     for (unsigned j = 0; j < 3; ++j) {
-      worst = std::max(worst, std::abs(to_d(ctl.reference().q_rad[j]) - hw.plant.q[j]));
+      const double e = to_d(ctl.reference().q_rad[j]) - q_seen[j];
+      worst = std::max(worst, std::abs(e));
+      if (on_trajectory && ctl.state() == State::kRunning) {
+        sum_sq[j] += e * e;
+        largest[j] = std::max(largest[j], std::abs(e));
+      }
     }
+    trajectory_ticks += on_trajectory && ctl.state() == State::kRunning;
+  }
+  const fw::TrackingStats& t = ctl.tracking();
+  EXPECT_NEAR(static_cast<int>(t.ticks), trajectory_ticks, 2);
+  for (unsigned j = 0; j < 3; ++j) {
+    const double rms = std::sqrt(std::ldexp(static_cast<double>(t.sum_sq_rad2_q40[j]), -40) /
+                                 static_cast<double>(t.ticks));
+    const double rms_double = std::sqrt(sum_sq[j] / trajectory_ticks);
+    std::printf("joint %u tracking: rms %.4g rad (double from the plant %.4g), max %.4g (%.4g)\n",
+                j, rms, rms_double, to_d(t.max_abs_rad[j]), largest[j]);
+    EXPECT_NEAR(rms, rms_double, 0.05 * rms_double + 2e-6) << j;  // encoder quantisation apart
+    EXPECT_NEAR(to_d(t.max_abs_rad[j]), largest[j], 0.1 * largest[j] + 1e-5) << j;
+    EXPECT_GT(rms, 1e-6) << "a run without any error is not this plant";
   }
   // approach (1000) + blends (2000) + 2 periods of 5 s (10000), then stopping.
   EXPECT_EQ(ctl.state(), State::kStopping);
@@ -225,6 +249,27 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   }
   EXPECT_LT(worst_tau, 2e-5);
   EXPECT_GT(std::abs(to_d(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
+}
+
+// The tracking statistics' integer arithmetic: errors rounded to 2^-20 rad
+// and squared, the largest kept in Q3.28, a sum that would wrap held at
+// its largest value.
+TEST(TrackingStatsTest, SumsSquaresInQ3_20AndKeepsTheLargestError) {
+  using delta::fx::Q3_28;
+  fw::TrackingStats t;
+  const delta::fx::JointAnglesQ zero{};
+  const delta::fx::JointAnglesQ q{Q3_28::from_raw(-268435), Q3_28::from_raw(256),
+                                  Q3_28::from_raw(0)};  // -0.001 rad, 2^-20 rad, 0
+  t.add(zero, q);
+  t.add(zero, q);
+  EXPECT_EQ(t.ticks, 2u);
+  EXPECT_EQ(t.sum_sq_rad2_q40[0], 2u * 1049u * 1049u);  // 268435 / 256 = 1048.57 -> 1049
+  EXPECT_EQ(t.sum_sq_rad2_q40[1], 2u);
+  EXPECT_EQ(t.sum_sq_rad2_q40[2], 0u);
+  EXPECT_EQ(t.max_abs_rad[0].raw(), 268435);
+  t.sum_sq_rad2_q40[1] = UINT64_MAX - 1;
+  t.add(zero, q);
+  EXPECT_EQ(t.sum_sq_rad2_q40[1], UINT64_MAX);
 }
 
 TEST_F(ControllerTest, TheCoreLogOfAnExcitationIdentifiesThePlant) {

@@ -9,6 +9,7 @@
 #include <deque>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <tuple>
 
 #include "delta/can/protocol.hpp"
@@ -20,7 +21,9 @@
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/drive_units.hpp"
+#include "fw_linux/exit_codes.hpp"
 #include "fw_linux/linux_hardware.hpp"
+#include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
 #include "in_process_rig.hpp"
 #include "scratch_directory.hpp"
@@ -618,6 +621,40 @@ TEST(InProcessPortTest, ALateAnswerToARetriedSdoRequestIsIgnored) {
   rig.bus.to_master_.push_front(first);
   EXPECT_TRUE(bring_up(rig)) << rig.master.last_problem();
   EXPECT_EQ(rig.master.last_problem(), "");
+}
+
+// After each run delta_fw prints `tracking NAME: rms_rad=a,b,c
+// max_rad=a,b,c`, the controller's own statistics over the trajectory.
+TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
+  Rig rig;
+  const auto traj = named_trajectory("path2", Rig::config());
+  ASSERT_TRUE(traj.has_value());
+  std::ostringstream messages;
+  const fw::ControllerConfig core = controller_config(Rig::config());
+  std::vector<NamedRun> runs;
+  runs.push_back({"path2", fw::CheckedTrajectory::check(core.geometry, *traj, core.limits)});
+  RunCoordinator coordinator(std::move(runs), true, nullptr, messages);
+  for (int i = 0; i < 20000 && !coordinator.exit_code(); ++i) {
+    rig.cycle();
+    coordinator.after_step(rig.controller, rig.hw, rig.master);
+  }
+  ASSERT_EQ(coordinator.exit_code(), kExitDone) << messages.str();
+  const std::string text = messages.str();
+  const std::size_t at = text.find("\ntracking path2: rms_rad=");
+  ASSERT_NE(at, std::string::npos) << text;
+  std::array<double, 3> rms{}, largest{};
+  ASSERT_EQ(
+      std::sscanf(text.c_str() + at + 1, "tracking path2: rms_rad=%lf,%lf,%lf max_rad=%lf,%lf,%lf",
+                  &rms[0], &rms[1], &rms[2], &largest[0], &largest[1], &largest[2]),
+      6)
+      << text;
+  const fw::TrackingStats& t = rig.controller.tracking();
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_GT(rms[j], 0.0);
+    EXPECT_LT(rms[j], largest[j]);
+    EXPECT_LT(largest[j], 0.02);  // as the run test above measures through the bus
+    EXPECT_NEAR(largest[j], std::ldexp(t.max_abs_rad[j].raw(), -28), 1e-5 * largest[j]);  // %.6g
+  }
 }
 
 TEST(InProcessPortTest, DrivesWithTheIdentityOfTheirEdsComeUp) {

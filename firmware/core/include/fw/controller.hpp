@@ -16,6 +16,7 @@
 #include "fw/hardware.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
+#include "fw/tracking.hpp"
 #include "fw/trajectory.hpp"
 
 namespace fw {
@@ -131,6 +132,9 @@ class Controller {
   std::uint32_t cycles() const { return cycles_; }
   std::uint32_t run_tick() const { return run_tick_; }
   const JointReference& reference() const { return reference_; }
+  // The tracking error of the current or last run's trajectory (after the
+  // approach); reset when a run starts.
+  const TrackingStats& tracking() const { return tracking_; }
   const std::array<Q12_19, 3>& measured_torque() const { return measured_torque_; }
   const std::array<Q12_19, 3>& commanded_torque() const { return command_; }
   // The run's length in cycles (the approach, then the trajectory's ticks
@@ -198,6 +202,7 @@ class Controller {
     start_requested_ = false;
     for (unsigned j = 0; j < 3; ++j) approach_from_[j] = feedback_[j].position_rad;
     run_tick_ = 0;
+    tracking_ = {};
     joint_.reset();
     hw_.enable_drives(true);
     state_ = State::kRunning;
@@ -267,6 +272,9 @@ class Controller {
       }
       measured_torque_[j] = torque_from_current_[j](feedback_[j].current_A);
     }
+    if (state_ == State::kRunning && run_tick_ >= config_.approach_ticks) {
+      tracking_.add(reference_.q_rad, q);
+    }
     std::array<bool, 3> saturated{};
     command_ = joint_.update(reference_, q, qd, saturated);
     hw_.command_torque(command_);
@@ -309,6 +317,7 @@ class Controller {
   Fault fault_{Fault::kNone};
   std::array<DriveFeedback, 3> feedback_{};
   JointReference reference_{};
+  TrackingStats tracking_{};
   JointAnglesQ approach_from_{};
   std::array<Q12_19, 3> measured_torque_{};
   std::array<Q12_19, 3> command_{};

@@ -1,5 +1,7 @@
 #include "fw_linux/run_coordinator.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <ostream>
 
 #include "fw_linux/exit_codes.hpp"
@@ -66,6 +68,7 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
         return;
       }
       out_ << "delta_fw: running " << run.name << "\n";
+      run_name_ = run.name;
       ++next_run_;
       running_cli_ = true;
       ++run_id_;
@@ -104,7 +107,26 @@ void RunCoordinator::track_run(const Controller& c) {
     run_result_ = stop_commanded_ ? mb::RunResult::kStopped : mb::RunResult::kFinished;
     run_active_ = false;
   }
-  if (!run_active_) running_cli_ = false;
+  if (!run_active_) {
+    running_cli_ = false;
+    print_tracking(c.tracking());
+  }
+}
+
+// After each run: `tracking NAME: rms_rad=a,b,c max_rad=a,b,c`, over the
+// trajectory's ticks (docs/firmware.md); a run that ended in the approach
+// has none.
+void RunCoordinator::print_tracking(const fw::TrackingStats& t) {
+  if (t.ticks == 0) return;
+  char text[256];
+  std::array<double, 3> rms{}, largest{};
+  for (unsigned j = 0; j < 3; ++j) {
+    rms[j] = std::sqrt(std::ldexp(static_cast<double>(t.sum_sq_rad2_q40[j]), -40) / t.ticks);
+    largest[j] = std::ldexp(static_cast<double>(t.max_abs_rad[j].raw()), -28);
+  }
+  std::snprintf(text, sizeof text, "tracking %s: rms_rad=%.6g,%.6g,%.6g max_rad=%.6g,%.6g,%.6g\n",
+                run_name_.c_str(), rms[0], rms[1], rms[2], largest[0], largest[1], largest[2]);
+  out_ << text;
 }
 
 CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command) {
@@ -122,9 +144,8 @@ CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command
         return v;
       }
       const auto names = trajectory_names();
-      out_ << "delta_fw: running "
-           << (command.trajectory_id < names.size() ? names[command.trajectory_id] : "?")
-           << " (Modbus)\n";
+      run_name_ = command.trajectory_id < names.size() ? names[command.trajectory_id] : "?";
+      out_ << "delta_fw: running " << run_name_ << " (Modbus)\n";
       ++run_id_;
       run_result_ = mb::RunResult::kRunning;
       run_active_ = true;

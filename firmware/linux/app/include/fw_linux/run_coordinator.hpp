@@ -44,6 +44,7 @@ class RunCoordinator {
  private:
   CommandVerdict handle(Controller& controller, const PanelCommand& command);
   void track_run(const Controller& controller);
+  void print_tracking(const fw::TrackingStats& tracking);
   PanelStatus status(const Controller& controller, const LinuxHardware& hw) const;
 
   std::vector<NamedRun> runs_;
@@ -59,6 +60,7 @@ class RunCoordinator {
   std::uint16_t run_id_{0};
   delta::modbus::RunResult run_result_{delta::modbus::RunResult::kNone};
   bool run_active_{false};
+  std::string run_name_;  // of the run under way, for its tracking line
   bool seen_moving_{false};
   bool stop_commanded_{false};
   bool last_estop_open_{false};
