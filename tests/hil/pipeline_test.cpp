@@ -15,6 +15,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -1078,6 +1079,14 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("# trajectory = path1"), std::string::npos);
   EXPECT_NE(text.find("# sample_rate_hz = 500"), std::string::npos);
+  // The controller's tracking error of the run, in the metadata.
+  for (const char* key : {"# tracking_rms_rad_1 = ", "# tracking_max_rad_3 = "}) {
+    const std::size_t at = text.find(key);
+    ASSERT_NE(at, std::string::npos) << key;
+    const double v = std::strtod(text.c_str() + at + std::strlen(key), nullptr);
+    EXPECT_GT(v, 0.0) << key;
+    EXPECT_LT(v, 0.05) << key;
+  }
   // The drives' currents came with every sample: the logged torque is the
   // firmware's gear * k_t * efficiency * i = 10 * 0.1 * 0.9 * i.
   {
@@ -1113,8 +1122,10 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   ASSERT_EQ(after.wait(30s).value_or(-1), 0) << after.err();
   EXPECT_NE(after.out().find("run        #1 finished, tick 7001 of 7001"), std::string::npos)
       << after.out();
+  EXPECT_NE(after.out().find("  tracking   run #1, rms "), std::string::npos) << after.out();
 
   EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
+  EXPECT_NE(fw.err().find("tracking path1: rms_rad="), std::string::npos) << fw.err();
   EXPECT_EQ(emu.terminate(30s).value_or(-1), 0) << emu.err();
   expect_fit_stands_for_the_multibody_robot(dir + "/excite.csv", dir);
 }

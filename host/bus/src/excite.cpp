@@ -233,6 +233,25 @@ ExciteVerdict excite_verdict(const std::string& ending, const RecordSummary& sum
   return {};
 }
 
+// The controller's tracking error of the run (docs/modbus.md), into the
+// log's metadata: tracking_rms_rad_1..3, tracking_max_rad_1..3.
+void add_tracking(ControllerLink& link, std::int64_t run_id, DeltaLog& log) {
+  std::vector<std::uint16_t> in;
+  try {
+    in = link.inputs();
+  } catch (const delta::InputError&) {
+    return;  // the log is worth keeping without them
+  }
+  if (raw("tracking_run_id", in) != run_id || raw("tracking_ticks", in) == 0) return;
+  for (const char* kind : {"rms", "max"}) {
+    for (const char* j : {"1", "2", "3"}) {
+      const std::string name = std::string("tracking_") + kind + "_" + j;
+      log.metadata.emplace_back(std::string("tracking_") + kind + "_rad_" + j,
+                                format_number(scaled(name.c_str(), in)));
+    }
+  }
+}
+
 RecordOptions record_options(const ExciteOptions& a, const std::vector<std::uint16_t>& in) {
   RecordOptions ro;
   ro.iface = a.iface;
@@ -279,6 +298,7 @@ int run_excite(const ExciteOptions& a, std::ostream& out, std::ostream& err) {
   rec.log.metadata.emplace_back("trajectory", a.trajectory);
   if (!a.trajectory_file.empty())
     rec.log.metadata.emplace_back("trajectory_file", a.trajectory_file);
+  if (run.ending.empty()) add_tracking(link, run.run_id, rec.log);
   const std::string path = run.ending.empty() ? a.out_path : delta::partial_log_path(a.out_path);
   delta::write_file_atomically(path, format_delta_log(rec.log));
   if (!a.raw_path.empty()) delta::write_file_atomically(a.raw_path, rec.raw);

@@ -266,6 +266,23 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   EXPECT_EQ(value(r.data(), "log_records"), length + 200);
   EXPECT_EQ(value(r.data(), "stale_log_records"), 0);  // every cycle had its feedback
   EXPECT_EQ(value(r.data(), "fault_count"), 0);
+  // The run's tracking error: its trajectory's cycles (4001 less the 2 s
+  // approach, 1000), each joint's RMS below its largest error.
+  EXPECT_EQ(value(r.data(), "tracking_run_id"), 1);
+  EXPECT_EQ(value(r.data(), "tracking_ticks"), length - 1000);
+  for (const char* j : {"1", "2", "3"}) {
+    const std::int64_t rms = value(r.data(), (std::string("tracking_rms_") + j).c_str());
+    const std::int64_t largest = value(r.data(), (std::string("tracking_max_") + j).c_str());
+    EXPECT_GT(rms, 0) << j;
+    EXPECT_LT(rms, largest) << j;
+    EXPECT_LT(largest, 20000000) << j;  // 0.02 rad
+  }
+  std::ostringstream out, err;
+  ASSERT_EQ(host_id::run_cli(
+                {"status", "--modbus", "127.0.0.1:" + std::to_string(server.tcp_port())}, out, err),
+            0)
+      << err.str();
+  EXPECT_NE(out.str().find("  tracking   run #1, rms "), std::string::npos) << out.str();
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
 }
 

@@ -1,5 +1,6 @@
 #include "fw_linux/run_coordinator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ostream>
@@ -195,6 +196,19 @@ PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw)
   for (unsigned j = 0; j < 3; ++j) {
     s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);
     s.tau_uNm[j] = micro(c.measured_torque()[j].raw(), 19);
+  }
+  const fw::TrackingStats& t = c.tracking();
+  if (t.ticks != 0) {
+    s.tracking_run_id = run_id_;
+    s.tracking_ticks = t.ticks;
+    const auto nano = [](double rad) {
+      return static_cast<std::uint32_t>(std::min(std::llround(rad * 1e9), 0xFFFFFFFFll));
+    };
+    for (unsigned j = 0; j < 3; ++j) {
+      s.tracking_rms_nrad[j] =
+          nano(std::sqrt(std::ldexp(static_cast<double>(t.sum_sq_rad2_q40[j]), -40) / t.ticks));
+      s.tracking_max_nrad[j] = nano(std::ldexp(static_cast<double>(t.max_abs_rad[j].raw()), -28));
+    }
   }
   return s;
 }

@@ -105,6 +105,13 @@ void RegisterBank::refresh() {
   set("firmware_version_minor", program_.version.minor);
   set("firmware_version_patch", program_.version.patch);
   set("update_rollback", static_cast<int>(program_.rolled_back));
+  set("tracking_run_id", s.tracking_run_id);
+  set("tracking_ticks", s.tracking_ticks);
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::string n = std::to_string(j + 1);
+    mb::encode(mb::named(("tracking_rms_" + n).c_str()), s.tracking_rms_nrad[j], in);
+    mb::encode(mb::named(("tracking_max_" + n).c_str()), s.tracking_max_nrad[j], in);
+  }
   set("protocol_version", mb::kMapVersion);
   set("state", static_cast<int>(s.state));
   set("fault_code", static_cast<int>(s.fault));

@@ -57,6 +57,14 @@ void print_run_and_settings(const std::vector<std::uint16_t>& in,
   out << "; " << r("log_records") << " log records sent";
   if (r("stale_log_records") != 0) out << " (" << r("stale_log_records") << " marked stale)";
   out << "\n";
+  if (r("tracking_run_id") != 0) {
+    // The controller's own measurement of the run's trajectory.
+    out << std::setprecision(3) << "  tracking   run #" << r("tracking_run_id") << ", rms "
+        << scaled("tracking_rms_1", in) << " " << scaled("tracking_rms_2", in) << " "
+        << scaled("tracking_rms_3", in) << " rad, max " << scaled("tracking_max_1", in) << " "
+        << scaled("tracking_max_2", in) << " " << scaled("tracking_max_3", in) << " rad over "
+        << r("tracking_ticks") << " cycles\n";
+  }
   const std::int64_t reps = hold[mb::kRepetitions.address];
   out << "  settings   trajectory " << trajectory_name(hold[mb::kTrajectory.address])
       << ", amplitude " << std::setprecision(1) << hold[mb::kAmplitudeScale.address] / 10.0

@@ -16,7 +16,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 4;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 5;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 enum class Table : std::uint8_t { kInput, kHolding };
@@ -158,12 +158,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 97> kRegisters{{
+inline constexpr std::array<Register, 105> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (4)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (5)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -214,6 +214,15 @@ inline constexpr std::array<Register, 97> kRegisters{{
     {"trajectory_count", Table::kInput, 72, Type::kU16, 1, 1, "", "trajectories the controller knows (ids 0 .. count-1)"},
     {"stale_log_records", Table::kInput, 73, Type::kU32, 1, 1, "", "of log_records, those marked stale (a drive's feedback missed the cycle)"},
     {"update_rollback", Table::kInput, 75, Type::kU16, 1, 1, "", "why delta_boot rolled a new program back before this one started (docs/flashing.md): 0 none, 1 no confirmation in time, 2 exited, 3 crashed, 4 power lost during the trial, 5 could not start"},
+    // The tracking error of run tracking_run_id's trajectory (after the approach)
+    {"tracking_run_id", Table::kInput, 76, Type::kU16, 1, 1, "", "the run the tracking registers are of (run_id when it ran), 0 none yet"},
+    {"tracking_ticks", Table::kInput, 77, Type::kU32, 1, 1, "", "the trajectory's cycles they cover"},
+    {"tracking_rms_1", Table::kInput, 79, Type::kU32, 1, 1000000000, "rad", "joint 1 RMS of q_ref - q (nrad)"},
+    {"tracking_rms_2", Table::kInput, 81, Type::kU32, 1, 1000000000, "rad", "joint 2 RMS of q_ref - q (nrad)"},
+    {"tracking_rms_3", Table::kInput, 83, Type::kU32, 1, 1000000000, "rad", "joint 3 RMS of q_ref - q (nrad)"},
+    {"tracking_max_1", Table::kInput, 85, Type::kU32, 1, 1000000000, "rad", "joint 1 largest abs(q_ref - q) (nrad)"},
+    {"tracking_max_2", Table::kInput, 87, Type::kU32, 1, 1000000000, "rad", "joint 2 largest abs(q_ref - q) (nrad)"},
+    {"tracking_max_3", Table::kInput, 89, Type::kU32, 1, 1000000000, "rad", "joint 3 largest abs(q_ref - q) (nrad)"},
     // Settings and the command
     {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", kTrajectoryText.data()},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},

@@ -41,6 +41,11 @@ struct PanelStatus {
   std::array<FaultRecord, delta::modbus::kFaultHistoryLength> fault_history{};  // newest first
   std::array<std::int32_t, 3> q_urad{};
   std::array<std::int32_t, 3> tau_uNm{};
+  // The tracking error of run tracking_run_id (fw::TrackingStats).
+  std::uint16_t tracking_run_id{0};
+  std::uint32_t tracking_ticks{0};
+  std::array<std::uint32_t, 3> tracking_rms_nrad{};
+  std::array<std::uint32_t, 3> tracking_max_nrad{};
 };
 
 struct PanelCommand {
