@@ -658,6 +658,30 @@ TEST_F(CliTest, DesignWritesATrajectoryFileThatSimulateRuns) {
             2);
 }
 
+// A trajectory file that breaks the controller's limits (here a designed
+// one run 4 times faster: 16 times its accelerations) is refused by
+// simulate, naming the limit, the time and the joint; --ignore-limits
+// simulates it with a warning.
+TEST_F(CliTest, SimulateRefusesATrajectoryFileOutsideTheLimits) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));
+  j["base_frequency_hz"] = 4.0 * j["base_frequency_hz"].get<double>();  // 16 x the accelerations
+  std::ofstream(path("wide.json")) << j.dump();
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("wide.json"), "-o", path("w.csv")}), 1);
+  EXPECT_NE(
+      err_.str().find(path("wide.json") + ": the trajectory breaks the controller's limits ("),
+      std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("give --ignore-limits to simulate it anyway"), std::string::npos);
+  EXPECT_FALSE(exists("w.csv"));
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("wide.json"), "--ignore-limits", "-o",
+                 path("w.csv")}),
+            0)
+      << err_.str();
+  EXPECT_NE(err_.str().find("host_id simulate: warning: "), std::string::npos) << err_.str();
+  EXPECT_TRUE(exists("w.csv"));
+}
+
 TEST_F(CliTest, TrajectoryFileErrorsNameTheFileAndTheKey) {
   ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
   auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));

@@ -11,6 +11,7 @@
 #include "delta/robot_description.hpp"
 #include "delta/trajectory_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/design.hpp"
 
 namespace host_id {
 
@@ -25,6 +26,7 @@ struct SimulateArguments {
   std::string plant{"lumped"};
   std::string robot_path;
   bool quiet{false};
+  bool ignore_limits{false};
   SimulateOptions simulate;
 };
 
@@ -62,6 +64,23 @@ void add_measurement_options(CLI::App& c, SimulateOptions& s) {
   c.add_option("--name", s.name, "the log's trajectory name");
 }
 
+// A trajectory file the controller would refuse (the limits design keeps:
+// docs/firmware.md, limits.* and gains.max_torque_Nm, on the robot simulated)
+// is an error, or with --ignore-limits a warning.
+void check_limits(const SimulateArguments& a, const delta::BlendedFourierTrajectory& t,
+                  const delta::RobotDescription& robot, std::ostream& err) {
+  const ExcitationQuality q = excitation_quality(t, default_design_options(), robot);
+  if (q.feasible) return;
+  const std::string what = a.trajectory_file + ": the trajectory breaks the controller's limits (" +
+                           q.violation + "; docs/firmware.md, limits and gains.max_torque_Nm)";
+  if (!a.ignore_limits) {
+    throw delta::InputError(what +
+                            ": delta_fw would refuse it. Design one within them (host_id design), "
+                            "or give --ignore-limits to simulate it anyway");
+  }
+  err << "host_id simulate: warning: " << what << "; simulated as --ignore-limits asks\n";
+}
+
 }  // namespace
 
 void add_simulate_command(CLI::App& command, CommandContext& context) {
@@ -88,6 +107,9 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
                 "a trajectory file (docs/trajectory-file.md, from host_id design) instead of "
                 "--trajectory: run from rest to rest as the controller runs it; --duration "
                 "defaults to its length");
+  c->add_flag("--ignore-limits", a->ignore_limits,
+              "simulate a --trajectory-file that breaks the controller's limits (joint range, "
+              "velocity, acceleration, workspace, torque), with a warning instead of an error");
   c->add_flag("--quiet", a->quiet, "no progress bar");
   a->duration_given = c->get_option("--duration");
   a->trajectory_given = c->get_option("--trajectory");
@@ -112,6 +134,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
       s.plant = SimulatedPlant::kMujoco;
     }
     if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
+    if (s.trajectory_file) check_limits(*a, *s.trajectory_file, s.robot, context.err);
     ProgressBar bar("simulate", a->quiet);
     s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
     const DeltaLog log = simulate_log(s);
