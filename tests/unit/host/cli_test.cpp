@@ -177,7 +177,7 @@ TEST_F(CliTest, BadOptionsAreNamedWithExitStatusTwo) {
   EXPECT_NE(err_.str().find("--iterations: Value 0 not in range 1 to 100000000"), std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--model", "paper"}), 2);
-  EXPECT_NE(err_.str().find("--model: paper not in {delta,lumped,paper14}"), std::string::npos)
+  EXPECT_NE(err_.str().find("--model: paper not in {delta,lumped,paper14,auto}"), std::string::npos)
       << err_.str();
   EXPECT_EQ(run({"fit", path("a.csv"), "--seed"}), 2);
   EXPECT_NE(err_.str().find("--seed"), std::string::npos);
@@ -284,6 +284,27 @@ TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
             std::string::npos)
       << err_.str();
   EXPECT_NE(err_.str().find("set model.name to 'lumped'"), std::string::npos);
+}
+
+// --model auto: the variant the held-out error chooses, in the report and
+// the JSON; it decides --per-joint and --offsets itself.
+TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls", "--json"}), 0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  ASSERT_TRUE(j.contains("model_selection"));
+  EXPECT_EQ(j["model_selection"]["folds"], 5);
+  EXPECT_EQ(j["model_selection"]["variants"].size(), 4u);
+  EXPECT_EQ(j["model_selection"]["chosen"], "shared arms");  // the default robot's arms are equal
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_EQ(j["model"]["per_joint"], false);
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("<- chosen"), std::string::npos) << out_.str();
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--per-joint"}), 2);
+  EXPECT_NE(err_.str().find("--model auto decides --per-joint and --offsets itself"),
+            std::string::npos)
+      << err_.str();
 }
 
 TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
+#include <sstream>
 
 #include "commands/command.hpp"
 #include "commands/progress.hpp"
@@ -13,6 +14,7 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
+#include "host_id/model_selection.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
 #include "host_id/truth.hpp"
@@ -46,18 +48,27 @@ struct FitArguments {
   bool quiet{false};
   bool allow_other_geometry{false};
   std::string time_steps{"check"};
+  std::optional<ModelSelection> selection;  // with --model auto
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
+
+std::vector<std::string> model_names_and_auto() {
+  std::vector<std::string> names = model_names();
+  names.emplace_back("auto");
+  return names;
+}
 
 void add_model_options(CLI::App& c, FitArguments& a) {
   c.add_option("--model", a.models,
                "delta: the higher-fidelity model (arm centre of mass off its line, inertial "
                "and weight platform masses, forearm coupling); lumped: point masses at elbow "
                "and platform; both with lambda solved per sample; paper14: the paper's 14 "
-               "coefficients. Given more than once, each model is fitted and Table 2 covers "
-               "them all; the first is the one --out and --plot save")
-      ->check(CLI::IsMember(model_names()))
+               "coefficients; auto: the delta model with shared or per-joint arms, with or "
+               "without torque offsets, as held-out error on time blocks of the log decides "
+               "(docs/identification.md, 'Choosing the model'). Given more than once, each model "
+               "is fitted and Table 2 covers them all; the first is the one --out and --plot save")
+      ->check(CLI::IsMember(model_names_and_auto()))
       ->capture_default_str()
       ->group("model");
   c.add_flag("--per-joint", a.fit.model.per_joint,
@@ -205,12 +216,44 @@ FitOptions options_for_model(FitOptions f, const std::string& name) {
   return f;
 }
 
+nlohmann::json json_selection(const ModelSelection& s) {
+  nlohmann::json variants = nlohmann::json::array();
+  for (const VariantScore& v : s.variants) {
+    variants.push_back({{"variant", v.name},
+                        {"per_joint", v.model.per_joint},
+                        {"offsets", v.model.offsets},
+                        {"parameters", v.parameters},
+                        {"held_out_rmse_Nm", v.held_out_rmse_Nm}});
+  }
+  return {{"folds", s.folds},
+          {"criterion", "held-out torque RMSE over time blocks (k-fold)"},
+          {"variants", variants},
+          {"chosen", s.variants[s.chosen].name},
+          {"reason", s.reason}};
+}
+
+std::string text_selection(const ModelSelection& s) {
+  std::ostringstream t;
+  t << "host_id fit: --model auto: held-out torque RMSE over " << s.folds
+    << " time blocks of the log (each fitted on the others)\n";
+  for (std::size_t i = 0; i < s.variants.size(); ++i) {
+    const VariantScore& v = s.variants[i];
+    char line[160];
+    std::snprintf(line, sizeof line, "  %-32s %2zu parameters  %.6f N m%s\n", v.name.c_str(),
+                  v.parameters, v.held_out_rmse_Nm, i == s.chosen ? "  <- chosen" : "");
+    t << line;
+  }
+  t << "  chosen    " << s.reason << "\n\n";
+  return t.str();
+}
+
 // The first result is the primary model's: --out and --plot save it, and
 // the JSON is its report, with the others under "other_models".
 void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
                    std::ostream& out) {
   const FitResult& r = results.front();
   nlohmann::json j = json_report(r);
+  if (a.selection) j["model_selection"] = json_selection(*a.selection);
   if (results.size() > 1) {
     j["other_models"] = nlohmann::json::array();
     for (std::size_t i = 1; i < results.size(); ++i) {
@@ -226,6 +269,7 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
     out << j.dump(2) << "\n";
     return;
   }
+  if (a.selection) out << text_selection(*a.selection);
   for (std::size_t i = 0; i < results.size(); ++i) {
     if (i > 0) out << "\n";
     out << text_report(results[i]);
@@ -235,7 +279,15 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
   if (!a.plot_path.empty()) out << "  plot      " << a.plot_path << "\n";
 }
 
-int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
+int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  const bool automatic = a.models.front() == "auto";
+  if (automatic && a.models.size() > 1) {
+    throw UsageError("--model auto: not with other --model values");
+  }
+  if (automatic && (a.fit.model.per_joint || a.fit.model.offsets)) {
+    throw UsageError("--model auto decides --per-joint and --offsets itself");
+  }
+  if (automatic) a.models.front() = "delta";
   FitOptions f = fit_options(a);
   ProgressBar bar("pso", a.quiet || f.method != Method::kPso);
   f.pso.progress = [&bar](std::size_t it, std::size_t max, double c) {
@@ -261,6 +313,10 @@ int run_fit(const FitArguments& a, std::ostream& out, std::ostream& err) {
   if (robot) {
     check_geometry(a.log, log.geometry, "the robot of --truth " + a.truth_path, robot->geometry,
                    a.allow_other_geometry, err);
+  }
+  if (automatic) {
+    a.selection = select_model(log, f);
+    f.model = a.selection->variants[a.selection->chosen].model;
   }
   std::vector<FitResult> results;
   for (std::size_t i = 0; i < a.models.size(); ++i) {
