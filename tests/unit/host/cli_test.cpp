@@ -307,6 +307,41 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
       << err_.str();
 }
 
+// fit LOADED.csv --base RESULT.json: the payload's mass alone, and with -o
+// the base result with the payload added, which predict then uses.
+TEST_F(CliTest, APayloadOnABaseFitIsItsMassAndSavesTheLoadedResult) {
+  SimulateOptions o;
+  o.torque_noise = 0.01;
+  o.encoder_bits = 17;
+  o.duration_s = 10.0;
+  o.seed = 3;
+  std::ofstream(path("empty.csv")) << format_delta_log(simulate_log(o));
+  o.parameters.platform_mass_kg += 0.3;
+  o.seed = 4;
+  std::ofstream(path("loaded.csv")) << format_delta_log(simulate_log(o));
+  ASSERT_EQ(run({"fit", path("empty.csv"), "--method", "ls", "-o", path("base.json")}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("loaded.csv"), "--base", path("base.json"), "--json", "-o",
+                 path("loaded.json")}),
+            0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_NEAR(j["payload_mass_kg"].get<double>(), 0.3, 0.005);
+  EXPECT_GT(j["payload_mass_std_kg"].get<double>(), 0.0);
+  const auto base = nlohmann::json::parse(delta::read_whole_file(path("base.json")));
+  const auto loaded = nlohmann::json::parse(delta::read_whole_file(path("loaded.json")));
+  EXPECT_NEAR(loaded["parameters"]["platform_weight_mass"].get<double>() -
+                  base["parameters"]["platform_weight_mass"].get<double>(),
+              j["payload_mass_kg"].get<double>(), 1e-12);
+  EXPECT_EQ(loaded["parameters"]["arm_inertia"], base["parameters"]["arm_inertia"]);
+  ASSERT_EQ(
+      run({"predict", path("loaded.json"), path("loaded.csv"), "-o", path("p.csv"), "--json"}), 0)
+      << err_.str();
+  const auto pred = nlohmann::json::parse(out_.str());
+  EXPECT_LT(pred["rmse_measured_Nm"][0].get<double>(), 0.05);
+  EXPECT_EQ(run({"fit", path("loaded.csv"), "--base", path("base.json"), "--model", "lumped"}), 2);
+}
+
 TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
   simulate("p1.csv", {"--torque-noise", "0.01"});
   ASSERT_EQ(run({"fit", path("p1.csv"), "--json", "--method", "ls", "--model", "paper14"}), 0)

@@ -11,10 +11,12 @@
 #include "commands/command.hpp"
 #include "commands/progress.hpp"
 #include "delta/atomic_file.hpp"
+#include "delta/read_file.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/model_selection.hpp"
+#include "host_id/payload.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
 #include "host_id/truth.hpp"
@@ -49,6 +51,7 @@ struct FitArguments {
   bool allow_other_geometry{false};
   std::string time_steps{"check"};
   std::optional<ModelSelection> selection;  // with --model auto
+  std::string base_path;                    // --base: a payload on this fit
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
@@ -182,6 +185,12 @@ void add_output_options(CLI::App& c, FitArguments& a) {
       ->check(kOutputPath)
       ->group("output");
   c.add_flag("--quiet", a.quiet, "no progress bar")->group("output");
+  c.add_option("--base", a.base_path,
+               "RESULT.json of the robot without the payload: estimate only the payload's mass "
+               "on LOG.csv, everything else held (docs/identification.md, 'A payload'); --out "
+               "then saves the base result with the payload added to the platform")
+      ->check(CLI::ExistingFile)
+      ->group("output");
   c.add_flag("--allow-other-geometry", a.allow_other_geometry,
              "go on (with a warning) where a --validate log or the --truth robot has another "
              "geometry than the fitted log")
@@ -279,7 +288,71 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
   if (!a.plot_path.empty()) out << "  plot      " << a.plot_path << "\n";
 }
 
+// fit LOADED.csv --base RESULT.json: the payload's mass alone.
+int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
+  const SavedResult saved = read_saved_result(a.base_path);
+  const auto model = make_model(saved.model);
+  const DeltaLog log = read_delta_log(a.log);
+  if (saved.geometry) {
+    check_geometry(a.log, log.geometry, a.base_path + " was fitted for", *saved.geometry,
+                   a.allow_other_geometry, err);
+  }
+  FitOptions f = fit_options(a);
+  f.model = saved.model;
+  warn_about_log(err, log, saved.prepare.time_steps);
+  const PayloadResult p =
+      fit_payload(*model, saved.beta, log, saved.prepare, min_speed_for(f), f.threads);
+  nlohmann::json payload{{"base", a.base_path},
+                         {"log", a.log},
+                         {"payload_mass_kg", p.mass_kg},
+                         {"payload_mass_std_kg", p.std_dev_kg},
+                         {"equations", p.equations},
+                         {"rmse_base_Nm", p.rmse_base_Nm},
+                         {"rmse_with_payload_Nm", p.rmse_payload_Nm}};
+  if (!a.out_path.empty()) {
+    nlohmann::json result = nlohmann::json::parse(delta::read_whole_file(a.base_path));
+    const Eigen::VectorXd loaded = with_payload(*model, saved.beta, p.mass_kg);
+    for (std::size_t c = 0; c < model->size(); ++c) {
+      const std::string& name = model->parameters()[c].name;
+      if (result["parameters"].contains(name) && !result["parameters"][name].is_null()) {
+        result["parameters"][name] = loaded(static_cast<Eigen::Index>(c));
+      }
+    }
+    result["payload"] = payload;
+    delta::write_file_atomically(a.out_path, result.dump(2) + "\n");
+  }
+  if (a.json) {
+    out << payload.dump(2) << "\n";
+    return 0;
+  }
+  char line[200];
+  out << "host_id fit: " << a.log << ", a payload on " << a.base_path << " (model "
+      << saved.model.name << ", every other parameter held)\n";
+  out << "            " << p.derivatives << "; " << p.equations << " equations\n";
+  std::snprintf(line, sizeof line, "  payload_mass   %.6g kg, std dev %.3g kg (%.3g %%)\n",
+                p.mass_kg, p.std_dev_kg,
+                p.mass_kg != 0 ? 100.0 * p.std_dev_kg / std::abs(p.mass_kg) : 0.0);
+  out << line;
+  std::snprintf(line, sizeof line,
+                "  torque RMSE [N m]   base model %.5f %.5f %.5f, with the payload %.5f %.5f "
+                "%.5f\n",
+                p.rmse_base_Nm[0], p.rmse_base_Nm[1], p.rmse_base_Nm[2], p.rmse_payload_Nm[0],
+                p.rmse_payload_Nm[1], p.rmse_payload_Nm[2]);
+  out << line;
+  if (!a.out_path.empty()) out << "  saved     " << a.out_path << " (the base with the payload)\n";
+  return 0;
+}
+
 int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  if (!a.base_path.empty()) {
+    if (a.models.size() > 1 || a.models.front() != "delta" || !a.validate.empty() ||
+        !a.plot_path.empty() || !a.truth_path.empty()) {
+      throw UsageError(
+          "--base: the model is the base fit's; not with --model, --validate, "
+          "--plot or --truth");
+    }
+    return run_payload(a, out, err);
+  }
   const bool automatic = a.models.front() == "auto";
   if (automatic && a.models.size() > 1) {
     throw UsageError("--model auto: not with other --model values");
