@@ -39,6 +39,7 @@ class Section {
     return path_.empty() ? key : path_ + "." + key;
   }
   bool has(const std::string& key) const { return j_.contains(key); }
+  const std::string& file() const { return file_; }
 
   const nlohmann::json& at(const std::string& key) {
     used_.insert(key);
@@ -90,6 +91,29 @@ InertiaTensor read_inertia(Section s) {
   t.yz_kg_m2 = s.number_or("yz", 0.0);
   s.done();
   return t;
+}
+
+UpperArmBody read_arm(Section s) {
+  UpperArmBody arm;
+  arm.mass_kg = s.number("mass_kg");
+  arm.com_m = s.vec3("com_m");
+  arm.inertia = read_inertia(s.section("inertia_kg_m2"));
+  s.done();
+  return arm;
+}
+
+// "upper_arms": three entries, each an arm body or null (upper_arm's).
+void read_arm_bodies(Section& top, RobotDescription& d) {
+  if (!top.has("upper_arms")) return;
+  const nlohmann::json& arms = top.at("upper_arms");
+  if (!arms.is_array() || arms.size() != 3) {
+    top.fail("upper_arms", "must be an array of three arm bodies (null: upper_arm's)");
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (arms[i].is_null()) continue;
+    d.arm_bodies[i] =
+        read_arm(Section(arms[i], top.file(), "upper_arms[" + std::to_string(i) + "]"));
+  }
 }
 
 PlatformMass read_platform_mass(Section s) {
@@ -149,10 +173,8 @@ RobotDescription parse(const nlohmann::json& root, const std::string& file) {
   d.gravity_m_s2 = top.number("gravity_m_s2");
   read_geometry(top.section("geometry"), d);
   Section arm = top.section("upper_arm");
-  d.upper_arm.mass_kg = arm.number("mass_kg");
-  d.upper_arm.com_m = arm.vec3("com_m");
-  d.upper_arm.inertia = read_inertia(arm.section("inertia_kg_m2"));
-  arm.done();
+  d.upper_arm = read_arm(arm);
+  read_arm_bodies(top, d);
   Section rod = top.section("forearm_rod");
   d.rod.tube_mass_kg = rod.number("tube_mass_kg");
   d.rod.tube_radius_m = rod.number("tube_radius_m");
@@ -235,6 +257,12 @@ void validate_robot_description(const RobotDescription& d, const std::string& wh
   require_positive(where, "gravity_m_s2", d.gravity_m_s2);
   require_positive(where, "upper_arm.mass_kg", d.upper_arm.mass_kg);
   validate_inertia(where, "upper_arm.inertia_kg_m2", d.upper_arm.inertia);
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (!d.arm_bodies[i]) continue;
+    const std::string key = "upper_arms[" + std::to_string(i) + "]";
+    require_positive(where, key + ".mass_kg", d.arm_bodies[i]->mass_kg);
+    validate_inertia(where, key + ".inertia_kg_m2", d.arm_bodies[i]->inertia);
+  }
   require_non_negative(where, "forearm_rod.tube_mass_kg", d.rod.tube_mass_kg);
   require_non_negative(where, "forearm_rod.tube_radius_m", d.rod.tube_radius_m);
   if (!(d.rod.tube_radius_m < d.geometry.forearm_length_m / 2.0)) {
@@ -329,9 +357,9 @@ LumpedParameters lumped_truth(const RobotDescription& d) {
   const double elbow_kg = 2.0 * s.elbow_weight_kg;  // two rods per forearm
   for (unsigned i = 0; i < 3; ++i) {
     p.arm_inertia_kg_m2[i] =
-        arm_axis_inertia(d.upper_arm) + d.joints[i].armature_kg_m2() + elbow_kg * a * a;
+        arm_axis_inertia(d.arm(i)) + d.joints[i].armature_kg_m2() + elbow_kg * a * a;
     p.arm_gravity_moment_Nm[i] =
-        d.gravity_m_s2 * (d.upper_arm.mass_kg * d.upper_arm.com_m.x + elbow_kg * a);
+        d.gravity_m_s2 * (d.arm(i).mass_kg * d.arm(i).com_m.x + elbow_kg * a);
     p.viscous_friction_Nm_s_per_rad[i] = d.joints[i].viscous_friction_Nm_s_per_rad;
     p.coulomb_friction_Nm[i] = d.joints[i].coulomb_friction_Nm;
   }
@@ -347,10 +375,10 @@ HighFidelityParameters high_fidelity_truth(const RobotDescription& d) {
   const double g = d.gravity_m_s2;
   for (unsigned i = 0; i < 3; ++i) {
     t.arm_inertia_kg_m2[i] =
-        arm_axis_inertia(d.upper_arm) + d.joints[i].armature_kg_m2() + 2.0 * s.a_kg * a * a;
+        arm_axis_inertia(d.arm(i)) + d.joints[i].armature_kg_m2() + 2.0 * s.a_kg * a * a;
     t.arm_gravity_cos_Nm[i] =
-        g * (d.upper_arm.mass_kg * d.upper_arm.com_m.x + 2.0 * s.elbow_weight_kg * a);
-    t.arm_gravity_sin_Nm[i] = -g * d.upper_arm.mass_kg * d.upper_arm.com_m.z;
+        g * (d.arm(i).mass_kg * d.arm(i).com_m.x + 2.0 * s.elbow_weight_kg * a);
+    t.arm_gravity_sin_Nm[i] = -g * d.arm(i).mass_kg * d.arm(i).com_m.z;
     t.viscous_friction_Nm_s_per_rad[i] = d.joints[i].viscous_friction_Nm_s_per_rad;
     t.coulomb_friction_Nm[i] = d.joints[i].coulomb_friction_Nm;
     t.stribeck_friction_Nm[i] = d.joints[i].stribeck_friction_Nm;

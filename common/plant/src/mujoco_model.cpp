@@ -64,7 +64,7 @@ void write_arm(std::ostream& x, const RobotDescription& d, int chain, const Vec3
   const auto c = static_cast<unsigned>(chain);
   const double cp = kChainCos[c], sp = kChainSin[c];
   const double r = d.geometry.base_radius_m, a = d.geometry.upper_arm_length_m;
-  const UpperArmBody& arm = d.upper_arm;
+  const UpperArmBody& arm = d.arm(c);
   const InertiaTensor& it = arm.inertia;
   const RodInertial rod = rod_inertial(d.rod, d.geometry.forearm_length_m);
   const std::string n = std::to_string(chain + 1);

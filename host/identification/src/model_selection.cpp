@@ -127,6 +127,7 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
   const std::vector<FoldMoments> moments = fold_moments(pre.regression, pre.fast_rows, folds);
   std::size_t rows = 0;
   for (const FoldMoments& f : moments) rows += f.rows;
+  // shared arms, per-joint arms, shared arms with offsets, both
   for (const bool offsets : {false, true}) {
     for (const bool per_joint : {false, true}) {
       ModelOptions m = options.model;
@@ -140,22 +141,35 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
           {variant_name(m), m, variant->size(), std::sqrt(sse / static_cast<double>(rows))});
     }
   }
-  std::stable_sort(
-      out.variants.begin(), out.variants.end(),
-      [](const VariantScore& a, const VariantScore& b) { return a.parameters < b.parameters; });
-  // The simplest variant that no larger one beats by more than the margin.
-  double best = out.variants.front().held_out_rmse_Nm;
-  for (std::size_t i = 1; i < out.variants.size(); ++i) {
-    if (out.variants[i].held_out_rmse_Nm < best * (1.0 - kSelectionMargin)) {
-      out.chosen = i;
-      best = out.variants[i].held_out_rmse_Nm;
-    }
+  // variants: shared, per-joint, offsets, both (the loops' order). The
+  // arms first (per-joint arms are physics the shared model lacks), then
+  // torque offsets on top of the arms chosen; each must lower the held-out
+  // error by more than the margin.
+  const auto better = [&](std::size_t x, std::size_t y) {
+    return out.variants[x].held_out_rmse_Nm <
+           out.variants[y].held_out_rmse_Nm * (1.0 - kSelectionMargin);
+  };
+  const std::size_t arms = better(1, 0) ? 1 : 0;
+  const std::size_t with_offsets = arms == 1 ? 3 : 2;
+  out.chosen = better(with_offsets, arms) ? with_offsets : arms;
+  // With offsets in, per-joint arms must still pay their way.
+  if (out.chosen == 3 && !better(3, 2)) out.chosen = 2;
+  // Per-joint arms and offsets alone can explain a log alike (over a small
+  // joint range, a per-joint gravity moment is nearly a constant).
+  const std::size_t other = out.chosen == 1 ? 2 : out.chosen == 2 ? 1 : 0;
+  if (other != 0 && !better(out.chosen, other) && !better(other, out.chosen)) {
+    out.alike = out.variants[other].name;
   }
   std::ostringstream why;
-  why << out.variants[out.chosen].name << ": the lowest held-out torque error over " << folds
-      << " time blocks of the log (" << out.variants[out.chosen].held_out_rmse_Nm
-      << " N m RMS) that more parameters do not lower by more than " << 100.0 * kSelectionMargin
-      << " %";
+  why << out.variants[out.chosen].name << ": held-out torque error "
+      << out.variants[out.chosen].held_out_rmse_Nm << " N m RMS over " << folds
+      << " time blocks of the log; per-joint arms, then torque offsets, are taken only where they "
+         "lower it by more than "
+      << 100.0 * kSelectionMargin << " %";
+  if (!out.alike.empty()) {
+    why << "; " << out.alike << " explain the log as well: a log with wider joint swings tells "
+        << "them apart";
+  }
   out.reason = why.str();
   return out;
 }

@@ -124,6 +124,40 @@ TEST(RobotDescriptionTest, EveryErrorNamesTheFileAndTheKey) {
             "robot.json: format: must be \"delta-robot/1\"");
 }
 
+// Arms that differ: upper_arms gives arm i its own body (null: upper_arm's),
+// which the truth follows per joint; its errors name the entry.
+TEST(RobotDescriptionTest, ArmsThatDifferHaveTheirOwnBodiesAndTruths) {
+  nlohmann::json j = nlohmann::json::parse(read_whole_file(kExample));
+  nlohmann::json heavy = j["upper_arm"];
+  heavy["mass_kg"] = 1.05 * heavy["mass_kg"].get<double>();
+  j["upper_arms"] = nlohmann::json::array({heavy, nullptr, j["upper_arm"]});
+  const std::string path = testsupport::process_scratch("robot_description_test").file("arms.json");
+  std::ofstream(path) << j.dump(2);
+  const RobotDescription d = read_robot_description(path);
+  ASSERT_TRUE(d.arm_bodies[0].has_value());
+  EXPECT_FALSE(d.arm_bodies[1].has_value());
+  EXPECT_DOUBLE_EQ(d.arm(0).mass_kg, 1.05 * d.upper_arm.mass_kg);
+  EXPECT_DOUBLE_EQ(d.arm(1).mass_kg, d.upper_arm.mass_kg);
+  const LumpedParameters t = lumped_truth(d);
+  EXPECT_NEAR(t.arm_gravity_moment_Nm[0] - t.arm_gravity_moment_Nm[1],
+              d.gravity_m_s2 * 0.05 * d.upper_arm.mass_kg * d.upper_arm.com_m.x, 1e-12);
+  EXPECT_EQ(t.arm_gravity_moment_Nm[1], t.arm_gravity_moment_Nm[2]);
+  EXPECT_EQ(error_with([](auto& k) { k["upper_arms"] = nlohmann::json::array({nullptr}); }),
+            "robot.json: upper_arms: must be an array of three arm bodies (null: upper_arm's)");
+  EXPECT_EQ(error_with([](auto& k) {
+              nlohmann::json bad = k["upper_arm"];
+              bad["mass_kg"] = -1;
+              k["upper_arms"] = nlohmann::json::array({nullptr, nullptr, bad});
+            }),
+            "robot.json: upper_arms[2].mass_kg: must be positive (got -1)");
+  EXPECT_EQ(error_with([](auto& k) {
+              nlohmann::json bad = k["upper_arm"];
+              bad["colour"] = "red";
+              k["upper_arms"] = nlohmann::json::array({bad, nullptr, nullptr});
+            }),
+            "robot.json: upper_arms[0].colour: unknown key");
+}
+
 TEST(RobotDescriptionTest, OneJointObjectServesAllThree) {
   EXPECT_EQ(error_with([](auto& j) {
               const auto first = j["joints"][0];

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 
 #include "delta/dynamics.hpp"
@@ -69,10 +70,15 @@ struct RobotDescription {
   double rod_spacing_m{0.05};  // between the two rods of a forearm
   double gravity_m_s2{9.81};
   UpperArmBody upper_arm{};
+  // Arms that differ, as manufactured arms do ("upper_arms" in the file):
+  // arm i's body where given, else upper_arm.
+  std::array<std::optional<UpperArmBody>, 3> arm_bodies{};
   ForearmRod rod{};
   PlatformMass platform{};
   PlatformMass payload{};
   std::array<JointDrive, 3> joints{};
+
+  const UpperArmBody& arm(unsigned i) const { return arm_bodies[i] ? *arm_bodies[i] : upper_arm; }
 };
 
 // The default robot (docs/examples/robot.json): the default geometry, with

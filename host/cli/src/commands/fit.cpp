@@ -234,11 +234,9 @@ nlohmann::json json_selection(const ModelSelection& s) {
                         {"parameters", v.parameters},
                         {"held_out_rmse_Nm", v.held_out_rmse_Nm}});
   }
-  return {{"folds", s.folds},
-          {"criterion", "held-out torque RMSE over time blocks (k-fold)"},
-          {"variants", variants},
-          {"chosen", s.variants[s.chosen].name},
-          {"reason", s.reason}};
+  return {{"folds", s.folds},     {"criterion", "held-out torque RMSE over time blocks (k-fold)"},
+          {"variants", variants}, {"chosen", s.variants[s.chosen].name},
+          {"alike", s.alike},     {"reason", s.reason}};
 }
 
 std::string text_selection(const ModelSelection& s) {

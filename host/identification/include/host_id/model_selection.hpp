@@ -28,6 +28,9 @@ struct ModelSelection {
   unsigned folds{0};
   std::vector<VariantScore> variants;  // fewest parameters first
   std::size_t chosen{0};
+  // The variant that explains the log as well without being nested in the
+  // chosen one (per-joint arms against torque offsets); "" if none.
+  std::string alike;
   std::string reason;
 };
 
