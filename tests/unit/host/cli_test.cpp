@@ -718,6 +718,16 @@ TEST_F(CliTest, DesignWritesATrajectoryFileThatSimulateRuns) {
 // one run 4 times faster: 16 times its accelerations) is refused by
 // simulate, naming the limit, the time and the joint; --ignore-limits
 // simulates it with a warning.
+TEST_F(CliTest, SimulateSummarisesAsJson) {
+  ASSERT_EQ(run({"simulate", "-o", path("s.csv"), "--duration", "2", "--json"}), 0) << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["out"], path("s.csv"));
+  EXPECT_EQ(j["samples"], 2001);
+  EXPECT_EQ(j["plant"], "lumped");
+  EXPECT_EQ(j["trajectory"], "fourier");
+  EXPECT_EQ(read_delta_log(path("s.csv")).size(), 2001u);
+}
+
 TEST_F(CliTest, SimulateRefusesATrajectoryFileOutsideTheLimits) {
   ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
   auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));

@@ -2,6 +2,7 @@
 #include "host_id/simulate.hpp"
 
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <ostream>
 
 #include "commands/command.hpp"
@@ -27,6 +28,7 @@ struct SimulateArguments {
   std::string robot_path;
   bool quiet{false};
   bool ignore_limits{false};
+  bool json{false};
   SimulateOptions simulate;
 };
 
@@ -111,6 +113,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
               "simulate a --trajectory-file that breaks the controller's limits (joint range, "
               "velocity, acceleration, workspace, torque), with a warning instead of an error");
   c->add_flag("--quiet", a->quiet, "no progress bar");
+  c->add_flag("--json", a->json, "print a JSON summary instead of text (no progress bar)");
   a->duration_given = c->get_option("--duration");
   a->trajectory_given = c->get_option("--trajectory");
   c->callback([a, &context] {
@@ -135,13 +138,26 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
     }
     if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
     if (s.trajectory_file) check_limits(*a, *s.trajectory_file, s.robot, context.err);
-    ProgressBar bar("simulate", a->quiet);
+    ProgressBar bar("simulate", a->quiet || a->json);
     s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
     const DeltaLog log = simulate_log(s);
     bar.finish();
     delta::write_file_atomically(a->out_path, format_delta_log(log));
-    context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
-                << s.trajectory << ")\n";
+    if (a->json) {
+      context.out << nlohmann::json{{"out", a->out_path},
+                                    {"samples", log.size()},
+                                    {"trajectory", s.trajectory},
+                                    {"plant", a->plant},
+                                    {"duration_s", s.duration_s},
+                                    {"sample_rate_hz", s.sample_rate_hz},
+                                    {"torque_noise", s.torque_noise},
+                                    {"encoder_bits", s.encoder_bits}}
+                         .dump(2)
+                  << "\n";
+    } else {
+      context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
+                  << s.trajectory << ")\n";
+    }
     context.exit_code = 0;
   });
 }
