@@ -652,28 +652,38 @@ void release_samples(DeltaLog& log) {
 
 TimeStepSpread time_step_spread(const DeltaLog& log) {
   TimeStepSpread out;
+  // The steps within segments (a gap's step left out), visited in order.
+  const auto each_step = [&log](auto&& visit) {
+    std::size_t gap = 0;
+    for (std::size_t i = 1; i < log.size(); ++i) {
+      while (gap < log.gaps.size() && log.gaps[gap].index < i) ++gap;
+      if (gap < log.gaps.size() && log.gaps[gap].index == i) continue;
+      visit(log.t[i] - log.t[i - 1]);
+    }
+  };
+  // The median and the spread from at most kKept evenly spaced steps (an
+  // hour-long log's steps would take tens of megabytes); the largest
+  // departure from all of them.
+  constexpr std::size_t kKept = 1 << 16;
+  const std::size_t stride = log.size() / kKept + 1;
   std::vector<double> dt;
-  dt.reserve(log.size());
-  std::size_t gap = 0;
-  for (std::size_t i = 1; i < log.size(); ++i) {
-    while (gap < log.gaps.size() && log.gaps[gap].index < i) ++gap;
-    if (gap < log.gaps.size() && log.gaps[gap].index == i) continue;  // across a gap
-    dt.push_back(log.t[i] - log.t[i - 1]);
-  }
+  std::size_t k = 0;
+  each_step([&](double step) {
+    if (k++ % stride == 0) dt.push_back(step);
+  });
   if (dt.empty()) return out;
-  const auto median = [](std::vector<double> v) {
+  const auto median = [](std::vector<double>& v) {
     const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
     std::nth_element(v.begin(), mid, v.end());
     return *mid;
   };
   out.median_s = median(dt);
   if (!(out.median_s > 0)) return out;
-  std::vector<double> deviation(dt.size());
-  for (std::size_t i = 0; i < dt.size(); ++i) {
-    deviation[i] = std::abs(dt[i] - out.median_s);
-    out.largest = std::max(out.largest, deviation[i] / out.median_s);
-  }
-  out.spread = 1.4826 * median(deviation) / out.median_s;
+  for (double& step : dt) step = std::abs(step - out.median_s);
+  out.spread = 1.4826 * median(dt) / out.median_s;
+  each_step([&](double step) {
+    out.largest = std::max(out.largest, std::abs(step - out.median_s) / out.median_s);
+  });
   return out;
 }
 

@@ -255,6 +255,25 @@ TEST(TimeStepsTest, JitteredTimestampsAreRefusedAndTheNominalPeriodFitsThemRight
   EXPECT_LT(error(nominal), 1e-9);  // measured 1e-14
 }
 
+// An hour-long log's spread is taken from 65536 evenly spaced steps, its
+// largest departure from all of them: the same verdicts as the whole.
+TEST(TimeStepsTest, ALongLogsSpreadComesFromASampleOfItsSteps) {
+  DeltaLog log;
+  log.name = "long";
+  const std::size_t n = 400000;
+  log.t.resize(n);
+  delta::SplitMix64 rng(8);
+  for (std::size_t i = 0; i < n; ++i) log.t[i] = 1e-3 * static_cast<double>(i);
+  EXPECT_LT(time_step_spread(log).spread, 1e-9);
+  for (std::size_t i = 1; i + 1 < n; ++i) log.t[i] += 2e-4 * (2.0 * rng.uniform() - 1.0);
+  log.t[n / 2 + 1] = log.t[n / 2] + 1.9e-3;  // one far step, which only the full pass sees
+  const TimeStepSpread s = time_step_spread(log);
+  EXPECT_NEAR(s.median_s, 1e-3, 1e-5);
+  EXPECT_GT(s.spread, kTimeStepError);
+  EXPECT_LT(s.spread, 0.3);
+  EXPECT_GT(s.largest, 0.85);
+}
+
 TEST(TimeStepsTest, ASmallSpreadIsAWarningAndLoggedDerivativesAreNotChecked) {
   using namespace test;
   DeltaLog log = simulated(12, 0.0, 17, false, "fourier", 4.0);
