@@ -718,10 +718,14 @@ void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
         << given << " are not used: q is filtered and differentiated (give both, or "
         << "neither; docs/log-format.md)\n";
   }
-  if (!log.extra_columns.empty()) {
-    std::string names;
-    for (const auto& [name, series] : log.extra_columns)
-      names += (names.empty() ? "" : ", ") + name;
+  // Columns the format documents as kept, not used (the recorder's motor
+  // currents i1..i3), are no news.
+  std::string names;
+  for (const auto& [name, series] : log.extra_columns) {
+    if (name == "i1" || name == "i2" || name == "i3") continue;
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  if (!names.empty()) {
     err << log.name << ": warning: column(s) " << names
         << " are not used by the model (docs/log-format.md lists the columns it reads)\n";
   }

@@ -224,10 +224,12 @@ TEST(DeltaLogTest, ADerivativeGroupWithoutTheOtherIsSaidToBeUnused) {
   EXPECT_EQ(none.str(), "");
 }
 
-// Columns the model does not read are kept, and said to be unused.
+// Columns the model does not read are kept, and said to be unused; the
+// documented i1..i3 (the recorder's currents) go without saying.
 TEST(DeltaLogTest, ColumnsTheModelDoesNotReadAreSaidToBeUnused) {
   const DeltaLog log = parse_delta_log(
-      kMeta + "t,q1,q2,q3,tau1,tau2,tau3,temp1,i_ref\n0,0,0,0,0,0,0,25,0\n", "log.csv");
+      kMeta + "t,q1,q2,q3,tau1,tau2,tau3,temp1,i1,i2,i3,i_ref\n0,0,0,0,0,0,0,25,0,0,0,0\n",
+      "log.csv");
   std::ostringstream err;
   warn_about_log(err, log);
   EXPECT_EQ(err.str(),
