@@ -25,10 +25,6 @@ std::string hex(std::uint32_t v, int digits) {
   return b;
 }
 
-std::string object_name(od::Object o) {
-  return hex(o.index, 4) + ":" + hex(o.subindex, 2).substr(2);
-}
-
 Frame frame(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data) {
   Frame f;
   f.id = id;
@@ -179,7 +175,7 @@ fw::DriveConfigProgress CanopenMaster::configure_drives() {
     if (d.sdo.status() == sdo::ClientStatus::kAborted && d.sdo_attempts > config_.sdo_retries) {
       const od::Object o = d.plan->actions[d.sdo_step].object;
       fail("node " + std::to_string(d.node) + ": no answer to the SDO request for " +
-           object_name(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
+           object_text(o) + " within " + std::to_string(sdo_timeout_us_ / 1000) + " ms (" +
            std::to_string(d.sdo_attempts) + " attempts); is the drive powered and on the bus?");
       break;
     }
@@ -210,7 +206,7 @@ void CanopenMaster::leave_network() {
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
   if (d.sdo.status() != sdo::ClientStatus::kBusy) return;  // a duplicate or stray answer
   const od::Object o = d.plan->actions[d.sdo_step].object;
-  const std::string at = "node " + std::to_string(d.node) + ", " + object_name(o) + ": ";
+  const std::string at = "node " + std::to_string(d.node) + ", " + object_text(o) + ": ";
   if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
   d.sdo.on_frame(f.data, now_us_);
   pump_sdo(d);

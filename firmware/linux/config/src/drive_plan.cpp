@@ -37,10 +37,6 @@ std::string hex(std::uint32_t v, int digits) {
   return b;
 }
 
-std::string object_text(od::Object o) {
-  return hex(o.index, 4) + ":" + hex(o.subindex, 2).substr(2);
-}
-
 std::uint32_t entry(od::Object o, unsigned bits) {
   return std::uint32_t{o.index} << 16 | std::uint32_t{o.subindex} << 8 | bits;
 }
@@ -715,6 +711,10 @@ std::string describe_plan(const DrivePlan& plan) {
   }
   for (const std::string& w : plan.warnings) out << "  warning: " << w << "\n";
   return out.str();
+}
+
+std::string object_text(od::Object o) {
+  return hex(o.index, 4) + ":" + hex(o.subindex, 2).substr(2);
 }
 
 DrivePlans plan_drives(const PortConfig& c) {

@@ -100,6 +100,9 @@ struct DrivePlans {
 // they are problems.
 DrivePlans plan_drives(const PortConfig& c);
 
+// "0x6071:00": an object as plans and bring-up messages name it.
+std::string object_text(delta::can::od::Object o);
+
 // A plan in words: the mode, the feedback, the PDOs with their COB-IDs and
 // transmission types, every SDO transfer with its value and unit.
 std::string describe_plan(const DrivePlan& plan);
