@@ -4,6 +4,7 @@
 // read around 200 control steps.
 #include <cstdint>
 
+#include "delta/fixed/dynamics.hpp"
 #include "delta/fixed/kinematics.hpp"
 #include "delta/fixed/math.hpp"
 #include "semihosting.hpp"
@@ -98,6 +99,22 @@ extern "C" int firmware_main() {
     const delta::fx::Vec3Q p{delta::fx::Q7_24::from_raw(static_cast<std::int32_t>(i * 1000)),
                              delta::fx::Q7_24::from(0.01), delta::fx::Q7_24::from(-0.45)};
     sink = delta::fx::inverse_kinematics(g, p).theta_rad[0].raw();
+  });
+  per_call("instructions_per_model ", [&](std::uint32_t i) {
+    delta::fx::ModelParametersQ m;
+    m.kind = delta::fx::ModelKind::kDelta;
+    m.platform_inertial_mass_kg = delta::fx::Q7_24::from(0.4);
+    m.stribeck_velocity_rad_s = delta::fx::Q10_21::from(0.1);
+    delta::fx::JointStateQ s;
+    s.q_rad = {delta::fx::Q3_28::from_raw(static_cast<std::int32_t>(i * 100000)),
+               delta::fx::Q3_28::from(0.5), delta::fx::Q3_28::from(0.4)};
+    s.qd_rad_s = {delta::fx::Q10_21::from(1.0), delta::fx::Q10_21::from(-2.0),
+                  delta::fx::Q10_21::from(0.5)};
+    s.qdd_rad_s2 = {delta::fx::Q14_17::from(10.0), delta::fx::Q14_17::from(-20.0),
+                    delta::fx::Q14_17::from(5.0)};
+    delta::fx::Joint3Q12_19 tau{};
+    delta::fx::model_torque(g, m, s, tau);
+    sink = tau[0].raw();
   });
   return done == steps ? 0 : 1;
 }

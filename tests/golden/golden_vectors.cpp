@@ -2,6 +2,7 @@
 
 #include "delta/fixed/kinematics.hpp"
 #include "delta/fixed/math.hpp"
+#include "fw/feed_forward.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
 #include "fw/trajectory.hpp"
@@ -110,6 +111,57 @@ void reference_line(Line& l, const char* name, std::uint32_t tick, const JointRe
   for (unsigned j = 0; j < 3; ++j)
     l.num(r.q_rad[j].raw()).num(r.qd_rad_s[j].raw()).num(r.qdd_rad_s2[j].raw());
   l.end(lines);
+}
+
+// A model with every term present and joints that differ.
+ModelParametersQ model_parameters() {
+  ModelParametersQ m;
+  m.kind = delta::fx::ModelKind::kDelta;
+  m.arm_inertia_kg_m2 = {Q7_24::from(7.2e-3), Q7_24::from(7.5e-3), Q7_24::from(6.9e-3)};
+  m.arm_gravity_cos_Nm = {Q12_19::from(0.441), Q12_19::from(0.452), Q12_19::from(0.430)};
+  m.arm_gravity_sin_Nm = {Q12_19::from(0.031), Q12_19::from(-0.02), Q12_19::from(0.012)};
+  m.platform_inertial_mass_kg = Q7_24::from(0.42);
+  m.platform_weight_mass_kg = Q7_24::from(0.40);
+  m.forearm_coupling_kg = Q7_24::from(0.05);
+  m.viscous_friction_Nm_s_per_rad = {Q12_19::from(0.02), Q12_19::from(0.025), Q12_19::from(0.018)};
+  m.coulomb_friction_Nm = {Q12_19::from(0.06), Q12_19::from(0.05), Q12_19::from(0.07)};
+  m.stribeck_friction_Nm = {Q12_19::from(0.03), Q12_19::from(0.02), Q12_19::from(0.025)};
+  m.stribeck_velocity_rad_s = Q10_21::from(0.1);
+  m.torque_offset_Nm = {Q12_19::from(0.01), Q12_19::from(-0.02), Q12_19::from(0.005)};
+  return m;
+}
+
+// The identified model's arithmetic: exp and tanh, the model's torques
+// along the pick-and-place reference with the states disturbed, and the
+// trajectory check of its feed-forward against a max torque it breaks.
+void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
+  for (int i = 0; i < 32; ++i) {
+    const Q10_21 x = Q10_21::from_raw(rng.in(-40000000, 40000000) >> (i % 8));
+    l.word("exp-tanh")
+        .num(x.raw())
+        .num(delta::fx::exp_neg(x).raw())
+        .num(delta::fx::tanh(x).raw())
+        .end(lines);
+  }
+  const ModelParametersQ m = model_parameters();
+  const Trajectory pnp(kGeometry, pick_and_place_config());
+  for (std::uint32_t tick = 0; tick <= pnp.length_ticks(); tick += 41) {
+    JointReference r;
+    pnp.reference(tick, r);
+    for (unsigned j = 0; j < 3; ++j) {
+      r.qd_rad_s[j] = r.qd_rad_s[j] + Q10_21::from_raw(rng.in(-300000, 300000));
+      r.qdd_rad_s2[j] = r.qdd_rad_s2[j] + Q14_17::from_raw(rng.in(-400000, 400000));
+    }
+    Joint3Q12_19 tau{};
+    const auto status = delta::fx::model_torque(kGeometry, m, r, tau);
+    l.word("model").num(tick).num(static_cast<int>(status));
+    for (const Q12_19 t : tau) l.num(t.raw());
+    l.end(lines);
+  }
+  TrajectoryBounds bounds{
+      kGeometry, JointLimits{}, {FeedForwardMode::kModel, {}, m}, Q12_19::from(1.3)};
+  const TrajectoryCheck c = check_trajectory(bounds, pick_and_place_config());
+  l.word("model-check").num(static_cast<int>(c.fault)).num(c.tick).num(c.joint).end(lines);
 }
 
 }  // namespace
@@ -259,7 +311,9 @@ std::uint32_t write_golden_vectors(TextSink& out) {
   }
   JointGains gains;
   gains.ki_Nm_per_rad_s = Q16_15::from(20.0);
-  JointController ctl(gains, NominalDynamics{Q12_19::from(0.0125), Q12_19::from(0.7026)}, 1000);
+  const FeedForwardConfig nominal{
+      FeedForwardMode::kNominal, NominalDynamics{Q12_19::from(0.0125), Q12_19::from(0.7026)}, {}};
+  JointController ctl(gains, 1000);
   for (std::uint32_t tick = 0; tick < 200; tick += 7) {
     JointReference r;
     fourier.reference(tick + 600, r);
@@ -270,7 +324,9 @@ std::uint32_t write_golden_vectors(TextSink& out) {
       qd[j] = r.qd_rad_s[j] + Q10_21::from_raw(rng.in(-200000, 200000));
     }
     std::array<bool, 3> sat{};
-    const auto tau = ctl.update(r, q, qd, sat);
+    Joint3Q12_19 ff{};
+    feed_forward_torque(kGeometry, nominal, r, ff);
+    const auto tau = ctl.update(r, q, qd, ff, sat);
     l.word("control")
         .num(tick)
         .num(tau[0].raw())
@@ -305,6 +361,7 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .end(lines);
     }
   }
+  model_lines(l, rng, lines);
   update_lines(l, lines);
   l.word("end").num(lines + 1).end(lines);
   return lines;

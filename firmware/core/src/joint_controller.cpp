@@ -10,16 +10,15 @@ using delta::fx::detail::shift_round;
 
 std::array<Q12_19, 3> JointController::update(const JointReference& ref, const JointAnglesQ& q,
                                               const std::array<Q10_21, 3>& qd,
+                                              const std::array<Q12_19, 3>& feed_forward_Nm,
                                               std::array<bool, 3>& saturated) {
   std::array<Q12_19, 3> tau{};
   for (unsigned j = 0; j < 3; ++j) {
     const Q3_28 e = ref.q_rad[j] - q[j];
     const Q10_21 ed = ref.qd_rad_s[j] - qd[j];
-    const Q12_19 ff = mul<Q12_19>(nominal_.arm_inertia_kg_m2, ref.qdd_rad_s2[j]) -
-                      mul<Q12_19>(nominal_.gravity_moment_Nm, delta::fx::cos(ref.q_rad[j]));
     const Q12_19 pd =
         mul<Q12_19>(gains_.kp_Nm_per_rad, e) + mul<Q12_19>(gains_.kd_Nm_s_per_rad, ed);
-    const Q12_19 unsat = pd + integral_[j] + ff;
+    const Q12_19 unsat = pd + integral_[j] + feed_forward_Nm[j];
     const Q12_19 lim = gains_.max_torque_Nm;
     Q12_19 out = unsat;
     saturated[j] = false;

@@ -227,8 +227,52 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   return KinematicsStatus::kOk;
 }
 
-TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
-                                 const JointLimits& limits) {
+namespace {
+
+// The first joint limit ref breaks, or kOk (joint: the joint, else -1).
+TrajectoryFault joint_limit_fault(const JointReference& ref, const JointLimits& limits,
+                                  int& joint) {
+  for (unsigned j = 0; j < 3; ++j) {
+    joint = static_cast<int>(j);
+    if (ref.q_rad[j] < limits.min_rad || ref.q_rad[j] > limits.max_rad) {
+      return TrajectoryFault::kJointLimit;
+    }
+    if (delta::fx::abs(ref.qd_rad_s[j]) > limits.max_velocity_rad_s) {
+      return TrajectoryFault::kVelocityLimit;
+    }
+    if (delta::fx::abs(ref.qdd_rad_s2[j]) > limits.max_acceleration_rad_s2) {
+      return TrajectoryFault::kAccelerationLimit;
+    }
+  }
+  joint = -1;
+  return TrajectoryFault::kOk;
+}
+
+// Whether the feed-forward at ref stays within the max torque.
+TrajectoryFault feed_forward_fault(const TrajectoryBounds& b, const JointReference& ref,
+                                   int& joint) {
+  Joint3Q12_19 tau{};
+  joint = -1;
+  if (feed_forward_torque(b.geometry, b.feed_forward, ref, tau) != KinematicsStatus::kOk) {
+    return TrajectoryFault::kOutsideWorkspace;
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    if (delta::fx::abs(tau[j]) > b.max_torque_Nm) {
+      joint = static_cast<int>(j);
+      return TrajectoryFault::kFeedForwardLimit;
+    }
+  }
+  return TrajectoryFault::kOk;
+}
+
+}  // namespace
+
+namespace {
+
+// The walk of check_trajectory(), with the feed-forward's torques checked
+// where bounds are given.
+TrajectoryCheck walk(const GeometryQ& geometry, const TrajectoryConfig& config,
+                     const JointLimits& limits, const TrajectoryBounds* bounds) {
   TrajectoryCheck c;
   if (!config_valid(config)) {
     c.fault = TrajectoryFault::kInvalidConfig;
@@ -247,30 +291,31 @@ TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConf
       c.fault = TrajectoryFault::kOutsideWorkspace;
       return c;
     }
-    for (unsigned j = 0; j < 3; ++j) {
-      c.joint = static_cast<int>(j);
-      if (ref.q_rad[j] < limits.min_rad || ref.q_rad[j] > limits.max_rad) {
-        c.fault = TrajectoryFault::kJointLimit;
-        return c;
-      }
-      if (delta::fx::abs(ref.qd_rad_s[j]) > limits.max_velocity_rad_s) {
-        c.fault = TrajectoryFault::kVelocityLimit;
-        return c;
-      }
-      if (delta::fx::abs(ref.qdd_rad_s2[j]) > limits.max_acceleration_rad_s2) {
-        c.fault = TrajectoryFault::kAccelerationLimit;
-        return c;
-      }
-    }
-    c.joint = -1;
+    c.fault = joint_limit_fault(ref, limits, c.joint);
+    if (c.fault != TrajectoryFault::kOk) return c;
     if (config.kind == TrajectoryKind::kFourier &&
         delta::fx::forward_kinematics(geometry, ref.q_rad).status != KinematicsStatus::kOk) {
       c.fault = TrajectoryFault::kOutsideWorkspace;
       return c;
     }
+    if (bounds != nullptr) {
+      c.fault = feed_forward_fault(*bounds, ref, c.joint);
+      if (c.fault != TrajectoryFault::kOk) return c;
+    }
   }
   c.tick = 0;
   return c;
+}
+
+}  // namespace
+
+TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
+                                 const JointLimits& limits) {
+  return walk(geometry, config, limits, nullptr);
+}
+
+TrajectoryCheck check_trajectory(const TrajectoryBounds& bounds, const TrajectoryConfig& config) {
+  return walk(bounds.geometry, config, bounds.limits, &bounds);
 }
 
 }  // namespace fw

@@ -139,5 +139,37 @@ TEST(FixedMathTest, SqrtIsExactToTheNearestLsb) {
   EXPECT_EQ(sqrt<Q7_24>(Q7_24::from(0.25)).raw(), Q7_24::from(0.5).raw());
 }
 
+TEST(FixedMathTest, ExpNegWorstErrorOverItsRange) {
+  // Every 101st raw value of Q10.21 from 0 to 32 (beyond, e^-x is below one
+  // LSB of Q1.30 and the result 0), and the whole positive range coarsely.
+  double worst = 0.0;
+  for (std::int64_t raw = 0; raw <= (std::int64_t{32} << 21); raw += 101) {
+    const Q10_21 x = Q10_21::from_raw(static_cast<std::int32_t>(raw));
+    const double exact = std::exp(-static_cast<double>(raw) / 2097152.0);
+    worst = std::max(worst, std::abs(exp_neg(x).raw() / kQ30 - exact));
+  }
+  for (std::int64_t raw = std::int64_t{32} << 21; raw <= INT32_MAX; raw += 1000003) {
+    EXPECT_LE(exp_neg(Q10_21::from_raw(static_cast<std::int32_t>(raw))).raw(), 1);
+  }
+  std::printf("exp_neg worst error %.3g (%.2f LSB of Q1.30)\n", worst, worst * kQ30);
+  EXPECT_LE(worst * kQ30, 2.0);
+  EXPECT_EQ(exp_neg(Q10_21::zero()).raw(), 1 << 30);
+  EXPECT_EQ(exp_neg(Q10_21::from(-3.0)).raw(), 1 << 30);  // x <= 0 gives 1
+}
+
+TEST(FixedMathTest, TanhWorstErrorAndOddness) {
+  double worst = 0.0;
+  for (std::int64_t raw = -(std::int64_t{24} << 21); raw <= (std::int64_t{24} << 21); raw += 37) {
+    const Q10_21 x = Q10_21::from_raw(static_cast<std::int32_t>(raw));
+    const double exact = std::tanh(static_cast<double>(raw) / 2097152.0);
+    worst = std::max(worst, std::abs(tanh(x).raw() / kQ30 - exact));
+    ASSERT_EQ(tanh(-x).raw(), -tanh(x).raw()) << raw;
+  }
+  std::printf("tanh worst error %.3g (%.2f LSB of Q1.30)\n", worst, worst * kQ30);
+  EXPECT_LE(worst * kQ30, 3.0);
+  EXPECT_EQ(tanh(Q10_21::max()).raw(), 1 << 30);
+  EXPECT_EQ(tanh(Q10_21::min()).raw(), -(1 << 30));
+}
+
 }  // namespace
 }  // namespace delta::fx

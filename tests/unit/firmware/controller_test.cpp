@@ -112,8 +112,8 @@ ControllerConfig default_config() {
   c.geometry = {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
                 to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
   // Nominal feed-forward: the arm plus a third of the platform at the elbow.
-  c.nominal.arm_inertia_kg_m2 = Q12_19::from(0.0072 + 0.40 * 0.04 / 3.0);
-  c.nominal.gravity_moment_Nm = Q12_19::from(0.441 + 0.40 * 9.81 * 0.2 / 3.0);
+  c.feed_forward.nominal.arm_inertia_kg_m2 = Q12_19::from(0.0072 + 0.40 * 0.04 / 3.0);
+  c.feed_forward.nominal.gravity_moment_Nm = Q12_19::from(0.441 + 0.40 * 9.81 * 0.2 / 3.0);
   for (auto& t : c.torque) {
     t.gear_ratio = Q12_19::from(9.0);
     t.torque_constant_Nm_per_A = Q7_24::from(0.08);

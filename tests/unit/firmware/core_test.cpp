@@ -336,8 +336,9 @@ TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
   gains.ki_Nm_per_rad_s = Q16_15::from(100.0);
   gains.max_torque_Nm = Q12_19::from(3.0);
   gains.integral_limit_Nm = Q12_19::from(0.5);
-  NominalDynamics nominal{Q12_19::from(0.01), Q12_19::from(0.4)};
-  JointController ctl(gains, nominal, 1000);
+  const FeedForwardConfig nominal{
+      FeedForwardMode::kNominal, NominalDynamics{Q12_19::from(0.01), Q12_19::from(0.4)}, {}};
+  JointController ctl(gains, 1000);
   JointReference ref;
   ref.q_rad = {to_q<Q3_28>(0.30), to_q<Q3_28>(0.30), to_q<Q3_28>(0.30)};
   ref.qd_rad_s = {to_q<Q10_21>(0.5), {}, {}};
@@ -345,7 +346,9 @@ TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
   const JointAnglesQ q = {to_q<Q3_28>(0.29), to_q<Q3_28>(0.30), to_q<Q3_28>(0.0)};
   const std::array<Q10_21, 3> qd = {to_q<Q10_21>(0.4), {}, {}};
   std::array<bool, 3> sat{};
-  const auto tau = ctl.update(ref, q, qd, sat);
+  Joint3Q12_19 ff{};
+  ASSERT_EQ(feed_forward_torque(GeometryQ{}, nominal, ref, ff), KinematicsStatus::kOk);
+  const auto tau = ctl.update(ref, q, qd, ff, sat);
   // Joint 1: 50 * 0.01 + 2 * 0.1 + 0.01 * 10 - 0.4 cos(0.3); the integral
   // (Ki e dt = 1e-3 per cycle) acts from the next cycle on.
   EXPECT_NEAR(to_d(tau[0]), 0.5 + 0.2 + 0.1 - 0.4 * std::cos(0.3), 1e-5);
@@ -355,7 +358,7 @@ TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
   EXPECT_NEAR(to_d(tau[2]), 3.0, 1e-6);
   EXPECT_TRUE(sat[2]);
   // While saturated the integral of joint 3 does not wind up.
-  for (int i = 0; i < 1000; ++i) ctl.update(ref, q, qd, sat);
+  for (int i = 0; i < 1000; ++i) ctl.update(ref, q, qd, ff, sat);
   EXPECT_EQ(ctl.integral()[2].raw(), 0);
   // Joint 1's integral grows, but stops at its limit.
   EXPECT_NEAR(to_d(ctl.integral()[0]), 0.5, 1e-6);

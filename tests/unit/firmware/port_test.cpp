@@ -632,7 +632,7 @@ TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
   std::ostringstream messages;
   const fw::ControllerConfig core = controller_config(Rig::config());
   std::vector<NamedRun> runs;
-  runs.push_back({"path2", fw::CheckedTrajectory::check(core.geometry, *traj, core.limits)});
+  runs.push_back({"path2", fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *traj)});
   RunCoordinator coordinator(std::move(runs), true, nullptr, messages);
   for (int i = 0; i < 20000 && !coordinator.exit_code(); ++i) {
     rig.cycle();

@@ -6,10 +6,8 @@ namespace delta::fx {
 
 namespace {
 
-// Chain azimuths 0, 120, 240 degrees: cos and sin in Q1.30.
-constexpr Q1_30 kCos[3] = {Q1_30::from(1.0), Q1_30::from(-0.5), Q1_30::from(-0.5)};
-constexpr Q1_30 kSin[3] = {Q1_30::from(0.0), Q1_30::from(0.86602540378443864676),
-                           Q1_30::from(-0.86602540378443864676)};
+constexpr const Q1_30 (&kCos)[3] = kChainCosQ;
+constexpr const Q1_30 (&kSin)[3] = kChainSinQ;
 
 using i64 = std::int64_t;
 
@@ -42,7 +40,10 @@ Q7_24 length(i64 squared_q48) {
 }  // namespace
 
 Vec3Q elbow_position(const GeometryQ& g, int chain, Q3_28 theta_rad) {
-  const SinCos sc = sincos(theta_rad);
+  return elbow_position(g, chain, sincos(theta_rad));
+}
+
+Vec3Q elbow_position(const GeometryQ& g, int chain, const SinCos& sc) {
   const auto k = static_cast<unsigned>(chain);
   const Q7_24 radial = g.base_radius_m + mul<Q7_24>(g.upper_arm_length_m, sc.cos);
   return {mul<Q7_24>(radial, kCos[k]), mul<Q7_24>(radial, kSin[k]),
@@ -102,11 +103,15 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p) {
 }
 
 ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const JointAnglesQ& q) {
+  return forward_kinematics(g, std::array<SinCos, 3>{sincos(q[0]), sincos(q[1]), sincos(q[2])});
+}
+
+ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCos, 3>& trig) {
   ForwardKinematicsQ r;
   // Sphere centres C_i = B_i - r u_i, radius b.
   Vec3Q c[3];
   for (unsigned k = 0; k < 3; ++k) {
-    const Vec3Q e = elbow_position(g, static_cast<int>(k), q[k]);
+    const Vec3Q e = elbow_position(g, static_cast<int>(k), trig[k]);
     c[k] = {e.x_m - mul<Q7_24>(g.platform_radius_m, kCos[k]),
             e.y_m - mul<Q7_24>(g.platform_radius_m, kSin[k]), e.z_m};
   }

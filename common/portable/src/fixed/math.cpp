@@ -237,4 +237,43 @@ std::uint64_t isqrt_round(std::uint64_t v) {
   return r;
 }
 
+namespace {
+
+// log2(e) and ln 2 in Q1.30.
+constexpr std::int64_t kLog2eQ30 = 1549082005;  // 1.4426950408889634 * 2^30
+constexpr std::int32_t kLn2Q30 = 744261118;     // 0.6931471805599453 * 2^30
+// 1 / n! for n = 10 down to 0, Q1.30.
+constexpr std::int32_t kExpTaylorQ30[11] = {296,       2959,       26631,     213044,
+                                            1491308,   8947849,    44739243,  178956971,
+                                            536870912, 1073741824, 1073741824};
+
+}  // namespace
+
+Q1_30 exp_neg(Q10_21 x) {
+  if (x.raw() <= 0) return Q1_30::from_raw(1 << 30);
+  // y = x log2(e) in Q.51: k its whole part, the fraction f in Q0.30.
+  const std::int64_t y = std::int64_t{x.raw()} * kLog2eQ30;
+  const std::int64_t k = y >> 51;
+  if (k >= 31) return Q1_30::zero();
+  const auto f = static_cast<std::int32_t>(
+      ((y & ((std::int64_t{1} << 51) - 1)) + (std::int64_t{1} << 20)) >> 21);
+  // e^-z with z = f ln 2 in [0, ln 2]: Horner in v = -z, every partial sum
+  // within Q1.30.
+  const std::int32_t v = -mul30(f, kLn2Q30);
+  std::int32_t p = kExpTaylorQ30[0];
+  for (std::size_t n = 1; n < 11; ++n) p = kExpTaylorQ30[n] + mul30(p, v);
+  if (k == 0) return Q1_30::from_raw(p);
+  return Q1_30::from_raw(detail::shift_round32(p, static_cast<int>(k)));
+}
+
+Q1_30 tanh(Q10_21 x) {
+  const bool negative = x.raw() < 0;
+  const Q10_21 magnitude = negative ? -x : x;
+  const std::int64_t t = exp_neg(magnitude.scaled_by(2)).raw();
+  const std::int64_t num = (kOneQ30 - t) << 30;
+  const std::int64_t den = kOneQ30 + t;
+  const auto r = static_cast<std::int32_t>((num + den / 2) / den);
+  return Q1_30::from_raw(negative ? -r : r);
+}
+
 }  // namespace delta::fx

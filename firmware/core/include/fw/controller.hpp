@@ -13,6 +13,7 @@
 
 #include "delta/fixed/math.hpp"
 #include "fw/faults.hpp"
+#include "fw/feed_forward.hpp"
 #include "fw/hardware.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
@@ -29,7 +30,7 @@ struct ControllerConfig {
   std::uint32_t tick_period_us{1000};
   JointLimits limits{};
   JointGains gains{};
-  NominalDynamics nominal{};
+  FeedForwardConfig feed_forward{};
   std::array<JointTorqueConfig, 3> torque{};
   Q3_28 max_tracking_error_rad{Q3_28::from(0.1)};
   std::uint32_t approach_ticks{1000};  // move from rest to the trajectory's start
@@ -37,6 +38,12 @@ struct ControllerConfig {
   std::uint32_t configure_timeout_ticks{5000};
   std::uint32_t lost_feedback_ticks{3};  // consecutive cycles without fresh feedback
 };
+
+// What a trajectory must be checked against to run on a controller so
+// configured.
+inline TrajectoryBounds trajectory_bounds(const ControllerConfig& c) {
+  return {c.geometry, c.limits, c.feed_forward, c.gains.max_torque_Nm};
+}
 
 // Why start() refused, if it did.
 struct StartResult {
@@ -51,26 +58,28 @@ class Controller {
   Controller(Hardware& hw, const ControllerConfig& config)
       : hw_(hw),
         config_(config),
-        joint_(config.gains, config.nominal, config.tick_period_us),
+        joint_(config.gains, config.tick_period_us),
         torque_from_current_{TorqueFromCurrent(config.torque[0]),
                              TorqueFromCurrent(config.torque[1]),
                              TorqueFromCurrent(config.torque[2])},
         trajectory_(config.geometry, TrajectoryConfig{}) {}
 
-  // Checks the whole trajectory against the limits (before any motion, in
-  // the caller's context, not in step()) and arms it.
+  // Checks the whole trajectory against the limits and the feed-forward's
+  // torques (before any motion, in the caller's context, not in step()) and
+  // arms it.
   StartResult start(const TrajectoryConfig& trajectory) {
     if (state_ != State::kReady) return wrong_state();
-    return start(CheckedTrajectory::check(config_.geometry, trajectory, config_.limits));
+    return start(CheckedTrajectory::check(bounds(), trajectory));
   }
-  // Arms a trajectory checked elsewhere, against this controller's geometry
-  // and limits (a check against others is refused as kInvalidConfig).
+  // Arms a trajectory checked elsewhere, against this controller's bounds
+  // (a check against others, such as another feed-forward model, is
+  // refused as kInvalidConfig).
   StartResult start(const CheckedTrajectory& trajectory) {
     if (state_ != State::kReady) return wrong_state();
     StartResult r;
     r.check = trajectory.result();
     if (!trajectory.ok()) return r;
-    if (!trajectory.checked_against(config_.geometry, config_.limits)) {
+    if (!trajectory.checked_against(bounds())) {
       r.check = TrajectoryCheck{TrajectoryFault::kInvalidConfig, 0, -1};
       return r;
     }
@@ -79,6 +88,18 @@ class Controller {
     r.accepted = true;
     return r;
   }
+  // What a trajectory must be checked against to run here.
+  TrajectoryBounds bounds() const { return trajectory_bounds(config_); }
+  // Changes the feed-forward between runs: refused (false) while a run is
+  // on (running, stopping, or a start requested), and for a model mode
+  // without a model.
+  bool set_feed_forward(const FeedForwardConfig& f) {
+    if (state_ == State::kRunning || state_ == State::kStopping || start_requested_) return false;
+    if (f.mode == FeedForwardMode::kModel && f.model.kind == ModelKind::kNone) return false;
+    config_.feed_forward = f;
+    return true;
+  }
+  const FeedForwardConfig& feed_forward() const { return config_.feed_forward; }
   void stop() { stop_requested_ = true; }
   void reset() { reset_requested_ = true; }
 
@@ -275,8 +296,14 @@ class Controller {
     if (state_ == State::kRunning && run_tick_ >= config_.approach_ticks) {
       tracking_.add(reference_.q_rad, q);
     }
+    Joint3Q12_19 feed_forward{};
+    if (feed_forward_torque(config_.geometry, config_.feed_forward, reference_, feed_forward) !=
+        KinematicsStatus::kOk) {
+      enter_fault(Fault::kTrajectoryRejected);
+      return;
+    }
     std::array<bool, 3> saturated{};
-    command_ = joint_.update(reference_, q, qd, saturated);
+    command_ = joint_.update(reference_, q, qd, feed_forward, saturated);
     hw_.command_torque(command_);
     LogRecord rec;
     rec.seq = log_seq_++;

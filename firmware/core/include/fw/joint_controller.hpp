@@ -1,6 +1,6 @@
-// Joint control in fixed point: PID per joint with feed-forward of the arm
-// inertia and gravity moment from the configured nominal parameters,
-//   tau = Kp e + Kd e' + integral + I_nom qdd_ref - G_nom cos(q_ref),
+// Joint control in fixed point: PID per joint plus a feed-forward torque
+// (fw/feed_forward.hpp),
+//   tau = Kp e + Kd e' + integral + feed_forward,
 // saturated at +/- max torque. Anti-windup: the integral only grows while
 // the output is not saturated in the direction of the error, and is clamped.
 #pragma once
@@ -23,28 +23,21 @@ struct JointGains {
   Q12_19 integral_limit_Nm{Q12_19::from(1.0)};
 };
 
-struct NominalDynamics {
-  Q12_19 arm_inertia_kg_m2{Q12_19::from(0.0)};
-  Q12_19 gravity_moment_Nm{Q12_19::from(0.0)};  // includes the platform's share
-};
-
 class JointController {
  public:
-  JointController(const JointGains& gains, const NominalDynamics& nominal,
-                  std::uint32_t tick_period_us)
-      : gains_(gains),
-        nominal_(nominal),
-        tick_period_q32_((std::uint64_t{tick_period_us} << 32) / 1000000u) {}
+  JointController(const JointGains& gains, std::uint32_t tick_period_us)
+      : gains_(gains), tick_period_q32_((std::uint64_t{tick_period_us} << 32) / 1000000u) {}
 
   // One control update; `saturated` tells whether a joint hit max torque.
   std::array<Q12_19, 3> update(const JointReference& ref, const JointAnglesQ& q,
-                               const std::array<Q10_21, 3>& qd, std::array<bool, 3>& saturated);
+                               const std::array<Q10_21, 3>& qd,
+                               const std::array<Q12_19, 3>& feed_forward_Nm,
+                               std::array<bool, 3>& saturated);
   void reset() { integral_ = {}; }
   const std::array<Q12_19, 3>& integral() const { return integral_; }
 
  private:
   JointGains gains_;
-  NominalDynamics nominal_;
   std::uint64_t tick_period_q32_;  // the tick period in seconds, Q0.32
   std::array<Q12_19, 3> integral_{};
 };

@@ -11,7 +11,9 @@
 #include <cstdint>
 
 #include "delta/controller/vocabulary.hpp"
+#include "delta/fixed/dynamics.hpp"
 #include "delta/fixed/kinematics.hpp"
+#include "fw/feed_forward.hpp"
 
 namespace fw {
 
@@ -45,11 +47,7 @@ MinJerk min_jerk(Q1_30 s);
 Q1_30 min_jerk_position(Q1_30 s);
 
 // The reference the controller tracks at one tick.
-struct JointReference {
-  JointAnglesQ q_rad{};
-  std::array<Q10_21, 3> qd_rad_s{};
-  std::array<Q14_17, 3> qdd_rad_s2{};
-};
+using JointReference = delta::fx::JointStateQ;
 
 // q_j(t) = q0_j + sum_k [ A_jk sin(k w t) + B_jk cos(k w t) ],  w = 2 pi f.
 struct FourierConfig {
@@ -133,33 +131,41 @@ class Trajectory {
 TrajectoryCheck check_trajectory(const GeometryQ& geometry, const TrajectoryConfig& config,
                                  const JointLimits& limits);
 
-// A trajectory with the result of check_trajectory() against a geometry and
-// limits. Only check() makes one, so that Controller::start() can arm it
-// without walking it again: the walk takes milliseconds and belongs off the
-// control thread (the Linux port's Modbus server runs it).
+// What a run is checked against: the kinematic limits, and the torque the
+// feed-forward asks for at every tick, which must stay within max_torque_Nm
+// (kFeedForwardLimit names the tick and the joint; a pose where the model
+// has no kinematics is kOutsideWorkspace).
+struct TrajectoryBounds {
+  GeometryQ geometry{};
+  JointLimits limits{};
+  FeedForwardConfig feed_forward{};
+  Q12_19 max_torque_Nm{Q12_19::max()};
+  friend constexpr bool operator==(const TrajectoryBounds&, const TrajectoryBounds&) = default;
+};
+TrajectoryCheck check_trajectory(const TrajectoryBounds& bounds, const TrajectoryConfig& config);
+
+// A trajectory with the result of check_trajectory() against bounds. Only
+// check() makes one, so that Controller::start() can arm it without walking
+// it again: the walk takes milliseconds and belongs off the control thread
+// (the Linux port's Modbus server runs it).
 class CheckedTrajectory {
  public:
-  static CheckedTrajectory check(const GeometryQ& geometry, const TrajectoryConfig& config,
-                                 const JointLimits& limits) {
+  static CheckedTrajectory check(const TrajectoryBounds& bounds, const TrajectoryConfig& config) {
     CheckedTrajectory t;
     t.config_ = config;
-    t.geometry_ = geometry;
-    t.limits_ = limits;
-    t.result_ = check_trajectory(geometry, config, limits);
+    t.bounds_ = bounds;
+    t.result_ = check_trajectory(bounds, config);
     return t;
   }
   bool ok() const { return result_.fault == TrajectoryFault::kOk; }
   const TrajectoryCheck& result() const { return result_; }
   const TrajectoryConfig& config() const { return config_; }
-  bool checked_against(const GeometryQ& geometry, const JointLimits& limits) const {
-    return geometry == geometry_ && limits == limits_;
-  }
+  bool checked_against(const TrajectoryBounds& bounds) const { return bounds == bounds_; }
 
  private:
   CheckedTrajectory() = default;
   TrajectoryConfig config_{};
-  GeometryQ geometry_{};
-  JointLimits limits_{};
+  TrajectoryBounds bounds_{};
   TrajectoryCheck result_{};
 };
 

@@ -108,7 +108,7 @@ std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerCo
       out << ")\n";
       return kExitUsage;
     }
-    runs.push_back({name, fw::CheckedTrajectory::check(core.geometry, *t, core.limits)});
+    runs.push_back({name, fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *t)});
     if (!runs.back().trajectory.ok()) {
       out << "delta_fw: trajectory '" << name
           << "' rejected: " << describe_check(runs.back().trajectory.result()) << "\n";

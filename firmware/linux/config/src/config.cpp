@@ -582,8 +582,8 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
       c.nominal_gravity_moment_Nm >= 0
           ? c.nominal_gravity_moment_Nm
           : p.arm_gravity_moment_Nm[0] + p.platform_mass_kg * p.gravity_m_s2 * a / 3.0;
-  out.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
-  out.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
+  out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
+  out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
   for (unsigned j = 0; j < 3; ++j) {
     const delta::DriveModel& m = c.joints[j].model;
     fw::JointTorqueConfig& t = out.torque[j];

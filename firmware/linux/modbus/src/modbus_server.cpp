@@ -226,7 +226,7 @@ std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
             ? std::optional(custom_trajectory(s.custom.data(), config_, params))
             : named_trajectory(names.at(s.trajectory), config_, params);
     if (!t) throw ConfigError("unknown trajectory");
-    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(core_.geometry, *t, core_.limits);
+    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(fw::trajectory_bounds(core_), *t);
     check = c.result();
     if (!c.ok()) return std::nullopt;
     return c;

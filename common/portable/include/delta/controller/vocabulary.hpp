@@ -47,6 +47,7 @@ enum class TrajectoryFault : std::uint8_t {
   kAccelerationLimit = 4,
   kOutsideWorkspace = 5,  // IK or FK has no solution at some tick
   kTooLong = 6,           // more than kMaxTrajectoryTicks
+  kFeedForwardLimit = 7,  // the feed-forward would ask for more than the max torque
 };
 
 // The last tick a trajectory may have: 10 minutes at the default 1 ms tick.
@@ -82,13 +83,15 @@ inline constexpr std::array<std::string_view, 14> kFaultNames{"none",
                                                               "feedback malformed",
                                                               "CAN bus error",
                                                               "feedback late"};
-inline constexpr std::array<std::string_view, 7> kTrajectoryFaultNames{"ok",
-                                                                       "invalid configuration",
-                                                                       "joint limit",
-                                                                       "velocity limit",
-                                                                       "acceleration limit",
-                                                                       "outside the workspace",
-                                                                       "too long"};
+inline constexpr std::array<std::string_view, 8> kTrajectoryFaultNames{
+    "ok",
+    "invalid configuration",
+    "joint limit",
+    "velocity limit",
+    "acceleration limit",
+    "outside the workspace",
+    "too long",
+    "feed-forward over the max torque"};
 
 inline constexpr std::array<std::string_view, 4> kTrajectoryNames{"path1", "path2",
                                                                   "pick-and-place", "custom"};
@@ -129,6 +132,7 @@ constexpr bool trajectory_id(std::string_view name, TrajectoryId& id) {
 static_assert(kStateNames.size() == static_cast<unsigned>(State::kFault) + 1);
 static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kCustom) + 1);
 static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kFeedbackLate) + 1);
-static_assert(kTrajectoryFaultNames.size() == static_cast<unsigned>(TrajectoryFault::kTooLong) + 1);
+static_assert(kTrajectoryFaultNames.size() ==
+              static_cast<unsigned>(TrajectoryFault::kFeedForwardLimit) + 1);
 
 }  // namespace delta::controller

@@ -8,6 +8,7 @@
 
 #include <array>
 
+#include "delta/fixed/math.hpp"
 #include "delta/fixed/q.hpp"
 #include "delta/kinematics_status.hpp"
 
@@ -27,6 +28,11 @@ struct Vec3Q {
 
 using JointAnglesQ = std::array<Q3_28, 3>;
 
+// Chain azimuths 0, 120, 240 degrees: cos and sin in Q1.30.
+inline constexpr Q1_30 kChainCosQ[3] = {Q1_30::from(1.0), Q1_30::from(-0.5), Q1_30::from(-0.5)};
+inline constexpr Q1_30 kChainSinQ[3] = {Q1_30::from(0.0), Q1_30::from(0.86602540378443864676),
+                                        Q1_30::from(-0.86602540378443864676)};
+
 struct InverseKinematicsQ {
   KinematicsStatus status{KinematicsStatus::kUnreachable};
   int failed_chain{-1};
@@ -44,8 +50,12 @@ InverseKinematicsQ inverse_kinematics(const GeometryQ& g, const Vec3Q& p);
 
 // Platform position for joint angles q (the solution below the elbows).
 ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const JointAnglesQ& q);
+// The same from the angles' sines and cosines (sincos(q[k])), for a caller
+// that has them already.
+ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCos, 3>& trig);
 
-// Elbow position of one chain.
+// Elbow position of one chain, at an angle or from its sine and cosine.
 Vec3Q elbow_position(const GeometryQ& g, int chain, Q3_28 theta_rad);
+Vec3Q elbow_position(const GeometryQ& g, int chain, const SinCos& trig);
 
 }  // namespace delta::fx

@@ -6,6 +6,8 @@
 //   atan2(y, x) -> Q3_28  |error| <= 2 LSB of Q3.28 (7.5e-9 rad); measured 1.80 LSB
 //                         (octant reduction, Newton reciprocal, degree-9 polynomial)
 //   sqrt(Q<I,F>)          rounded to the nearest LSB (|error| <= 0.5 LSB)
+//   exp_neg(Q10_21 x)     e^-x, |error| <= 2 LSB of Q1.30 (1.9e-9)
+//   tanh(Q10_21 x)        |error| <= 3 LSB of Q1.30 (2.8e-9)
 //
 // (docs/firmware.md keeps the same table.)
 #pragma once
@@ -35,6 +37,13 @@ template <int I, int F>
 Q3_28 atan2(Q<I, F> y, Q<I, F> x) {
   return atan2_raw(y.raw(), x.raw());
 }
+
+// e^-x for x >= 0 (x <= 0 gives 1): x log2(e) = k + f, e^-x = 2^-k e^(-f ln 2),
+// a degree-10 Taylor polynomial on [0, ln 2].
+Q1_30 exp_neg(Q10_21 x);
+
+// tanh(x) = (1 - e^-2|x|) / (1 + e^-2|x|), with the sign of x.
+Q1_30 tanh(Q10_21 x);
 
 // Square root of an unsigned 64-bit integer, rounded to nearest (up to 2^32).
 std::uint64_t isqrt_round(std::uint64_t v);

@@ -1,0 +1,76 @@
+// The identified dynamic model in fixed point: the torques of the `delta`
+// model that `host_id fit` identifies (docs/identification.md), with the
+// constraint forces resolved at every state through the forward
+// kinematics, the Jacobian J and J'q' (lambda is not a constant):
+//
+//   tau_i = I_i qdd_i - Gc_i cos q_i + Gs_i sin q_i + m_in [J^T pdd]_i
+//           + m_w [J^T (0, 0, g)]_i + B' psi_i
+//           + Fv_i qd_i + Fc_i tanh(qd_i / w)
+//           + Fs_i exp(-(qd_i / vs)^2) tanh(qd_i / w) + o_i
+//
+// with pdd = J qdd + J'q' and psi_i the forearm rods' coupling term. The
+// `lumped` model is the case Gs = 0, B' = 0, m_in = m_w. Every Q format is
+// in the types; the figures against the double model are in
+// docs/firmware.md (tests/unit/common/fixed_dynamics_test.cpp measures them).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "delta/fixed/kinematics.hpp"
+
+namespace delta::fx {
+
+// Which model the parameters came from (the controller shows it; the
+// equations are the same).
+enum class ModelKind : std::uint8_t { kNone = 0, kDelta = 1, kLumped = 2 };
+
+using Joint3Q12_19 = std::array<Q12_19, 3>;
+
+struct ModelParametersQ {
+  ModelKind kind{ModelKind::kNone};
+  std::array<Q7_24, 3> arm_inertia_kg_m2{};
+  Joint3Q12_19 arm_gravity_cos_Nm{};
+  Joint3Q12_19 arm_gravity_sin_Nm{};
+  Q7_24 platform_inertial_mass_kg{};
+  Q7_24 platform_weight_mass_kg{};
+  Q7_24 forearm_coupling_kg{};
+  Joint3Q12_19 viscous_friction_Nm_s_per_rad{};
+  Joint3Q12_19 coulomb_friction_Nm{};
+  Joint3Q12_19 stribeck_friction_Nm{};
+  Joint3Q12_19 torque_offset_Nm{};
+  Q10_21 coulomb_smoothing_rad_s{Q10_21::from(0.01)};  // > 0
+  Q10_21 stribeck_velocity_rad_s{};                    // 0: no Stribeck term
+  Q7_24 gravity_m_s2{Q7_24::from(9.81)};
+  friend constexpr bool operator==(const ModelParametersQ&, const ModelParametersQ&) = default;
+};
+
+// A joint-space state: the reference the controller tracks.
+struct JointStateQ {
+  JointAnglesQ q_rad{};
+  std::array<Q10_21, 3> qd_rad_s{};
+  std::array<Q14_17, 3> qdd_rad_s2{};
+};
+
+// The velocity kinematics at one pose, as the double version computes them
+// (delta/kinematics.hpp): pd = J qd, pdd = J qdd + J'q'.
+struct VelocityKinematicsQ {
+  KinematicsStatus status{KinematicsStatus::kSingular};
+  std::array<std::array<Q7_24, 3>, 3> jacobian_m_per_rad{};  // [row x, y, z][joint]
+  std::array<Q10_21, 3> jacobian_dot_qdot_m_s2{};
+};
+
+// The forearms' normalised directions must keep |det| >= this: closer to
+// the parallel singularity the terms leave their formats (kSingular). The
+// workspace's own limit (min_transmission 0.05) lies well inside it.
+inline constexpr Q1_30 kMinForearmDeterminant = Q1_30::from(1.0 / 64.0);
+
+VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
+                                        const std::array<Q10_21, 3>& qd, const Vec3Q& p);
+
+// The model's joint torques at state s. kUnreachable or kSingular where the
+// pose has no kinematics (tau is then zero).
+KinematicsStatus model_torque(const GeometryQ& g, const ModelParametersQ& m, const JointStateQ& s,
+                              Joint3Q12_19& tau_Nm);
+
+}  // namespace delta::fx

@@ -1,0 +1,204 @@
+// The fixed-point model (delta/fixed/dynamics.hpp) against the double one
+// (delta/dynamics.hpp) at random states inside the workspace, up to the
+// controller's default velocity and acceleration limits: the bar is 0.1 %
+// of the default max torque (8 N m), and docs/firmware.md states the
+// measured worst case.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "delta/dynamics.hpp"
+#include "delta/fixed/dynamics.hpp"
+#include "delta/kinematics.hpp"
+#include "delta/splitmix.hpp"
+
+namespace delta::fx {
+namespace {
+
+constexpr double kMaxTorqueNm = 8.0;
+
+template <class Q>
+Q to_q(double v) {
+  return Q::from_raw(static_cast<std::int32_t>(std::llround(std::ldexp(v, Q::kFracBits))));
+}
+template <class Q>
+double from_q(Q v) {
+  return std::ldexp(static_cast<double>(v.raw()), -Q::kFracBits);
+}
+
+GeometryQ geometry_q(const Geometry& g) {
+  return {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
+          to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
+}
+
+// A robot with every term of the model present and joints that differ.
+HighFidelityParameters every_term() {
+  HighFidelityParameters h;
+  h.arm_inertia_kg_m2 = {7.2e-3, 7.5e-3, 6.9e-3};
+  h.arm_gravity_cos_Nm = {0.441, 0.452, 0.430};
+  h.arm_gravity_sin_Nm = {0.031, -0.02, 0.012};
+  h.platform_inertial_mass_kg = 0.42;
+  h.platform_weight_mass_kg = 0.40;
+  h.forearm_coupling_kg = 0.05;
+  h.viscous_friction_Nm_s_per_rad = {0.020, 0.025, 0.018};
+  h.coulomb_friction_Nm = {0.060, 0.050, 0.070};
+  h.stribeck_friction_Nm = {0.030, 0.020, 0.025};
+  h.stribeck_velocity_rad_s = 0.1;
+  h.torque_offset_Nm = {0.01, -0.02, 0.005};
+  h.coulomb_smoothing_rad_s = 0.01;
+  h.gravity_m_s2 = 9.81;
+  return h;
+}
+
+ModelParametersQ parameters_q(const HighFidelityParameters& h) {
+  ModelParametersQ m;
+  m.kind = ModelKind::kDelta;
+  for (unsigned j = 0; j < 3; ++j) {
+    m.arm_inertia_kg_m2[j] = to_q<Q7_24>(h.arm_inertia_kg_m2[j]);
+    m.arm_gravity_cos_Nm[j] = to_q<Q12_19>(h.arm_gravity_cos_Nm[j]);
+    m.arm_gravity_sin_Nm[j] = to_q<Q12_19>(h.arm_gravity_sin_Nm[j]);
+    m.viscous_friction_Nm_s_per_rad[j] = to_q<Q12_19>(h.viscous_friction_Nm_s_per_rad[j]);
+    m.coulomb_friction_Nm[j] = to_q<Q12_19>(h.coulomb_friction_Nm[j]);
+    m.stribeck_friction_Nm[j] = to_q<Q12_19>(h.stribeck_friction_Nm[j]);
+    m.torque_offset_Nm[j] = to_q<Q12_19>(h.torque_offset_Nm[j]);
+  }
+  m.platform_inertial_mass_kg = to_q<Q7_24>(h.platform_inertial_mass_kg);
+  m.platform_weight_mass_kg = to_q<Q7_24>(h.platform_weight_mass_kg);
+  m.forearm_coupling_kg = to_q<Q7_24>(h.forearm_coupling_kg);
+  m.coulomb_smoothing_rad_s = to_q<Q10_21>(h.coulomb_smoothing_rad_s);
+  m.stribeck_velocity_rad_s = to_q<Q10_21>(h.stribeck_velocity_rad_s);
+  m.gravity_m_s2 = to_q<Q7_24>(h.gravity_m_s2);
+  return m;
+}
+
+// The double model's parameters exactly as the fixed-point ones hold them.
+HighFidelityParameters as_held(const ModelParametersQ& m) {
+  HighFidelityParameters h;
+  for (unsigned j = 0; j < 3; ++j) {
+    h.arm_inertia_kg_m2[j] = from_q(m.arm_inertia_kg_m2[j]);
+    h.arm_gravity_cos_Nm[j] = from_q(m.arm_gravity_cos_Nm[j]);
+    h.arm_gravity_sin_Nm[j] = from_q(m.arm_gravity_sin_Nm[j]);
+    h.viscous_friction_Nm_s_per_rad[j] = from_q(m.viscous_friction_Nm_s_per_rad[j]);
+    h.coulomb_friction_Nm[j] = from_q(m.coulomb_friction_Nm[j]);
+    h.stribeck_friction_Nm[j] = from_q(m.stribeck_friction_Nm[j]);
+    h.torque_offset_Nm[j] = from_q(m.torque_offset_Nm[j]);
+  }
+  h.platform_inertial_mass_kg = from_q(m.platform_inertial_mass_kg);
+  h.platform_weight_mass_kg = from_q(m.platform_weight_mass_kg);
+  h.forearm_coupling_kg = from_q(m.forearm_coupling_kg);
+  h.coulomb_smoothing_rad_s = from_q(m.coulomb_smoothing_rad_s);
+  h.stribeck_velocity_rad_s = from_q(m.stribeck_velocity_rad_s);
+  h.gravity_m_s2 = from_q(m.gravity_m_s2);
+  return h;
+}
+
+struct Worst {
+  double torque_Nm = 0.0, jacobian_m = 0.0, jdq_m_s2 = 0.0;
+  int states = 0;
+};
+
+// Random states: a platform position inside the workspace, its joint
+// angles, and speeds and accelerations up to the limits given.
+Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_speed_rad_s,
+              double max_acceleration_rad_s2, int wanted) {
+  const GeometryQ gq = geometry_q(g);
+  const ModelParametersQ m = parameters_q(h);
+  const HighFidelityParameters held = as_held(m);
+  SplitMix64 rng(42);
+  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * rng.uniform(); };
+  Worst w;
+  const double reach = g.upper_arm_length_m + g.forearm_length_m;
+  for (int tries = 0; w.states < wanted && tries < 50 * wanted; ++tries) {
+    const Vec3<double> p{uniform(-0.6, 0.6) * reach, uniform(-0.6, 0.6) * reach,
+                         uniform(-1.0, -0.2) * reach};
+    const auto ws = check_workspace(g, p, WorkspaceLimits<double>{});
+    if (ws.status != WorkspaceStatus::kInside) continue;
+    JointStateQ sq;
+    JointState sd;
+    for (unsigned k = 0; k < 3; ++k) {
+      sq.q_rad[k] = to_q<Q3_28>(ws.theta_rad[k]);
+      sq.qd_rad_s[k] = to_q<Q10_21>(uniform(-max_speed_rad_s, max_speed_rad_s));
+      sq.qdd_rad_s2[k] = to_q<Q14_17>(uniform(-max_acceleration_rad_s2, max_acceleration_rad_s2));
+      sd.q_rad[k] = from_q(sq.q_rad[k]);
+      sd.qd_rad_s[k] = from_q(sq.qd_rad_s[k]);
+      sd.qdd_rad_s2[k] = from_q(sq.qdd_rad_s2[k]);
+    }
+    Joint3Q12_19 tq{};
+    Joint3 td{};
+    if (inverse_dynamics(g, held, sd, td) != KinematicsStatus::kOk) continue;
+    EXPECT_EQ(model_torque(gq, m, sq, tq), KinematicsStatus::kOk);
+    ++w.states;
+    for (unsigned k = 0; k < 3; ++k) {
+      w.torque_Nm = std::max(w.torque_Nm, std::abs(from_q(tq[k]) - td[k]));
+    }
+    // The velocity kinematics alone, at the same pose.
+    const auto fk = forward_kinematics(g, sd.q_rad);
+    const auto vk = velocity_kinematics(g, sd.q_rad, sd.qd_rad_s, fk.position_m);
+    const Vec3Q pq{to_q<Q7_24>(fk.position_m.x), to_q<Q7_24>(fk.position_m.y),
+                   to_q<Q7_24>(fk.position_m.z)};
+    const VelocityKinematicsQ vq = velocity_kinematics(gq, sq.q_rad, sq.qd_rad_s, pq);
+    EXPECT_EQ(vq.status, KinematicsStatus::kOk);
+    const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
+    for (unsigned r = 0; r < 3; ++r) {
+      for (unsigned c = 0; c < 3; ++c) {
+        w.jacobian_m = std::max(w.jacobian_m,
+                                std::abs(from_q(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
+      }
+      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(from_q(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
+    }
+  }
+  return w;
+}
+
+TEST(FixedDynamicsTest, AgreesWithTheDoubleModelInsideTheWorkspace) {
+  const Worst w = compare(kDefaultGeometry, every_term(), 6.0, 150.0, 20000);
+  std::printf(
+      "fixed model over %d states (|qd| <= 6 rad/s, |qdd| <= 150 rad/s^2): worst torque "
+      "%.3g N m (%.4f %% of 8 N m), J %.3g m/rad, J'q' %.3g m/s^2\n",
+      w.states, w.torque_Nm, 100.0 * w.torque_Nm / kMaxTorqueNm, w.jacobian_m, w.jdq_m_s2);
+  EXPECT_EQ(w.states, 20000);
+  EXPECT_LE(w.torque_Nm, 1e-3 * kMaxTorqueNm);
+  EXPECT_LE(w.jacobian_m, 1e-5);
+  EXPECT_LE(w.jdq_m_s2, 1e-3);
+}
+
+TEST(FixedDynamicsTest, AgreesOnALargerRobotAtItsOwnSpeeds) {
+  // A robot twice the default's size, heavier, at a quarter of the speed.
+  const Geometry g{0.4, 0.92, 0.2, 0.07};
+  HighFidelityParameters h = every_term();
+  for (double& v : h.arm_inertia_kg_m2) v *= 16.0;
+  for (double& v : h.arm_gravity_cos_Nm) v *= 8.0;
+  h.platform_inertial_mass_kg *= 4.0;
+  h.platform_weight_mass_kg *= 4.0;
+  const Worst w = compare(g, h, 3.0, 40.0, 5000);
+  std::printf("larger robot over %d states: worst torque %.3g N m\n", w.states, w.torque_Nm);
+  EXPECT_EQ(w.states, 5000);
+  EXPECT_LE(w.torque_Nm, 1e-3 * kMaxTorqueNm);
+}
+
+TEST(FixedDynamicsTest, TheLumpedModelIsTheCaseWithoutSinCouplingAndMassSplit) {
+  LumpedParameters lumped = default_lumped_parameters();
+  const Worst w = compare(kDefaultGeometry, to_high_fidelity(lumped), 6.0, 150.0, 2000);
+  EXPECT_EQ(w.states, 2000);
+  EXPECT_LE(w.torque_Nm, 1e-3 * kMaxTorqueNm);
+}
+
+TEST(FixedDynamicsTest, RefusesPosesWithoutKinematics) {
+  // Forearms as long as the arms: with every arm at acos(0.675) the
+  // forearms lie flat (the parallel singularity): a hair above it the
+  // determinant is below the limit. At 0 they cannot meet.
+  const GeometryQ gq = geometry_q(Geometry{0.2, 0.2, 0.1, 0.035});
+  const ModelParametersQ m = parameters_q(every_term());
+  JointStateQ s;
+  const Q3_28 flat = to_q<Q3_28>(std::acos(0.67499));
+  s.q_rad = {flat, flat, flat};
+  Joint3Q12_19 tau{Q12_19::from(1.0), Q12_19::from(1.0), Q12_19::from(1.0)};
+  EXPECT_EQ(model_torque(gq, m, s, tau), KinematicsStatus::kSingular);
+  EXPECT_EQ(tau[0].raw(), 0);
+  s.q_rad = {};
+  EXPECT_EQ(model_torque(gq, m, s, tau), KinematicsStatus::kUnreachable);
+}
+
+}  // namespace
+}  // namespace delta::fx
