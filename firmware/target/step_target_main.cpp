@@ -113,7 +113,7 @@ extern "C" int firmware_main() {
     s.qdd_rad_s2 = {delta::fx::Q14_17::from(10.0), delta::fx::Q14_17::from(-20.0),
                     delta::fx::Q14_17::from(5.0)};
     delta::fx::Joint3Q12_19 tau{};
-    delta::fx::model_torque(g, m, s, tau);
+    delta::fx::model_torque(delta::fx::prepare_model(g, m), s, tau);
     sink = tau[0].raw();
   });
   return done == steps ? 0 : 1;

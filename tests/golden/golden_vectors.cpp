@@ -143,7 +143,7 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
         .num(delta::fx::tanh(x).raw())
         .end(lines);
   }
-  const ModelParametersQ m = model_parameters();
+  const delta::fx::ModelQ m = delta::fx::prepare_model(kGeometry, model_parameters());
   const Trajectory pnp(kGeometry, pick_and_place_config());
   for (std::uint32_t tick = 0; tick <= pnp.length_ticks(); tick += 41) {
     JointReference r;
@@ -153,7 +153,7 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
       r.qdd_rad_s2[j] = r.qdd_rad_s2[j] + Q14_17::from_raw(rng.in(-400000, 400000));
     }
     Joint3Q12_19 tau{};
-    const auto status = delta::fx::model_torque(kGeometry, m, r, tau);
+    const auto status = delta::fx::model_torque(m, r, tau);
     l.word("model").num(tick).num(static_cast<int>(status));
     for (const Q12_19 t : tau) l.num(t.raw());
     l.end(lines);
@@ -325,7 +325,7 @@ std::uint32_t write_golden_vectors(TextSink& out) {
     }
     std::array<bool, 3> sat{};
     Joint3Q12_19 ff{};
-    feed_forward_torque(kGeometry, nominal, r, ff);
+    feed_forward_torque(nominal, r, ff);
     const auto tau = ctl.update(r, q, qd, ff, sat);
     l.word("control")
         .num(tick)

@@ -6,7 +6,7 @@ namespace fw {
 
 using delta::fx::mul;
 
-KinematicsStatus feed_forward_torque(const GeometryQ& geometry, const FeedForwardConfig& config,
+KinematicsStatus feed_forward_torque(const FeedForwardConfig& config,
                                      const delta::fx::JointStateQ& ref, Joint3Q12_19& tau_Nm) {
   tau_Nm = {};
   switch (config.mode) {
@@ -19,7 +19,7 @@ KinematicsStatus feed_forward_torque(const GeometryQ& geometry, const FeedForwar
       }
       return KinematicsStatus::kOk;
     case FeedForwardMode::kModel:
-      return delta::fx::model_torque(geometry, config.model, ref, tau_Nm);
+      return delta::fx::model_torque(config.model, ref, tau_Nm);
   }
   return KinematicsStatus::kOk;
 }

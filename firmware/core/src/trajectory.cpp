@@ -253,7 +253,7 @@ TrajectoryFault feed_forward_fault(const TrajectoryBounds& b, const JointReferen
                                    int& joint) {
   Joint3Q12_19 tau{};
   joint = -1;
-  if (feed_forward_torque(b.geometry, b.feed_forward, ref, tau) != KinematicsStatus::kOk) {
+  if (feed_forward_torque(b.feed_forward, ref, tau) != KinematicsStatus::kOk) {
     return TrajectoryFault::kOutsideWorkspace;
   }
   for (unsigned j = 0; j < 3; ++j) {

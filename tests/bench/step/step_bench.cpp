@@ -60,7 +60,7 @@ ControllerConfig config() {
   c.approach_ticks = 1;
   c.feed_forward.mode = FeedForwardMode::kModel;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
-  c.feed_forward.model = model();
+  c.feed_forward.model = delta::fx::prepare_model(c.geometry, model());
   return c;
 }
 

@@ -103,8 +103,8 @@ struct Worst {
 Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_speed_rad_s,
               double max_acceleration_rad_s2, int wanted) {
   const GeometryQ gq = geometry_q(g);
-  const ModelParametersQ m = parameters_q(h);
-  const HighFidelityParameters held = as_held(m);
+  const ModelQ m = prepare_model(gq, parameters_q(h));
+  const HighFidelityParameters held = as_held(m.parameters);
   SplitMix64 rng(42);
   const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * rng.uniform(); };
   Worst w;
@@ -127,7 +127,7 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     Joint3Q12_19 tq{};
     Joint3 td{};
     if (inverse_dynamics(g, held, sd, td) != KinematicsStatus::kOk) continue;
-    EXPECT_EQ(model_torque(gq, m, sq, tq), KinematicsStatus::kOk);
+    EXPECT_EQ(model_torque(m, sq, tq), KinematicsStatus::kOk);
     ++w.states;
     for (unsigned k = 0; k < 3; ++k) {
       w.torque_Nm = std::max(w.torque_Nm, std::abs(from_q(tq[k]) - td[k]));
@@ -189,15 +189,15 @@ TEST(FixedDynamicsTest, RefusesPosesWithoutKinematics) {
   // forearms lie flat (the parallel singularity): a hair above it the
   // determinant is below the limit. At 0 they cannot meet.
   const GeometryQ gq = geometry_q(Geometry{0.2, 0.2, 0.1, 0.035});
-  const ModelParametersQ m = parameters_q(every_term());
+  const ModelQ m = prepare_model(gq, parameters_q(every_term()));
   JointStateQ s;
   const Q3_28 flat = to_q<Q3_28>(std::acos(0.67499));
   s.q_rad = {flat, flat, flat};
   Joint3Q12_19 tau{Q12_19::from(1.0), Q12_19::from(1.0), Q12_19::from(1.0)};
-  EXPECT_EQ(model_torque(gq, m, s, tau), KinematicsStatus::kSingular);
+  EXPECT_EQ(model_torque(m, s, tau), KinematicsStatus::kSingular);
   EXPECT_EQ(tau[0].raw(), 0);
   s.q_rad = {};
-  EXPECT_EQ(model_torque(gq, m, s, tau), KinematicsStatus::kUnreachable);
+  EXPECT_EQ(model_torque(m, s, tau), KinematicsStatus::kUnreachable);
 }
 
 }  // namespace

@@ -347,7 +347,7 @@ TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
   const std::array<Q10_21, 3> qd = {to_q<Q10_21>(0.4), {}, {}};
   std::array<bool, 3> sat{};
   Joint3Q12_19 ff{};
-  ASSERT_EQ(feed_forward_torque(GeometryQ{}, nominal, ref, ff), KinematicsStatus::kOk);
+  ASSERT_EQ(feed_forward_torque(nominal, ref, ff), KinematicsStatus::kOk);
   const auto tau = ctl.update(ref, q, qd, ff, sat);
   // Joint 1: 50 * 0.01 + 2 * 0.1 + 0.01 * 10 - 0.4 cos(0.3); the integral
   // (Ki e dt = 1e-3 per cycle) acts from the next cycle on.

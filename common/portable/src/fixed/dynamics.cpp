@@ -41,10 +41,9 @@ struct PoseQ {
   VelocityKinematicsQ vk{};
 };
 
-void chain_directions(const GeometryQ& g, const std::array<SinCos, 3>& trig, const Vec3Q& p,
-                      PoseQ& out) {
-  out.inverse_forearm_per_m = div<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
-  const Q7_24 inverse_b = out.inverse_forearm_per_m;
+void chain_directions(const GeometryQ& g, Q7_24 inverse_b, const std::array<SinCos, 3>& trig,
+                      const Vec3Q& p, PoseQ& out) {
+  out.inverse_forearm_per_m = inverse_b;
   for (unsigned k = 0; k < 3; ++k) {
     const Q1_30 c = trig[k].cos, s = trig[k].sin;
     const Q1_30 ux = kChainCosQ[k], uy = kChainSinQ[k];
@@ -66,7 +65,7 @@ KinematicsStatus pose_velocity_kinematics(const GeometryQ& g, const std::array<Q
   for (unsigned k = 0; k < 3; ++k) pose.inverse_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
   const Q1_30 det = narrowed<Q1_30>(dot_raw(n[0], pose.inverse_columns[0]), 30);
   if (abs(det) < kMinForearmDeterminant) return KinematicsStatus::kSingular;
-  pose.inverse_determinant = div<Q7_24>(Q1_30::from_raw(1 << 30), det);
+  pose.inverse_determinant = quotient<Q7_24>(Q1_30::from_raw(1 << 30), det);
   const Q7_24 scale_m = mul<Q7_24>(g.upper_arm_length_m, pose.inverse_determinant);
   auto& J = pose.vk.jacobian_m_per_rad;
   for (unsigned k = 0; k < 3; ++k) {
@@ -102,8 +101,9 @@ KinematicsStatus pose_velocity_kinematics(const GeometryQ& g, const std::array<Q
   return KinematicsStatus::kOk;
 }
 
-KinematicsStatus pose_of(const GeometryQ& g, const JointAnglesQ& q, const std::array<Q10_21, 3>& qd,
-                         const Vec3Q* position, std::array<SinCos, 3>& trig, PoseQ& pose) {
+KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ& q,
+                         const std::array<Q10_21, 3>& qd, const Vec3Q* position,
+                         std::array<SinCos, 3>& trig, PoseQ& pose) {
   for (unsigned k = 0; k < 3; ++k) trig[k] = sincos(q[k]);
   Vec3Q p{};
   if (position != nullptr) {
@@ -113,7 +113,7 @@ KinematicsStatus pose_of(const GeometryQ& g, const JointAnglesQ& q, const std::a
     if (fk.status != KinematicsStatus::kOk) return fk.status;
     p = fk.position;
   }
-  chain_directions(g, trig, p, pose);
+  chain_directions(g, inverse_b, trig, p, pose);
   return pose_velocity_kinematics(g, qd, pose);
 }
 
@@ -161,12 +161,13 @@ PlatformTerms platform_terms(const GeometryQ& g, const ModelParametersQ& m, cons
 }
 
 // Fv qd + Fc tanh(qd / w) + Fs exp(-(qd / vs)^2) tanh(qd / w).
-Q12_19 friction(const ModelParametersQ& m, unsigned j, Q10_21 qd) {
-  const Q1_30 sign = tanh(div<Q10_21>(qd, m.coulomb_smoothing_rad_s));
+Q12_19 friction(const ModelQ& model, unsigned j, Q10_21 qd) {
+  const ModelParametersQ& m = model.parameters;
+  const Q1_30 sign = tanh(mul<Q10_21>(qd, model.inverse_smoothing_s_per_rad));
   Q12_19 f = mul<Q12_19>(m.viscous_friction_Nm_s_per_rad[j], qd) +
              mul<Q12_19>(m.coulomb_friction_Nm[j], sign);
-  if (m.stribeck_velocity_rad_s.raw() > 0) {
-    const Q10_21 v = div<Q10_21>(qd, m.stribeck_velocity_rad_s);
+  if (model.inverse_stribeck_s_per_rad.raw() > 0) {
+    const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
     const Q1_30 decay = exp_neg(mul<Q10_21>(v, v));
     f += mul<Q12_19>(m.stribeck_friction_Nm[j], mul<Q1_30>(decay, sign));
   }
@@ -179,17 +180,34 @@ VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& 
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p) {
   std::array<SinCos, 3> trig{};
   PoseQ pose;
-  const KinematicsStatus status = pose_of(g, q, qd, &p, trig, pose);
+  const Q7_24 inverse_b = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
+  const KinematicsStatus status = pose_of(g, inverse_b, q, qd, &p, trig, pose);
   if (status != KinematicsStatus::kOk) return VelocityKinematicsQ{status, {}, {}};
   return pose.vk;
 }
 
-KinematicsStatus model_torque(const GeometryQ& g, const ModelParametersQ& m, const JointStateQ& s,
-                              Joint3Q12_19& tau_Nm) {
+ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m) {
+  ModelQ model;
+  model.geometry = g;
+  model.parameters = m;
+  model.inverse_forearm_per_m = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
+  model.inverse_smoothing_s_per_rad =
+      quotient<Q10_21>(Q10_21::from_int(1), m.coulomb_smoothing_rad_s);
+  if (m.stribeck_velocity_rad_s.raw() > 0) {
+    model.inverse_stribeck_s_per_rad =
+        quotient<Q10_21>(Q10_21::from_int(1), m.stribeck_velocity_rad_s);
+  }
+  return model;
+}
+
+KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q12_19& tau_Nm) {
   tau_Nm = {};
+  const GeometryQ& g = model.geometry;
+  const ModelParametersQ& m = model.parameters;
   std::array<SinCos, 3> trig{};
   PoseQ pose;
-  const KinematicsStatus status = pose_of(g, s.q_rad, s.qd_rad_s, nullptr, trig, pose);
+  const KinematicsStatus status =
+      pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s, nullptr, trig, pose);
   if (status != KinematicsStatus::kOk) return status;
   const PlatformTerms platform = platform_terms(g, m, s, pose);
   for (unsigned i = 0; i < 3; ++i) {
@@ -199,7 +217,7 @@ KinematicsStatus model_torque(const GeometryQ& g, const ModelParametersQ& m, con
                 mul<Q12_19>(m.platform_inertial_mass_kg, platform.inertial[i]) +
                 mul<Q12_19>(m.platform_weight_mass_kg, platform.weight[i]) +
                 mul<Q12_19>(m.forearm_coupling_kg, platform.coupling[i]) +
-                friction(m, i, s.qd_rad_s[i]) + m.torque_offset_Nm[i];
+                friction(model, i, s.qd_rad_s[i]) + m.torque_offset_Nm[i];
   }
   return KinematicsStatus::kOk;
 }

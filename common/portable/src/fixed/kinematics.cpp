@@ -124,7 +124,10 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
     return r;
   }
   // Unit vectors in Q1.30.
-  const Q1_30 ex[3] = {div<Q1_30>(d21.x_m, d), div<Q1_30>(d21.y_m, d), div<Q1_30>(d21.z_m, d)};
+  // Quotients through a reciprocal (a 64-bit division is a library call on
+  // Cortex-M4).
+  const Q1_30 ex[3] = {quotient<Q1_30>(d21.x_m, d), quotient<Q1_30>(d21.y_m, d),
+                       quotient<Q1_30>(d21.z_m, d)};
   const Q7_24 i =
       mul<Q7_24>(ex[0], d31.x_m) + mul<Q7_24>(ex[1], d31.y_m) + mul<Q7_24>(ex[2], d31.z_m);
   const Vec3Q ey_raw{d31.x_m - mul<Q7_24>(ex[0], i), d31.y_m - mul<Q7_24>(ex[1], i),
@@ -135,8 +138,8 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
     r.status = KinematicsStatus::kSingular;
     return r;
   }
-  const Q1_30 ey[3] = {div<Q1_30>(ey_raw.x_m, j), div<Q1_30>(ey_raw.y_m, j),
-                       div<Q1_30>(ey_raw.z_m, j)};
+  const Q1_30 ey[3] = {quotient<Q1_30>(ey_raw.x_m, j), quotient<Q1_30>(ey_raw.y_m, j),
+                       quotient<Q1_30>(ey_raw.z_m, j)};
   Q1_30 ez[3] = {mul<Q1_30>(ex[1], ey[2]) - mul<Q1_30>(ex[2], ey[1]),
                  mul<Q1_30>(ex[2], ey[0]) - mul<Q1_30>(ex[0], ey[2]),
                  mul<Q1_30>(ex[0], ey[1]) - mul<Q1_30>(ex[1], ey[0])};
@@ -146,8 +149,8 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
   // Equal radii: x = d / 2, y = (i^2 + j^2 - 2 i x) / (2 j), z = sqrt(b^2 - x^2 - y^2).
   const Q7_24 x = d.halved(1);
   const i64 num48 = prod48(i, i) + prod48(j, j) - 2 * prod48(i, x);
-  const Q7_24 y = Q7_24::from_raw(
-      detail::saturate32((num48 >= 0 ? num48 + j.raw() : num48 - j.raw()) / (2 * i64{j.raw()})));
+  const Q7_24 y = quotient<Q7_24>(
+      Q7_24::from_raw(detail::saturate32(detail::shift_round(num48, 24))), j.scaled_by(2));
   const i64 z_sq48 = prod48(g.forearm_length_m, g.forearm_length_m) - prod48(x, x) - prod48(y, y);
   if (z_sq48 < 0) {
     r.status = KinematicsStatus::kUnreachable;

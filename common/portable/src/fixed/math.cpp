@@ -109,6 +109,17 @@ Q1_30 clamp_unit(std::int64_t v) {
 
 }  // namespace
 
+std::uint32_t reciprocal_q30(std::uint32_t den) {
+  using u32 = std::uint32_t;
+  using u64 = std::uint64_t;
+  u32 r = u32{kReciprocalSeedQ15[(den >> 24) - 128]} << 15;
+  for (int i = 0; i < 2; ++i) {
+    const u32 e = (u32{2} << 30) - static_cast<u32>((u64{den} * r) >> 32);
+    r = static_cast<u32>((u64{r} * e) >> 30);
+  }
+  return r;
+}
+
 SinCos sincos(Q3_28 angle_rad) {
   const Reduced red = reduce(angle_rad);
   const std::int32_t v = half_square_q32(red.r);
@@ -165,11 +176,7 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
   const int k = __builtin_clz(den);  // 0 or 1
   den <<= k;
   num <<= k;
-  u32 r = u32{kReciprocalSeedQ15[(den >> 24) - 128]} << 15;  // 1 / D in Q2.30
-  for (int i = 0; i < 2; ++i) {
-    const u32 e = (u32{2} << 30) - static_cast<u32>((u64{den} * r) >> 32);
-    r = static_cast<u32>((u64{r} * e) >> 30);
-  }
+  const u32 r = reciprocal_q30(den);
   const auto t = static_cast<std::int32_t>((u64{num} * r + (u64{1} << 31)) >> 32);  // Q1.30
   // atan(t) = t P(u), u = t^2 in Q0.32 (below 0.172). Every partial sum
   // of P fits 32 bits in Q1.30, so 32-bit arithmetic around each product.
@@ -269,10 +276,12 @@ Q1_30 exp_neg(Q10_21 x) {
 Q1_30 tanh(Q10_21 x) {
   const bool negative = x.raw() < 0;
   const Q10_21 magnitude = negative ? -x : x;
+  // (1 - t) / (1 + t) with 1 + t = 2 D, D = (1 + t) / 2 in [1/2, 1].
   const std::int64_t t = exp_neg(magnitude.scaled_by(2)).raw();
-  const std::int64_t num = (kOneQ30 - t) << 30;
-  const std::int64_t den = kOneQ30 + t;
-  const auto r = static_cast<std::int32_t>((num + den / 2) / den);
+  const auto den = static_cast<std::uint32_t>((kOneQ30 + t) << 1);  // D in Q0.32
+  if (den == 0) return Q1_30::zero();                               // t = 1 (x = 0): D = 1 wraps
+  const std::int64_t q = ((kOneQ30 - t) * reciprocal_q30(den) + (std::int64_t{1} << 30)) >> 31;
+  const auto r = static_cast<std::int32_t>(q > kOneQ30 ? kOneQ30 : q);
   return Q1_30::from_raw(negative ? -r : r);
 }
 

@@ -92,10 +92,13 @@ class Controller {
   TrajectoryBounds bounds() const { return trajectory_bounds(config_); }
   // Changes the feed-forward between runs: refused (false) while a run is
   // on (running, stopping, or a start requested), and for a model mode
-  // without a model.
+  // without a model or with a model fitted for another geometry.
   bool set_feed_forward(const FeedForwardConfig& f) {
     if (state_ == State::kRunning || state_ == State::kStopping || start_requested_) return false;
-    if (f.mode == FeedForwardMode::kModel && f.model.kind == ModelKind::kNone) return false;
+    if (f.mode == FeedForwardMode::kModel &&
+        (f.model.parameters.kind == ModelKind::kNone || !(f.model.geometry == config_.geometry))) {
+      return false;
+    }
     config_.feed_forward = f;
     return true;
   }
@@ -297,7 +300,7 @@ class Controller {
       tracking_.add(reference_.q_rad, q);
     }
     Joint3Q12_19 feed_forward{};
-    if (feed_forward_torque(config_.geometry, config_.feed_forward, reference_, feed_forward) !=
+    if (feed_forward_torque(config_.feed_forward, reference_, feed_forward) !=
         KinematicsStatus::kOk) {
       enter_fault(Fault::kTrajectoryRejected);
       return;

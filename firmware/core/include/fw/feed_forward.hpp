@@ -19,6 +19,7 @@ using delta::fx::GeometryQ;
 using delta::fx::Joint3Q12_19;
 using delta::fx::ModelKind;
 using delta::fx::ModelParametersQ;
+using delta::fx::ModelQ;
 using delta::fx::Q12_19;
 
 enum class FeedForwardMode : std::uint8_t { kOff = 0, kNominal = 1, kModel = 2 };
@@ -36,13 +37,15 @@ struct NominalDynamics {
 struct FeedForwardConfig {
   FeedForwardMode mode{FeedForwardMode::kNominal};
   NominalDynamics nominal{};
-  ModelParametersQ model{};  // used in mode kModel (its kind must not be kNone)
+  // Used in mode kModel: its kind must not be kNone, and it must have been
+  // fitted for the controller's geometry.
+  ModelQ model{};
   friend constexpr bool operator==(const FeedForwardConfig&, const FeedForwardConfig&) = default;
 };
 
 // The feed-forward torques at reference ref. kOk, or (model only) why the
 // reference's pose has no kinematics; the torques are then zero.
-KinematicsStatus feed_forward_torque(const GeometryQ& geometry, const FeedForwardConfig& config,
+KinematicsStatus feed_forward_torque(const FeedForwardConfig& config,
                                      const delta::fx::JointStateQ& ref, Joint3Q12_19& tau_Nm);
 
 }  // namespace fw

@@ -68,9 +68,28 @@ inline constexpr Q1_30 kMinForearmDeterminant = Q1_30::from(1.0 / 64.0);
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p);
 
+// A model ready to run: its parameters, the geometry it was fitted for, and
+// what model_torque() would otherwise divide by at every state.
+struct ModelQ {
+  GeometryQ geometry{};
+  ModelParametersQ parameters{};
+  Q7_24 inverse_forearm_per_m{};         // 1 / b
+  Q10_21 inverse_smoothing_s_per_rad{};  // 1 / w
+  Q10_21 inverse_stribeck_s_per_rad{};   // 1 / vs; 0 without the Stribeck term
+  friend constexpr bool operator==(const ModelQ&, const ModelQ&) = default;
+};
+
+// The smallest smoothing and Stribeck velocities prepare_model() takes
+// (their reciprocals must fit Q10.21).
+inline constexpr Q10_21 kMinFrictionVelocity = Q10_21::from(1.0 / 1000.0);
+
+// Prepares m for geometry g. The caller checks the values' ranges first
+// (smoothing and Stribeck velocities of at least kMinFrictionVelocity, a
+// forearm longer than 1/128 m).
+ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m);
+
 // The model's joint torques at state s. kUnreachable or kSingular where the
 // pose has no kinematics (tau is then zero).
-KinematicsStatus model_torque(const GeometryQ& g, const ModelParametersQ& m, const JointStateQ& s,
-                              Joint3Q12_19& tau_Nm);
+KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q12_19& tau_Nm);
 
 }  // namespace delta::fx

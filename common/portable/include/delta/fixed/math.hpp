@@ -45,6 +45,28 @@ Q1_30 exp_neg(Q10_21 x);
 // tanh(x) = (1 - e^-2|x|) / (1 + e^-2|x|), with the sign of x.
 Q1_30 tanh(Q10_21 x);
 
+// 1 / D in Q2.30 for D = den / 2^32 in [1/2, 1), den in [2^31, 2^32): a
+// seed within 0.4 % from a table, then two Newton steps r <- r (2 - D r)
+// (relative error below 1e-9). A few multiplies where a 64-bit division is
+// a library call on Cortex-M4.
+std::uint32_t reciprocal_q30(std::uint32_t den);
+
+// a / b in format R through reciprocal_q30(): within 1e-9 relative (and
+// the rounding of R), saturated; b = 0 gives the extreme of a's sign.
+template <class R, int IA, int FA, int IB, int FB>
+R quotient(Q<IA, FA> a, Q<IB, FB> b) {
+  if (b.raw() == 0) return a.raw() >= 0 ? R::max() : R::min();
+  const bool negative_b = b.raw() < 0;
+  const auto magnitude = negative_b ? static_cast<std::uint32_t>(-std::int64_t{b.raw()})
+                                    : static_cast<std::uint32_t>(b.raw());
+  const int k = __builtin_clz(magnitude);
+  // a / b = a_raw r 2^(k - 62) in raw units of 2^(FB - FA).
+  const std::int64_t p =
+      std::int64_t{a.raw()} * static_cast<std::int64_t>(reciprocal_q30(magnitude << k));
+  const std::int64_t q = detail::shift_round(p, 62 - k - R::kFracBits + FA - FB);
+  return R::from_raw(detail::saturate32(negative_b ? -q : q));
+}
+
 // Square root of an unsigned 64-bit integer, rounded to nearest (up to 2^32).
 std::uint64_t isqrt_round(std::uint64_t v);
 
