@@ -5,124 +5,28 @@
 #include <cmath>
 
 #include "delta/input_error.hpp"
+#include "delta/model_terms.hpp"
 
 namespace host_id {
 
 namespace {
 
-const char* kJointSuffix[3] = {"_1", "_2", "_3"};
-
-// How a physical parameter is shared between the joints.
-enum class Sharing {
-  kArm,    // one per arm with --per-joint, else one for all three
-  kJoint,  // one per joint always (friction, offsets)
-  kRobot,  // one for the robot (the platform's)
-};
-
-// One physical parameter: its description, its basis term and where its
-// value sits among the physical parameters.
-struct Term {
-  const char* name;
-  const char* unit;
-  bool nonnegative;
-  const char* meaning;
-  Sharing sharing;
-  delta::Joint3 delta::DynamicsBasis::*basis;  // nullptr: the constant 1
-  delta::Joint3 delta::HighFidelityParameters::*joint_value;
-  double delta::HighFidelityParameters::*robot_value;
-};
-
+using Term = delta::ModelTerm;
 using B = delta::DynamicsBasis;
-using H = delta::HighFidelityParameters;
-
-const Term kArmInertia{"arm_inertia",
-                       "kg m^2",
-                       true,
-                       "arm about the motor axis, with the reflected rotor and the forearms' "
-                       "elbow share",
-                       Sharing::kArm,
-                       &B::inertia,
-                       &H::arm_inertia_kg_m2,
-                       nullptr};
-const Term kViscous{"viscous_friction",
-                    "N m s/rad",
-                    true,
-                    "viscous friction at the joint",
-                    Sharing::kJoint,
-                    &B::viscous,
-                    &H::viscous_friction_Nm_s_per_rad,
-                    nullptr};
-const Term kCoulomb{"coulomb_friction",
-                    "N m",
-                    true,
-                    "Coulomb friction at the joint (smoothed as tanh(qd / w))",
-                    Sharing::kJoint,
-                    &B::coulomb,
-                    &H::coulomb_friction_Nm,
-                    nullptr};
-const Term kStribeck{"stribeck_friction",
-                     "N m",
-                     true,
-                     "Stribeck excess of the friction at rest, exp(-(qd / vs)^2) tanh(qd / w)",
-                     Sharing::kJoint,
-                     &B::stribeck,
-                     &H::stribeck_friction_Nm,
-                     nullptr};
-const Term kOffset{"torque_offset",
-                   "N m",
-                   false,
-                   "constant torque offset of the joint's measurement",
-                   Sharing::kJoint,
-                   nullptr,
-                   &H::torque_offset_Nm,
-                   nullptr};
-
-std::vector<Term> lumped_terms() {
-  return {kArmInertia,
-          {"arm_gravity_moment", "N m", true, "gravity moment of an arm at theta = 0",
-           Sharing::kArm, &B::gravity, &H::arm_gravity_cos_Nm, nullptr},
-          {"platform_mass", "kg", true,
-           "equivalent platform mass: platform, payload, forearms' platform share", Sharing::kRobot,
-           &B::platform, nullptr, &H::platform_weight_mass_kg},
-          kViscous,
-          kCoulomb};
-}
-
-std::vector<Term> delta_terms() {
-  return {kArmInertia,
-          {"arm_gravity_cos", "N m", true,
-           "gravity moment of an arm at theta = 0 (its centre of mass along the arm line, the "
-           "forearms' elbow weight)",
-           Sharing::kArm, &B::gravity, &H::arm_gravity_cos_Nm, nullptr},
-          {"arm_gravity_sin", "N m", false,
-           "gravity moment of an arm at theta = 90 deg from its centre of mass below the arm line",
-           Sharing::kArm, &B::gravity_sin, &H::arm_gravity_sin_Nm, nullptr},
-          {"platform_inertial_mass", "kg", true,
-           "the mass the platform's acceleration moves: platform, payload, forearms' share",
-           Sharing::kRobot, &B::platform_inertial, nullptr, &H::platform_inertial_mass_kg},
-          {"platform_weight_mass", "kg", true,
-           "the weight carried at the platform: platform, payload, forearms' share",
-           Sharing::kRobot, &B::platform_weight, nullptr, &H::platform_weight_mass_kg},
-          {"forearm_coupling", "kg", true,
-           "coupling of the forearm rods' elbow and platform ends (2 B per forearm)",
-           Sharing::kRobot, &B::coupling, nullptr, &H::forearm_coupling_kg},
-          kViscous,
-          kCoulomb};
-}
 
 // A model linear in physical parameters, one column (or three) per term.
 class PhysicalModel final : public Model {
  public:
-  PhysicalModel(ModelOptions o, std::vector<Term> terms) : Model(std::move(o)) {
-    if (options_.stribeck_velocity_rad_s > 0.0) terms.push_back(kStribeck);
-    if (options_.offsets) terms.push_back(kOffset);
+  explicit PhysicalModel(ModelOptions o) : Model(std::move(o)) {
+    const auto terms = delta::physical_model_terms(
+        options_.name, options_.stribeck_velocity_rad_s > 0.0, options_.offsets);
     for (const Term& t : terms) {
-      const bool per_joint = is_per_joint(t);
+      const bool per_joint = delta::term_per_joint(t, options_.per_joint);
       columns_.push_back({t, parameters_.size(), per_joint});
       for (unsigned j = 0; j < (per_joint ? 3u : 1u); ++j) {
-        const std::string suffix = per_joint ? kJointSuffix[j] : "";
-        const std::string all = t.sharing == Sharing::kArm ? " (all arms)" : "";
-        parameters_.push_back({t.name + suffix, t.unit, t.nonnegative, t.meaning + all});
+        const std::string all = t.sharing == delta::TermSharing::kArm ? " (all arms)" : "";
+        parameters_.push_back(
+            {delta::term_parameter_name(t, per_joint, j), t.unit, t.nonnegative, t.meaning + all});
       }
     }
     plan_rows();
@@ -175,9 +79,6 @@ class PhysicalModel final : public Model {
     std::size_t first;  // its first column in the regressor
     bool per_joint;
   };
-  bool is_per_joint(const Term& t) const {
-    return t.sharing == Sharing::kJoint || (t.sharing == Sharing::kArm && options_.per_joint);
-  }
   // The three rows (row-major) of a sample with basis b, as the plan says.
   void rows_of(const delta::DynamicsBasis& b, double* out) const {
     const std::size_t p = size();
@@ -263,8 +164,9 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
       !std::isfinite(options.stribeck_velocity_rad_s)) {
     throw delta::InputError("--stribeck-velocity must be a speed in rad/s, 0 for no Stribeck term");
   }
-  if (options.name == "delta") return std::make_unique<PhysicalModel>(options, delta_terms());
-  if (options.name == "lumped") return std::make_unique<PhysicalModel>(options, lumped_terms());
+  if (options.name == "delta" || options.name == "lumped") {
+    return std::make_unique<PhysicalModel>(options);
+  }
   if (options.name == "paper14") {
     if (options.per_joint) {
       throw delta::InputError("--per-joint applies to --model delta and lumped only");

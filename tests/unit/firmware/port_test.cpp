@@ -102,6 +102,85 @@ TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {
       << config_error("trajectory_file = " + file + "\n");
 }
 
+// A saved fit as host_id writes it (the parts the controller reads).
+std::string result_json(const std::string& model, const std::string& geometry,
+                        const std::string& parameters) {
+  return "{\"format\": \"host_id-result/1\", \"model\": {\"name\": \"" + model +
+         "\", \"per_joint\": false, \"offsets\": false, \"coulomb_smoothing_rad_s\": 0.01}, "
+         "\"geometry\": " +
+         geometry + ", \"parameters\": {" + parameters + "}}";
+}
+
+const char* const kDefaultGeometryJson =
+    "{\"upper_arm_length_m\": 0.2, \"forearm_length_m\": 0.46, \"base_radius_m\": 0.1, "
+    "\"platform_radius_m\": 0.035}";
+const char* const kLumpedParameters =
+    "\"arm_inertia\": 0.0072, \"arm_gravity_moment\": 0.441, \"platform_mass\": 0.4, "
+    "\"viscous_friction_1\": 0.02, \"viscous_friction_2\": 0.025, \"viscous_friction_3\": 0.018, "
+    "\"coulomb_friction_1\": 0.06, \"coulomb_friction_2\": 0.05, \"coulomb_friction_3\": 0.07";
+
+// feed_forward.model: a saved fit becomes the model feed-forward (the mode
+// follows unless feed_forward says otherwise); one fitted for another
+// robot, one without physical parameters or with a value the controller
+// cannot hold is refused, naming what and why.
+TEST(PortConfigTest, AFittedModelBecomesTheFeedForward) {
+  const std::string file = scratch_file("result.json");
+  std::ofstream(file) << result_json("lumped", kDefaultGeometryJson, kLumpedParameters);
+  const PortConfig c = read_port_config(write_temp("feed_forward.model = " + file + "\n"));
+  EXPECT_EQ(c.feed_forward, fw::FeedForwardMode::kModel);
+  ASSERT_TRUE(c.feed_forward_model.has_value());
+  EXPECT_DOUBLE_EQ(c.feed_forward_model->parameters.platform_inertial_mass_kg, 0.4);
+  EXPECT_DOUBLE_EQ(c.feed_forward_model->parameters.arm_inertia_kg_m2[2], 0.0072);
+  const fw::ControllerConfig core = controller_config(c);
+  EXPECT_EQ(core.feed_forward.mode, fw::FeedForwardMode::kModel);
+  EXPECT_EQ(core.feed_forward.model.parameters.kind, delta::fx::ModelKind::kLumped);
+  EXPECT_EQ(core.feed_forward.model.geometry, core.geometry);
+  EXPECT_EQ(core.feed_forward.model.parameters.coulomb_friction_Nm[1].raw(),
+            delta::fx::Q12_19::from(0.05).raw());
+  const PortConfig kept =
+      read_port_config(write_temp("feed_forward = nominal\nfeed_forward.model = " + file + "\n"));
+  EXPECT_EQ(kept.feed_forward, fw::FeedForwardMode::kNominal);
+
+  EXPECT_NE(config_error("feed_forward = model\n")
+                .find("feed_forward = model needs feed_forward"
+                      ".model = RESULT.json"),
+            std::string::npos);
+  EXPECT_NE(config_error("feed_forward = on\n").find("feed_forward must be off, nominal or model"),
+            std::string::npos);
+  // Another robot: both geometries named.
+  std::ofstream(file) << result_json(
+      "lumped",
+      "{\"upper_arm_length_m\": 0.25, \"forearm_length_m\": 0.46, \"base_radius_m\": 0.1, "
+      "\"platform_radius_m\": 0.035}",
+      kLumpedParameters);
+  const std::string other = config_error("feed_forward.model = " + file + "\n");
+  EXPECT_NE(other.find("feed_forward.model " + file +
+                       ": fitted for another robot: the model's "
+                       "geometry is upper arm 0.25 m"),
+            std::string::npos)
+      << other;
+  EXPECT_NE(other.find("the controller's is upper arm 0.2 m"), std::string::npos) << other;
+  // paper14 has no physical parameters; a missing parameter; a negative mass.
+  std::ofstream(file) << result_json("paper14", kDefaultGeometryJson, "\"beta1\": 0.01");
+  EXPECT_NE(config_error("feed_forward.model = " + file + "\n")
+                .find(":1:22: feed_forward.model: " + file + ": model 'paper14' has no physical"),
+            std::string::npos)
+      << config_error("feed_forward.model = " + file + "\n");
+  std::ofstream(file) << result_json("lumped", kDefaultGeometryJson, "\"arm_inertia\": 0.0072");
+  EXPECT_NE(config_error("feed_forward.model = " + file + "\n")
+                .find(file + ": parameter 'arm_gravity_moment' is missing"),
+            std::string::npos)
+      << config_error("feed_forward.model = " + file + "\n");
+  std::string negative = kLumpedParameters;
+  negative.replace(negative.find("\"platform_mass\": 0.4"), 20, "\"platform_mass\": -0.4");
+  std::ofstream(file) << result_json("lumped", kDefaultGeometryJson, negative);
+  EXPECT_NE(config_error("feed_forward.model = " + file + "\n")
+                .find("parameter platform_mass = -0.4 kg is outside what the controller "
+                      "holds: 0 to 128 kg"),
+            std::string::npos)
+      << config_error("feed_forward.model = " + file + "\n");
+}
+
 TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
   EXPECT_NE(config_error("period_us = 2ms\n")
                 .find("port_test.conf:1:13: period_us needs a decimal number, got '2ms'"),

@@ -124,6 +124,7 @@ int check_config(const Arguments& a) {
     for (const std::string& p : problems) std::cerr << "  " << p << "\n";
     return fw_linux::kExitUsage;
   }
+  std::cout << fw_linux::describe_feed_forward(config) << "\n";
   const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);
   std::size_t transfers = 0;
   for (const fw_linux::DrivePlan& plan : plans.drives) {

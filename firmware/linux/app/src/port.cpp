@@ -280,6 +280,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   }
   out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
       << 1000000 / config.period_us << " Hz\n";
+  out << "delta_fw: " << describe_feed_forward(config) << "\n";
   CycleStats stats;
   const std::uint64_t wall_start = monotonic_us();
   int exit_code = -1;

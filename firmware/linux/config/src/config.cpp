@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
@@ -15,6 +16,7 @@
 #include "delta/custom_trajectory_block.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/input_error.hpp"
+#include "delta/model_q.hpp"
 #include "delta/trajectory_file.hpp"
 #include "fw_linux/drive_plan.hpp"
 
@@ -162,6 +164,26 @@ std::map<std::string, Setter> make_setters() {
   number("gains.integral_limit_Nm", &PortConfig::integral_limit_Nm);
   number("nominal.arm_inertia_kg_m2", &PortConfig::nominal_arm_inertia_kg_m2);
   number("nominal.gravity_moment_Nm", &PortConfig::nominal_gravity_moment_Nm);
+  s["feed_forward"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    if (v == "off") {
+      c.feed_forward = fw::FeedForwardMode::kOff;
+    } else if (v == "nominal") {
+      c.feed_forward = fw::FeedForwardMode::kNominal;
+    } else if (v == "model") {
+      c.feed_forward = fw::FeedForwardMode::kModel;
+    } else {
+      throw ConfigError(w + ": feed_forward must be off, nominal or model, got '" + v + "'");
+    }
+    c.feed_forward_set = true;
+  };
+  s["feed_forward.model"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    try {
+      c.feed_forward_model = delta::read_identified_model(v);
+      c.feed_forward_model_file = v;
+    } catch (const delta::InputError& e) {
+      throw ConfigError(w + ": feed_forward.model: " + e.what());
+    }
+  };
   s["approach_s"] = seconds_setter("approach_s", &PortConfig::approach_s);
   s["stop_s"] = seconds_setter("stop_s", &PortConfig::stop_s);
   s["blend_s"] = seconds_setter("blend_s", &PortConfig::blend_s);
@@ -430,11 +452,26 @@ PortConfig read_port_config(const std::string& path, std::vector<std::string>* p
 
 void finish_config(PortConfig& c, std::vector<std::string>* problems) {
   adopt_eds_values(c);
+  if (c.feed_forward_model && !c.feed_forward_set) c.feed_forward = fw::FeedForwardMode::kModel;
   if (problems == nullptr) return validate(c);
   for (std::string& p : configuration_problems(c)) problems->push_back(std::move(p));
 }
 
 namespace {
+
+// The identified model where the feed-forward is to use it: there, and
+// fitted for this robot with values the controller holds.
+void validate_feed_forward(const PortConfig& c, std::vector<std::string>& problems) {
+  if (c.feed_forward == fw::FeedForwardMode::kModel && !c.feed_forward_model) {
+    problems.push_back(
+        "feed_forward = model needs feed_forward.model = RESULT.json (a model saved by "
+        "host_id fit LOG.csv --out RESULT.json)");
+  }
+  if (!c.feed_forward_model) return;
+  for (const std::string& p : delta::model_problems(*c.feed_forward_model, c.geometry)) {
+    problems.push_back("feed_forward.model " + c.feed_forward_model_file + ": " + p);
+  }
+}
 
 // The cycle, the limits, the gains and the heartbeats.
 void validate_control(const PortConfig& c, std::vector<std::string>& problems) {
@@ -519,6 +556,7 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
   validate_control(c, problems);
   validate_joints(c, problems);
   validate_io(c, problems);
+  validate_feed_forward(c, problems);
   try {
     (void)controller_config(c);  // every value fits its Q format
   } catch (const ConfigError& e) {
@@ -526,6 +564,28 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
   }
   for (std::string& p : plan_drives(c).problems) problems.push_back(std::move(p));
   return problems;
+}
+
+std::string describe_feed_forward(const PortConfig& c) {
+  switch (c.feed_forward) {
+    case fw::FeedForwardMode::kOff:
+      return "feed-forward: off (the PID alone)";
+    case fw::FeedForwardMode::kNominal: {
+      const fw::ControllerConfig core = controller_config(c);
+      std::ostringstream s;
+      s << "feed-forward: nominal (arm inertia "
+        << core.feed_forward.nominal.arm_inertia_kg_m2.raw() / 524288.0
+        << " kg m^2, gravity moment "
+        << core.feed_forward.nominal.gravity_moment_Nm.raw() / 524288.0 << " N m)";
+      return s.str();
+    }
+    case fw::FeedForwardMode::kModel:
+      break;
+  }
+  char id[16];
+  std::snprintf(id, sizeof id, "0x%08X", c.feed_forward_model ? c.feed_forward_model->fit_id : 0u);
+  return "feed-forward: model (" + (c.feed_forward_model ? c.feed_forward_model->kind : "none") +
+         ", fit " + id + ", " + c.feed_forward_model_file + ")";
 }
 
 void validate(const PortConfig& c) {
@@ -584,6 +644,11 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
           : p.arm_gravity_moment_Nm[0] + p.platform_mass_kg * p.gravity_m_s2 * a / 3.0;
   out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
   out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
+  out.feed_forward.mode = c.feed_forward;
+  if (c.feed_forward_model) {
+    out.feed_forward.model =
+        prepare_model(out.geometry, delta::model_parameters_q(*c.feed_forward_model));
+  }
   for (unsigned j = 0; j < 3; ++j) {
     const delta::DriveModel& m = c.joints[j].model;
     fw::JointTorqueConfig& t = out.torque[j];

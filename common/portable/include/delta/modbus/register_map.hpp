@@ -196,7 +196,7 @@ inline constexpr std::array<Register, 105> kRegisters{{
     {"fault_history_7_cycle", Table::kInput, 42, Type::kU32, 1, 1, "", "fault 7 before the newest: the cycle it happened in"},
     {"last_rejection", Table::kInput, 44, Type::kU16, 1, 1, "", "why the last refused request was refused (docs/modbus.md), 0 none"},
     {"last_rejection_register", Table::kInput, 45, Type::kU16, 1, 1, "", "the holding register it wrote"},
-    {"trajectory_check", Table::kInput, 46, Type::kU16, 1, 1, "", "on rejection 5: 1 invalid, 2 joint limit, 3 velocity, 4 acceleration, 5 workspace, 6 too long"},
+    {"trajectory_check", Table::kInput, 46, Type::kU16, 1, 1, "", "on rejection 5: 1 invalid, 2 joint limit, 3 velocity, 4 acceleration, 5 workspace, 6 too long, 7 feed-forward over the max torque"},
     {"trajectory_check_tick", Table::kInput, 47, Type::kU32, 1, 1, "", "on rejection 5: the first tick that breaks it"},
     {"trajectory_check_joint", Table::kInput, 49, Type::kU16, 1, 1, "", "on rejection 5: the joint (1-3), 0 none"},
     // Geometry read-back

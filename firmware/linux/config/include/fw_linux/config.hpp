@@ -16,6 +16,7 @@
 #include "delta/canopen/eds.hpp"
 #include "delta/drive_model.hpp"
 #include "delta/geometry.hpp"
+#include "delta/identified_model.hpp"
 #include "fw/controller.hpp"
 
 namespace fw_linux {
@@ -124,6 +125,13 @@ struct PortConfig {
   double integral_limit_Nm{1.0};
   double nominal_arm_inertia_kg_m2{-1.0};  // < 0: from the default robot's model
   double nominal_gravity_moment_Nm{-1.0};
+  // The feed-forward (fw/feed_forward.hpp): feed_forward = off | nominal |
+  // model; with feed_forward.model = RESULT.json (a saved host_id fit) and
+  // no feed_forward key, model.
+  fw::FeedForwardMode feed_forward{fw::FeedForwardMode::kNominal};
+  bool feed_forward_set{false};
+  std::string feed_forward_model_file;
+  std::optional<delta::IdentifiedModel> feed_forward_model;
   double approach_s{2.0};
   double stop_s{0.4};
   double blend_s{1.0};  // Fourier excitations fade in and out over this
@@ -163,6 +171,10 @@ void set_config_value(PortConfig& c, const std::string& key, const std::string& 
 // Every problem of the whole configuration (ranges, distinct nodes, a
 // period that divides one second, each drive's plan: drive_plan.hpp).
 std::vector<std::string> configuration_problems(const PortConfig& c);
+
+// "feed-forward: model (delta, fit 0x1A2B3C4D, RESULT.json)", or nominal
+// with its two values, or off: what the controller starts with.
+std::string describe_feed_forward(const PortConfig& c);
 
 // Throws ConfigError with every problem, a line each.
 void validate(const PortConfig& c);

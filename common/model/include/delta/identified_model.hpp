@@ -1,0 +1,42 @@
+// A model `host_id fit --out RESULT.json` saved (format host_id-result/1,
+// docs/identification.md), read as physical parameters: what the
+// controller's feed_forward.model and `host_id model load` take. Only the
+// physical models (delta, lumped) have them; paper14's coefficients do not.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "delta/dynamics.hpp"
+#include "delta/geometry.hpp"
+
+namespace delta {
+
+struct IdentifiedModel {
+  std::string kind;  // "delta" or "lumped"
+  bool per_joint{false};
+  bool offsets{false};
+  // The geometry it was fitted for; results saved before it was recorded
+  // have none.
+  std::optional<Geometry> geometry;
+  HighFidelityParameters parameters{};
+  std::uint32_t fit_id{0};  // CRC-32 of the file's bytes: which fit this is
+};
+
+// Reads a saved result. Throws InputError naming the file and the key (and
+// what to do) for anything else: not a result, paper14, a missing or
+// non-numeric parameter.
+IdentifiedModel read_identified_model(const std::string& path);
+
+// The physical parameters of a model of `kind` from its parameters' values
+// by name (`value` returns nullopt for a name it does not have: the error
+// names it). Parameters that were not identifiable (null) count as 0, as
+// `host_id predict` takes them.
+HighFidelityParameters physical_parameters(
+    const std::string& kind, bool per_joint, bool offsets, double coulomb_smoothing_rad_s,
+    double stribeck_velocity_rad_s,
+    const std::function<std::optional<double>(const std::string& name)>& value);
+
+}  // namespace delta

@@ -1,0 +1,118 @@
+#include "delta/identified_model.hpp"
+
+#include <cmath>
+#include <span>
+
+#include "delta/input_error.hpp"
+#include "delta/json_text.hpp"
+#include "delta/model_terms.hpp"
+#include "delta/read_file.hpp"
+#include "delta/update/crc32.hpp"
+
+namespace delta {
+
+HighFidelityParameters physical_parameters(
+    const std::string& kind, bool per_joint, bool offsets, double coulomb_smoothing_rad_s,
+    double stribeck_velocity_rad_s,
+    const std::function<std::optional<double>(const std::string& name)>& value) {
+  const auto terms = physical_model_terms(kind, stribeck_velocity_rad_s > 0.0, offsets);
+  if (terms.empty()) {
+    throw InputError("model '" + kind +
+                     "' has no physical parameters (only delta and lumped have them)");
+  }
+  HighFidelityParameters h;
+  h.coulomb_smoothing_rad_s = coulomb_smoothing_rad_s;
+  h.stribeck_velocity_rad_s = stribeck_velocity_rad_s;
+  const auto get = [&](const std::string& name) {
+    const auto v = value(name);
+    if (!v) throw InputError("parameter '" + name + "' is missing");
+    return *v;
+  };
+  for (const ModelTerm& t : terms) {
+    if (t.robot_value != nullptr) {
+      const double v = get(t.name);
+      h.*(t.robot_value) = v;
+      if (t.robot_value_too != nullptr) h.*(t.robot_value_too) = v;
+      continue;
+    }
+    const bool each = term_per_joint(t, per_joint);
+    Joint3& joint = h.*(t.joint_value);
+    for (unsigned j = 0; j < 3; ++j) {
+      joint[j] = each ? get(term_parameter_name(t, true, j)) : (j == 0 ? get(t.name) : joint[0]);
+    }
+  }
+  return h;
+}
+
+namespace {
+
+const nlohmann::json& member(const nlohmann::json& parent, const char* key,
+                             const std::string& where) {
+  if (!parent.is_object() || !parent.contains(key)) {
+    throw InputError(where + ": missing key '" + key + "'");
+  }
+  return parent[key];
+}
+
+std::optional<Geometry> geometry_of(const nlohmann::json& j, const std::string& path) {
+  if (!j.contains("geometry")) return std::nullopt;
+  const auto& g = j["geometry"];
+  const auto length = [&](const char* key) {
+    const auto& v = member(g, key, path + ": geometry");
+    if (!v.is_number()) throw InputError(path + ": geometry." + key + " must be a number");
+    return v.get<double>();
+  };
+  return Geometry{length("upper_arm_length_m"), length("forearm_length_m"), length("base_radius_m"),
+                  length("platform_radius_m")};
+}
+
+}  // namespace
+
+IdentifiedModel read_identified_model(const std::string& path) {
+  const std::string text = read_whole_file(path);
+  const nlohmann::json j = parse_json(text, path);
+  if (!j.is_object() || !j.contains("format") || j["format"] != "host_id-result/1") {
+    throw InputError(path +
+                     ": not a host_id result (expected \"format\": \"host_id-result/1\"); "
+                     "save one with host_id fit LOG.csv --out RESULT.json");
+  }
+  IdentifiedModel m;
+  m.fit_id =
+      update::crc32(std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+  try {
+    const auto& model = member(j, "model", path);
+    m.kind = member(model, "name", path + ": model").get<std::string>();
+    m.per_joint = member(model, "per_joint", path + ": model").get<bool>();
+    m.offsets = member(model, "offsets", path + ": model").get<bool>();
+    const double smoothing =
+        member(model, "coulomb_smoothing_rad_s", path + ": model").get<double>();
+    const double stribeck = model.value("stribeck_velocity_rad_s", 0.0);
+    m.geometry = geometry_of(j, path);
+    const auto& params = member(j, "parameters", path);
+    if (m.kind != "delta" && m.kind != "lumped") {
+      throw InputError(path + ": model '" + m.kind +
+                       "' has no physical parameters a controller can run; fit with --model "
+                       "delta (the default) or lumped");
+    }
+    m.parameters = physical_parameters(
+        m.kind, m.per_joint, m.offsets, smoothing, stribeck,
+        [&](const std::string& name) -> std::optional<double> {
+          if (!params.is_object() || !params.contains(name)) return std::nullopt;
+          const auto& v = params[name];
+          if (v.is_null()) return 0.0;
+          if (!v.is_number()) {
+            throw InputError(path + ": parameters." + name + " must be a number or null");
+          }
+          return v.get<double>();
+        });
+  } catch (const nlohmann::json::type_error& e) {
+    throw InputError(path + ": a model value has the wrong type: " + e.what());
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    if (what.rfind(path, 0) == 0) throw;
+    throw InputError(path + ": " + what);
+  }
+  return m;
+}
+
+}  // namespace delta

@@ -1,0 +1,133 @@
+#include "delta/model_q.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace delta {
+
+namespace {
+
+template <class Q>
+Q to_q(double v) {
+  const double scaled = std::ldexp(v, Q::kFracBits);
+  if (!(scaled < 2147483647.0)) return Q::max();
+  if (!(scaled > -2147483648.0)) return Q::min();
+  return Q::from_raw(static_cast<std::int32_t>(std::llround(scaled)));
+}
+
+// The largest magnitude a Q format holds (one step below its range).
+template <class Q>
+double range_of() {
+  return std::ldexp(1.0, Q::kIntBits);
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+struct Check {
+  std::vector<std::string>& problems;
+  template <class Q>
+  void value(const std::string& name, double v, bool nonnegative, const char* unit) {
+    const double limit = range_of<Q>();
+    if (!std::isfinite(v) || std::abs(v) >= limit || (nonnegative && v < 0.0)) {
+      problems.push_back("parameter " + name + " = " + number(v) + " " + unit +
+                         " is outside what the controller holds: " +
+                         (nonnegative ? std::string("0") : number(-limit)) + " to " +
+                         number(limit) + " " + unit);
+    }
+  }
+  template <class Q>
+  void joints(const std::string& name, const Joint3& v, bool nonnegative, const char* unit) {
+    for (unsigned j = 0; j < 3; ++j) {
+      value<Q>(name + "_" + std::to_string(j + 1), v[j], nonnegative, unit);
+    }
+  }
+};
+
+}  // namespace
+
+bool same_geometry(const Geometry& a, const Geometry& b) {
+  const auto near = [](double x, double y) { return std::abs(x - y) <= 1e-6; };
+  return near(a.upper_arm_length_m, b.upper_arm_length_m) &&
+         near(a.forearm_length_m, b.forearm_length_m) && near(a.base_radius_m, b.base_radius_m) &&
+         near(a.platform_radius_m, b.platform_radius_m);
+}
+
+std::string describe_geometry(const Geometry& g) {
+  return "upper arm " + number(g.upper_arm_length_m) + " m, forearm " + number(g.forearm_length_m) +
+         " m, base radius " + number(g.base_radius_m) + " m, platform radius " +
+         number(g.platform_radius_m) + " m";
+}
+
+std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry& g) {
+  std::vector<std::string> problems;
+  if (!m.geometry) {
+    problems.push_back(
+        "the result records no geometry (saved by an older host_id): fit again to save one");
+  } else if (!same_geometry(*m.geometry, g)) {
+    problems.push_back("fitted for another robot: the model's geometry is " +
+                       describe_geometry(*m.geometry) + ", the controller's is " +
+                       describe_geometry(g));
+  }
+  const HighFidelityParameters& p = m.parameters;
+  Check c{problems};
+  using namespace fx;
+  // Named as the result names them (the lumped model's gravity moment and
+  // single platform mass).
+  const bool lumped = m.kind == "lumped";
+  c.joints<Q7_24>("arm_inertia", p.arm_inertia_kg_m2, true, "kg m^2");
+  c.joints<Q12_19>(lumped ? "arm_gravity_moment" : "arm_gravity_cos", p.arm_gravity_cos_Nm, true,
+                   "N m");
+  if (lumped) {
+    c.value<Q7_24>("platform_mass", p.platform_weight_mass_kg, true, "kg");
+  } else {
+    c.joints<Q12_19>("arm_gravity_sin", p.arm_gravity_sin_Nm, false, "N m");
+    c.value<Q7_24>("platform_inertial_mass", p.platform_inertial_mass_kg, true, "kg");
+    c.value<Q7_24>("platform_weight_mass", p.platform_weight_mass_kg, true, "kg");
+    c.value<Q7_24>("forearm_coupling", p.forearm_coupling_kg, true, "kg");
+  }
+  c.joints<Q12_19>("viscous_friction", p.viscous_friction_Nm_s_per_rad, true, "N m s/rad");
+  c.joints<Q12_19>("coulomb_friction", p.coulomb_friction_Nm, true, "N m");
+  c.joints<Q12_19>("stribeck_friction", p.stribeck_friction_Nm, true, "N m");
+  c.joints<Q12_19>("torque_offset", p.torque_offset_Nm, false, "N m");
+  const double min_speed = std::ldexp(fx::kMinFrictionVelocity.raw(), -21);
+  if (!(p.coulomb_smoothing_rad_s >= min_speed && p.coulomb_smoothing_rad_s < 1024.0)) {
+    problems.push_back("model.coulomb_smoothing_rad_s = " + number(p.coulomb_smoothing_rad_s) +
+                       " rad/s: the controller takes " + number(min_speed) + " to 1024 rad/s");
+  }
+  if (p.stribeck_velocity_rad_s != 0.0 &&
+      !(p.stribeck_velocity_rad_s >= min_speed && p.stribeck_velocity_rad_s < 1024.0)) {
+    problems.push_back("model.stribeck_velocity_rad_s = " + number(p.stribeck_velocity_rad_s) +
+                       " rad/s: the controller takes 0 (none) or " + number(min_speed) +
+                       " to 1024 rad/s");
+  }
+  return problems;
+}
+
+fx::ModelParametersQ model_parameters_q(const IdentifiedModel& m) {
+  using namespace fx;
+  const HighFidelityParameters& p = m.parameters;
+  ModelParametersQ q;
+  q.kind = m.kind == "lumped" ? ModelKind::kLumped : ModelKind::kDelta;
+  for (unsigned j = 0; j < 3; ++j) {
+    q.arm_inertia_kg_m2[j] = to_q<Q7_24>(p.arm_inertia_kg_m2[j]);
+    q.arm_gravity_cos_Nm[j] = to_q<Q12_19>(p.arm_gravity_cos_Nm[j]);
+    q.arm_gravity_sin_Nm[j] = to_q<Q12_19>(p.arm_gravity_sin_Nm[j]);
+    q.viscous_friction_Nm_s_per_rad[j] = to_q<Q12_19>(p.viscous_friction_Nm_s_per_rad[j]);
+    q.coulomb_friction_Nm[j] = to_q<Q12_19>(p.coulomb_friction_Nm[j]);
+    q.stribeck_friction_Nm[j] = to_q<Q12_19>(p.stribeck_friction_Nm[j]);
+    q.torque_offset_Nm[j] = to_q<Q12_19>(p.torque_offset_Nm[j]);
+  }
+  q.platform_inertial_mass_kg = to_q<Q7_24>(p.platform_inertial_mass_kg);
+  q.platform_weight_mass_kg = to_q<Q7_24>(p.platform_weight_mass_kg);
+  q.forearm_coupling_kg = to_q<Q7_24>(p.forearm_coupling_kg);
+  q.coulomb_smoothing_rad_s = to_q<Q10_21>(p.coulomb_smoothing_rad_s);
+  q.stribeck_velocity_rad_s = to_q<Q10_21>(p.stribeck_velocity_rad_s);
+  q.gravity_m_s2 = to_q<Q7_24>(p.gravity_m_s2);
+  return q;
+}
+
+}  // namespace delta
