@@ -66,6 +66,9 @@ TEST_F(ControllerEds, EveryObjectItListsAnswersAsListedAndNoOtherDoes) {
           << where << ": write-only, yet " << channel.describe(v.index, v.subindex, o);
       continue;
     }
+    // A domain with nothing in it (0x2200:1 before a model is loaded)
+    // answers "no data available", as CiA 301 has it.
+    if (v.data_type == delta::canopen::data_type::kDomain && o.abort == sdo::kAbortNoData) continue;
     ASSERT_TRUE(o.ok()) << where << ": " << channel.describe(v.index, v.subindex, o);
     ++read;
     if (v.size_bytes() > 0) {

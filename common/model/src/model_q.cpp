@@ -49,6 +49,59 @@ struct Check {
 
 }  // namespace
 
+fx::GeometryQ geometry_q(const Geometry& g) {
+  return {to_q<fx::Q7_24>(g.upper_arm_length_m), to_q<fx::Q7_24>(g.forearm_length_m),
+          to_q<fx::Q7_24>(g.base_radius_m), to_q<fx::Q7_24>(g.platform_radius_m)};
+}
+
+controller::ModelRecord model_record(const IdentifiedModel& m) {
+  controller::ModelRecord r;
+  r.geometry = geometry_q(m.geometry.value_or(Geometry{}));
+  r.parameters = model_parameters_q(m);
+  r.fit_id = m.fit_id;
+  return r;
+}
+
+namespace {
+
+template <class Q>
+double from_q(Q v) {
+  return std::ldexp(static_cast<double>(v.raw()), -Q::kFracBits);
+}
+template <class Q>
+Joint3 from_q3(const std::array<Q, 3>& v) {
+  return {from_q(v[0]), from_q(v[1]), from_q(v[2])};
+}
+
+}  // namespace
+
+IdentifiedModel identified_model(const controller::ModelRecord& r) {
+  IdentifiedModel m;
+  const fx::ModelParametersQ& q = r.parameters;
+  m.kind = q.kind == fx::ModelKind::kLumped ? "lumped" : "delta";
+  m.fit_id = r.fit_id;
+  m.geometry = Geometry{from_q(r.geometry.upper_arm_length_m), from_q(r.geometry.forearm_length_m),
+                        from_q(r.geometry.base_radius_m), from_q(r.geometry.platform_radius_m)};
+  HighFidelityParameters& h = m.parameters;
+  h.arm_inertia_kg_m2 = from_q3(q.arm_inertia_kg_m2);
+  h.arm_gravity_cos_Nm = from_q3(q.arm_gravity_cos_Nm);
+  h.arm_gravity_sin_Nm = from_q3(q.arm_gravity_sin_Nm);
+  h.platform_inertial_mass_kg = from_q(q.platform_inertial_mass_kg);
+  h.platform_weight_mass_kg = from_q(q.platform_weight_mass_kg);
+  h.forearm_coupling_kg = from_q(q.forearm_coupling_kg);
+  h.viscous_friction_Nm_s_per_rad = from_q3(q.viscous_friction_Nm_s_per_rad);
+  h.coulomb_friction_Nm = from_q3(q.coulomb_friction_Nm);
+  h.stribeck_friction_Nm = from_q3(q.stribeck_friction_Nm);
+  h.torque_offset_Nm = from_q3(q.torque_offset_Nm);
+  h.coulomb_smoothing_rad_s = from_q(q.coulomb_smoothing_rad_s);
+  h.stribeck_velocity_rad_s = from_q(q.stribeck_velocity_rad_s);
+  h.gravity_m_s2 = from_q(q.gravity_m_s2);
+  m.per_joint = h.arm_inertia_kg_m2[0] != h.arm_inertia_kg_m2[1] ||
+                h.arm_inertia_kg_m2[1] != h.arm_inertia_kg_m2[2];
+  m.offsets = h.torque_offset_Nm != Joint3{};
+  return m;
+}
+
 bool same_geometry(const Geometry& a, const Geometry& b) {
   const auto near = [](double x, double y) { return std::abs(x - y) <= 1e-6; };
   return near(a.upper_arm_length_m, b.upper_arm_length_m) &&

@@ -37,7 +37,9 @@ constexpr std::array kCommands{
     Command{"sdo", "read or write any node's object by SDO", add_sdo_command},
     Command{"dbc", "write the CAN bus's DBC description", add_dbc_command},
     Command{"image", "make, sign and check firmware images", add_image_command},
-    Command{"flash", "update the controller's firmware over CAN", add_flash_command}};
+    Command{"flash", "update the controller's firmware over CAN", add_flash_command},
+    Command{"model", "load the identified model into the controller, or show it",
+            add_model_command}};
 
 // The command args name first, if any.
 const Command* named_command(const std::vector<std::string>& args) {

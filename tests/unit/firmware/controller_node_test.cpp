@@ -9,7 +9,10 @@
 #include <vector>
 
 #include "delta/can/protocol.hpp"
+#include "delta/controller/model_record.hpp"
+#include "delta/model_q.hpp"
 #include "node_rig.hpp"
+#include "scratch_directory.hpp"
 
 namespace fw_linux {
 namespace {
@@ -156,6 +159,142 @@ TEST(ControllerNodeTest, TheLogFramesMappingDescribesWhatTheyCarry) {
   EXPECT_EQ(rig.read(0x2100, 0), 1234u | 1u << 15);
   EXPECT_EQ(rig.read(0x2101, 2), static_cast<std::uint32_t>(-(1 << 19)) & 0xFFFFFFu);
   EXPECT_EQ(rig.read(0x2102, 3), static_cast<std::uint32_t>(-(1 << 17)) & 0xFFFFFFu);
+}
+
+}  // namespace
+}  // namespace fw_linux
+
+namespace fw_linux {
+namespace {
+
+namespace mc = delta::controller;
+
+// The default robot's model as host_id model load sends it.
+mc::ModelRecordBytes model_bytes(double platform_mass_kg, const delta::Geometry& g,
+                                 std::uint32_t fit_id) {
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = g;
+  delta::LumpedParameters lumped = delta::default_lumped_parameters();
+  lumped.platform_mass_kg = platform_mass_kg;
+  m.parameters = delta::to_high_fidelity(lumped);
+  m.fit_id = fit_id;
+  mc::ModelRecordBytes bytes{};
+  mc::encode_model_record(delta::model_record(m), bytes);
+  return bytes;
+}
+
+PortConfig stored_in(const std::string& path) {
+  PortConfig c = NodeRig::unstored();
+  c.feed_forward_store = path;
+  return c;
+}
+
+// Writes 0x2200:1 whole; the abort code (0: none).
+sdo::AbortCode load(NodeRig& rig, std::span<const std::uint8_t> bytes) {
+  rig.client.download(0x2200, 1, bytes, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  return rig.client.status() == sdo::ClientStatus::kDone ? sdo::kNoAbort : rig.client.abort_code();
+}
+
+// host_id model load's path: the record written by SDO, checked whole,
+// stored atomically, in use at once (mode model), given back on a read,
+// and in use again after a restart.
+TEST(ControllerNodeTest, LoadsAModelOverSdoKeepsItAndGivesItBack) {
+  const std::string store = testsupport::process_scratch("node_test").file("model_loads.bin");
+  NodeRig rig(std::nullopt, stored_in(store));
+  rig.step();
+  EXPECT_EQ(rig.read(0x2200, 3), 1u);  // nominal
+  EXPECT_EQ(rig.read(0x2200, 2), 0u);  // no model
+  const auto bytes = model_bytes(0.45, delta::kDefaultGeometry, 0x12345678u);
+  ASSERT_EQ(load(rig, bytes), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  EXPECT_EQ(rig.read(0x2200, 2), 0x12345678u);
+  EXPECT_EQ(rig.read(0x2200, 3), 2u);  // model
+  EXPECT_EQ(rig.read(0x2200, 4), 0u);
+  EXPECT_EQ(rig.feed_forward.current().mode, fw::FeedForwardMode::kModel);
+  EXPECT_EQ(rig.feed_forward.current().model.parameters.platform_inertial_mass_kg.raw(),
+            delta::fx::Q7_24::from(0.45).raw());
+  std::vector<std::uint8_t> back(200);
+  rig.client.upload(0x2200, 1, back, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  ASSERT_EQ(rig.client.status(), sdo::ClientStatus::kDone);
+  back.resize(rig.client.uploaded_size());
+  EXPECT_EQ(back, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+  // Back to nominal and to model again by 0x2200:3, between runs.
+  rig.client.download(0x2200, 3, std::vector<std::uint8_t>{1}, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  EXPECT_EQ(rig.read(0x2200, 3), 1u);
+  // A restart: the stored model is in use again.
+  NodeRig again(std::nullopt, stored_in(store));
+  EXPECT_EQ(again.feed_forward.current().mode, fw::FeedForwardMode::kModel);
+  EXPECT_EQ(again.feed_forward.fit_id(), 0x12345678u);
+  EXPECT_NE(again.feed_forward.startup_note().find("loaded over the bus and kept in " + store),
+            std::string::npos)
+      << again.feed_forward.startup_note();
+}
+
+// Every refusal leaves the model in use as it was, and 0x2200:4 says why:
+// another robot's model, a damaged record, a load during a run, a transfer
+// that stops halfway (a lost frame, the tool killed).
+TEST(ControllerNodeTest, ARefusedOrUnfinishedLoadLeavesTheModelInUse) {
+  const std::string store = testsupport::process_scratch("node_test").file("model_refusals.bin");
+  NodeRig rig(std::nullopt, stored_in(store));
+  rig.step();
+  const auto good = model_bytes(0.40, delta::kDefaultGeometry, 0xAAAA0001u);
+  ASSERT_EQ(load(rig, good), sdo::kNoAbort);
+  const auto in_use = [&] { return rig.read(0x2200, 2); };
+
+  delta::Geometry other = delta::kDefaultGeometry;
+  other.upper_arm_length_m = 0.25;
+  EXPECT_EQ(load(rig, model_bytes(0.5, other, 0xBBBB0002u)), sdo::kAbortParameterIncompatible);
+  EXPECT_EQ(rig.read(0x2200, 4), 6u);
+  EXPECT_EQ(in_use(), 0xAAAA0001u);
+
+  auto damaged = model_bytes(0.5, delta::kDefaultGeometry, 0xBBBB0003u);
+  damaged[40] ^= 0x01;
+  EXPECT_EQ(load(rig, damaged), sdo::kAbortCannotStore);
+  EXPECT_EQ(rig.read(0x2200, 4), 3u);
+  EXPECT_EQ(in_use(), 0xAAAA0001u);
+
+  rig.report.safe_to_update = false;  // a trajectory runs
+  rig.step();
+  EXPECT_EQ(load(rig, model_bytes(0.5, delta::kDefaultGeometry, 0xBBBB0004u)),
+            sdo::kAbortDeviceState);
+  EXPECT_EQ(rig.read(0x2200, 4), 7u);
+  EXPECT_EQ(in_use(), 0xAAAA0001u);
+  rig.report.safe_to_update = true;
+  rig.step();
+
+  // Halfway: the client stops sending segments; the server times out.
+  const auto next = model_bytes(0.5, delta::kDefaultGeometry, 0xBBBB0005u);
+  rig.client.download(0x2200, 1, next, sdo::Transfer::kAuto, rig.now_us);
+  for (int i = 0; i < 6; ++i) {
+    sdo::Payload request;
+    ASSERT_TRUE(rig.client.pending(request));
+    rig.client.sent(rig.now_us);
+    rig.frame(p::cob_id(p::kSdoRx, p::kControllerNode), 8, request);
+    for (const Frame& f : rig.bus.take()) {
+      if (f.id == p::cob_id(p::kSdoTx, p::kControllerNode)) rig.client.on_frame(f.data, rig.now_us);
+    }
+  }
+  rig.client.cancel(sdo::kAbortTimeout);  // the tool is gone
+  rig.step(fw::Fault::kNone, 1000);       // two seconds: the server gave up
+  rig.client = sdo::Client();
+  EXPECT_EQ(in_use(), 0xAAAA0001u);
+  EXPECT_EQ(rig.feed_forward.current().model.parameters.platform_inertial_mass_kg.raw(),
+            delta::fx::Q7_24::from(0.40).raw());
+  // The store still holds the model in use; a whole load goes through.
+  NodeRig restarted(std::nullopt, stored_in(store));
+  EXPECT_EQ(restarted.feed_forward.fit_id(), 0xAAAA0001u);
+  EXPECT_EQ(load(rig, next), sdo::kNoAbort);
+  EXPECT_EQ(in_use(), 0xBBBB0005u);
+  // Mode model needs a model; a mode that is none of the three is refused.
+  NodeRig bare;
+  bare.step();
+  bare.client.download(0x2200, 3, std::vector<std::uint8_t>{2}, sdo::Transfer::kAuto, bare.now_us);
+  bare.transfer();
+  EXPECT_EQ(bare.client.abort_code(), sdo::kAbortValueRange);
+  EXPECT_EQ(bare.read(0x2200, 3), 1u);
 }
 
 }  // namespace

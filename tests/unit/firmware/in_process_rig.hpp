@@ -66,12 +66,16 @@ struct Rig {
         hw(master, io, bus),
         controller(hw, controller_config(c)),
         program(std::nullopt, controller_identity(kVersion)),
-        node(bus, c, kVersion, program) {
+        feed_forward(c, controller_config(c)),
+        node(bus, c, kVersion, program, feed_forward) {
     bus.emulator_.boot();
+    feed_forward.set_apply(
+        [this](const fw::FeedForwardConfig& f) { return controller.set_feed_forward(f); });
   }
   static PortConfig config() {
     PortConfig c;
     c.mode = CycleMode::kLockStep;
+    c.feed_forward_store = "";  // a test that loads a model gives its own
     return c;
   }
   void cycle() {
@@ -91,6 +95,7 @@ struct Rig {
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
   ProgramDownload program;
+  FeedForwardSlot feed_forward;
   ControllerNode node;
 };
 

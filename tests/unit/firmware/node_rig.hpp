@@ -29,13 +29,22 @@ struct Recorder : FrameSink {
 // The controller's node on a recording bus, with its program download
 // (supervised by delta_boot when given a Supervision), stepped by hand.
 struct NodeRig {
-  explicit NodeRig(std::optional<boot::Supervision> supervision = std::nullopt)
-      : program(std::move(supervision), controller_identity(version)) {}
+  explicit NodeRig(std::optional<boot::Supervision> supervision = std::nullopt,
+                   const PortConfig& c = unstored())
+      : config(c), program(std::move(supervision), controller_identity(version)) {}
+  // The default configuration, with models loaded over the bus kept in
+  // memory only (a test that stores one names its file).
+  static PortConfig unstored() {
+    PortConfig c;
+    c.feed_forward_store = "";
+    return c;
+  }
   Recorder bus;
   PortConfig config;
   delta::update::Version version = delta::update::parse_version(DELTA_PROJECT_VERSION);
   ProgramDownload program;
-  ControllerNode node{bus, config, version, program};
+  FeedForwardSlot feed_forward{config, controller_config(config)};
+  ControllerNode node{bus, config, version, program, feed_forward};
   std::uint64_t now_us{0};
   sdo::Client client;
   std::size_t requests{0};                             // frames the client sent

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "delta/controller/model_record.hpp"
 #include "delta/fixed/dynamics.hpp"
 #include "delta/geometry.hpp"
 #include "delta/identified_model.hpp"
@@ -22,6 +23,15 @@ std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry
 // The parameters in Q formats, rounded to nearest (call model_problems()
 // first: out-of-range values saturate here).
 fx::ModelParametersQ model_parameters_q(const IdentifiedModel& m);
+
+// The geometry in Q7.24, as the controller holds it.
+fx::GeometryQ geometry_q(const Geometry& g);
+
+// The model as the controller transfers and stores it (0x2200:1; call
+// model_problems() first), and back (for `host_id model show`: the values
+// as the controller holds them).
+controller::ModelRecord model_record(const IdentifiedModel& m);
+IdentifiedModel identified_model(const controller::ModelRecord& r);
 
 // Whether two geometries are the same robot (every length within 1 um).
 bool same_geometry(const Geometry& a, const Geometry& b);

@@ -200,17 +200,21 @@ class CycleTimer {
 // The controller and everything it is wired to, for one run of the loop.
 struct Loop {
   Loop(const PortConfig& config, const RunOptions& options, SafetyIo& io,
-       const fw::ControllerConfig& core, std::vector<NamedRun> runs, std::ostream& out)
+       const fw::ControllerConfig& core, FeedForwardSlot& slot, std::vector<NamedRun> runs,
+       std::ostream& out)
       : socket(open_drive_socket(options.iface)),
         sink(socket),
         master(config, sink),
         hw(master, io, sink),
         controller(hw, core),
         program(options.supervision, controller_identity(options.program.version)),
-        node(sink, config, options.program.version, program),
+        feed_forward(slot),
+        node(sink, config, options.program.version, program, feed_forward),
         coordinator(std::move(runs), options.exit_when_done, options.panel, out) {
     if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
     hw.gate_pdos(&node);
+    feed_forward.set_apply(
+        [this](const fw::FeedForwardConfig& f) { return controller.set_feed_forward(f); });
   }
   delta::can::Socket socket;
   SocketSink sink;
@@ -218,6 +222,7 @@ struct Loop {
   LinuxHardware hw;
   fw::Controller<LinuxHardware> controller;
   ProgramDownload program;
+  FeedForwardSlot& feed_forward;
   ControllerNode node;
   RunCoordinator coordinator;
 };
@@ -266,10 +271,14 @@ void report(const CycleStats& stats, bool realtime, std::ostream& out) {
 
 int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
              const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
-  const fw::ControllerConfig core = controller_config(config);
+  fw::ControllerConfig core = controller_config(config);
+  // The feed-forward: the configuration's, or a model loaded over the bus
+  // before a restart.
+  FeedForwardSlot feed_forward(config, core);
+  core.feed_forward = feed_forward.current();
   std::vector<NamedRun> runs;
   if (const auto refused = checked_runs(config, core, options, runs, out)) return *refused;
-  Loop l(config, options, io, core, std::move(runs), out);
+  Loop l(config, options, io, core, feed_forward, std::move(runs), out);
   const bool realtime = config.mode == CycleMode::kRealTime;
   const std::uint64_t window_us =
       config.response_window_us != 0 ? config.response_window_us : config.period_us / 2;
@@ -280,7 +289,11 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   }
   out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
       << 1000000 / config.period_us << " Hz\n";
-  out << "delta_fw: " << describe_feed_forward(config) << "\n";
+  if (feed_forward.startup_note().empty()) {
+    out << "delta_fw: " << describe_feed_forward(config) << "\n";
+  } else {
+    out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
+  }
   CycleStats stats;
   const std::uint64_t wall_start = monotonic_us();
   int exit_code = -1;

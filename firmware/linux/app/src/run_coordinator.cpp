@@ -61,7 +61,7 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
   if (state == fw::State::kReady && !run_active_) {
     if (next_run_ < runs_.size() && exit_code_ == std::nullopt) {
       const NamedRun& run = runs_[next_run_];
-      const fw::StartResult r = c.start(run.trajectory);
+      const fw::StartResult r = start_checked(c, run.trajectory);
       if (!r.accepted) {
         out_ << "delta_fw: trajectory '" << run.name << "' rejected: " << describe_check(r.check)
              << "\n";
@@ -130,6 +130,14 @@ void RunCoordinator::print_tracking(const fw::TrackingStats& t) {
   out_ << text;
 }
 
+// Starts a trajectory checked before (at start-up, or by the Modbus server),
+// checked again where the controller's bounds changed since: a model loaded
+// over the bus between runs changes the feed-forward the check covers.
+fw::StartResult RunCoordinator::start_checked(Controller& c, const fw::CheckedTrajectory& t) {
+  if (t.checked_against(c.bounds())) return c.start(t);
+  return c.start(fw::CheckedTrajectory::check(c.bounds(), t.config()));
+}
+
 CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command) {
   CommandVerdict v;
   switch (command.kind) {
@@ -138,7 +146,7 @@ CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command
         v.why = mb::Rejection::kWrongState;
         return v;
       }
-      const fw::StartResult r = c.start(*command.trajectory);
+      const fw::StartResult r = start_checked(c, *command.trajectory);
       if (!r.accepted) {
         v.why = r.wrong_state ? mb::Rejection::kWrongState : mb::Rejection::kTrajectoryLimit;
         v.check = r.check;
@@ -192,6 +200,7 @@ PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw)
   s.log_records = c.log_records();
   s.stale_log_records = c.stale_log_records();
   s.fault_count = fault_count_;
+  s.feed_forward = c.feed_forward();
   s.fault_history = history_;
   for (unsigned j = 0; j < 3; ++j) {
     s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);

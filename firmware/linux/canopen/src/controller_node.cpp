@@ -11,6 +11,34 @@ namespace sdo = delta::can::sdo;
 
 namespace {
 
+// A refused model (or mode) as the SDO abort a client sees; 0x2200:4 says
+// which check refused it.
+delta::can::sdo::AbortCode model_abort(delta::controller::ModelRecordFault f) {
+  using F = delta::controller::ModelRecordFault;
+  switch (f) {
+    case F::kOk:
+      return sdo::kNoAbort;
+    case F::kLength:
+      return sdo::kAbortLengthMismatch;
+    case F::kKind:
+    case F::kValue:
+      return sdo::kAbortValueRange;
+    case F::kGeometry:
+      return sdo::kAbortParameterIncompatible;
+    case F::kBusy:
+      return sdo::kAbortDeviceState;
+    case F::kFormat:
+    case F::kChecksum:
+    case F::kNotStored:
+      return sdo::kAbortCannotStore;
+  }
+  return sdo::kAbortGeneral;
+}
+
+}  // namespace
+
+namespace {
+
 static_assert(p::kNmtStateOperational == 5);
 
 // The log frames LOG_A, LOG_B, LOG_C are node 16's TPDO1-3.
@@ -135,6 +163,22 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
        true},
       {0x2102, 3, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 5); }, nullptr,
        true},
+      // The feed-forward: the fit id of the model in use, the mode, the last
+      // load's verdict (0x2200:1, the model itself, is a domain below).
+      {0x2200, 0, 1, [](const Context&) { return 4u; }, nullptr},
+      {0x2200, 2, 4, [](const Context& c) { return c.node.feed_forward_.fit_id(); }, nullptr},
+      {0x2200, 3, 1,
+       [](const Context& c) {
+         return static_cast<std::uint32_t>(c.node.feed_forward_.current().mode);
+       },
+       [](Context& c, std::uint32_t v) {
+         return model_abort(c.node.feed_forward_.set_mode(v, c.node.safe_to_update_));
+       }},
+      {0x2200, 4, 1,
+       [](const Context& c) {
+         return static_cast<std::uint32_t>(c.node.feed_forward_.last_load());
+       },
+       nullptr},
       // How this program runs under delta_boot, and the last roll-back's reason.
       {0x2F00, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x2F00, 1, 1,
@@ -167,21 +211,47 @@ std::span<const ControllerNode::Table::Domain> ControllerNode::domains() {
          return c.node.program_.write(offset, data, last, c.node.safe_to_update_);
        },
        [](Context& c) { c.node.program_.abandoned(); }},
+      {0x2200, 1,
+       [](const Context&) { return std::uint32_t{delta::controller::kModelRecordBytes}; },
+       [](Context& c, std::uint32_t offset, std::span<const std::uint8_t> data, bool last) {
+         return c.node.model_piece(offset, data, last);
+       },
+       [](Context& c) { c.node.model_download_bytes_ = 0; },
+       [](const Context& c) { return c.node.feed_forward_.record(); }},
   };
   return kDomains;
 }
 
 ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c,
-                               const delta::update::Version& version, ProgramDownload& program)
+                               const delta::update::Version& version, ProgramDownload& program,
+                               FeedForwardSlot& feed_forward)
     : bus_(bus),
       version_(version),
       program_(program),
+      feed_forward_(feed_forward),
       period_us_(c.period_us),
       sync_counter_overflow_(c.sync_counter_overflow),
       configured_heartbeat_ms_(static_cast<std::uint16_t>(c.heartbeat_ms)),
       heartbeat_ms_(configured_heartbeat_ms_),
       table_(Context{*this}, scalars(), texts(), domains()) {
   server_.emplace(table_);
+}
+
+// A piece of a model download: gathered until the last, which hands the
+// whole record to the slot (a transfer that never ends changes nothing).
+sdo::AbortCode ControllerNode::model_piece(std::uint32_t offset, std::span<const std::uint8_t> data,
+                                           bool last) {
+  if (offset == 0) model_download_bytes_ = 0;
+  if (offset != model_download_bytes_ || offset + data.size() > model_download_.size()) {
+    model_download_bytes_ = 0;
+    return sdo::kAbortLengthTooHigh;
+  }
+  std::copy(data.begin(), data.end(), model_download_.begin() + offset);
+  model_download_bytes_ += static_cast<std::uint32_t>(data.size());
+  if (!last) return sdo::kNoAbort;
+  const std::uint32_t n = model_download_bytes_;
+  model_download_bytes_ = 0;
+  return model_abort(feed_forward_.load(std::span(model_download_.data(), n), safe_to_update_));
 }
 
 std::string ControllerNode::eds_mismatch(const delta::canopen::Eds& eds) {

@@ -184,6 +184,9 @@ std::map<std::string, Setter> make_setters() {
       throw ConfigError(w + ": feed_forward.model: " + e.what());
     }
   };
+  s["feed_forward.store"] = [](PortConfig& c, const std::string& v, const std::string&) {
+    c.feed_forward_store = v;
+  };
   s["approach_s"] = seconds_setter("approach_s", &PortConfig::approach_s);
   s["stop_s"] = seconds_setter("stop_s", &PortConfig::stop_s);
   s["blend_s"] = seconds_setter("blend_s", &PortConfig::blend_s);

@@ -226,7 +226,9 @@ std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
             ? std::optional(custom_trajectory(s.custom.data(), config_, params))
             : named_trajectory(names.at(s.trajectory), config_, params);
     if (!t) throw ConfigError("unknown trajectory");
-    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(fw::trajectory_bounds(core_), *t);
+    fw::TrajectoryBounds bounds = fw::trajectory_bounds(core_);
+    bounds.feed_forward = panel_.status().feed_forward;  // a model loaded over the bus
+    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(bounds, *t);
     check = c.result();
     if (!c.ok()) return std::nullopt;
     return c;

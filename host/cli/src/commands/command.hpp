@@ -67,5 +67,6 @@ void add_dbc_command(CLI::App& app, CommandContext& context);
 void add_sdo_command(CLI::App& app, CommandContext& context);
 void add_image_command(CLI::App& app, CommandContext& context);
 void add_flash_command(CLI::App& app, CommandContext& context);
+void add_model_command(CLI::App& app, CommandContext& context);
 
 }  // namespace host_id

@@ -35,7 +35,7 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     std::string (*get)(const Context&);
   };
 
-  struct Domain {  // a write-only DOMAIN, streamed to the node (program data)
+  struct Domain {  // a DOMAIN, streamed to the node (program data, a model)
     std::uint16_t index;
     std::uint8_t subindex;
     std::uint32_t (*capacity)(const Context&);  // the most one download may write
@@ -43,6 +43,9 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     can::sdo::AbortCode (*write)(Context&, std::uint32_t offset, std::span<const std::uint8_t>,
                                  bool last);
     void (*abandoned)(Context&);  // the download ended without its last piece
+    // Its current bytes for an upload; nullptr: write-only. An empty span
+    // answers an upload with "no data available" (0x08000024).
+    std::span<const std::uint8_t> (*contents)(const Context&){nullptr};
   };
 
   ObjectTable(Context context, std::span<const Scalar> scalars, std::span<const Text> texts,
@@ -56,7 +59,8 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       return can::sdo::kNoAbort;
     }
     if (const Domain* d = domain(index, subindex)) {
-      info = {0, d->capacity(context_), false, true, true};
+      const auto size = d->contents ? static_cast<std::uint32_t>(d->contents(context_).size()) : 0u;
+      info = {size, d->capacity(context_), d->contents != nullptr, true, true};
       return can::sdo::kNoAbort;
     }
     can::sdo::AbortCode code = can::sdo::kNoAbort;
@@ -74,7 +78,13 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       if (!out.empty()) std::memcpy(out.data(), value.data() + offset, out.size());
       return can::sdo::kNoAbort;
     }
-    if (domain(index, subindex) != nullptr) return can::sdo::kAbortWriteOnly;
+    if (const Domain* d = domain(index, subindex)) {
+      if (d->contents == nullptr) return can::sdo::kAbortWriteOnly;
+      const std::span<const std::uint8_t> value = d->contents(context_);
+      if (value.empty() || offset + out.size() > value.size()) return can::sdo::kAbortNoData;
+      if (!out.empty()) std::memcpy(out.data(), value.data() + offset, out.size());
+      return can::sdo::kNoAbort;
+    }
     can::sdo::AbortCode code = can::sdo::kNoAbort;
     const Scalar* s = scalar(index, subindex, code);
     if (s == nullptr) return code;

@@ -6,7 +6,8 @@
 // fault code and cycle. The log frames are its TPDOs: sent only while it
 // is operational. Program download (CiA 302-3, 0x1F50-0x1F57) goes to
 // ProgramDownload; after delta_boot rolled a new program back, the node's
-// first emergency says why (docs/flashing.md).
+// first emergency says why (docs/flashing.md). The feed-forward and its
+// identified model (0x2200) go to FeedForwardSlot.
 #pragma once
 
 #include <array>
@@ -22,6 +23,7 @@
 #include "fw/hardware.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/config.hpp"
+#include "fw_linux/feed_forward_slot.hpp"
 #include "fw_linux/identity.hpp"
 #include "fw_linux/program_download.hpp"
 
@@ -41,7 +43,7 @@ StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
 class ControllerNode {
  public:
   ControllerNode(FrameSink& bus, const PortConfig& c, const delta::update::Version& version,
-                 ProgramDownload& program);
+                 ProgramDownload& program, FeedForwardSlot& feed_forward);
   ControllerNode(const ControllerNode&) = delete;
   ControllerNode& operator=(const ControllerNode&) = delete;
 
@@ -73,6 +75,8 @@ class ControllerNode {
   static std::span<const Table::Text> texts();
   static std::span<const Table::Domain> domains();
 
+  delta::can::sdo::AbortCode model_piece(std::uint32_t offset, std::span<const std::uint8_t> data,
+                                         bool last);
   void handle_nmt(const delta::can::Frame& f);
   void reset_communication();
   void flush_sdo(std::uint64_t now_us);
@@ -82,6 +86,10 @@ class ControllerNode {
   FrameSink& bus_;
   delta::update::Version version_;
   ProgramDownload& program_;
+  FeedForwardSlot& feed_forward_;
+  // A model download (0x2200:1) until its last piece.
+  delta::controller::ModelRecordBytes model_download_{};
+  std::uint32_t model_download_bytes_{0};
   std::uint32_t period_us_;
   std::uint8_t sync_counter_overflow_;
   std::uint16_t configured_heartbeat_ms_;

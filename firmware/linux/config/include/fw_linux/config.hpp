@@ -132,6 +132,9 @@ struct PortConfig {
   bool feed_forward_set{false};
   std::string feed_forward_model_file;
   std::optional<delta::IdentifiedModel> feed_forward_model;
+  // Where a model loaded over the bus is kept across restarts (written
+  // atomically); "": not kept.
+  std::string feed_forward_store{"delta_fw_model.bin"};
   double approach_s{2.0};
   double stop_s{0.4};
   double blend_s{1.0};  // Fourier excitations fade in and out over this

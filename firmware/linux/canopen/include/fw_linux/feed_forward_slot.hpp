@@ -1,0 +1,64 @@
+// The controller's feed-forward as node 16 serves it (docs/protocol.md,
+// 0x2200): the mode and the identified model in use, a model loaded over
+// the bus (a delta-model/1 record, checked whole: format, CRC, kind, every
+// value, the geometry), stored atomically so that it survives a restart,
+// and applied only between runs. A load that fails at any point, or never
+// ends, leaves the model in use as it was.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+
+#include "delta/controller/model_record.hpp"
+#include "fw/controller.hpp"
+#include "fw_linux/config.hpp"
+
+namespace fw_linux {
+
+class FeedForwardSlot {
+ public:
+  using Fault = delta::controller::ModelRecordFault;
+
+  // The configuration's feed-forward (feed_forward, feed_forward.model),
+  // then the store (feed_forward.store): a model loaded over the bus before
+  // a restart, where there is one and it fits this robot.
+  FeedForwardSlot(const PortConfig& c, const fw::ControllerConfig& core);
+
+  // What start-up found, for delta_fw's start line: where the model in use
+  // comes from, or why the store was not used.
+  const std::string& startup_note() const { return startup_note_; }
+  const fw::FeedForwardConfig& current() const { return current_; }
+  std::uint32_t fit_id() const { return fit_id_; }
+  // The model in use as a record; empty: none.
+  std::span<const std::uint8_t> record() const;
+  Fault last_load() const { return last_load_; }
+
+  // How a change reaches the controller (Controller::set_feed_forward):
+  // false when it refused (a run is on).
+  void set_apply(std::function<bool(const fw::FeedForwardConfig&)> apply) {
+    apply_ = std::move(apply);
+  }
+
+  // A whole record written to 0x2200:1: checked, stored, applied (the mode
+  // becomes model). Anything but kOk leaves the model in use as it was.
+  Fault load(std::span<const std::uint8_t> bytes, bool between_runs);
+  // 0x2200:3: 0 off, 1 nominal, 2 model (needs a model); until restart.
+  Fault set_mode(std::uint32_t mode, bool between_runs);
+
+ private:
+  Fault apply(const fw::FeedForwardConfig& next, bool between_runs);
+
+  fw::GeometryQ geometry_;
+  std::string store_path_;
+  fw::FeedForwardConfig current_{};
+  std::uint32_t fit_id_{0};
+  delta::controller::ModelRecordBytes record_{};
+  bool has_record_{false};
+  Fault last_load_{Fault::kOk};
+  std::string startup_note_;
+  std::function<bool(const fw::FeedForwardConfig&)> apply_;
+};
+
+}  // namespace fw_linux
