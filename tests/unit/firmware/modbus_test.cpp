@@ -283,6 +283,9 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
             0)
       << err.str();
   EXPECT_NE(out.str().find("  tracking   run #1, rms "), std::string::npos) << out.str();
+  EXPECT_EQ(value(r.data(), "feed_forward_mode"), 1);  // nominal: no model configured
+  EXPECT_EQ(value(r.data(), "model_fit_id"), 0);
+  EXPECT_NE(out.str().find("  feed-fwd   nominal\n"), std::string::npos) << out.str();
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
 }
 

@@ -215,6 +215,7 @@ struct Loop {
     hw.gate_pdos(&node);
     feed_forward.set_apply(
         [this](const fw::FeedForwardConfig& f) { return controller.set_feed_forward(f); });
+    coordinator.set_feed_forward_slot(&feed_forward);
   }
   delta::can::Socket socket;
   SocketSink sink;

@@ -201,6 +201,7 @@ PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw)
   s.stale_log_records = c.stale_log_records();
   s.fault_count = fault_count_;
   s.feed_forward = c.feed_forward();
+  if (feed_forward_slot_ != nullptr) s.model_fit_id = feed_forward_slot_->fit_id();
   s.fault_history = history_;
   for (unsigned j = 0; j < 3; ++j) {
     s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);

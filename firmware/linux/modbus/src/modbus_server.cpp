@@ -112,6 +112,8 @@ void RegisterBank::refresh() {
     mb::encode(mb::named(("tracking_rms_" + n).c_str()), s.tracking_rms_nrad[j], in);
     mb::encode(mb::named(("tracking_max_" + n).c_str()), s.tracking_max_nrad[j], in);
   }
+  set("feed_forward_mode", static_cast<int>(s.feed_forward.mode));
+  set("model_fit_id", s.model_fit_id);
   set("protocol_version", mb::kMapVersion);
   set("state", static_cast<int>(s.state));
   set("fault_code", static_cast<int>(s.fault));

@@ -65,6 +65,12 @@ void print_run_and_settings(const std::vector<std::uint16_t>& in,
         << scaled("tracking_max_2", in) << " " << scaled("tracking_max_3", in) << " rad over "
         << r("tracking_ticks") << " cycles\n";
   }
+  static const char* const kModes[] = {"off", "nominal", "the identified model"};
+  const std::int64_t mode = r("feed_forward_mode");
+  out << "  feed-fwd   " << (mode >= 0 && mode < 3 ? kModes[mode] : "unknown");
+  if (r("model_fit_id") != 0)
+    out << "; model fit " << hex32(static_cast<std::uint32_t>(r("model_fit_id")));
+  out << "\n";
   const std::int64_t reps = hold[mb::kRepetitions.address];
   out << "  settings   trajectory " << trajectory_name(hold[mb::kTrajectory.address])
       << ", amplitude " << std::setprecision(1) << hold[mb::kAmplitudeScale.address] / 10.0

@@ -16,7 +16,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 5;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 6;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 enum class Table : std::uint8_t { kInput, kHolding };
@@ -158,12 +158,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 105> kRegisters{{
+inline constexpr std::array<Register, 107> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (5)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (6)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -223,6 +223,9 @@ inline constexpr std::array<Register, 105> kRegisters{{
     {"tracking_max_1", Table::kInput, 85, Type::kU32, 1, 1000000000, "rad", "joint 1 largest abs(q_ref - q) (nrad)"},
     {"tracking_max_2", Table::kInput, 87, Type::kU32, 1, 1000000000, "rad", "joint 2 largest abs(q_ref - q) (nrad)"},
     {"tracking_max_3", Table::kInput, 89, Type::kU32, 1, 1000000000, "rad", "joint 3 largest abs(q_ref - q) (nrad)"},
+    // The feed-forward in use (docs/protocol.md, node 16's 0x2200)
+    {"feed_forward_mode", Table::kInput, 91, Type::kU16, 1, 1, "", "0 off, 1 nominal, 2 the identified model"},
+    {"model_fit_id", Table::kInput, 92, Type::kU32, 1, 1, "", "the fit id of the model loaded or configured (CRC-32 of its result file), 0 none"},
     // Settings and the command
     {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", kTrajectoryText.data()},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},

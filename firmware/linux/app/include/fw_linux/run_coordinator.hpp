@@ -13,6 +13,7 @@
 #include "fw/controller.hpp"
 #include "fw_linux/canopen_master.hpp"
 #include "fw_linux/control_panel.hpp"
+#include "fw_linux/feed_forward_slot.hpp"
 #include "fw_linux/linux_hardware.hpp"
 
 namespace fw_linux {
@@ -32,6 +33,9 @@ class RunCoordinator {
   // `panel` may be null (no Modbus). Messages go to `out`.
   RunCoordinator(std::vector<NamedRun> runs, bool exit_when_done, ControlPanel* panel,
                  std::ostream& out);
+
+  // Where the status finds the fit id of the model in use (may stay unset).
+  void set_feed_forward_slot(const FeedForwardSlot* slot) { feed_forward_slot_ = slot; }
 
   // After each step() (and the master's send_commands()).
   void after_step(Controller& controller, const LinuxHardware& hw, const CanopenMaster& master);
@@ -67,6 +71,7 @@ class RunCoordinator {
   bool last_estop_open_{false};
   std::uint16_t fault_count_{0};
   std::array<FaultRecord, delta::modbus::kFaultHistoryLength> history_{};
+  const FeedForwardSlot* feed_forward_slot_{nullptr};
 };
 
 }  // namespace fw_linux

@@ -40,6 +40,7 @@ struct PanelStatus {
   std::uint16_t fault_count{0};
   std::array<FaultRecord, delta::modbus::kFaultHistoryLength> fault_history{};  // newest first
   fw::FeedForwardConfig feed_forward{};  // in use: what a trajectory check covers
+  std::uint32_t model_fit_id{0};         // of the model loaded or configured, 0 none
   std::array<std::int32_t, 3> q_urad{};
   std::array<std::int32_t, 3> tau_uNm{};
   // The tracking error of run tracking_run_id (fw::TrackingStats).
