@@ -3,7 +3,9 @@
 # on a vcan interface, and stops them again.
 #
 #   rig_start BIN IFACE LOGDIR [EMULATOR OPTIONS...]
-#                                sets rig_modbus (HOST:PORT); logs in LOGDIR
+#                                sets rig_modbus (HOST:PORT); logs in LOGDIR,
+#                                and the model loaded over the bus in
+#                                LOGDIR/delta_fw_model.bin (feed_forward.store)
 #   rig_stop                     TERM to the firmware, then the emulator
 # The caller sets `trap rig_stop EXIT` and `set -euo pipefail`.
 
@@ -46,7 +48,8 @@ rig_start() {
   rig_emu_pid=$!
   rig_await_line 4 "ready on $iface"
 
-  exec 5< <(exec "$bin/delta_fw" --can "$iface" --lockstep --set modbus.tcp=127.0.0.1:0 2>&1)
+  exec 5< <(exec "$bin/delta_fw" --can "$iface" --lockstep --set modbus.tcp=127.0.0.1:0 \
+    --set "feed_forward.store=$logs/delta_fw_model.bin" 2>&1)
   rig_fw_pid=$!
   rig_modbus=""
   : > "$logs/fw.log"
