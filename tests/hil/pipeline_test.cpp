@@ -1034,9 +1034,12 @@ TEST(GpioEStop, OpeningTheLineMidRunFaultsWithinACycleDisablesBrakesAndKeepsTheL
 
 // --- host_id excite: Modbus TCP and the CAN log, then the fit --------------
 
-hil::Child start_firmware_with_modbus(int port) {
-  hil::Child fw = hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set",
-                                     "modbus.tcp=127.0.0.1:" + std::to_string(port)});
+hil::Child start_firmware_with_modbus(int port, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv{
+      kBin + "/delta_fw", "--can", kIface,
+      "--lockstep",       "--set", "modbus.tcp=127.0.0.1:" + std::to_string(port)};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  hil::Child fw = hil::Child::spawn(argv);
   if (!fw.wait_for_output("delta_fw: ready", 60s)) {
     ADD_FAILURE() << "delta_fw did not become ready: " << fw.err();
   }
@@ -1128,6 +1131,62 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   EXPECT_NE(fw.err().find("tracking path1: rms_rad="), std::string::npos) << fw.err();
   EXPECT_EQ(emu.terminate(30s).value_or(-1), 0) << emu.err();
   expect_fit_stands_for_the_multibody_robot(dir + "/excite.csv", dir);
+}
+
+// The controller's tracking error of a recorded run, from its log's
+// metadata: the worst joint's RMS.
+double worst_tracking_rms(const std::string& csv) {
+  std::ifstream in(csv);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  double worst = 0.0;
+  for (const char* j : {"1", "2", "3"}) {
+    const std::string key = std::string("# tracking_rms_rad_") + j + " = ";
+    const std::size_t at = text.find(key);
+    if (at == std::string::npos) {
+      ADD_FAILURE() << csv << " has no " << key;
+      return 0.0;
+    }
+    worst = std::max(worst, std::strtod(text.c_str() + at + key.size(), nullptr));
+  }
+  return worst;
+}
+
+// The point of it all, as a user runs it on vcan in lock-step with the
+// multibody robot: fit path1 (PSO, the default), load the model into the
+// controller, and the pick-and-place tracks at least 5 times better (the
+// worst joint's RMS, the controller's own measurement) than with the
+// nominal feed-forward, at the same gains.
+TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter) {
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
+  hil::Child emu = start_emulator();
+  hil::Child fw =
+      start_firmware_with_modbus(15024, {"--set", "feed_forward.store=" + dir + "/model.bin"});
+  const std::string modbus = "127.0.0.1:15024";
+  const auto excite = [&](const std::string& trajectory, const std::string& csv) {
+    hil::Child e = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus,
+                                      "--trajectory", trajectory, "--can", kIface, "-o", csv});
+    const int code = e.wait(300s).value_or(-1);
+    EXPECT_EQ(code, 0) << e.out() << e.err();
+    return code == 0;
+  };
+  ASSERT_TRUE(excite("path1", dir + "/path1.csv")) << stopped_and_told(fw, emu);
+  hil::Child fit = hil::Child::spawn(
+      {kBin + "/host_id", "fit", dir + "/path1.csv", "--out", dir + "/fit.json", "--quiet"});
+  ASSERT_EQ(fit.wait(300s).value_or(-1), 0) << fit.err();
+  ASSERT_TRUE(excite("pick-and-place", dir + "/nominal.csv")) << stopped_and_told(fw, emu);
+  hil::Child load =
+      hil::Child::spawn({kBin + "/host_id", "model", "load", dir + "/fit.json", "--can", kIface});
+  ASSERT_EQ(load.wait(60s).value_or(-1), 0) << load.err();
+  ASSERT_TRUE(excite("pick-and-place", dir + "/model.csv")) << stopped_and_told(fw, emu);
+  const double nominal = worst_tracking_rms(dir + "/nominal.csv");
+  const double model = worst_tracking_rms(dir + "/model.csv");
+  std::cout << "pick-and-place, worst joint's RMS tracking error: nominal feed-forward " << nominal
+            << " rad, identified model " << model << " rad (" << nominal / model << "x)\n";
+  EXPECT_GE(nominal, 5.0 * model);
+  EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
+  EXPECT_NE(fw.err().find("tracking pick-and-place: rms_rad="), std::string::npos) << fw.err();
+  emu.terminate(30s);
 }
 
 // The designed excitation end to end: host_id design writes a trajectory
