@@ -134,6 +134,7 @@ KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out) 
 
 void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   const auto& f = config_.fourier;
+  out.platform_known = false;  // joint space: the model solves it
   std::array<Q3_28, 3> d{};     // delta(t)
   std::array<Q10_21, 3> dd{};   // delta'(t)
   std::array<Q14_17, 3> ddd{};  // delta''(t)
@@ -176,7 +177,8 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   }
 }
 
-KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) const {
+KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q,
+                                          Vec3Q& platform) const {
   const auto& p = config_.pick_and_place;
   if (tick < 0) tick = 0;
   if (tick > length_ticks_) tick = length_ticks_;
@@ -191,6 +193,7 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q) co
                   a.z_m + mul<Q7_24>(b.z_m - a.z_m, f)};
   const auto ik = delta::fx::inverse_kinematics(geometry_, pos);
   q = ik.theta_rad;
+  platform = pos;
   return ik.status;
 }
 
@@ -200,11 +203,15 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   if (centre == w.centre + 1) {  // the next tick: one new IK
     w.q[0] = w.q[1];
     w.q[1] = w.q[2];
+    w.platform[0] = w.platform[1];
+    w.platform[1] = w.platform[2];
     w.status[0] = w.status[1];
     w.status[1] = w.status[2];
-    w.status[2] = cartesian_ik(centre + 1, w.q[2]);
+    w.status[2] = cartesian_ik(centre + 1, w.q[2], w.platform[2]);
   } else if (centre != w.centre) {
-    for (unsigned k = 0; k < 3; ++k) w.status[k] = cartesian_ik(centre - 1 + k, w.q[k]);
+    for (unsigned k = 0; k < 3; ++k) {
+      w.status[k] = cartesian_ik(centre - 1 + k, w.q[k], w.platform[k]);
+    }
   }
   w.centre = centre;
   for (const KinematicsStatus st : w.status) {
@@ -214,6 +221,8 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   const JointAnglesQ& now = w.q[1];
   const JointAnglesQ& after = w.q[2];
   const std::uint32_t rate = ticks_per_second_;
+  out.platform_known = true;
+  out.platform_m = w.platform[1];
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).

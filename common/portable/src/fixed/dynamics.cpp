@@ -168,6 +168,8 @@ Q12_19 friction(const ModelQ& model, unsigned j, Q10_21 qd) {
              mul<Q12_19>(m.coulomb_friction_Nm[j], sign);
   if (model.inverse_stribeck_s_per_rad.raw() > 0) {
     const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
+    // Beyond |v| = 5, exp(-v^2) < 2e-11 (below one LSB): no term.
+    if (abs(v) >= Q10_21::from_int(5)) return f;
     const Q1_30 decay = exp_neg(mul<Q10_21>(v, v));
     f += mul<Q12_19>(m.stribeck_friction_Nm[j], mul<Q1_30>(decay, sign));
   }
@@ -207,7 +209,8 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   std::array<SinCos, 3> trig{};
   PoseQ pose;
   const KinematicsStatus status =
-      pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s, nullptr, trig, pose);
+      pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s,
+              s.platform_known ? &s.platform_m : nullptr, trig, pose);
   if (status != KinematicsStatus::kOk) return status;
   const PlatformTerms platform = platform_terms(g, m, s, pose);
   for (unsigned i = 0; i < 3; ++i) {

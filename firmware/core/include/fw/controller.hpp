@@ -258,6 +258,7 @@ class Controller {
     const Q1_30 w = mj.w;
     const Q1_30 dw = mj.dw;
     const std::int64_t approach_us = std::int64_t{config_.approach_ticks} * config_.tick_period_us;
+    reference_.platform_known = false;  // a joint-space move
     for (unsigned j = 0; j < 3; ++j) {
       const Q3_28 span = start.q_rad[j] - approach_from_[j];
       reference_.q_rad[j] = approach_from_[j] + mul<Q3_28>(w, span);

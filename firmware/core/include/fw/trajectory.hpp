@@ -106,7 +106,7 @@ class Trajectory {
  private:
   void fourier(std::uint32_t tick, JointReference& out) const;
   KinematicsStatus pick_and_place(std::uint32_t tick, JointReference& out) const;
-  KinematicsStatus cartesian_ik(std::int64_t tick, JointAnglesQ& q) const;
+  KinematicsStatus cartesian_ik(std::int64_t tick, JointAnglesQ& q, Vec3Q& platform) const;
 
   GeometryQ geometry_;
   TrajectoryConfig config_;
@@ -121,6 +121,7 @@ class Trajectory {
     std::int64_t centre{-10};  // none yet
     std::array<KinematicsStatus, 3> status{};
     std::array<JointAnglesQ, 3> q{};
+    std::array<Vec3Q, 3> platform{};
   };
   mutable IkWindow ik_window_{};
 };

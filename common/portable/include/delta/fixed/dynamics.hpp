@@ -45,11 +45,15 @@ struct ModelParametersQ {
   friend constexpr bool operator==(const ModelParametersQ&, const ModelParametersQ&) = default;
 };
 
-// A joint-space state: the reference the controller tracks.
+// A joint-space state: the reference the controller tracks. Where the
+// platform's position at q is known already (a Cartesian trajectory solved
+// it), the model takes it instead of solving the forward kinematics again.
 struct JointStateQ {
   JointAnglesQ q_rad{};
   std::array<Q10_21, 3> qd_rad_s{};
   std::array<Q14_17, 3> qdd_rad_s2{};
+  bool platform_known{false};
+  Vec3Q platform_m{};
 };
 
 // The velocity kinematics at one pose, as the double version computes them
