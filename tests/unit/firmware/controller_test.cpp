@@ -327,6 +327,61 @@ TEST_F(ControllerTest, StartIsRefusedOutsideReadyOrForATrajectoryThatBreaksALimi
   EXPECT_FALSE(hw.drives_enabled);
 }
 
+// The feed-forward changes only between runs, only to a model fitted for
+// this geometry; a trajectory checked before the change is refused at
+// start (its check no longer covers the feed-forward), and a feed-forward
+// that would ask for more than the max torque refuses the trajectory at its
+// check, naming the tick and the joint.
+TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajectory) {
+  to_ready();
+  delta::fx::ModelParametersQ m;
+  m.kind = ModelKind::kLumped;
+  const delta::LumpedParameters truth = delta::default_lumped_parameters();
+  for (unsigned j = 0; j < 3; ++j) {
+    m.arm_inertia_kg_m2[j] = to_q<Q7_24>(truth.arm_inertia_kg_m2[j]);
+    m.arm_gravity_cos_Nm[j] = to_q<Q12_19>(truth.arm_gravity_moment_Nm[j]);
+  }
+  m.platform_inertial_mass_kg = to_q<Q7_24>(truth.platform_mass_kg);
+  m.platform_weight_mass_kg = to_q<Q7_24>(truth.platform_mass_kg);
+  FeedForwardConfig model = ctl.feed_forward();
+  model.mode = FeedForwardMode::kModel;
+  GeometryQ other = config.geometry;
+  other.upper_arm_length_m = to_q<Q7_24>(0.25);
+  model.model = delta::fx::prepare_model(other, m);
+  EXPECT_FALSE(ctl.set_feed_forward(model));  // fitted for another robot
+  FeedForwardConfig empty = model;
+  empty.model = {};
+  EXPECT_FALSE(ctl.set_feed_forward(empty));  // no model
+  model.model = delta::fx::prepare_model(config.geometry, m);
+
+  const CheckedTrajectory before = CheckedTrajectory::check(ctl.bounds(), excitation());
+  ASSERT_TRUE(before.ok());
+  ASSERT_TRUE(ctl.set_feed_forward(model));
+  EXPECT_EQ(ctl.feed_forward().mode, FeedForwardMode::kModel);
+  EXPECT_EQ(ctl.start(before).check.fault, TrajectoryFault::kInvalidConfig);
+  ASSERT_TRUE(ctl.start(excitation()).accepted);
+  tick(1);
+  ASSERT_EQ(ctl.state(), State::kRunning);
+  FeedForwardConfig nominal = model;
+  nominal.mode = FeedForwardMode::kNominal;
+  EXPECT_FALSE(ctl.set_feed_forward(nominal));  // a run is on
+  tick(2000);
+  EXPECT_EQ(ctl.state(), State::kRunning);
+  EXPECT_EQ(ctl.feed_forward().mode, FeedForwardMode::kModel);
+
+  // A heavy platform: the gravity terms alone ask for more than the limit.
+  ControllerConfig heavy = config;
+  heavy.feed_forward = model;
+  heavy.feed_forward.model.parameters.platform_weight_mass_kg = to_q<Q7_24>(20.0);
+  const TrajectoryCheck c = check_trajectory(trajectory_bounds(heavy), excitation());
+  EXPECT_EQ(c.fault, TrajectoryFault::kFeedForwardLimit);
+  EXPECT_GE(c.joint, 0);
+  EXPECT_STREQ(trajectory_fault_name(c.fault), "feed-forward over the max torque");
+  // The same limits without the feed-forward's torques: accepted.
+  EXPECT_EQ(check_trajectory(heavy.geometry, excitation(), heavy.limits).fault,
+            TrajectoryFault::kOk);
+}
+
 TEST_F(ControllerTest, EStopDisablesTheDrivesWithinTheSameCycle) {
   to_running();
   tick(300);
