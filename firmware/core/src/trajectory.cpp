@@ -134,7 +134,7 @@ KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out) 
 
 void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   const auto& f = config_.fourier;
-  out.platform_known = false;  // joint space: the model solves it
+  out.platform_known = false;   // joint space: the model solves it
   std::array<Q3_28, 3> d{};     // delta(t)
   std::array<Q10_21, 3> dd{};   // delta'(t)
   std::array<Q14_17, 3> ddd{};  // delta''(t)

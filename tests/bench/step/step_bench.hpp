@@ -1,7 +1,7 @@
 // The control step under measurement: Controller::step() running a
 // pick-and-place trajectory (3 IK per tick), the identified model's
-// feed-forward, joint control and torque from current, against a hardware stand-in whose joints follow the reference.
-// Shared by the host benchmark (callgrind) and the Cortex-M image (qemu).
+// feed-forward, joint control and torque from current, against a hardware stand-in whose joints
+// follow the reference. Shared by the host benchmark (callgrind) and the Cortex-M image (qemu).
 #pragma once
 
 #include <cstdint>

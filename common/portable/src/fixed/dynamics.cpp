@@ -208,9 +208,8 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   const ModelParametersQ& m = model.parameters;
   std::array<SinCos, 3> trig{};
   PoseQ pose;
-  const KinematicsStatus status =
-      pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s,
-              s.platform_known ? &s.platform_m : nullptr, trig, pose);
+  const KinematicsStatus status = pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s,
+                                          s.platform_known ? &s.platform_m : nullptr, trig, pose);
   if (status != KinematicsStatus::kOk) return status;
   const PlatformTerms platform = platform_terms(g, m, s, pose);
   for (unsigned i = 0; i < 3; ++i) {
