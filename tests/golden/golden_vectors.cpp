@@ -113,24 +113,6 @@ void reference_line(Line& l, const char* name, std::uint32_t tick, const JointRe
   l.end(lines);
 }
 
-// A model with every term present and joints that differ.
-ModelParametersQ model_parameters() {
-  ModelParametersQ m;
-  m.kind = delta::fx::ModelKind::kDelta;
-  m.arm_inertia_kg_m2 = {Q7_24::from(7.2e-3), Q7_24::from(7.5e-3), Q7_24::from(6.9e-3)};
-  m.arm_gravity_cos_Nm = {Q12_19::from(0.441), Q12_19::from(0.452), Q12_19::from(0.430)};
-  m.arm_gravity_sin_Nm = {Q12_19::from(0.031), Q12_19::from(-0.02), Q12_19::from(0.012)};
-  m.platform_inertial_mass_kg = Q7_24::from(0.42);
-  m.platform_weight_mass_kg = Q7_24::from(0.40);
-  m.forearm_coupling_kg = Q7_24::from(0.05);
-  m.viscous_friction_Nm_s_per_rad = {Q12_19::from(0.02), Q12_19::from(0.025), Q12_19::from(0.018)};
-  m.coulomb_friction_Nm = {Q12_19::from(0.06), Q12_19::from(0.05), Q12_19::from(0.07)};
-  m.stribeck_friction_Nm = {Q12_19::from(0.03), Q12_19::from(0.02), Q12_19::from(0.025)};
-  m.stribeck_velocity_rad_s = Q10_21::from(0.1);
-  m.torque_offset_Nm = {Q12_19::from(0.01), Q12_19::from(-0.02), Q12_19::from(0.005)};
-  return m;
-}
-
 // The identified model's arithmetic: exp and tanh, the model's torques
 // along the pick-and-place reference with the states disturbed, and the
 // trajectory check of its feed-forward against a max torque it breaks.
@@ -143,7 +125,7 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
         .num(delta::fx::tanh(x).raw())
         .end(lines);
   }
-  const delta::fx::ModelQ m = delta::fx::prepare_model(kGeometry, model_parameters());
+  const delta::fx::ModelQ m = delta::fx::prepare_model(kGeometry, example_model_parameters());
   const Trajectory pnp(kGeometry, pick_and_place_config());
   for (std::uint32_t tick = 0; tick <= pnp.length_ticks(); tick += 41) {
     JointReference r;
@@ -365,6 +347,23 @@ std::uint32_t write_golden_vectors(TextSink& out) {
   update_lines(l, lines);
   l.word("end").num(lines + 1).end(lines);
   return lines;
+}
+
+ModelParametersQ example_model_parameters() {
+  ModelParametersQ m;
+  m.kind = delta::fx::ModelKind::kDelta;
+  m.arm_inertia_kg_m2 = {Q7_24::from(7.2e-3), Q7_24::from(7.5e-3), Q7_24::from(6.9e-3)};
+  m.arm_gravity_cos_Nm = {Q12_19::from(0.441), Q12_19::from(0.452), Q12_19::from(0.430)};
+  m.arm_gravity_sin_Nm = {Q12_19::from(0.031), Q12_19::from(-0.02), Q12_19::from(0.012)};
+  m.platform_inertial_mass_kg = Q7_24::from(0.42);
+  m.platform_weight_mass_kg = Q7_24::from(0.40);
+  m.forearm_coupling_kg = Q7_24::from(0.05);
+  m.viscous_friction_Nm_s_per_rad = {Q12_19::from(0.02), Q12_19::from(0.025), Q12_19::from(0.018)};
+  m.coulomb_friction_Nm = {Q12_19::from(0.06), Q12_19::from(0.05), Q12_19::from(0.07)};
+  m.stribeck_friction_Nm = {Q12_19::from(0.03), Q12_19::from(0.02), Q12_19::from(0.025)};
+  m.stribeck_velocity_rad_s = Q10_21::from(0.1);
+  m.torque_offset_Nm = {Q12_19::from(0.01), Q12_19::from(-0.02), Q12_19::from(0.005)};
+  return m;
 }
 
 }  // namespace fw::golden

@@ -7,6 +7,8 @@
 
 #include <cstdint>
 
+#include "delta/fixed/dynamics.hpp"
+
 namespace fw::golden {
 
 // Receives the text, piece by piece.
@@ -20,5 +22,9 @@ class TextSink {
 
 // Writes every vector; returns the number of lines written.
 std::uint32_t write_golden_vectors(TextSink& out);
+
+// The identified model the vectors (and the step benchmark) run: every term
+// present, joints that differ, about the default robot's values.
+delta::fx::ModelParametersQ example_model_parameters();
 
 }  // namespace fw::golden

@@ -47,4 +47,17 @@ class Child {
   std::optional<int> status_;
 };
 
+// A tool run to its end: its exit status (-1: still running at the timeout,
+// then killed) and what it wrote.
+struct ToolRun {
+  int code;
+  std::string out;
+  std::string err;
+};
+inline ToolRun run_tool(const std::vector<std::string>& argv, std::chrono::milliseconds timeout) {
+  Child c = Child::spawn(argv);
+  const int code = c.wait(timeout).value_or(-1);
+  return {code, c.out(), c.err()};
+}
+
 }  // namespace hil

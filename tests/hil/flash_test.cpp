@@ -29,17 +29,11 @@ const std::string kBin = DELTA_BIN_DIR;
 const std::string kVersion = DELTA_VERSION_TEXT;
 const std::string kNextVersion = DELTA_NEXT_VERSION_TEXT;
 
-struct ToolRun {
-  int code;
-  std::string out;
-  std::string err;
-};
+using hil::ToolRun;
 
 ToolRun host_id(std::vector<std::string> args) {
   args.insert(args.begin(), kBin + "/host_id");
-  hil::Child c = hil::Child::spawn(args);
-  const int code = c.wait(300s).value_or(-1);
-  return {code, c.out(), c.err()};
+  return hil::run_tool(args, 300s);
 }
 
 std::string read_text(const std::string& object) {

@@ -24,17 +24,11 @@ using namespace std::chrono_literals;
 const std::string kIface = hil::vcan_interface();
 const std::string kBin = DELTA_BIN_DIR;
 
-struct ToolRun {
-  int code;
-  std::string out;
-  std::string err;
-};
+using hil::ToolRun;
 
 ToolRun host_id(std::vector<std::string> args) {
   args.insert(args.begin(), kBin + "/host_id");
-  hil::Child c = hil::Child::spawn(args);
-  const int code = c.wait(120s).value_or(-1);
-  return {code, c.out(), c.err()};
+  return hil::run_tool(args, 120s);
 }
 
 // A saved fit of the default robot (as host_id fit writes the parts read),

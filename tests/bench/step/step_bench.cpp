@@ -1,6 +1,7 @@
 #include "step_bench.hpp"
 
 #include "fw/controller.hpp"
+#include "golden_vectors.hpp"
 
 namespace fw::bench {
 
@@ -34,33 +35,15 @@ struct FollowingHardware {
   }
 };
 
-// The identified model's feed-forward with every term on (the Stribeck
-// term too): the step's most expensive configuration.
-ModelParametersQ model() {
-  using delta::fx::Q10_21;
-  ModelParametersQ m;
-  m.kind = ModelKind::kDelta;
-  m.arm_inertia_kg_m2 = {Q7_24::from(7.2e-3), Q7_24::from(7.5e-3), Q7_24::from(6.9e-3)};
-  m.arm_gravity_cos_Nm = {Q12_19::from(0.441), Q12_19::from(0.452), Q12_19::from(0.430)};
-  m.arm_gravity_sin_Nm = {Q12_19::from(0.031), Q12_19::from(-0.02), Q12_19::from(0.012)};
-  m.platform_inertial_mass_kg = Q7_24::from(0.42);
-  m.platform_weight_mass_kg = Q7_24::from(0.40);
-  m.forearm_coupling_kg = Q7_24::from(0.05);
-  m.viscous_friction_Nm_s_per_rad = {Q12_19::from(0.02), Q12_19::from(0.025), Q12_19::from(0.018)};
-  m.coulomb_friction_Nm = {Q12_19::from(0.06), Q12_19::from(0.05), Q12_19::from(0.07)};
-  m.stribeck_friction_Nm = {Q12_19::from(0.03), Q12_19::from(0.02), Q12_19::from(0.025)};
-  m.stribeck_velocity_rad_s = Q10_21::from(0.1);
-  m.torque_offset_Nm = {Q12_19::from(0.01), Q12_19::from(-0.02), Q12_19::from(0.005)};
-  return m;
-}
-
 ControllerConfig config() {
   ControllerConfig c;
   c.geometry = {Q7_24::from(0.20), Q7_24::from(0.46), Q7_24::from(0.10), Q7_24::from(0.035)};
   c.approach_ticks = 1;
   c.feed_forward.mode = FeedForwardMode::kModel;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
-  c.feed_forward.model = delta::fx::prepare_model(c.geometry, model());
+  // The identified model's feed-forward with every term on (the Stribeck
+  // term too): the step's most expensive configuration.
+  c.feed_forward.model = delta::fx::prepare_model(c.geometry, golden::example_model_parameters());
   return c;
 }
 

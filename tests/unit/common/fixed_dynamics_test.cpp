@@ -11,26 +11,17 @@
 #include "delta/dynamics.hpp"
 #include "delta/fixed/dynamics.hpp"
 #include "delta/kinematics.hpp"
+#include "delta/model_q.hpp"
 #include "delta/splitmix.hpp"
+#include "q_convert.hpp"
 
 namespace delta::fx {
 namespace {
 
 constexpr double kMaxTorqueNm = 8.0;
 
-template <class Q>
-Q to_q(double v) {
-  return Q::from_raw(static_cast<std::int32_t>(std::llround(std::ldexp(v, Q::kFracBits))));
-}
-template <class Q>
-double from_q(Q v) {
-  return std::ldexp(static_cast<double>(v.raw()), -Q::kFracBits);
-}
-
-GeometryQ geometry_q(const Geometry& g) {
-  return {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
-          to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
-}
+using testq::to_d;
+using testq::to_q;
 
 // A robot with every term of the model present and joints that differ.
 HighFidelityParameters every_term() {
@@ -51,46 +42,20 @@ HighFidelityParameters every_term() {
   return h;
 }
 
+// The parameters as the controller holds them (the conversion a loaded
+// model goes through), and back: the double model then runs exactly the
+// values the fixed-point one does.
 ModelParametersQ parameters_q(const HighFidelityParameters& h) {
-  ModelParametersQ m;
-  m.kind = ModelKind::kDelta;
-  for (unsigned j = 0; j < 3; ++j) {
-    m.arm_inertia_kg_m2[j] = to_q<Q7_24>(h.arm_inertia_kg_m2[j]);
-    m.arm_gravity_cos_Nm[j] = to_q<Q12_19>(h.arm_gravity_cos_Nm[j]);
-    m.arm_gravity_sin_Nm[j] = to_q<Q12_19>(h.arm_gravity_sin_Nm[j]);
-    m.viscous_friction_Nm_s_per_rad[j] = to_q<Q12_19>(h.viscous_friction_Nm_s_per_rad[j]);
-    m.coulomb_friction_Nm[j] = to_q<Q12_19>(h.coulomb_friction_Nm[j]);
-    m.stribeck_friction_Nm[j] = to_q<Q12_19>(h.stribeck_friction_Nm[j]);
-    m.torque_offset_Nm[j] = to_q<Q12_19>(h.torque_offset_Nm[j]);
-  }
-  m.platform_inertial_mass_kg = to_q<Q7_24>(h.platform_inertial_mass_kg);
-  m.platform_weight_mass_kg = to_q<Q7_24>(h.platform_weight_mass_kg);
-  m.forearm_coupling_kg = to_q<Q7_24>(h.forearm_coupling_kg);
-  m.coulomb_smoothing_rad_s = to_q<Q10_21>(h.coulomb_smoothing_rad_s);
-  m.stribeck_velocity_rad_s = to_q<Q10_21>(h.stribeck_velocity_rad_s);
-  m.gravity_m_s2 = to_q<Q7_24>(h.gravity_m_s2);
-  return m;
+  IdentifiedModel m;
+  m.kind = "delta";
+  m.parameters = h;
+  return model_parameters_q(m);
 }
 
-// The double model's parameters exactly as the fixed-point ones hold them.
 HighFidelityParameters as_held(const ModelParametersQ& m) {
-  HighFidelityParameters h;
-  for (unsigned j = 0; j < 3; ++j) {
-    h.arm_inertia_kg_m2[j] = from_q(m.arm_inertia_kg_m2[j]);
-    h.arm_gravity_cos_Nm[j] = from_q(m.arm_gravity_cos_Nm[j]);
-    h.arm_gravity_sin_Nm[j] = from_q(m.arm_gravity_sin_Nm[j]);
-    h.viscous_friction_Nm_s_per_rad[j] = from_q(m.viscous_friction_Nm_s_per_rad[j]);
-    h.coulomb_friction_Nm[j] = from_q(m.coulomb_friction_Nm[j]);
-    h.stribeck_friction_Nm[j] = from_q(m.stribeck_friction_Nm[j]);
-    h.torque_offset_Nm[j] = from_q(m.torque_offset_Nm[j]);
-  }
-  h.platform_inertial_mass_kg = from_q(m.platform_inertial_mass_kg);
-  h.platform_weight_mass_kg = from_q(m.platform_weight_mass_kg);
-  h.forearm_coupling_kg = from_q(m.forearm_coupling_kg);
-  h.coulomb_smoothing_rad_s = from_q(m.coulomb_smoothing_rad_s);
-  h.stribeck_velocity_rad_s = from_q(m.stribeck_velocity_rad_s);
-  h.gravity_m_s2 = from_q(m.gravity_m_s2);
-  return h;
+  controller::ModelRecord r;
+  r.parameters = m;
+  return identified_model(r).parameters;
 }
 
 struct Worst {
@@ -120,9 +85,9 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
       sq.q_rad[k] = to_q<Q3_28>(ws.theta_rad[k]);
       sq.qd_rad_s[k] = to_q<Q10_21>(uniform(-max_speed_rad_s, max_speed_rad_s));
       sq.qdd_rad_s2[k] = to_q<Q14_17>(uniform(-max_acceleration_rad_s2, max_acceleration_rad_s2));
-      sd.q_rad[k] = from_q(sq.q_rad[k]);
-      sd.qd_rad_s[k] = from_q(sq.qd_rad_s[k]);
-      sd.qdd_rad_s2[k] = from_q(sq.qdd_rad_s2[k]);
+      sd.q_rad[k] = to_d(sq.q_rad[k]);
+      sd.qd_rad_s[k] = to_d(sq.qd_rad_s[k]);
+      sd.qdd_rad_s2[k] = to_d(sq.qdd_rad_s2[k]);
     }
     Joint3Q12_19 tq{};
     Joint3 td{};
@@ -130,7 +95,7 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     EXPECT_EQ(model_torque(m, sq, tq), KinematicsStatus::kOk);
     ++w.states;
     for (unsigned k = 0; k < 3; ++k) {
-      w.torque_Nm = std::max(w.torque_Nm, std::abs(from_q(tq[k]) - td[k]));
+      w.torque_Nm = std::max(w.torque_Nm, std::abs(to_d(tq[k]) - td[k]));
     }
     // The velocity kinematics alone, at the same pose.
     const auto fk = forward_kinematics(g, sd.q_rad);
@@ -142,10 +107,10 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
     for (unsigned r = 0; r < 3; ++r) {
       for (unsigned c = 0; c < 3; ++c) {
-        w.jacobian_m = std::max(w.jacobian_m,
-                                std::abs(from_q(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
+        w.jacobian_m =
+            std::max(w.jacobian_m, std::abs(to_d(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
       }
-      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(from_q(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
+      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(to_d(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
     }
   }
   return w;
