@@ -373,10 +373,14 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
   r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
-  if (keep_predictions) r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
+  if (keep_predictions) {
+    r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
+    r.predictions.back().role = "fit";
+  }
   for (const DeltaLog* v : validation) {
     Prediction p = predict(*model, r.beta, *v, options.prepare, options.threads);
     r.validation.push_back(p.rmse());
+    p.role = "validation";
     if (keep_predictions) r.predictions.push_back(std::move(p));
   }
   r.seconds_total = seconds_since(t0);

@@ -12,6 +12,9 @@ namespace {
 
 constexpr double kWidth = 960, kLeft = 70, kRight = 20, kPanelH = 150, kResidH = 60, kGap = 34;
 constexpr double kScatterH = 150, kScatterGap = 60;  // residual against velocity
+constexpr const char* kMeasured = "#1f4e9c";         // dark blue
+constexpr const char* kPredicted = "#f5a55c";        // pale orange
+constexpr const char* kResidual = "#d62728";
 
 std::string num(double v) {
   char buf[32];
@@ -80,6 +83,39 @@ void axis(std::ostringstream& s, double x0, double w, double y0, double h, doubl
     << num(y0 + h / 2) << ")\" text-anchor=\"middle\">" << esc(label) << "</text>\n";
 }
 
+// A step for about `target` ticks over span: 1, 2 or 5 times a power of ten.
+double nice_step(double span, int target) {
+  const double raw = span / target;
+  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (const double m : {1.0, 2.0, 5.0}) {
+    if (m * decade >= raw) return m * decade;
+  }
+  return 10.0 * decade;
+}
+
+// Vertical grid lines at round times, with their labels (in seconds)
+// under the panel where `labels`.
+void time_grid(std::ostringstream& s, double t0, double t1, double x0, double w, double y0,
+               double h, bool labels) {
+  const double step = nice_step(t1 - t0, 8);
+  for (double t = std::ceil(t0 / step) * step; t <= t1 + 1e-9 * step; t += step) {
+    const double x = x0 + (t - t0) / (t1 - t0) * w;
+    s << "<line x1=\"" << num(x) << "\" x2=\"" << num(x) << "\" y1=\"" << num(y0) << "\" y2=\""
+      << num(y0 + h) << "\" stroke=\"#eee\"/>\n";
+    if (!labels) continue;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", std::abs(t) < 1e-9 * step ? 0.0 : t);
+    s << "<line x1=\"" << num(x) << "\" x2=\"" << num(x) << "\" y1=\"" << num(y0 + h) << "\" y2=\""
+      << num(y0 + h + 4) << "\" stroke=\"#999\"/>\n";
+    s << "<text x=\"" << num(x) << "\" y=\"" << num(y0 + h + 15)
+      << "\" font-size=\"11\" text-anchor=\"middle\">" << buf << "</text>\n";
+  }
+  if (labels) {
+    s << "<text x=\"" << num(x0 + w) << "\" y=\"" << num(y0 + h + 28)
+      << "\" font-size=\"11\" text-anchor=\"end\">time [s]</text>\n";
+  }
+}
+
 // The residual of one joint against its velocity: every sample as a dot
 // (at most ~3000, evenly picked) and the mean residual in 40 velocity bins
 // as a line. A friction model that misses the friction's shape leaves a
@@ -100,7 +136,8 @@ void residual_against_velocity(std::ostringstream& s, const std::vector<double>&
     << "\" y2=\"" << num(y0 + h / 2) << "\" stroke=\"#eee\"/>\n";
   const auto X = [&](double x) { return x0 + (x + vmax) / (2 * vmax) * w; };
   const auto Y = [&](double r) { return y0 + h / 2 - r / rmax * (h / 2); };
-  s << "<path fill=\"none\" stroke=\"#d62728\" stroke-opacity=\"0.35\" stroke-width=\"1.5\" "
+  s << "<path fill=\"none\" stroke=\"" << kResidual
+    << "\" stroke-opacity=\"0.35\" stroke-width=\"1.5\" "
        "d=\"";
   const std::size_t stride = std::max<std::size_t>(1, v.size() / 3000);
   for (std::size_t k = 0; k < v.size(); k += stride) {
@@ -152,27 +189,26 @@ double joint_panels(std::ostringstream& s, const Prediction& p, unsigned j, doub
   axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
   s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
     << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
-  s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#1f77b4", 1.2);
-  s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, "#ff7f0e", 1.0);
+  // The prediction wide and pale underneath, the measurement thin on top:
+  // where the fit is good both stay visible.
+  s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, kPredicted, 3.0);
+  s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, kMeasured, 1.0);
+  time_grid(s, t0, t1, kLeft, w, y, kPanelH, false);
   y += kPanelH + 16;
-  axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid.");
-  s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, "#d62728", 0.8);
-  y += kResidH;
-  char tl[64];
-  std::snprintf(tl, sizeof tl, "%.3g s", t0);
-  s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 14) << "\" font-size=\"11\">" << tl
-    << "</text>\n";
-  std::snprintf(tl, sizeof tl, "t = %.3g s", t1);
-  s << "<text x=\"" << num(kLeft + w) << "\" y=\"" << num(y + 14)
-    << "\" font-size=\"11\" text-anchor=\"end\">" << tl << "</text>\n";
-  return y + kGap;
+  axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid. [N m]");
+  s << polyline(p.t_s, resid, t0, t1, -rmax, rmax, kLeft, w, y, kResidH, kResidual, 0.8);
+  time_grid(s, t0, t1, kLeft, w, y, kResidH, true);
+  return y + kResidH + kGap;
 }
 
 // One log's block: its name, the three joints' panels, and the residuals
 // against velocity; returns the height after it.
 double log_block(std::ostringstream& s, const Prediction& p, double w, double y) {
+  const std::string role = p.role == "fit"          ? "fit: the log the parameters come from"
+                           : p.role == "validation" ? "validation: held out of the fit"
+                                                    : "";
   s << "<text x=\"" << kLeft << "\" y=\"" << num(y + 16) << "\" font-size=\"14\">" << esc(p.log)
-    << "</text>\n";
+    << (role.empty() ? "" : " (" + role + ")") << "</text>\n";
   y += 30;
   const double t0 = p.t_s.empty() ? 0.0 : p.t_s.front();
   const double t1 = p.t_s.empty() ? 1.0 : std::max(p.t_s.back(), t0 + 1e-9);
@@ -192,20 +228,40 @@ double log_block(std::ostringstream& s, const Prediction& p, double w, double y)
   return y + kScatterH + kScatterGap;
 }
 
+// The three traces' colours and what they are, from (x, y) on.
+void legend(std::ostringstream& s, double x, double y) {
+  const struct {
+    const char* color;
+    double width;
+    const char* label;
+  } items[] = {{kMeasured, 1.5, "measured"},
+               {kPredicted, 3.0, "predicted"},
+               {kResidual, 1.5, "residual = measured - predicted"}};
+  double at = x;
+  for (const auto& it : items) {
+    s << "<line x1=\"" << num(at) << "\" x2=\"" << num(at + 24) << "\" y1=\"" << num(y - 4)
+      << "\" y2=\"" << num(y - 4) << "\" stroke=\"" << it.color << "\" stroke-width=\"" << it.width
+      << "\"/>\n";
+    s << "<text x=\"" << num(at + 30) << "\" y=\"" << num(y) << "\" font-size=\"12\">" << it.label
+      << "</text>\n";
+    at += 30 + 8.0 * static_cast<double>(std::string(it.label).size()) + 16;
+  }
+}
+
 }  // namespace
 
 std::string svg_torque_plot(const std::vector<Prediction>& logs, const std::string& title) {
   const double block = 3 * (kPanelH + 16 + kResidH + kGap) + 30 + kScatterH + kScatterGap;
-  const double height = 40 + block * static_cast<double>(logs.size());
+  const double height = 56 + block * static_cast<double>(logs.size());
   const double w = kWidth - kLeft - kRight;
   std::ostringstream s;
   s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kWidth << "\" height=\""
     << num(height) << "\" font-family=\"sans-serif\">\n";
   s << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   s << "<text x=\"" << kLeft << "\" y=\"24\" font-size=\"16\">" << esc(title)
-    << " - measured (blue) and predicted (orange) joint torque, residual (red), both filtered"
-    << "</text>\n";
-  double y = 40;
+    << ": joint torques, filtered</text>\n";
+  legend(s, kLeft, 46);
+  double y = 56;
   for (const Prediction& p : logs) y = log_block(s, p, w, y);
   s << "</svg>\n";
   return s.str();

@@ -103,6 +103,9 @@ struct LogRmse {
 // parameters (for the plot), and its RMSE both ways.
 struct Prediction {
   std::string log;
+  // What the log was to the fit, for the plot: "fit", "validation", or ""
+  // (host_id validate, predict: every log is held out alike).
+  std::string role;
   std::vector<double> t_s;
   std::array<std::vector<double>, 3> measured_Nm, predicted_Nm;
   std::array<std::vector<double>, 3> velocity_rad_s;  // qd of each joint at each sample
