@@ -877,6 +877,15 @@ TEST(SdoTool, ReadsAndWritesTheControllersAndADrivesObjects) {
   EXPECT_EQ(code, 0) << err;
   std::tie(code, out, err) = sdo({"read", "0x1017", "--node", "16", "--type", "u16"});
   EXPECT_EQ(out, "200 (0x00C8)\n") << err;
+  EXPECT_NE(err.find("bytes read in"), std::string::npos) << err;
+  // For scripts: --json, and --quiet without the transfer line.
+  std::tie(code, out, err) = sdo({"read", "0x1017", "--node", "16", "--type", "u16", "--json"});
+  EXPECT_EQ(code, 0) << err;
+  EXPECT_NE(out.find("\"object\": \"0x1017:00\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"value\": \"200 (0x00C8)\""), std::string::npos) << out;
+  std::tie(code, out, err) = sdo({"read", "0x1017", "--node", "16", "--type", "u16", "--quiet"});
+  EXPECT_EQ(out, "200 (0x00C8)\n");
+  EXPECT_EQ(err, "");
   std::tie(code, out, err) = sdo({"read", "0x2000", "--node", "16"});
   EXPECT_EQ(code, 3);
   EXPECT_NE(err.find("node 16, 0x2000:00: the node aborted the transfer: 0x06020000 (object does "
@@ -1178,7 +1187,18 @@ TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter
   hil::Child load =
       hil::Child::spawn({kBin + "/host_id", "model", "load", dir + "/fit.json", "--can", kIface});
   ASSERT_EQ(load.wait(60s).value_or(-1), 0) << load.err();
-  ASSERT_TRUE(excite("pick-and-place", dir + "/model.csv")) << stopped_and_told(fw, emu);
+  // The last run as a script takes it: --json, nothing else on stdout.
+  hil::Child last = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus,
+                                       "--trajectory", "pick-and-place", "--can", kIface, "-o",
+                                       dir + "/model.csv", "--json", "--quiet"});
+  ASSERT_EQ(last.wait(300s).value_or(-1), 0) << last.err() << stopped_and_told(fw, emu);
+  const std::string summary = last.out();
+  EXPECT_EQ(summary.rfind("{", 0), 0u) << summary;
+  for (const char* key : {"\"finished\": true", "\"lost\": 0",
+                          "\"tracking_rms_rad_1\": ", "\"trajectory\": \"pick-and-place\""}) {
+    EXPECT_NE(summary.find(key), std::string::npos) << key << " in " << summary;
+  }
+  EXPECT_EQ(last.err().find("host_id excite: running"), std::string::npos) << last.err();
   const double nominal = worst_tracking_rms(dir + "/nominal.csv");
   const double model = worst_tracking_rms(dir + "/model.csv");
   std::cout << "pick-and-place, worst joint's RMS tracking error: nominal feed-forward " << nominal

@@ -127,16 +127,18 @@ RunOutcome run_excitation(ControllerLink& link, const ExciteOptions& a, double r
   std::vector<std::uint16_t> in = link.inputs();
   o.run_id = raw("run_id", in);
   o.run_length = raw("run_length", in);
-  err << "host_id excite: running " << a.trajectory << " on " << a.address << " (run #" << o.run_id
-      << ", " << static_cast<double>(o.run_length) / rate_hz << " s), recording " << a.iface
-      << "\n";
+  if (!a.quiet) {
+    err << "host_id excite: running " << a.trajectory << " on " << a.address << " (run #"
+        << o.run_id << ", " << static_cast<double>(o.run_length) / rate_hz << " s), recording "
+        << a.iface << "\n";
+  }
   // A run may go slower than real time (lock-step behind a slow plant); it
   // is given up when its tick stops moving for kStall, or when --timeout is
   // over.
   const auto start = std::chrono::steady_clock::now();
   auto last_progress = start;
   std::int64_t last_tick = 0;
-  const bool tty = isatty(STDERR_FILENO) != 0;
+  const bool tty = !a.quiet && isatty(STDERR_FILENO) != 0;
   const auto stop = [&](const std::string& why) {
     link.write(mb::kCommand.address, {static_cast<std::uint16_t>(mb::Command::kStop)});
     o.ending = why;
@@ -182,14 +184,32 @@ RunOutcome run_excitation(ControllerLink& link, const ExciteOptions& a, double r
 // The closing lines on out, the verdict's message on err; the exit status.
 int report(const ExciteOptions& a, const RunOutcome& run, const Recording& rec, std::uint64_t sent,
            double rate_hz, const std::string& path, std::ostream& out, std::ostream& err) {
-  out << "host_id excite: " << a.trajectory << " (run #" << run.run_id << ") "
-      << (run.ending.empty() ? "finished" : "NOT finished") << "\n"
-      << "  samples   " << rec.summary.samples << " recorded";
-  if (sent != UINT64_MAX) out << " of " << sent << " sent";
-  out << ", " << rec.summary.lost << " lost, " << rec.summary.stale << " stale left out, "
-      << static_cast<double>(rec.log.t.size()) / rate_hz << " s at " << rate_hz << " Hz\n"
-      << "  log       " << path << "\n";
-  if (!a.raw_path.empty()) out << "  raw       " << a.raw_path << "\n";
+  if (a.json) {
+    nlohmann::json j = json_summary(rec.summary);
+    j["trajectory"] = a.trajectory;
+    j["run_id"] = run.run_id;
+    j["finished"] = run.ending.empty();
+    j["ending"] = run.ending;
+    j["sent"] = sent != UINT64_MAX ? nlohmann::json(sent) : nlohmann::json();
+    j["sample_rate_hz"] = rate_hz;
+    j["log"] = path;
+    j["raw"] = a.raw_path.empty() ? nlohmann::json() : nlohmann::json(a.raw_path);
+    nlohmann::json tracking = nlohmann::json::object();
+    for (const auto& [key, value] : rec.log.metadata) {
+      if (key.rfind("tracking_", 0) == 0) tracking[key] = std::stod(value);
+    }
+    j["tracking"] = tracking;
+    out << j.dump(2) << "\n";
+  } else if (!a.quiet) {
+    out << "host_id excite: " << a.trajectory << " (run #" << run.run_id << ") "
+        << (run.ending.empty() ? "finished" : "NOT finished") << "\n"
+        << "  samples   " << rec.summary.samples << " recorded";
+    if (sent != UINT64_MAX) out << " of " << sent << " sent";
+    out << ", " << rec.summary.lost << " lost, " << rec.summary.stale << " stale left out, "
+        << static_cast<double>(rec.log.t.size()) / rate_hz << " s at " << rate_hz << " Hz\n"
+        << "  log       " << path << "\n";
+    if (!a.raw_path.empty()) out << "  raw       " << a.raw_path << "\n";
+  }
   report_left_out(err, "host_id excite", rec.summary);
   report_emergencies(err, "host_id excite", rec.summary);
   const ExciteVerdict v = excite_verdict(run.ending, rec.summary, sent, path);

@@ -251,6 +251,38 @@ void report_emergencies(std::ostream& err, const std::string& who, const RecordS
   }
 }
 
+nlohmann::json json_summary(const RecordSummary& s) {
+  using nlohmann::json;
+  const auto runs = [](const std::vector<std::pair<std::uint64_t, std::uint64_t>>& v) {
+    json a = json::array();
+    for (const auto& [first, count] : v) a.push_back({{"first_seq", first}, {"count", count}});
+    return a;
+  };
+  json emergencies = json::array();
+  for (const SeenEmergency& e : s.emergencies) {
+    emergencies.push_back({{"node", e.node},
+                           {"code", e.code},
+                           {"error_register", e.error_register},
+                           {"fault_code", e.fault_code},
+                           {"after_log_t_s", e.after_log_t_s ? json(*e.after_log_t_s) : json()}});
+  }
+  return {{"samples", s.samples},
+          {"frames", s.frames},
+          {"seconds", s.seconds},
+          {"lost", s.lost},
+          {"gaps", runs(s.gaps)},
+          {"stale", s.stale},
+          {"stale_runs", runs(s.stale_runs)},
+          {"cut_off", {{"first_seq", s.cut_off.first}, {"count", s.cut_off.second}}},
+          {"started_inside",
+           {{"first_seq", s.started_inside.first}, {"count", s.started_inside.second}}},
+          {"socket_drops", s.socket_drops},
+          {"currents", s.currents},
+          {"samples_without_currents", s.samples_without_currents},
+          {"emergencies", emergencies},
+          {"emergencies_not_kept", s.emergencies_not_kept}};
+}
+
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s) {
   for (const auto& [first, count] : s.gaps) {
     err << who << ": lost " << count << " sample(s) from seq " << first

@@ -309,5 +309,30 @@ TEST(EmergencyWatchTest, AStormIsCountedBeyondWhatItKeeps) {
   EXPECT_NE(text.find("host_id record: and 84 more EMCY frame(s)\n"), std::string::npos) << text;
 }
 
+// --json's summary (record, excite) carries every count the text reports,
+// with the runs of lost and stale samples and the emergencies.
+TEST(RecordSummaryTest, TheJsonSummaryCarriesEveryCount) {
+  RecordSummary s;
+  s.samples = 6000;
+  s.frames = 18000;
+  s.seconds = 12.5;
+  s.lost = 3;
+  s.gaps = {{100, 2}, {4000, 1}};
+  s.stale = 1;
+  s.stale_runs = {{200, 1}};
+  s.currents = true;
+  s.emergencies.push_back(SeenEmergency{2, 0x8130, 1, 0, 3.25});
+  const nlohmann::json j = json_summary(s);
+  EXPECT_EQ(j["samples"], 6000u);
+  EXPECT_EQ(j["lost"], 3u);
+  EXPECT_EQ(j["gaps"].size(), 2u);
+  EXPECT_EQ(j["gaps"][1]["first_seq"], 4000u);
+  EXPECT_EQ(j["stale_runs"][0]["count"], 1u);
+  EXPECT_EQ(j["currents"], true);
+  EXPECT_EQ(j["emergencies"][0]["code"], 0x8130);
+  EXPECT_DOUBLE_EQ(j["emergencies"][0]["after_log_t_s"].get<double>(), 3.25);
+  EXPECT_DOUBLE_EQ(j["seconds"].get<double>(), 12.5);
+}
+
 }  // namespace
 }  // namespace host_id

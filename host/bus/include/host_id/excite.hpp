@@ -24,6 +24,8 @@ struct ExciteOptions {
   std::string raw_path;
   double rated_current_A{2.0};
   double timeout_s{0};  // 0: no limit on the whole run (a stall still ends it)
+  bool quiet{false};    // no running line and no progress; the closing lines only with json
+  bool json{false};     // the closing summary as JSON on out
 };
 
 // Exit statuses: 0 finished, 3 samples lost, 4 run not finished (the log

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -167,6 +168,11 @@ struct RecordSummary {
 // One line per run of lost samples, per run of stale ones left out and for
 // the cycles cut off at the end, each starting with `who` ("host_id record").
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s);
+// The summary as JSON, for --json (record, excite): samples, frames,
+// seconds, lost and stale (with their runs of seq), cut-off cycles, drops,
+// currents, emergencies.
+nlohmann::json json_summary(const RecordSummary& s);
+
 // One line per emergency seen (drives and controller), each starting with
 // `who`; nothing when none came.
 void report_emergencies(std::ostream& err, const std::string& who, const RecordSummary& s);

@@ -58,6 +58,8 @@ void add_excite_command(CLI::App& command, CommandContext& context) {
                 "give up when the run has not finished after S seconds (default: no limit; a run "
                 "whose tick stops moving for 10 s is given up anyway)")
       ->check(kPositive);
+  c->add_flag("--quiet", a->quiet, "no running line, progress or closing lines (warnings stay)");
+  c->add_flag("--json", a->json, "the closing summary as JSON on stdout");
   c->callback([a, &context] {
     ExciteOptions args = *a;
     if (args.trajectory.empty() && args.trajectory_file.empty()) {

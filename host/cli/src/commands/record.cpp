@@ -24,6 +24,8 @@ struct RecordArguments {
   RecordOptions record;
   std::string raw_path;
   bool allow_gaps{false};
+  bool quiet{false};
+  bool json{false};
 };
 
 void add_limit_options(CLI::App& c, RecordOptions& r) {
@@ -53,11 +55,19 @@ int run_record(const RecordArguments& a, std::ostream& out, std::ostream& err) {
   }
   if (!a.raw_path.empty()) r.raw_path = a.raw_path;
   // The line tells scripts and tests that the socket is open.
-  const RecordSummary s =
-      record(r, [&] { err << "host_id record: listening on " << r.iface << std::endl; });
-  out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from " << r.iface
-      << " in " << s.seconds << " s -> " << r.out_path
-      << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
+  const RecordSummary s = record(r, [&] {
+    if (!a.quiet) err << "host_id record: listening on " << r.iface << std::endl;
+  });
+  if (a.json) {
+    nlohmann::json j = json_summary(s);
+    j["log"] = r.out_path;
+    j["interface"] = r.iface;
+    out << j.dump(2) << "\n";
+  } else if (!a.quiet) {
+    out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from "
+        << r.iface << " in " << s.seconds << " s -> " << r.out_path
+        << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
+  }
   report_left_out(err, "host_id record", s);
   report_emergencies(err, "host_id record", s);
   if (s.socket_drops)
@@ -98,6 +108,8 @@ void add_record_command(CLI::App& command, CommandContext& context) {
       ->check(kPositive)
       ->capture_default_str();
   c->add_flag("--allow-gaps", a->allow_gaps, "exit 0 even when samples were lost");
+  c->add_flag("--quiet", a->quiet, "no listening and summary lines (warnings and errors stay)");
+  c->add_flag("--json", a->json, "the summary as JSON on stdout");
   add_geometry_options(*c, r.geometry);
   c->callback([a, &context] { context.exit_code = run_record(*a, context.out, context.err); });
 }

@@ -28,6 +28,8 @@ struct SdoOptions {
   std::string file;  // write: the bytes to send; read: where to write them
   bool block{false};
   int timeout_ms{1000};
+  bool quiet{false};  // no transfer line
+  bool json{false};   // the object, value and transfer as JSON
 };
 
 // A value the command line gave that is not what its type says: a usage
@@ -78,12 +80,28 @@ void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
     context.exit_code = outcome.by_server ? kExitSdoAborted : kExitNoAnswer;
     return;
   }
+  const double seconds = static_cast<double>(outcome.elapsed_us) * 1e-6;
   if (!write && !o.file.empty()) {
     delta::write_file_atomically(o.file, std::string(bytes.begin(), bytes.end()));
-  } else if (!write) {
-    context.out << decode_value(o.type, bytes) << "\n";
   }
-  const double seconds = static_cast<double>(outcome.elapsed_us) * 1e-6;
+  if (o.json) {
+    char object[16];
+    std::snprintf(object, sizeof object, "0x%04X:%02X", m.index, m.subindex);
+    nlohmann::json j{
+        {"node", o.node},     {"object", object},
+        {"written", write},   {"bytes", outcome.bytes},
+        {"seconds", seconds}, {"frames", outcome.frames_sent + outcome.frames_received}};
+    if (!write && o.file.empty()) j["value"] = decode_value(o.type, bytes);
+    if (!o.file.empty()) j["file"] = o.file;
+    context.out << j.dump(2) << "\n";
+    context.exit_code = 0;
+    return;
+  }
+  if (!write && o.file.empty()) context.out << decode_value(o.type, bytes) << "\n";
+  if (o.quiet) {
+    context.exit_code = 0;
+    return;
+  }
   context.err << "host_id: " << outcome.bytes << " bytes " << (write ? "written" : "read") << " in "
               << outcome.frames_sent + outcome.frames_received << " frames, " << seconds << " s";
   if (outcome.bytes >= 1024 && seconds > 0) {
@@ -103,6 +121,8 @@ void add_common_options(CLI::App* c, SdoOptions& o) {
   c->add_option("--timeout-ms", o.timeout_ms, "how long to wait for each answer")
       ->check(CLI::Range(1, 60000))
       ->capture_default_str();
+  c->add_flag("--quiet", o.quiet, "no line about the transfer (errors stay)");
+  c->add_flag("--json", o.json, "the object, value and transfer as JSON on stdout");
 }
 
 }  // namespace
