@@ -9,8 +9,9 @@ then times, each in a fresh process and taking the median of --runs:
   - reading and parsing the 60 s log (build/bin/read_log_once),
   - `host_id fit LOG --method ls` and `host_id fit LOG` (default PSO),
 and measures the peak memory (maximum resident set) of `host_id fit
---method ls` on the 10-minute log. It prints the ratios the bars are stated
-in. With --compare, another host_id (an older build) is timed in the same
+--method ls` on the 10-minute log (bar: 4x the file), and of `simulate` and
+`predict` writing a 10-minute log (bar: 1.5x their output). It prints the
+ratios the bars are stated in. With --compare, another host_id (an older build) is timed in the same
 run, interleaved, so that both see the same machine.
 """
 import argparse
@@ -83,10 +84,21 @@ def main():
             continue
         print(f"  {k:28s} {med[k] * 1e3:8.1f} ms  {med[k] / rp:5.2f} x read+parse")
     print(f"10-minute log: {size600 / 1e6:.1f} MB")
+    result = os.path.join(LOG_DIR, "result60.json")
+    subprocess.run([host_id, "fit", log60, "--method", "ls", "--quiet", "--out", result],
+                   check=True, stdout=subprocess.DEVNULL)
+    written = os.path.join(LOG_DIR, "written.csv")
     for name, prog in programs.items():
         peak = peak_bytes([prog, "fit", log600, "--method", "ls", "--quiet"])
         print(f"  {name}: fit --method ls peak memory {peak / 2**20:7.1f} MiB"
               f"  {peak / size600:5.2f} x the file")
+        peak = peak_bytes([prog, "simulate", "--duration", "600", "--quiet", "-o", written])
+        print(f"  {name}: simulate peak memory {peak / 2**20:7.1f} MiB"
+              f"  {peak / os.path.getsize(written):5.2f} x its output")
+        peak = peak_bytes([prog, "predict", result, log600, "-o", written])
+        print(f"  {name}: predict peak memory {peak / 2**20:7.1f} MiB"
+              f"  {peak / os.path.getsize(written):5.2f} x its output")
+    os.remove(written)
 
 
 if __name__ == "__main__":

@@ -304,7 +304,7 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
   Recording r = capture(o, ready);
-  delta::write_file_atomically(o.out_path, format_delta_log(r.log));
+  write_delta_log_atomically(o.out_path, r.log);
   if (o.raw_path) delta::write_file_atomically(*o.raw_path, r.raw);
   return r.summary;
 }

@@ -637,6 +637,24 @@ std::string format_delta_log(const DeltaLog& log) {
   return out;
 }
 
+void write_delta_log_atomically(const std::string& path, const DeltaLog& log) {
+  constexpr std::size_t kPiece = 1 << 20;
+  delta::AtomicFileWriter w(path);
+  std::string text;
+  text.reserve(kPiece + 4096);
+  append_metadata(log, text);
+  append_header(log, text);
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    append_sample(log, k, text);
+    if (text.size() >= kPiece) {
+      w.write(text);
+      text.clear();
+    }
+  }
+  w.write(text);
+  w.commit();
+}
+
 void release_samples(DeltaLog& log) {
   log.t = Series{};
   for (unsigned j = 0; j < 3; ++j) {

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <string>
 
+#include "delta/input_error.hpp"
 #include "scratch_directory.hpp"
 
 namespace {
@@ -31,6 +32,49 @@ TEST(AtomicFileTest, AWrittenFileLeavesNoTemporary) {
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_EQ(text, "t,q1\n");
   EXPECT_EQ(files_in(dir.path()), 1u);
+}
+
+// Written piece by piece: the old file stays until commit(); a writer that
+// ends without commit() (an error, an exception) leaves the old file and no
+// temporary; a Ctrl-C halfway removes its temporary.
+TEST(AtomicFileTest, AStreamedFileAppearsWholeOnCommitAndNeverHalfWritten) {
+  const testsupport::ScratchDirectory dir("delta_atomic_stream");
+  const std::string path = dir.file("log.csv");
+  delta::write_file_atomically(path, "old\n");
+  const auto text = [&] {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  {
+    delta::AtomicFileWriter w(path);
+    w.write("t,q1\n");
+    w.write("0,1\n");
+    EXPECT_EQ(text(), "old\n");
+    EXPECT_EQ(files_in(dir.path()), 2u);  // the old file and the temporary
+    w.commit();
+  }
+  EXPECT_EQ(text(), "t,q1\n0,1\n");
+  EXPECT_EQ(files_in(dir.path()), 1u);
+  {
+    delta::AtomicFileWriter abandoned(path);
+    abandoned.write("half");
+  }
+  EXPECT_EQ(text(), "t,q1\n0,1\n");
+  EXPECT_EQ(files_in(dir.path()), 1u);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    delta::remove_temporaries_on_signals();
+    delta::AtomicFileWriter w(dir.file("interrupted.csv"));
+    w.write("half a log");
+    ::raise(SIGINT);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFSIGNALED(status));
+  EXPECT_EQ(files_in(dir.path()), 1u);
+  EXPECT_THROW(delta::AtomicFileWriter(dir.file("missing/x.csv")), delta::InputError);
 }
 
 // In a child process that asked for it: a temporary file registered when

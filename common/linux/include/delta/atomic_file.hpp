@@ -18,6 +18,31 @@ namespace delta {
 // (0600 for a secret key, 0755 for a program).
 void write_file_atomically(const std::string& path, std::string_view content, mode_t mode = 0644);
 
+// The same, written piece by piece: an output too large to hold whole in
+// memory (an hour-long log) streams into the temporary, which commit()
+// flushes and renames over path. Until then path is as it was; a writer
+// destroyed without commit() (an error, an exception) removes its
+// temporary, and so does SIGINT or SIGTERM (as for write_file_atomically).
+class AtomicFileWriter {
+ public:
+  // Creates the temporary beside path; InputError when it cannot.
+  explicit AtomicFileWriter(const std::string& path, mode_t mode = 0644);
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  ~AtomicFileWriter();
+
+  void write(std::string_view piece);  // InputError on failure (the temporary is removed)
+  void commit();                       // flush, rename over path, flush the folder
+
+ private:
+  [[noreturn]] void fail(const char* what);
+  std::string path_;
+  std::string temporary_;
+  mode_t mode_;
+  int fd_{-1};
+  int slot_{-1};
+};
+
 // Makes SIGINT and SIGTERM remove the temporary files write_file_atomically
 // has open before the process ends by the signal as it would have, so that
 // Ctrl-C leaves nothing beside the outputs (host_id's main calls it; a

@@ -90,38 +90,47 @@ void rename_durably(const std::string& from, const std::string& to) {
   sync_folder(to);
 }
 
-void write_file_atomically(const std::string& path, std::string_view content, mode_t mode) {
+AtomicFileWriter::AtomicFileWriter(const std::string& path, mode_t mode)
+    : path_(path), mode_(mode) {
   // The temporary's name is registered for the signal handler before the
   // file exists, so that no moment leaves it unregistered; O_EXCL makes
-  // it this call's own.
+  // it this writer's own.
   static std::atomic<unsigned> counter{0};
-  std::string tmpl;
-  int fd = -1;
-  int slot = -1;
-  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
-    release_temporary(slot);
-    tmpl = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-    slot = register_temporary(tmpl);
-    fd = ::open(tmpl.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd < 0 && errno != EEXIST) break;
+  for (int attempt = 0; attempt < 100 && fd_ < 0; ++attempt) {
+    release_temporary(slot_);
+    temporary_ = path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    slot_ = register_temporary(temporary_);
+    fd_ = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd_ < 0 && errno != EEXIST) break;
   }
-  struct Registered {
-    int slot;
-    ~Registered() { release_temporary(slot); }
-  } registered{slot};
-  if (fd < 0) {
-    throw InputError(path + ": cannot create a temporary file beside it: " + std::strerror(errno));
-  }
-  const auto fail = [&](const char* what) {
+  if (fd_ < 0) {
     const std::string reason = std::strerror(errno);
-    ::close(fd);
-    ::unlink(tmpl.c_str());
-    throw InputError(path + ": " + what + ": " + reason);
-  };
-  const char* data = content.data();
-  std::size_t left = content.size();
+    release_temporary(slot_);
+    throw InputError(path + ": cannot create a temporary file beside it: " + reason);
+  }
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) {
+    ::close(fd_);
+    ::unlink(temporary_.c_str());
+  }
+  release_temporary(slot_);
+}
+
+void AtomicFileWriter::fail(const char* what) {
+  const std::string reason = std::strerror(errno);
+  ::close(fd_);
+  fd_ = -1;
+  ::unlink(temporary_.c_str());
+  throw InputError(path_ + ": " + what + ": " + reason);
+}
+
+void AtomicFileWriter::write(std::string_view piece) {
+  const char* data = piece.data();
+  std::size_t left = piece.size();
   while (left > 0) {
-    const ssize_t n = ::write(fd, data, left);
+    const ssize_t n = ::write(fd_, data, left);
     if (n < 0) {
       if (errno == EINTR) continue;
       fail("write failed");
@@ -129,19 +138,30 @@ void write_file_atomically(const std::string& path, std::string_view content, mo
     data += n;
     left -= static_cast<std::size_t>(n);
   }
-  if (::fchmod(fd, mode) != 0) fail("cannot set permissions");
-  if (::fsync(fd) != 0) fail("fsync failed");
-  if (::close(fd) != 0) {
+}
+
+void AtomicFileWriter::commit() {
+  if (::fchmod(fd_, mode_) != 0) fail("cannot set permissions");
+  if (::fsync(fd_) != 0) fail("fsync failed");
+  const int rc = ::close(fd_);
+  fd_ = -1;
+  if (rc != 0) {
     const std::string reason = std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw InputError(path + ": close failed: " + reason);
+    ::unlink(temporary_.c_str());
+    throw InputError(path_ + ": close failed: " + reason);
   }
-  if (std::rename(tmpl.c_str(), path.c_str()) != 0) {
+  if (std::rename(temporary_.c_str(), path_.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw InputError(path + ": cannot rename the finished file into place: " + reason);
+    ::unlink(temporary_.c_str());
+    throw InputError(path_ + ": cannot rename the finished file into place: " + reason);
   }
-  sync_folder(path);
+  sync_folder(path_);
+}
+
+void write_file_atomically(const std::string& path, std::string_view content, mode_t mode) {
+  AtomicFileWriter w(path, mode);
+  w.write(content);
+  w.commit();
 }
 
 std::string output_path_problem(const std::string& path) {

@@ -36,7 +36,7 @@ int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err)
   }
   warn_about_log(err, log, saved.prepare.time_steps);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
-  delta::write_file_atomically(a.out_path, format_delta_log(p.log));
+  write_delta_log_atomically(a.out_path, p.log);
   const std::size_t left_out = log.size() - p.log.size();
   if (a.json) {
     out << nlohmann::json{{"result", a.result_path},

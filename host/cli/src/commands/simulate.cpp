@@ -142,7 +142,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
     s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
     const DeltaLog log = simulate_log(s);
     bar.finish();
-    delta::write_file_atomically(a->out_path, format_delta_log(log));
+    write_delta_log_atomically(a->out_path, log);
     if (a->json) {
       context.out << nlohmann::json{{"out", a->out_path},
                                     {"samples", log.size()},

@@ -66,6 +66,10 @@ DeltaLog read_delta_log(const std::string& path);
 // that reads back to the same double.
 std::string format_delta_log(const DeltaLog& log);
 
+// The same, written to path atomically a piece at a time: the text of an
+// hour-long log is never held whole (docs/dev/performance.md).
+void write_delta_log_atomically(const std::string& path, const DeltaLog& log);
+
 // Frees the sample columns (t, q, tau, qd, qdd, seq, extra columns); the
 // name, metadata and gaps stay.
 void release_samples(DeltaLog& log);
