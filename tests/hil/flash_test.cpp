@@ -122,10 +122,17 @@ TEST_F(Flashing, ANewerBuildIsDownloadedStartedConfirmedAndReportsItsVersion) {
   std::cout << "host_id flash: " << r.out << "at 1 Mbit/s: " << frames << " frames take " << bus_s
             << " s of bus time, " << nominal_kB_s << " kB/s\n";
   EXPECT_GE(nominal_kB_s, 40.0) << "CiA 302-3 block download's usual 40-55 kB/s";
-  // Flashing the older build back needs --allow-downgrade.
+  // Flashing the older build back needs --allow-downgrade; as a script
+  // runs it, with --json --quiet: the outcome alone, no progress.
   const ToolRun down = host_id({"flash", kBin + "/delta_fw.img", "--can", kIface});
   EXPECT_EQ(down.code, 5) << down.err;
   EXPECT_NE(down.err.find("older than the running " + kNextVersion), std::string::npos) << down.err;
+  const ToolRun back = host_id(
+      {"flash", kBin + "/delta_fw.img", "--can", kIface, "--allow-downgrade", "--json", "--quiet"});
+  ASSERT_EQ(back.code, 0) << back.err << log();
+  EXPECT_NE(back.out.find("\"version\": \"" + kVersion + "\""), std::string::npos) << back.out;
+  EXPECT_NE(back.out.find("\"was\": \"" + kNextVersion + "\""), std::string::npos) << back.out;
+  EXPECT_EQ(back.err.find("kB/s"), std::string::npos) << back.err;
 }
 
 TEST_F(Flashing, ACorruptedImageIsRefusedWithCrcErrorAndTheOldProgramRunsOn) {

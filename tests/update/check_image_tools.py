@@ -4,6 +4,7 @@ the header read at docs/flashing.md's offsets with Python's struct, the
 CRC-32s with zlib, the SHA-256 with hashlib, the Ed25519 signature with
 OpenSSL. Usage: check_image_tools.py HOST_ID"""
 import hashlib
+import json
 import os
 import struct
 import subprocess
@@ -73,6 +74,13 @@ with tempfile.TemporaryDirectory() as d:
     if v.returncode != 0:
         fail("OpenSSL does not verify host_id's signature: " + v.stdout + v.stderr)
     run("image", "info", signed, "--public-key", pub)
+    info = json.loads(run("image", "info", signed, "--public-key", pub, "--json").stdout)
+    if (info["version"], info["build_id"], info["program_bytes"], info["signature"], info["ok"]) != (
+            "2.3.4", "test-build", len(payload), "verified", True):
+        fail(f"info --json: {info}")
+    if info["program_crc32"] != f"0x{zlib.crc32(payload):08X}" or \
+            info["program_sha256"] != hashlib.sha256(payload).hexdigest():
+        fail(f"info --json's CRC-32 or SHA-256: {info}")
 
     bad = bytearray(b)
     bad[256 + 1234] ^= 0x01
@@ -80,4 +88,7 @@ with tempfile.TemporaryDirectory() as d:
     r = run("image", "info", os.path.join(d, "bad.img"), expect=5)
     if "CRC-32 does not match" not in r.stderr:
         fail("info's message for a flipped bit: " + r.stderr)
+    r = run("image", "info", os.path.join(d, "bad.img"), "--json", expect=5)
+    if json.loads(r.stdout)["ok"] is not False:
+        fail("info --json of a flipped bit: " + r.stdout)
 print("host_id image: header, CRC-32, SHA-256 and Ed25519 agree with struct, zlib, hashlib and OpenSSL")

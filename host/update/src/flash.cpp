@@ -156,13 +156,14 @@ delta::can::SdoOutcome download(ControllerSession& s, const std::vector<std::uin
     auto last_shown = start;
     const auto total = static_cast<std::uint32_t>(image.size());
     s.channel().set_progress([&](std::uint32_t done) {
+      if (o.quiet) return;
       if (Clock::now() - last_shown < std::chrono::milliseconds(200) && done != total) return;
       last_shown = Clock::now();
       show_progress(err, done, total, start);
     });
     outcome = s.channel().download(0x1F50, 1, image, sdo::Transfer::kBlock);
     s.channel().set_progress(nullptr);
-    err << "\n";
+    if (!o.quiet) err << "\n";
     if (outcome.ok() || outcome.by_server) return outcome;
     if (attempt < o.retries) {
       err << "host_id: the transfer failed (" << s.channel().describe(0x1F50, 1, outcome)
@@ -230,9 +231,11 @@ FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
       session.read_text(0x100A)};
   const TargetCheck target = check_target(h, node, o);
   if (target.warning) err << "host_id flash: warning: " << *target.warning << "\n";
-  err << "host_id: node " << o.node << " runs " << up::version_text(target.running) << "; sending "
-      << o.image << " (version " << up::version_text(h.version) << ", " << image.bytes.size()
-      << " bytes)\n";
+  if (!o.quiet) {
+    err << "host_id: node " << o.node << " runs " << up::version_text(target.running)
+        << "; sending " << o.image << " (version " << up::version_text(h.version) << ", "
+        << image.bytes.size() << " bytes)\n";
+  }
   const delta::can::SdoOutcome sent = download(session, image.bytes, o, err);
   if (!sent.ok()) throw session.failure(0x1F50, 1, sent);
   const std::uint32_t crc = session.read_u32(0x1F56, 1);
@@ -242,7 +245,9 @@ FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
                      kExitFlashVerifyFailed};
   }
   session.write_u8(0x1F51, 1, 1);  // start
-  err << "host_id: verified (CRC-32 " << hex32(crc) << "); started; waiting for it to confirm\n";
+  if (!o.quiet) {
+    err << "host_id: verified (CRC-32 " << hex32(crc) << "); started; waiting for it to confirm\n";
+  }
   await_confirmation(session, h, o);
   return {target.running, h.version, image.bytes.size(),
           static_cast<double>(sent.elapsed_us) * 1e-6, sent.frames_sent};

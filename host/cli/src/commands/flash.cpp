@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <ostream>
 #include <string>
 
@@ -42,9 +43,26 @@ void add_flash_command(CLI::App& command, CommandContext& context) {
   c->add_option("--timeout-ms", o->timeout_ms, "how long to wait for each SDO answer")
       ->check(CLI::Range(10, 60000))
       ->capture_default_str();
-  c->callback([o, &context] {
+  auto json = std::make_shared<bool>(false);
+  c->add_flag("--quiet", o->quiet, "no progress and no step lines (warnings and errors stay)");
+  c->add_flag("--json", *json, "the outcome as JSON on stdout");
+  c->callback([o, json, &context] {
     try {
       const FlashReport r = flash_image(*o, context.err);
+      if (*json) {
+        context.out << nlohmann::json{{"image", o->image},
+                                      {"node", o->node},
+                                      {"version", delta::update::version_text(r.flashed)},
+                                      {"was", delta::update::version_text(r.running_before)},
+                                      {"confirmed", true},
+                                      {"bytes", r.bytes},
+                                      {"seconds", r.seconds},
+                                      {"frames_sent", r.frames_sent}}
+                           .dump(2)
+                    << "\n";
+        context.exit_code = 0;
+        return;
+      }
       char rate[64];
       std::snprintf(rate, sizeof rate, "%.2f s, %.1f kB/s", r.seconds,
                     r.seconds > 0 ? static_cast<double>(r.bytes) / 1024.0 / r.seconds : 0.0);

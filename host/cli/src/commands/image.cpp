@@ -3,7 +3,9 @@
 
 #include <charconv>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <ostream>
+#include <sstream>
 #include <string>
 
 #include "commands/command.hpp"
@@ -68,7 +70,8 @@ std::string sha_text(const up::Sha256Digest& d) {
   return up::key_text(d).substr(0, 64);
 }
 
-void run_info(const std::string& path, const std::string& key_path, CommandContext& context) {
+void run_info(const std::string& path, const std::string& key_path, bool json,
+              CommandContext& context) {
   const up::CheckedImage c = up::read_image(path);
   if (!c.header) {
     context.err << "host_id image: error: " << path << ": " << up::describe(c.verdict) << "\n";
@@ -76,7 +79,8 @@ void run_info(const std::string& path, const std::string& key_path, CommandConte
     return;
   }
   const up::ImageHeader& h = *c.header;
-  std::ostream& out = context.out;
+  std::ostringstream text;  // the human form, printed unless --json
+  std::ostream& out = text;
   out << "image:        " << path << " (" << c.bytes.size() << " bytes)\n"
       << "for:          vendor " << hex32(h.identity.vendor_id) << ", product "
       << hex32(h.identity.product_code) << ", revision " << hex32(h.identity.revision) << "\n"
@@ -95,7 +99,30 @@ void run_info(const std::string& path, const std::string& key_path, CommandConte
                                           : "Ed25519, DOES NOT VERIFY")
       << "\n";
   const up::Verdict verdict = c.verdict != up::Verdict::kOk ? c.verdict : signature;
-  out << "check:        " << up::describe(verdict) << "\n";
+  if (json) {
+    context.out << nlohmann::json{{"image", path},
+                                  {"bytes", c.bytes.size()},
+                                  {"vendor_id", h.identity.vendor_id},
+                                  {"product_code", h.identity.product_code},
+                                  {"revision", h.identity.revision},
+                                  {"version", up::version_text(h.version)},
+                                  {"build_id", up::build_id_text(h)},
+                                  {"program_bytes", h.payload_bytes},
+                                  {"program_crc32", hex32(h.payload_crc32)},
+                                  {"program_sha256", sha_text(h.payload_sha256)},
+                                  {"signature", !h.is_signed() ? "none"
+                                                : !key         ? "not verified"
+                                                : signature == up::Verdict::kOk
+                                                    ? "verified"
+                                                    : "does not verify"},
+                                  {"check", up::describe(verdict)},
+                                  {"ok", verdict == up::Verdict::kOk}}
+                       .dump(2)
+                << "\n";
+  } else {
+    out << "check:        " << up::describe(verdict) << "\n";
+    context.out << text.str();
+  }
   if (verdict != up::Verdict::kOk) {
     context.err << "host_id image: error: " << path << ": " << up::describe(verdict) << "\n";
   }
@@ -158,10 +185,14 @@ void add_image_command(CLI::App& command, CommandContext& context) {
 
   auto info_path = std::make_shared<std::string>();
   auto info_key = std::make_shared<std::string>();
+  auto info_json = std::make_shared<bool>(false);
   CLI::App* i = c->add_subcommand("info", "print an image's header and check it");
   i->add_option("IMAGE", *info_path, "the image")->required();
   i->add_option("--public-key", *info_key, "verify the signature with this public key file");
-  i->callback([info_path, info_key, &context] { run_info(*info_path, *info_key, context); });
+  i->add_flag("--json", *info_json, "the header and the checks as JSON on stdout");
+  i->callback([info_path, info_key, info_json, &context] {
+    run_info(*info_path, *info_key, *info_json, context);
+  });
 
   auto sign_path = std::make_shared<std::string>();
   auto sign_key = std::make_shared<std::string>();

@@ -24,6 +24,7 @@ struct FlashOptions {
   int retries{2};
   double confirm_timeout_s{60};
   int timeout_ms{1000};
+  bool quiet{false};  // no progress and no step lines (warnings and errors stay)
 };
 
 // Exit statuses (docs/flashing.md). The old program runs on after each.
