@@ -187,12 +187,15 @@ double joint_panels(std::ostringstream& s, const Prediction& p, unsigned j, doub
   char label[64];
   std::snprintf(label, sizeof label, "tau%u [N m], RMSE %.4g", j + 1, p.rmse_filtered_Nm[j]);
   axis(s, kLeft, w, y, kPanelH, lo, hi, "tau" + std::to_string(j + 1) + " [N m]");
-  s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
-    << "\" font-size=\"11\" text-anchor=\"end\">" << label << "</text>\n";
   // The prediction wide and pale underneath, the measurement thin on top:
   // where the fit is good both stay visible.
   s << polyline(p.t_s, p.predicted_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, kPredicted, 3.0);
   s << polyline(p.t_s, p.measured_Nm[j], t0, t1, lo, hi, kLeft, w, y, kPanelH, kMeasured, 1.0);
+  // The panel's name over the traces, with a white halo that keeps it legible.
+  s << "<text x=\"" << num(kLeft + w - 4) << "\" y=\"" << num(y + 14)
+    << "\" font-size=\"11\" text-anchor=\"end\" stroke=\"white\" stroke-width=\"3\" "
+       "paint-order=\"stroke\">"
+    << label << "</text>\n";
   time_grid(s, t0, t1, kLeft, w, y, kPanelH, false);
   y += kPanelH + 16;
   axis(s, kLeft, w, y, kResidH, -rmax, rmax, "resid. [N m]");
@@ -244,7 +247,7 @@ void legend(std::ostringstream& s, double x, double y) {
       << "\"/>\n";
     s << "<text x=\"" << num(at + 30) << "\" y=\"" << num(y) << "\" font-size=\"12\">" << it.label
       << "</text>\n";
-    at += 30 + 8.0 * static_cast<double>(std::string(it.label).size()) + 16;
+    at += 30 + 6.6 * static_cast<double>(std::string(it.label).size()) + 24;
   }
 }
 
