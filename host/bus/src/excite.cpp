@@ -320,8 +320,7 @@ int run_excite(const ExciteOptions& a, std::ostream& out, std::ostream& err) {
     rec.log.metadata.emplace_back("trajectory_file", a.trajectory_file);
   if (run.ending.empty()) add_tracking(link, run.run_id, rec.log);
   const std::string path = run.ending.empty() ? a.out_path : delta::partial_log_path(a.out_path);
-  write_delta_log_atomically(path, rec.log);
-  if (!a.raw_path.empty()) delta::write_file_atomically(a.raw_path, rec.raw);
+  write_recording(path, rec.log, a.raw_path, rec.raw);
   return report(a, run, rec, recording.expected(), rate_hz, path, out, err);
 }
 

@@ -251,6 +251,18 @@ void report_emergencies(std::ostream& err, const std::string& who, const RecordS
   }
 }
 
+void write_recording(const std::string& log_path, const DeltaLog& log, const std::string& raw_path,
+                     std::string_view raw) {
+  delta::AtomicFileWriter log_file(log_path);
+  write_delta_log(log_file, log);
+  std::optional<delta::AtomicFileWriter> raw_file;
+  if (!raw_path.empty()) {
+    raw_file.emplace(raw_path);
+    raw_file->write(raw);
+  }
+  delta::commit_together({&log_file, raw_file ? &*raw_file : nullptr});
+}
+
 nlohmann::json json_summary(const RecordSummary& s) {
   using nlohmann::json;
   const auto runs = [](const std::vector<std::pair<std::uint64_t, std::uint64_t>>& v) {
@@ -304,8 +316,7 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
 
 RecordSummary record(const RecordOptions& o, const std::function<void()>& ready) {
   Recording r = capture(o, ready);
-  write_delta_log_atomically(o.out_path, r.log);
-  if (o.raw_path) delta::write_file_atomically(*o.raw_path, r.raw);
+  write_recording(o.out_path, r.log, o.raw_path.value_or(""), r.raw);
   return r.summary;
 }
 

@@ -638,8 +638,13 @@ std::string format_delta_log(const DeltaLog& log) {
 }
 
 void write_delta_log_atomically(const std::string& path, const DeltaLog& log) {
-  constexpr std::size_t kPiece = 1 << 20;
   delta::AtomicFileWriter w(path);
+  write_delta_log(w, log);
+  w.commit();
+}
+
+void write_delta_log(delta::AtomicFileWriter& w, const DeltaLog& log) {
+  constexpr std::size_t kPiece = 1 << 20;
   std::string text;
   text.reserve(kPiece + 4096);
   append_metadata(log, text);
@@ -652,7 +657,6 @@ void write_delta_log_atomically(const std::string& path, const DeltaLog& log) {
     }
   }
   w.write(text);
-  w.commit();
 }
 
 void release_samples(DeltaLog& log) {

@@ -5,8 +5,10 @@
 
 #include <sys/types.h>
 
+#include <initializer_list>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace delta {
 
@@ -33,6 +35,7 @@ class AtomicFileWriter {
 
   void write(std::string_view piece);  // InputError on failure (the temporary is removed)
   void commit();                       // flush, rename over path, flush the folder
+  const std::string& path() const { return path_; }
 
  private:
   [[noreturn]] void fail(const char* what);
@@ -42,6 +45,15 @@ class AtomicFileWriter {
   int fd_{-1};
   int slot_{-1};
 };
+
+// Commits several writers as one: SIGINT and SIGTERM are held back from
+// the first rename until the last file is in place, so that an
+// interruption leaves all of them whole or (before) none of them.
+void commit_together(std::initializer_list<AtomicFileWriter*> writers);
+
+// A command's several outputs, written so (e.g. a result and its plot).
+void write_files_atomically(
+    std::initializer_list<std::pair<const std::string*, std::string_view>> files);
 
 // Makes SIGINT and SIGTERM remove the temporary files write_file_atomically
 // has open before the process ends by the signal as it would have, so that

@@ -9,6 +9,8 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <memory>
+#include <vector>
 
 #include "delta/input_error.hpp"
 
@@ -162,6 +164,50 @@ void write_file_atomically(const std::string& path, std::string_view content, mo
   AtomicFileWriter w(path, mode);
   w.write(content);
   w.commit();
+}
+
+namespace {
+
+// SIGINT and SIGTERM held back while it lives; one that came meanwhile is
+// delivered when it ends.
+class HeldSignals {
+ public:
+  HeldSignals() {
+    sigset_t held;
+    sigemptyset(&held);
+    sigaddset(&held, SIGINT);
+    sigaddset(&held, SIGTERM);
+    ::sigprocmask(SIG_BLOCK, &held, &before_);
+  }
+  HeldSignals(const HeldSignals&) = delete;
+  HeldSignals& operator=(const HeldSignals&) = delete;
+  ~HeldSignals() { ::sigprocmask(SIG_SETMASK, &before_, nullptr); }
+
+ private:
+  sigset_t before_{};
+};
+
+}  // namespace
+
+void commit_together(std::initializer_list<AtomicFileWriter*> writers) {
+  const HeldSignals held;
+  for (AtomicFileWriter* w : writers) {
+    if (w != nullptr) w->commit();
+  }
+}
+
+void write_files_atomically(
+    std::initializer_list<std::pair<const std::string*, std::string_view>> files) {
+  // Every temporary written first (an interruption removes them), then all
+  // renamed at once.
+  std::vector<std::unique_ptr<AtomicFileWriter>> writers;
+  for (const auto& [path, content] : files) {
+    if (path == nullptr || path->empty()) continue;
+    writers.push_back(std::make_unique<AtomicFileWriter>(*path));
+    writers.back()->write(content);
+  }
+  const HeldSignals held;
+  for (const auto& w : writers) w->commit();
 }
 
 std::string output_path_problem(const std::string& path) {

@@ -168,6 +168,11 @@ struct RecordSummary {
 // One line per run of lost samples, per run of stale ones left out and for
 // the cycles cut off at the end, each starting with `who` ("host_id record").
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s);
+// A recording's files: the log, and the candump text where raw_path is
+// given, both or (interrupted before) neither.
+void write_recording(const std::string& log_path, const DeltaLog& log, const std::string& raw_path,
+                     std::string_view raw);
+
 // The summary as JSON, for --json (record, excite): samples, frames,
 // seconds, lost and stale (with their runs of seq), cut-off cycles, drops,
 // currents, emergencies.

@@ -267,10 +267,14 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
       j["other_models"].push_back(json_report(results[i]));
     }
   }
-  if (!a.out_path.empty()) delta::write_file_atomically(a.out_path, j.dump(2) + "\n");
-  if (!a.plot_path.empty()) {
-    delta::write_file_atomically(
-        a.plot_path, svg_torque_plot(r.predictions, "host_id fit, model " + r.options.model.name));
+  {
+    // Both or neither, even when interrupted.
+    const std::string json_text = a.out_path.empty() ? "" : j.dump(2) + "\n";
+    const std::string plot_text =
+        a.plot_path.empty()
+            ? ""
+            : svg_torque_plot(r.predictions, "host_id fit, model " + r.options.model.name);
+    delta::write_files_atomically({{&a.out_path, json_text}, {&a.plot_path, plot_text}});
   }
   if (a.json) {
     out << j.dump(2) << "\n";

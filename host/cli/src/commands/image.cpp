@@ -151,8 +151,11 @@ void run_keygen(const std::string& secret_path, const std::string& public_path,
     throw UsageError("image keygen: " + secret_path + " exists; not overwriting a secret key");
   }
   const up::KeyPair k = up::generate_key_pair();
-  delta::write_file_atomically(secret_path, up::key_text(k.seed), 0600);  // owner only
-  delta::write_file_atomically(public_path, up::key_text(k.public_key));
+  // Both or neither; the secret readable by its owner only.
+  delta::AtomicFileWriter secret(secret_path, 0600), public_key(public_path);
+  secret.write(up::key_text(k.seed));
+  public_key.write(up::key_text(k.public_key));
+  delta::commit_together({&secret, &public_key});
   context.out << "secret key: " << secret_path << " (keep it off the controller)\n"
               << "public key: " << public_path
               << " (verifies signatures: host_id image info --public-key)\n";

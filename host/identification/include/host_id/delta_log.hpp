@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "delta/atomic_file.hpp"
 #include "delta/geometry.hpp"
 
 namespace host_id {
@@ -69,6 +70,8 @@ std::string format_delta_log(const DeltaLog& log);
 // The same, written to path atomically a piece at a time: the text of an
 // hour-long log is never held whole (docs/dev/performance.md).
 void write_delta_log_atomically(const std::string& path, const DeltaLog& log);
+// Into a writer the caller commits (with other outputs: commit_together).
+void write_delta_log(delta::AtomicFileWriter& w, const DeltaLog& log);
 
 // Frees the sample columns (t, q, tau, qd, qdd, seq, extra columns); the
 // name, metadata and gaps stay.
