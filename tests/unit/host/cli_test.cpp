@@ -13,6 +13,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "delta/atomic_file.hpp"
 #include "delta/input_error.hpp"
@@ -241,6 +242,40 @@ TEST_F(CliTest, BadLogFailsWithFileLineColumnAndWritesNothing) {
             1);
   EXPECT_NE(err_.str().find("missing.csv: cannot open"), std::string::npos);
   EXPECT_FALSE(exists("r.json"));
+}
+
+// fit --calibrate-torque: the empty and the loaded robot (the shipped
+// robot description, and the same with 0.5 kg on the platform) give each
+// joint's torque scale, 1 here; the usage errors name what is missing.
+TEST_F(CliTest, CalibratesTheTorqueScaleWithAKnownPayload) {
+  auto robot =
+      nlohmann::json::parse(delta::read_whole_file(DELTA_SOURCE_DIR "/docs/examples/robot.json"));
+  robot["payload"]["mass_kg"] = 0.5;
+  delta::write_file_atomically(path("loaded.json"), robot.dump());
+  for (const auto& [name, robot_path, seed] :
+       {std::tuple{"empty.csv", std::string(DELTA_SOURCE_DIR "/docs/examples/robot.json"), "1"},
+        std::tuple{"loaded.csv", path("loaded.json"), "2"}}) {
+    ASSERT_EQ(run({"simulate", "-o", path(name), "--duration", "12", "--robot", robot_path,
+                   "--seed", seed, "--torque-noise", "0.01"}),
+              0)
+        << err_.str();
+  }
+  ASSERT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
+                 "--payload-mass", "0.5", "--method", "ls", "--json", "-o", path("scale.json")}),
+            0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  for (unsigned k = 0; k < 3; ++k) {
+    EXPECT_NEAR(j["torque_scale"][k].get<double>(), 1.0, 0.01) << k;
+    EXPECT_GT(j["torque_scale_std"][k].get<double>(), 0.0);
+  }
+  EXPECT_TRUE(j["parameters_true_units"].contains("platform_weight_mass"));
+  EXPECT_EQ(nlohmann::json::parse(delta::read_whole_file(path("scale.json"))), j);
+  EXPECT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv")}), 2);
+  EXPECT_NE(err_.str().find("--calibrate-torque needs --payload-mass KG"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("empty.csv"), "--payload-mass", "0.5"}), 2);
+  EXPECT_NE(err_.str().find("--payload-mass goes with --calibrate-torque"), std::string::npos);
 }
 
 TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {

@@ -96,5 +96,83 @@ TEST(PayloadTest, APaper14BaseIsRefused) {
       delta::InputError);
 }
 
+// The inverse use: a payload of known mass gives each joint's torque scale.
+// Both logs' torques are scaled per joint, as wrong motor constants would
+// scale them; the scale comes back, and the robot's parameters in true
+// units (the unloaded platform mass).
+TEST(PayloadTest, AKnownPayloadCalibratesEachJointsTorqueScale) {
+  const delta::LumpedParameters unloaded = delta::default_lumped_parameters();
+  delta::LumpedParameters loaded = unloaded;
+  loaded.platform_mass_kg += 0.5;
+  const FitOptions options = test::least_squares();
+  const auto model = make_model(options.model);
+  for (const std::array<double, 3> s :
+       {std::array<double, 3>{1.0, 1.0, 1.0}, std::array<double, 3>{1.06, 0.95, 1.12}}) {
+    DeltaLog u = log_with(unloaded, 51, 20.0);
+    DeltaLog l = log_with(loaded, 52, 20.0, "pick-and-place");
+    for (DeltaLog* log : {&u, &l}) {
+      for (unsigned j = 0; j < 3; ++j) {
+        for (double& tau : log->tau[j]) tau *= s[j];
+      }
+    }
+    const TorqueScaleResult r =
+        fit_torque_scale(*model, u, l, 0.5, options.prepare, min_speed_for(options));
+    std::cout << "[ scale   ] truth " << s[0] << " " << s[1] << " " << s[2] << ": " << r.scale[0]
+              << " " << r.scale[1] << " " << r.scale[2] << " (std " << r.scale_std[0] << ")\n";
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_NEAR(r.scale[j], s[j], 0.005 * s[j]) << j;
+      EXPECT_GT(r.scale_std[j], 0.0);
+      EXPECT_LT(std::abs(r.scale[j] - s[j]), 4.0 * r.scale_std[j] + 1e-4) << j;
+    }
+    for (std::size_t c = 0; c < model->size(); ++c) {
+      const std::string& name = model->parameters()[c].name;
+      if (name == "platform_mass" || name == "platform_weight_mass") {
+        EXPECT_NEAR(r.beta(static_cast<Eigen::Index>(c)), unloaded.platform_mass_kg, 0.01) << name;
+      }
+    }
+  }
+  // The scale is as good as the mass given: 10 % too heavy, 10 % too small.
+  const TorqueScaleResult heavy =
+      fit_torque_scale(*model, log_with(unloaded, 51, 20.0), log_with(loaded, 52, 20.0), 0.55,
+                       options.prepare, min_speed_for(options));
+  EXPECT_NEAR(heavy.scale[0], 0.5 / 0.55, 0.01);
+  EXPECT_THROW(fit_torque_scale(*model, log_with(unloaded, 53, 10.0), log_with(loaded, 54, 10.0),
+                                0.0, options.prepare, min_speed_for(options)),
+               delta::InputError);
+}
+
+// The same on the multibody robot (forearm rods as bodies, which no fitted
+// model contains exactly), with the default delta model.
+TEST(PayloadTest, OnTheMultibodyRobotAKnownPayloadCalibratesTheTorqueScale) {
+  const delta::RobotDescription robot = delta::default_robot_description();
+  const FitOptions options = test::least_squares(test::model_named("delta"));
+  delta::RobotDescription loaded = robot;
+  loaded.payload.mass_kg = 0.5;
+  loaded.payload.com_m = {0.0, 0.0, -0.02};
+  const std::array<double, 3> s{1.06, 0.95, 1.12};
+  const auto scaled = [&](DeltaLog log) {
+    for (unsigned j = 0; j < 3; ++j) {
+      for (double& tau : log.tau[j]) tau *= s[j];
+    }
+    return log;
+  };
+  SimulateOptions o;
+  o.plant = SimulatedPlant::kMujoco;
+  o.robot = loaded;
+  o.duration_s = 20.0;
+  o.torque_noise = 0.015;
+  o.encoder_bits = 17;
+  o.base_frequency_hz = 0.25;
+  o.seed = 8;
+  const DeltaLog with_payload = scaled(simulate_log(o));
+  const auto model = make_model(options.model);
+  const TorqueScaleResult r =
+      fit_torque_scale(*model, scaled(test::multibody_log(robot)), with_payload, 0.5,
+                       options.prepare, min_speed_for(options));
+  std::cout << "[ scale   ] multibody, truth 1.06 0.95 1.12: " << r.scale[0] << " " << r.scale[1]
+            << " " << r.scale[2] << " (std " << r.scale_std[0] << ")\n";
+  for (unsigned j = 0; j < 3; ++j) EXPECT_NEAR(r.scale[j], s[j], 0.01 * s[j]) << j;
+}
+
 }  // namespace
 }  // namespace host_id

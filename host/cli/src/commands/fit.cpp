@@ -52,6 +52,8 @@ struct FitArguments {
   std::string time_steps{"check"};
   std::optional<ModelSelection> selection;  // with --model auto
   std::string base_path;                    // --base: a payload on this fit
+  std::string calibrate_path;               // --calibrate-torque: the loaded log
+  double payload_mass_kg{0};                // --payload-mass, with --calibrate-torque
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
@@ -190,6 +192,16 @@ void add_output_options(CLI::App& c, FitArguments& a) {
                "on LOG.csv, everything else held (docs/identification.md, 'A payload'); --out "
                "then saves the base result with the payload added to the platform")
       ->check(CLI::ExistingFile)
+      ->group("output");
+  c.add_option("--calibrate-torque", a.calibrate_path,
+               "LOADED.csv: the same robot with a payload of known mass (--payload-mass): each "
+               "joint's torque scale (logged torque per true torque: motor constant x gear x "
+               "efficiency as configured against the truth), from LOG.csv (without the payload) "
+               "and this log together (docs/identification.md, 'A payload')")
+      ->check(CLI::ExistingFile)
+      ->group("output");
+  c.add_option("--payload-mass", a.payload_mass_kg, "kg: the payload of --calibrate-torque")
+      ->check(kPositive)
       ->group("output");
   c.add_flag("--allow-other-geometry", a.allow_other_geometry,
              "go on (with a warning) where a --validate log or the --truth robot has another "
@@ -345,7 +357,73 @@ int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
   return 0;
 }
 
+// fit LOG.csv --calibrate-torque LOADED.csv --payload-mass KG: each joint's
+// torque scale, and the robot's parameters in true units.
+int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err) {
+  if (!(a.payload_mass_kg > 0.0)) {
+    throw UsageError("--calibrate-torque needs --payload-mass KG, the payload's known mass");
+  }
+  const FitOptions f = fit_options(a);
+  const auto model = make_model(f.model);
+  const DeltaLog unloaded = read_delta_log(a.log);
+  const DeltaLog loaded = read_delta_log(a.calibrate_path);
+  check_geometry(a.calibrate_path, loaded.geometry, a.log + " has", unloaded.geometry,
+                 a.allow_other_geometry, err);
+  warn_about_log(err, unloaded, f.prepare.time_steps);
+  warn_about_log(err, loaded, f.prepare.time_steps);
+  const TorqueScaleResult s = fit_torque_scale(*model, unloaded, loaded, a.payload_mass_kg,
+                                               f.prepare, min_speed_for(f), f.threads);
+  nlohmann::json params = nlohmann::json::object();
+  for (std::size_t c = 0; c < model->size(); ++c) {
+    params[model->parameters()[c].name] = s.beta(static_cast<Eigen::Index>(c));
+  }
+  const nlohmann::json j{{"unloaded", a.log},
+                         {"loaded", a.calibrate_path},
+                         {"payload_mass_kg", a.payload_mass_kg},
+                         {"model", f.model.name},
+                         {"torque_scale", s.scale},
+                         {"torque_scale_std", s.scale_std},
+                         {"parameters_true_units", params},
+                         {"equations", s.equations},
+                         {"rmse_Nm", s.rmse_Nm}};
+  if (!a.out_path.empty()) delta::write_file_atomically(a.out_path, j.dump(2) + "\n");
+  if (a.json) {
+    out << j.dump(2) << "\n";
+    return 0;
+  }
+  char line[200];
+  out << "host_id fit: torque scale from " << a.log << " (no payload) and " << a.calibrate_path
+      << " (" << a.payload_mass_kg << " kg), model " << f.model.name << "; " << s.equations
+      << " equations\n";
+  out << "  joint  logged torque per true torque   what to do\n";
+  for (unsigned k = 0; k < 3; ++k) {
+    std::snprintf(line, sizeof line,
+                  "  %u      %.4f, std dev %.2g (%.2g %%)      divide joint%u's torque scale "
+                  "(gear_ratio x rated_torque / rated_current x gearbox_efficiency) by %.4f\n",
+                  k + 1, s.scale[k], s.scale_std[k], 100.0 * s.scale_std[k] / s.scale[k], k + 1,
+                  s.scale[k]);
+    out << line;
+  }
+  std::snprintf(line, sizeof line, "  torque RMSE [N m, true units] %.5f %.5f %.5f\n", s.rmse_Nm[0],
+                s.rmse_Nm[1], s.rmse_Nm[2]);
+  out << line;
+  if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
+  return 0;
+}
+
 int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  if (!a.calibrate_path.empty()) {
+    if (a.models.size() > 1 || a.models.front() == "auto" || !a.validate.empty() ||
+        !a.plot_path.empty() || !a.truth_path.empty() || !a.base_path.empty()) {
+      throw UsageError(
+          "--calibrate-torque: one model (delta or lumped); not with --validate, --plot, "
+          "--truth or --base");
+    }
+    return run_calibration(a, out, err);
+  }
+  if (a.payload_mass_kg > 0.0) {
+    throw UsageError("--payload-mass goes with --calibrate-torque LOADED.csv");
+  }
   if (!a.base_path.empty()) {
     if (a.models.size() > 1 || a.models.front() != "delta" || !a.validate.empty() ||
         !a.plot_path.empty() || !a.truth_path.empty()) {

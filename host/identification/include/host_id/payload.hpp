@@ -35,4 +35,25 @@ PayloadResult fit_payload(const Model& model, const Eigen::VectorXd& beta, const
 // The base's parameters with the payload's mass added to the platform's.
 Eigen::VectorXd with_payload(const Model& model, const Eigen::VectorXd& beta, double mass_kg);
 
+// The inverse use: with a payload of known mass, each joint's torque scale
+// (motor constant x gear x efficiency), which vendors often do not publish.
+// The logs' torque is taken as tau_log,j = s_j tau_j: the unloaded log and
+// the loaded one (the payload's mass known) together give, in one linear
+// least-squares problem,
+//   w_j tau_log,j - Psi_j beta = m phi_j (loaded rows), 0 (unloaded rows),
+// for w_j = 1 / s_j and the robot's parameters beta in true units, where
+// phi_j is the platform's mass columns (inertial and weight).
+struct TorqueScaleResult {
+  std::array<double, 3> scale{};      // s_j: logged torque per true torque
+  std::array<double, 3> scale_std{};  // its standard deviation
+  Eigen::VectorXd beta;               // the robot's parameters, in true units
+  Eigen::VectorXd beta_std;
+  std::size_t equations{0};
+  std::array<double, 3> rmse_Nm{};  // of the joint fit, true torque units
+};
+TorqueScaleResult fit_torque_scale(const Model& model, const DeltaLog& unloaded,
+                                   const DeltaLog& loaded, double payload_mass_kg,
+                                   const PrepareOptions& prepare, double min_speed_rad_s,
+                                   unsigned threads = 0);
+
 }  // namespace host_id
