@@ -168,8 +168,6 @@ Q12_19 friction(const ModelQ& model, unsigned j, Q10_21 qd) {
              mul<Q12_19>(m.coulomb_friction_Nm[j], sign);
   if (model.inverse_stribeck_s_per_rad.raw() > 0) {
     const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
-    // Beyond |v| = 5, exp(-v^2) < 2e-11 (below one LSB): no term.
-    if (abs(v) >= Q10_21::from_int(5)) return f;
     const Q1_30 decay = exp_neg(mul<Q10_21>(v, v));
     f += mul<Q12_19>(m.stribeck_friction_Nm[j], mul<Q1_30>(decay, sign));
   }

@@ -276,8 +276,6 @@ Q1_30 exp_neg(Q10_21 x) {
 Q1_30 tanh(Q10_21 x) {
   const bool negative = x.raw() < 0;
   const Q10_21 magnitude = negative ? -x : x;
-  // From 12 on, 1 - tanh(x) < 2 e^-24 < 0.1 LSB: the result is +/-1.
-  if (magnitude >= Q10_21::from_int(12)) return Q1_30::from_raw(negative ? -(1 << 30) : 1 << 30);
   // (1 - t) / (1 + t) with 1 + t = 2 D, D = (1 + t) / 2 in [1/2, 1].
   const std::int64_t t = exp_neg(magnitude.scaled_by(2)).raw();
   const auto den = static_cast<std::uint32_t>((kOneQ30 + t) << 1);  // D in Q0.32
