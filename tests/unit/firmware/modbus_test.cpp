@@ -26,6 +26,7 @@
 
 #include "delta/atomic_file.hpp"
 #include "delta/custom_trajectory_block.hpp"
+#include "delta/model_q.hpp"
 #include "delta/modbus/register_map.hpp"
 #include "delta/trajectory_file.hpp"
 #include "fw_linux/control_panel.hpp"
@@ -57,6 +58,10 @@ class LoopThread {
         rig_.bus.make_late(late ? delta::can::protocol::cob_id(delta::can::protocol::kTpdo1, 3)
                                 : ~0u);
         rig_.cycle();
+        if (next_feed_forward_.load()) {
+          EXPECT_TRUE(rig_.controller.set_feed_forward(feed_forward_));
+          next_feed_forward_.store(false);
+        }
         coordinator_.after_step(rig_.controller, rig_.hw, rig_.master);
         cycles_.fetch_add(1);
         std::this_thread::sleep_for(std::chrono::microseconds(50));  // pacing, like the timer
@@ -71,6 +76,12 @@ class LoopThread {
   SimulatedSafetyIo& io() { return rig_.io; }
   // The next n cycles get node 3's feedback after their deadline.
   void make_late(int n) { late_cycles_.store(n); }
+  // The controller's feed-forward changed between two cycles, as a model
+  // loaded over the bus changes it.
+  void set_feed_forward(const fw::FeedForwardConfig& f) {
+    feed_forward_ = f;
+    next_feed_forward_.store(true);
+  }
 
  private:
   Rig rig_;
@@ -79,6 +90,8 @@ class LoopThread {
   std::atomic<bool> stop_{false};
   std::atomic<std::uint64_t> cycles_{0};
   std::atomic<int> late_cycles_{0};
+  fw::FeedForwardConfig feed_forward_{};
+  std::atomic<bool> next_feed_forward_{false};
   std::thread thread_;
 };
 
@@ -287,6 +300,29 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   EXPECT_EQ(value(r.data(), "model_fit_id"), 0);
   EXPECT_NE(out.str().find("  feed-fwd   nominal\n"), std::string::npos) << out.str();
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
+}
+
+// A trajectory the server checked against the nominal feed-forward, then a
+// model loaded before the start: the server checks it again against the
+// model (in its own thread, not in the control loop) and the run starts.
+TEST_F(Fixture, ATrajectoryCheckedBeforeAModelWasLoadedIsCheckedAgainAtItsStart) {
+  ASSERT_EQ(client.write(mb::kTrajectory, 1), 0);  // checked now, nominal feed-forward
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = delta::kDefaultGeometry;
+  m.parameters = delta::to_high_fidelity(delta::default_lumped_parameters());
+  const fw::ControllerConfig core = controller_config(modbus_config());
+  fw::FeedForwardConfig model = core.feed_forward;
+  model.mode = fw::FeedForwardMode::kModel;
+  model.model = delta::fx::prepare_model(core.geometry, delta::model_parameters_q(m));
+  loop.set_feed_forward(model);
+  ASSERT_TRUE(poll_until(client, [](const std::uint16_t* x) {
+    return value(x, "feed_forward_mode") == static_cast<int>(fw::FeedForwardMode::kModel);
+  }));
+  ASSERT_EQ(client.write(mb::kCommand, 1), 0)
+      << modbus_strerror(errno) << ", last rejection " << client.input("last_rejection");
+  EXPECT_EQ(client.input("run_result"), static_cast<int>(mb::RunResult::kRunning));
+  ASSERT_EQ(client.write(mb::kCommand, 2), 0);
 }
 
 TEST_F(Fixture, StaleRecordsAreCountedInTheirRegister) {

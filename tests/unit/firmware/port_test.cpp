@@ -14,6 +14,7 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/modbus/register_map.hpp"
+#include "delta/model_q.hpp"
 #include "delta/trajectory_file.hpp"
 #include "emu/emulator.hpp"
 #include "emu/frame_pump.hpp"
@@ -734,6 +735,39 @@ TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
     EXPECT_LT(largest[j], 0.02);  // as the run test above measures through the bus
     EXPECT_NEAR(largest[j], std::ldexp(t.max_abs_rad[j].raw(), -28), 1e-5 * largest[j]);  // %.6g
   }
+}
+
+// A command-line run checked at start, then a model loaded before it
+// starts: the controller refuses it (its check covered another
+// feed-forward, and a check's walk does not belong in the control loop),
+// and delta_fw says why and what to do.
+TEST(InProcessPortTest, ARunCheckedBeforeAModelWasLoadedIsRefusedWithItsReason) {
+  Rig rig;
+  const auto traj = named_trajectory("path2", Rig::config());
+  ASSERT_TRUE(traj.has_value());
+  std::ostringstream messages;
+  const fw::ControllerConfig core = controller_config(Rig::config());
+  std::vector<NamedRun> runs;
+  runs.push_back({"path2", fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *traj)});
+  RunCoordinator coordinator(std::move(runs), true, nullptr, messages);
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = delta::kDefaultGeometry;
+  m.parameters = delta::to_high_fidelity(delta::default_lumped_parameters());
+  fw::FeedForwardConfig model = core.feed_forward;
+  model.mode = fw::FeedForwardMode::kModel;
+  model.model = delta::fx::prepare_model(core.geometry, delta::model_parameters_q(m));
+  ASSERT_TRUE(rig.controller.set_feed_forward(model));  // before the first cycle: boot
+  for (int i = 0; i < 20000 && !coordinator.exit_code(); ++i) {
+    rig.cycle();
+    coordinator.after_step(rig.controller, rig.hw, rig.master);
+  }
+  EXPECT_EQ(coordinator.exit_code(), kExitRejected);
+  EXPECT_NE(messages.str().find("trajectory 'path2' rejected: it was checked at start against "
+                                "another feed-forward (a model was loaded since); start "
+                                "delta_fw again"),
+            std::string::npos)
+      << messages.str();
 }
 
 TEST(InProcessPortTest, DrivesWithTheIdentityOfTheirEdsComeUp) {

@@ -61,9 +61,14 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
   if (state == fw::State::kReady && !run_active_) {
     if (next_run_ < runs_.size() && exit_code_ == std::nullopt) {
       const NamedRun& run = runs_[next_run_];
-      const fw::StartResult r = start_checked(c, run.trajectory);
+      const fw::StartResult r = c.start(run.trajectory);
       if (!r.accepted) {
-        out_ << "delta_fw: trajectory '" << run.name << "' rejected: " << describe_check(r.check)
+        out_ << "delta_fw: trajectory '" << run.name << "' rejected: "
+             << (run.trajectory.checked_against(c.bounds())
+                     ? describe_check(r.check)
+                     : std::string("it was checked at start against another feed-forward (a "
+                                   "model was loaded since); start delta_fw again to run it "
+                                   "with the model in use"))
              << "\n";
         exit_code_ = kExitRejected;
         return;
@@ -130,14 +135,6 @@ void RunCoordinator::print_tracking(const fw::TrackingStats& t) {
   out_ << text;
 }
 
-// Starts a trajectory checked before (at start-up, or by the Modbus server),
-// checked again where the controller's bounds changed since: a model loaded
-// over the bus between runs changes the feed-forward the check covers.
-fw::StartResult RunCoordinator::start_checked(Controller& c, const fw::CheckedTrajectory& t) {
-  if (t.checked_against(c.bounds())) return c.start(t);
-  return c.start(fw::CheckedTrajectory::check(c.bounds(), t.config()));
-}
-
 CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command) {
   CommandVerdict v;
   switch (command.kind) {
@@ -146,7 +143,10 @@ CommandVerdict RunCoordinator::handle(Controller& c, const PanelCommand& command
         v.why = mb::Rejection::kWrongState;
         return v;
       }
-      const fw::StartResult r = start_checked(c, *command.trajectory);
+      // The Modbus server checked it against the feed-forward in use; a
+      // model loaded in between makes the controller refuse it (the walk
+      // does not belong in the control loop), and the client starts again.
+      const fw::StartResult r = c.start(*command.trajectory);
       if (!r.accepted) {
         v.why = r.wrong_state ? mb::Rejection::kWrongState : mb::Rejection::kTrajectoryLimit;
         v.check = r.check;

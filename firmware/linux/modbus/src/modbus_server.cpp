@@ -218,7 +218,14 @@ bool RegisterBank::serve(modbus_t* ctx, const std::uint8_t* request, int length,
   }
 }
 
+fw::TrajectoryBounds RegisterBank::bounds(const PanelStatus& status) const {
+  fw::TrajectoryBounds b = fw::trajectory_bounds(core_);
+  b.feed_forward = status.feed_forward;  // the one in use, maybe a model loaded over the bus
+  return b;
+}
+
 std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
+                                                         const PanelStatus& status,
                                                          fw::TrajectoryCheck& check) const {
   const std::vector<std::string> names = trajectory_names();
   try {
@@ -228,9 +235,7 @@ std::optional<fw::CheckedTrajectory> RegisterBank::build(const Settings& s,
             ? std::optional(custom_trajectory(s.custom.data(), config_, params))
             : named_trajectory(names.at(s.trajectory), config_, params);
     if (!t) throw ConfigError("unknown trajectory");
-    fw::TrajectoryBounds bounds = fw::trajectory_bounds(core_);
-    bounds.feed_forward = panel_.status().feed_forward;  // a model loaded over the bus
-    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(bounds, *t);
+    fw::CheckedTrajectory c = fw::CheckedTrajectory::check(bounds(status), *t);
     check = c.result();
     if (!c.ok()) return std::nullopt;
     return c;
@@ -306,9 +311,13 @@ bool RegisterBank::write(modbus_t* ctx, const std::uint8_t* request, std::uint16
     return refuse(ctx, request, mb::Rejection::kWrongState, first);
   }
   std::optional<fw::CheckedTrajectory> checked = checked_;
-  if (changed || (command == mb::Command::kStart && !checked)) {
+  // Checked again (here, not in the control loop) where the controller's
+  // bounds changed since: a model loaded over the bus changes the
+  // feed-forward the check covers.
+  const bool stale = checked && !checked->checked_against(bounds(status));
+  if (changed || (command == mb::Command::kStart && (!checked || stale))) {
     fw::TrajectoryCheck check;
-    checked = build(next, check);
+    checked = build(next, status, check);
     if (!checked) return refuse(ctx, request, mb::Rejection::kTrajectoryLimit, first, check);
   }
   settings_ = next;

@@ -46,7 +46,6 @@ class RunCoordinator {
   bool unfinished() const { return running_cli_ || next_run_ < runs_.size(); }
 
  private:
-  static fw::StartResult start_checked(Controller& c, const fw::CheckedTrajectory& t);
   CommandVerdict handle(Controller& controller, const PanelCommand& command);
   void track_run(const Controller& controller);
   void print_tracking(const fw::TrackingStats& tracking);

@@ -76,7 +76,11 @@ class RegisterBank {
              const std::uint16_t* values, unsigned count);
   bool refuse(_modbus* ctx, const std::uint8_t* request, delta::modbus::Rejection why,
               std::uint16_t address, const fw::TrajectoryCheck& check = {});
-  std::optional<fw::CheckedTrajectory> build(const Settings& s, fw::TrajectoryCheck& check) const;
+  // What a trajectory is checked against: the controller's bounds with the
+  // feed-forward the status says is in use.
+  fw::TrajectoryBounds bounds(const PanelStatus& status) const;
+  std::optional<fw::CheckedTrajectory> build(const Settings& s, const PanelStatus& status,
+                                             fw::TrajectoryCheck& check) const;
   void refresh();
 
   const PortConfig config_;
