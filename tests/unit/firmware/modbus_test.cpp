@@ -26,8 +26,8 @@
 
 #include "delta/atomic_file.hpp"
 #include "delta/custom_trajectory_block.hpp"
-#include "delta/model_q.hpp"
 #include "delta/modbus/register_map.hpp"
+#include "delta/model_q.hpp"
 #include "delta/trajectory_file.hpp"
 #include "fw_linux/control_panel.hpp"
 #include "fw_linux/modbus_server.hpp"
