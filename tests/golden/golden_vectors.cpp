@@ -114,7 +114,8 @@ void reference_line(Line& l, const char* name, std::uint32_t tick, const JointRe
 }
 
 // The identified model's arithmetic: exp and tanh, the model's torques
-// along the pick-and-place reference with the states disturbed, and the
+// along the pick-and-place reference with the states disturbed (with the
+// platform's position and acceleration given, and without), and the
 // trajectory check of its feed-forward against a max torque it breaks.
 void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
   for (int i = 0; i < 32; ++i) {
@@ -134,6 +135,9 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
       r.qd_rad_s[j] = r.qd_rad_s[j] + Q10_21::from_raw(rng.in(-300000, 300000));
       r.qdd_rad_s2[j] = r.qdd_rad_s2[j] + Q14_17::from_raw(rng.in(-400000, 400000));
     }
+    // Every other state as a joint-space one: the model solves the forward
+    // kinematics and J qdd + J'q' itself.
+    if ((tick / 41) % 2 == 1) r.platform_known = false;
     Joint3Q12_19 tau{};
     const auto status = delta::fx::model_torque(m, r, tau);
     l.word("model").num(tick).num(static_cast<int>(status));

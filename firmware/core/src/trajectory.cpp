@@ -8,6 +8,7 @@ using delta::fx::convert;
 using delta::fx::div;
 using delta::fx::kTwoPi;
 using delta::fx::mul;
+using delta::fx::Q16_15;
 using delta::fx::sincos;
 using delta::fx::detail::saturate32;
 using delta::fx::detail::shift_round;
@@ -91,6 +92,12 @@ Q1_30 min_jerk_w(Q1_30 s, Q1_30 s2) {
   return mul<Q1_30>(s3, poly);
 }
 
+// d2w/ds2 = 60 s (1 - s)(1 - 2 s), at most 5.8.
+Q3_28 min_jerk_ddw(Q1_30 s) {
+  const Q1_30 one = Q1_30::from(1.0);
+  return mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, one - s)), one - s.scaled_by(2));
+}
+
 }  // namespace
 
 Q1_30 min_jerk_position(Q1_30 s) {
@@ -104,7 +111,7 @@ MinJerk min_jerk(Q1_30 s) {
   MinJerk r;
   r.w = min_jerk_w(s, s2);
   r.dw = mul<Q1_30>(mul<Q7_24>(Q7_24::from(30.0), s2), mul<Q1_30>(u, u));
-  r.ddw = mul<Q3_28>(mul<Q7_24>(Q7_24::from(60.0), mul<Q1_30>(s, u)), one - s.scaled_by(2));
+  r.ddw = min_jerk_ddw(s);
   return r;
 }
 
@@ -119,6 +126,11 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
     // w = 2 pi f: Q3.28 * mHz / 1000 -> Q10.21.
     base_omega_rad_s_ = Q10_21::from_raw(
         saturate32(shift_round(i64{kTwoPi.raw()} * config_.fourier.base_frequency_mHz, 7) / 1000));
+  } else {
+    // Segments per second, saturated (beyond 65536 the accelerations are
+    // far over any joint limit, which check_trajectory() refuses).
+    segments_per_second_ = Q16_15::from_raw(
+        saturate32((i64{ticks_per_second_} << 15) / config_.pick_and_place.segment_ticks));
   }
 }
 
@@ -197,6 +209,20 @@ KinematicsStatus Trajectory::cartesian_ik(std::int64_t tick, JointAnglesQ& q,
   return ik.status;
 }
 
+std::array<Q10_21, 3> Trajectory::cartesian_acceleration(std::uint32_t tick) const {
+  const auto& p = config_.pick_and_place;
+  const std::uint32_t seg = (tick / p.segment_ticks) % p.waypoints;
+  const Q1_30 s = delta::fx::ratio(tick % p.segment_ticks, p.segment_ticks);
+  const Q3_28 ddw = min_jerk_ddw(s);  // per segment^2
+  const Vec3Q& a = p.points[seg];
+  const Vec3Q& b = p.points[(seg + 1) % p.waypoints];
+  const auto per_s2 = [&](Q7_24 from, Q7_24 to) {
+    const Q10_21 per_segment = mul<Q10_21>(mul<Q10_21>(to - from, ddw), segments_per_second_);
+    return mul<Q10_21>(per_segment, segments_per_second_);
+  };
+  return {per_s2(a.x_m, b.x_m), per_s2(a.y_m, b.y_m), per_s2(a.z_m, b.z_m)};
+}
+
 KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& out) const {
   IkWindow& w = ik_window_;
   const i64 centre = tick;
@@ -223,6 +249,7 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   const std::uint32_t rate = ticks_per_second_;
   out.platform_known = true;
   out.platform_m = w.platform[1];
+  out.platform_acceleration_m_s2 = cartesian_acceleration(tick);
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).

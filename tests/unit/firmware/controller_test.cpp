@@ -372,7 +372,9 @@ TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajec
   // A heavy platform: the gravity terms alone ask for more than the limit.
   ControllerConfig heavy = config;
   heavy.feed_forward = model;
-  heavy.feed_forward.model.parameters.platform_weight_mass_kg = to_q<Q7_24>(20.0);
+  delta::fx::ModelParametersQ heavy_parameters = m;
+  heavy_parameters.platform_weight_mass_kg = to_q<Q7_24>(20.0);
+  heavy.feed_forward.model = delta::fx::prepare_model(heavy.geometry, heavy_parameters);
   const TrajectoryCheck c = check_trajectory(trajectory_bounds(heavy), excitation());
   EXPECT_EQ(c.fault, TrajectoryFault::kFeedForwardLimit);
   EXPECT_GE(c.joint, 0);

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 
 #include "delta/kinematics.hpp"
@@ -280,6 +281,54 @@ TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) 
   EXPECT_EQ(start.tick, 0u);
 }
 
+// The platform's acceleration a pick-and-place reference gives the model:
+// the minimum-jerk path's, and the same as J qdd + J'q' of the joint
+// reference (double kinematics at the same state) up to that reference's
+// own noise: its qdd is a central difference of fixed-point IK solutions
+// (about 1e-7 rad each), some 0.2 m/s^2 here. A wrong segment, sign or
+// time scale would be off by the size of the acceleration.
+TEST(TrajectoryTest, PickAndPlaceGivesThePlatformsAccelerationOfItsPath) {
+  const GeometryQ g = default_geometry();
+  const std::array<std::array<double, 3>, 2> pts{{{-0.08, 0.0, -0.48}, {0.08, 0.05, -0.42}}};
+  const TrajectoryConfig c = pick_and_place({pts[0], pts[1]}, 300, 1);
+  const Trajectory traj(g, c);
+  double worst_path = 0.0, worst_joints = 0.0, largest = 0.0;
+  for (std::uint32_t tick = 0; tick <= traj.length_ticks(); tick += 7) {
+    JointReference r;
+    ASSERT_EQ(traj.reference(tick, r), KinematicsStatus::kOk);
+    ASSERT_TRUE(r.platform_known);
+    const std::uint32_t seg = (tick / 300) % 2;
+    const double s = (tick % 300) / 300.0;
+    const double ddw = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / (0.3 * 0.3);  // per s^2
+    delta::JointVector<double> q{}, qd{}, qdd{};
+    for (unsigned j = 0; j < 3; ++j) {
+      q[j] = to_d(r.q_rad[j]);
+      qd[j] = to_d(r.qd_rad_s[j]);
+      qdd[j] = to_d(r.qdd_rad_s2[j]);
+    }
+    const delta::Vec3<double> p{to_d(r.platform_m.x_m), to_d(r.platform_m.y_m),
+                                to_d(r.platform_m.z_m)};
+    const auto vk = delta::velocity_kinematics(delta::kDefaultGeometry, q, qd, p);
+    const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
+    for (unsigned r3 = 0; r3 < 3; ++r3) {
+      const double given = to_d(r.platform_acceleration_m_s2[r3]);
+      const double path = (pts[1 - seg][r3] - pts[seg][r3]) * ddw;
+      double joints = jdq[r3];
+      for (unsigned j = 0; j < 3; ++j) joints += vk.jacobian(r3, j) * qdd[j];
+      worst_path = std::max(worst_path, std::abs(given - path));
+      worst_joints = std::max(worst_joints, std::abs(given - joints));
+      largest = std::max(largest, std::abs(path));
+    }
+  }
+  EXPECT_GT(largest, 1.0);                // m/s^2: the test sees real accelerations
+  EXPECT_LT(worst_path, 2e-5 * largest);  // rounding only
+  EXPECT_LT(worst_joints, 0.05 * largest);
+  std::printf(
+      "pick-and-place platform acceleration: largest %.3g m/s^2, from the path within %.2g,"
+      " from the joint reference within %.2g\n",
+      largest, worst_path, worst_joints);
+}
+
 // reference() keeps the IK of the last three ticks, so that stepping tick by
 // tick solves one new IK. The reference must not depend on what was asked
 // before: stepping, a scrambled order and a fresh Trajectory per tick agree
@@ -295,7 +344,8 @@ TEST(TrajectoryTest, PickAndPlaceReferenceDoesNotDependOnTheTicksAskedBefore) {
   const auto same = [](const JointReference& a, const JointReference& b) {
     for (unsigned j = 0; j < 3; ++j) {
       if (a.q_rad[j] != b.q_rad[j] || a.qd_rad_s[j] != b.qd_rad_s[j] ||
-          a.qdd_rad_s2[j] != b.qdd_rad_s2[j]) {
+          a.qdd_rad_s2[j] != b.qdd_rad_s2[j] ||
+          a.platform_acceleration_m_s2[j] != b.platform_acceleration_m_s2[j]) {
         return false;
       }
     }

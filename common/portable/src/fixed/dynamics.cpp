@@ -27,51 +27,82 @@ Vec3Unit cross(const Vec3Unit& a, const Vec3Unit& b) {
   return {c(a[1], b[2], a[2], b[1]), c(a[2], b[0], a[0], b[2]), c(a[0], b[1], a[1], b[0])};
 }
 
-// What one pose's kinematics give the dynamics terms: per chain the
-// forearm's direction n_k = d_k / b, the elbow's direction of motion
-// e_k / a = (-sin q u_k, -cos q z) and its derivative h_k / a =
-// (-cos q u_k, sin q z), and the velocity kinematics.
-struct PoseQ {
-  std::array<Vec3Unit, 3> arm_tangent{};      // e_k / a
-  std::array<Vec3Unit, 3> arm_curvature{};    // h_k / a
-  std::array<Vec3Unit, 3> forearm{};          // n_k
-  std::array<Vec3Unit, 3> inverse_columns{};  // adj(N): column k is n_k+1 x n_k+2
-  Q7_24 inverse_determinant{};                // 1 / det N, |.| <= 64
-  Q7_24 inverse_forearm_per_m{};              // 1 / b
-  VelocityKinematicsQ vk{};
-};
-
-void chain_directions(const GeometryQ& g, Q7_24 inverse_b, const std::array<SinCos, 3>& trig,
-                      const Vec3Q& p, PoseQ& out) {
-  out.inverse_forearm_per_m = inverse_b;
-  for (unsigned k = 0; k < 3; ++k) {
-    const Q1_30 c = trig[k].cos, s = trig[k].sin;
-    const Q1_30 ux = kChainCosQ[k], uy = kChainSinQ[k];
-    const Vec3Q elbow = elbow_position(g, static_cast<int>(k), trig[k]);
-    const Vec3Q d{p.x_m + mul<Q7_24>(g.platform_radius_m, ux) - elbow.x_m,
-                  p.y_m + mul<Q7_24>(g.platform_radius_m, uy) - elbow.y_m, p.z_m - elbow.z_m};
-    out.forearm[k] = {mul<Q1_30>(d.x_m, inverse_b), mul<Q1_30>(d.y_m, inverse_b),
-                      mul<Q1_30>(d.z_m, inverse_b)};
-    out.arm_tangent[k] = {-mul<Q1_30>(s, ux), -mul<Q1_30>(s, uy), -c};
-    out.arm_curvature[k] = {-mul<Q1_30>(c, ux), -mul<Q1_30>(c, uy), s};
-  }
+// Chain k's elbow moves along e_k = (-sin q u_k, -cos q) per radian of its
+// arm (over the arm's length a), and e_k turns along h_k = (-cos q u_k,
+// sin q): the elbow's acceleration is a (e_k qdd_k + h_k qd_k^2).
+Vec3Unit arm_tangent(unsigned k, const SinCos& t) {
+  return {-mul<Q1_30>(t.sin, kChainCosQ[k]), -mul<Q1_30>(t.sin, kChainSinQ[k]), -t.cos};
+}
+Vec3Unit arm_curvature(unsigned k, const SinCos& t) {
+  return {-mul<Q1_30>(t.cos, kChainCosQ[k]), -mul<Q1_30>(t.cos, kChainSinQ[k]), t.sin};
 }
 
-// J = A^-1 diag(d_k . e_k) with A = b N: J_rk = a adj(N)_rk (n_k . e_k / a) / det N.
-// J'q' = A^-1 rhs, rhs_k = (d_k . h_k) qd_k^2 - |pd - e_k qd_k|^2.
-KinematicsStatus pose_velocity_kinematics(const GeometryQ& g, const std::array<Q10_21, 3>& qd,
-                                          PoseQ& pose) {
-  const auto& n = pose.forearm;
-  for (unsigned k = 0; k < 3; ++k) pose.inverse_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
-  const Q1_30 det = narrowed<Q1_30>(dot_raw(n[0], pose.inverse_columns[0]), 30);
+// e_k . v for a vector v of any format, in v's format: -(sin q (u_k . v_xy)
+// + cos q v_z), with one rounding.
+template <class V>
+V along_arm(unsigned k, const SinCos& t, const std::array<V, 3>& v) {
+  const V radial = narrowed<V>(
+      i64{kChainCosQ[k].raw()} * v[0].raw() + i64{kChainSinQ[k].raw()} * v[1].raw(), 30);
+  return narrowed<V>(-(i64{t.sin.raw()} * radial.raw() + i64{t.cos.raw()} * v[2].raw()), 30);
+}
+
+// What one pose gives the dynamics: per chain the forearm's direction n_k
+// = d_k / b and its transmission t_k = n_k . e_k; the adjugate of N (the
+// matrix of rows n_k), whose column k is n_k+1 x n_k+2, and 1 / det N.
+// With them J = a adj(N) diag(t) / det N, and J^T F = a t_k (adj(N)^T
+// F)_k / det N: the constraint forces (lambda) at this very pose.
+struct PoseQ {
+  std::array<SinCos, 3> trig{};
+  std::array<Vec3Unit, 3> forearm{};
+  std::array<Vec3Unit, 3> adjugate_columns{};
+  std::array<Q1_30, 3> transmission{};
+  Q7_24 inverse_determinant{};              // |.| <= 64
+  std::array<Q7_24, 3> jacobian_scale_m{};  // a t_k / det N: J's column k is it times adj column k
+};
+
+KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ& q,
+                         const Vec3Q* position, PoseQ& pose) {
+  for (unsigned k = 0; k < 3; ++k) pose.trig[k] = sincos(q[k]);
+  Vec3Q p{};
+  if (position != nullptr) {
+    p = *position;
+  } else {
+    const ForwardKinematicsQ fk = forward_kinematics(g, pose.trig);
+    if (fk.status != KinematicsStatus::kOk) return fk.status;
+    p = fk.position;
+  }
+  auto& n = pose.forearm;
+  for (unsigned k = 0; k < 3; ++k) {
+    const Vec3Q elbow = elbow_position(g, static_cast<int>(k), pose.trig[k]);
+    const Vec3Q d{p.x_m + mul<Q7_24>(g.platform_radius_m, kChainCosQ[k]) - elbow.x_m,
+                  p.y_m + mul<Q7_24>(g.platform_radius_m, kChainSinQ[k]) - elbow.y_m,
+                  p.z_m - elbow.z_m};
+    n[k] = {mul<Q1_30>(d.x_m, inverse_b), mul<Q1_30>(d.y_m, inverse_b),
+            mul<Q1_30>(d.z_m, inverse_b)};
+  }
+  for (unsigned k = 0; k < 3; ++k) {
+    pose.adjugate_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
+  }
+  const Q1_30 det = narrowed<Q1_30>(dot_raw(n[0], pose.adjugate_columns[0]), 30);
   if (abs(det) < kMinForearmDeterminant) return KinematicsStatus::kSingular;
   pose.inverse_determinant = quotient<Q7_24>(Q1_30::from_raw(1 << 30), det);
   const Q7_24 scale_m = mul<Q7_24>(g.upper_arm_length_m, pose.inverse_determinant);
-  auto& J = pose.vk.jacobian_m_per_rad;
   for (unsigned k = 0; k < 3; ++k) {
-    const Q1_30 transmission = narrowed<Q1_30>(dot_raw(n[k], pose.arm_tangent[k]), 30);
+    pose.transmission[k] = narrowed<Q1_30>(dot_raw(n[k], arm_tangent(k, pose.trig[k])), 30);
+    pose.jacobian_scale_m[k] = mul<Q7_24>(scale_m, pose.transmission[k]);
+  }
+  return KinematicsStatus::kOk;
+}
+
+// J, pd = J qd and J'q' = A^-1 rhs with A = b N, rhs_k = (d_k . h_k) qd_k^2
+// - |pd - e_k qd_k|^2.
+VelocityKinematicsQ pose_velocity_kinematics(const GeometryQ& g, Q7_24 inverse_b,
+                                             const std::array<Q10_21, 3>& qd, const PoseQ& pose) {
+  VelocityKinematicsQ vk;
+  auto& J = vk.jacobian_m_per_rad;
+  for (unsigned k = 0; k < 3; ++k) {
     for (unsigned r = 0; r < 3; ++r) {
-      J[r][k] = mul<Q7_24>(mul<Q1_30>(pose.inverse_columns[k][r], transmission), scale_m);
+      J[r][k] = mul<Q7_24>(pose.jacobian_scale_m[k], pose.adjugate_columns[k][r]);
     }
   }
   Vec3Rate pd{};
@@ -80,84 +111,72 @@ KinematicsStatus pose_velocity_kinematics(const GeometryQ& g, const std::array<Q
   Vec3Rate rhs{};
   for (unsigned k = 0; k < 3; ++k) {
     const Q14_17 qd_sq = mul<Q14_17>(qd[k], qd[k]);
-    const Q7_24 d_dot_h = mul<Q7_24>(ab, narrowed<Q1_30>(dot_raw(n[k], pose.arm_curvature[k]), 30));
+    const Vec3Unit h = arm_curvature(k, pose.trig[k]);
+    const Vec3Unit e = arm_tangent(k, pose.trig[k]);
+    const Q7_24 d_dot_h = mul<Q7_24>(ab, narrowed<Q1_30>(dot_raw(pose.forearm[k], h), 30));
     Vec3Rate d_rate{};
     for (unsigned r = 0; r < 3; ++r) {
-      const Q7_24 e = mul<Q7_24>(g.upper_arm_length_m, pose.arm_tangent[k][r]);
-      d_rate[r] = pd[r] - mul<Q10_21>(e, qd[k]);
+      d_rate[r] = pd[r] - mul<Q10_21>(mul<Q7_24>(g.upper_arm_length_m, e[r]), qd[k]);
     }
     rhs[k] = mul<Q10_21>(d_dot_h, qd_sq) - narrowed<Q10_21>(dot_raw(d_rate, d_rate), 21);
   }
   // A^-1 rhs = adj(N) rhs / (b det N).
-  const Q7_24 inverse_b = pose.inverse_forearm_per_m;
   for (unsigned r = 0; r < 3; ++r) {
-    const std::array<Q1_30, 3> row{pose.inverse_columns[0][r], pose.inverse_columns[1][r],
-                                   pose.inverse_columns[2][r]};
+    const std::array<Q1_30, 3> row{pose.adjugate_columns[0][r], pose.adjugate_columns[1][r],
+                                   pose.adjugate_columns[2][r]};
     const Q10_21 w = narrowed<Q10_21>(dot_raw(row, rhs), 30);
-    pose.vk.jacobian_dot_qdot_m_s2[r] =
-        mul<Q10_21>(mul<Q10_21>(w, pose.inverse_determinant), inverse_b);
+    vk.jacobian_dot_qdot_m_s2[r] = mul<Q10_21>(mul<Q10_21>(w, pose.inverse_determinant), inverse_b);
   }
-  pose.vk.status = KinematicsStatus::kOk;
-  return KinematicsStatus::kOk;
+  vk.status = KinematicsStatus::kOk;
+  return vk;
 }
 
-KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ& q,
-                         const std::array<Q10_21, 3>& qd, const Vec3Q* position,
-                         std::array<SinCos, 3>& trig, PoseQ& pose) {
-  for (unsigned k = 0; k < 3; ++k) trig[k] = sincos(q[k]);
-  Vec3Q p{};
-  if (position != nullptr) {
-    p = *position;
-  } else {
-    const ForwardKinematicsQ fk = forward_kinematics(g, trig);
-    if (fk.status != KinematicsStatus::kOk) return fk.status;
-    p = fk.position;
-  }
-  chain_directions(g, inverse_b, trig, p, pose);
-  return pose_velocity_kinematics(g, qd, pose);
-}
-
-// The terms the platform's masses and the rods' coupling multiply, per
-// joint, in m^2/s^2/rad: [J^T pdd]_i, [J^T (0, 0, g)]_i and psi_i =
-// J_i . sum_k Bdd_k + e_i . pdd with Bdd_k = e_k qdd_k + h_k qd_k^2.
-struct PlatformTerms {
-  Vec3Rate inertial{}, weight{}, coupling{};
-};
-
-PlatformTerms platform_terms(const GeometryQ& g, const ModelParametersQ& m, const JointStateQ& s,
-                             const PoseQ& pose) {
-  const auto& J = pose.vk.jacobian_m_per_rad;
+// The platform's acceleration pdd = J qdd + J'q' of a joint-space state.
+Vec3Rate platform_acceleration(const GeometryQ& g, Q7_24 inverse_b, const JointStateQ& s,
+                               const PoseQ& pose) {
+  const VelocityKinematicsQ vk = pose_velocity_kinematics(g, inverse_b, s.qd_rad_s, pose);
   Vec3Rate pdd{};
   for (unsigned r = 0; r < 3; ++r) {
-    const i64 jqdd = dot_raw(J[r], s.qdd_rad_s2);  // Q.41
-    pdd[r] = narrowed<Q10_21>(jqdd + (i64{pose.vk.jacobian_dot_qdot_m_s2[r].raw()} << 20), 20);
+    const i64 jqdd = dot_raw(vk.jacobian_m_per_rad[r], s.qdd_rad_s2);  // Q.41
+    pdd[r] = narrowed<Q10_21>(jqdd + (i64{vk.jacobian_dot_qdot_m_s2[r].raw()} << 20), 20);
   }
-  // sum_k Bdd_k / a, in rad/s^2.
-  std::array<Q14_17, 3> elbow_sum{};
+  return pdd;
+}
+
+// The platform's and the rods' torques: J^T F + m_c a e_i . pdd with the
+// force F = m_in pdd + m_c a sum_k (e_k qdd_k + h_k qd_k^2) + m_w (0, 0, g).
+Joint3Q12_19 platform_torque(const ModelQ& model, const JointStateQ& s, const PoseQ& pose,
+                             const Vec3Rate& pdd) {
+  // sum_k (e_k qdd_k + h_k qd_k^2) in rad/s^2: with alpha_k = sin qdd + cos
+  // qd^2 and beta_k = sin qd^2 - cos qdd, it is (-sum alpha u_x, -sum
+  // alpha u_y, sum beta).
+  i64 sx = 0, sy = 0, sz = 0;  // Q.47
+  for (unsigned k = 0; k < 3; ++k) {
+    const SinCos& t = pose.trig[k];
+    const Q14_17 qd_sq = mul<Q14_17>(s.qd_rad_s[k], s.qd_rad_s[k]);
+    const Q14_17 alpha = narrowed<Q14_17>(
+        i64{t.sin.raw()} * s.qdd_rad_s2[k].raw() + i64{t.cos.raw()} * qd_sq.raw(), 30);
+    sx -= i64{alpha.raw()} * kChainCosQ[k].raw();
+    sy -= i64{alpha.raw()} * kChainSinQ[k].raw();
+    sz += i64{t.sin.raw()} * qd_sq.raw() - i64{t.cos.raw()} * s.qdd_rad_s2[k].raw();
+  }
+  const std::array<Q14_17, 3> elbows{narrowed<Q14_17>(sx, 30), narrowed<Q14_17>(sy, 30),
+                                     narrowed<Q14_17>(sz, 30)};
+  // F in N: m_in pdd (Q7.24 x Q10.21 = Q.45) + m_c a S (Q7.24 x Q14.17 = Q.41).
+  std::array<Q12_19, 3> force{};
   for (unsigned r = 0; r < 3; ++r) {
-    i64 acc = 0;  // Q.47
-    for (unsigned k = 0; k < 3; ++k) {
-      acc += i64{pose.arm_tangent[k][r].raw()} * s.qdd_rad_s2[k].raw() +
-             i64{pose.arm_curvature[k][r].raw()} * mul<Q14_17>(s.qd_rad_s[k], s.qd_rad_s[k]).raw();
-    }
-    elbow_sum[r] = narrowed<Q14_17>(acc, 30);
+    const i64 f = i64{model.parameters.platform_inertial_mass_kg.raw()} * pdd[r].raw() +
+                  (i64{model.coupling_moment_kg_m.raw()} * elbows[r].raw() << 4);
+    force[r] = narrowed<Q12_19>(f, 26);
   }
-  Vec3Rate elbow_acceleration{};
-  for (unsigned r = 0; r < 3; ++r) {
-    elbow_acceleration[r] = mul<Q10_21>(elbow_sum[r], g.upper_arm_length_m);
-  }
-  PlatformTerms t;
+  force[2] += model.platform_weight_N;
+  Joint3Q12_19 tau{};
   for (unsigned i = 0; i < 3; ++i) {
-    const std::array<Q7_24, 3> column{J[0][i], J[1][i], J[2][i]};
-    t.inertial[i] = narrowed<Q10_21>(dot_raw(column, pdd), 24);
-    t.weight[i] = mul<Q10_21>(m.gravity_m_s2, J[2][i]);
-    const std::array<Q7_24, 3> tangent{mul<Q7_24>(g.upper_arm_length_m, pose.arm_tangent[i][0]),
-                                       mul<Q7_24>(g.upper_arm_length_m, pose.arm_tangent[i][1]),
-                                       mul<Q7_24>(g.upper_arm_length_m, pose.arm_tangent[i][2])};
-    t.coupling[i] =
-        narrowed<Q10_21>(dot_raw(column, elbow_acceleration) + dot_raw(tangent, pdd), 24);
+    const Q12_19 lambda = narrowed<Q12_19>(dot_raw(pose.adjugate_columns[i], force), 30);
+    tau[i] = mul<Q12_19>(pose.jacobian_scale_m[i], lambda) +
+             mul<Q12_19>(model.coupling_moment_kg_m, along_arm(i, pose.trig[i], pdd));
   }
-  return t;
+  return tau;
 }
 
 // Fv qd + Fc tanh(qd / w) + Fs exp(-(qd / vs)^2) tanh(qd / w).
@@ -178,12 +197,11 @@ Q12_19 friction(const ModelQ& model, unsigned j, Q10_21 qd) {
 
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p) {
-  std::array<SinCos, 3> trig{};
   PoseQ pose;
   const Q7_24 inverse_b = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
-  const KinematicsStatus status = pose_of(g, inverse_b, q, qd, &p, trig, pose);
+  const KinematicsStatus status = pose_of(g, inverse_b, q, &p, pose);
   if (status != KinematicsStatus::kOk) return VelocityKinematicsQ{status, {}, {}};
-  return pose.vk;
+  return pose_velocity_kinematics(g, inverse_b, qd, pose);
 }
 
 ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m) {
@@ -197,6 +215,8 @@ ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m) {
     model.inverse_stribeck_s_per_rad =
         quotient<Q10_21>(Q10_21::from_int(1), m.stribeck_velocity_rad_s);
   }
+  model.coupling_moment_kg_m = mul<Q7_24>(m.forearm_coupling_kg, g.upper_arm_length_m);
+  model.platform_weight_N = mul<Q12_19>(m.platform_weight_mass_kg, m.gravity_m_s2);
   return model;
 }
 
@@ -204,19 +224,18 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   tau_Nm = {};
   const GeometryQ& g = model.geometry;
   const ModelParametersQ& m = model.parameters;
-  std::array<SinCos, 3> trig{};
   PoseQ pose;
-  const KinematicsStatus status = pose_of(g, model.inverse_forearm_per_m, s.q_rad, s.qd_rad_s,
-                                          s.platform_known ? &s.platform_m : nullptr, trig, pose);
+  const KinematicsStatus status = pose_of(g, model.inverse_forearm_per_m, s.q_rad,
+                                          s.platform_known ? &s.platform_m : nullptr, pose);
   if (status != KinematicsStatus::kOk) return status;
-  const PlatformTerms platform = platform_terms(g, m, s, pose);
+  const Vec3Rate pdd = s.platform_known
+                           ? s.platform_acceleration_m_s2
+                           : platform_acceleration(g, model.inverse_forearm_per_m, s, pose);
+  const Joint3Q12_19 platform = platform_torque(model, s, pose, pdd);
   for (unsigned i = 0; i < 3; ++i) {
     tau_Nm[i] = mul<Q12_19>(m.arm_inertia_kg_m2[i], s.qdd_rad_s2[i]) -
-                mul<Q12_19>(m.arm_gravity_cos_Nm[i], trig[i].cos) +
-                mul<Q12_19>(m.arm_gravity_sin_Nm[i], trig[i].sin) +
-                mul<Q12_19>(m.platform_inertial_mass_kg, platform.inertial[i]) +
-                mul<Q12_19>(m.platform_weight_mass_kg, platform.weight[i]) +
-                mul<Q12_19>(m.forearm_coupling_kg, platform.coupling[i]) +
+                mul<Q12_19>(m.arm_gravity_cos_Nm[i], pose.trig[i].cos) +
+                mul<Q12_19>(m.arm_gravity_sin_Nm[i], pose.trig[i].sin) + platform[i] +
                 friction(model, i, s.qd_rad_s[i]) + m.torque_offset_Nm[i];
   }
   return KinematicsStatus::kOk;

@@ -107,12 +107,16 @@ class Trajectory {
   void fourier(std::uint32_t tick, JointReference& out) const;
   KinematicsStatus pick_and_place(std::uint32_t tick, JointReference& out) const;
   KinematicsStatus cartesian_ik(std::int64_t tick, JointAnglesQ& q, Vec3Q& platform) const;
+  // The platform's acceleration at a pick-and-place tick, from the
+  // minimum-jerk profile's second derivative.
+  std::array<Q10_21, 3> cartesian_acceleration(std::uint32_t tick) const;
 
   GeometryQ geometry_;
   TrajectoryConfig config_;
   std::uint32_t length_ticks_{0};
   std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
+  delta::fx::Q16_15 segments_per_second_{};  // pick-and-place
   // The IK at ticks centre - 1, centre and centre + 1 of the last
   // pick-and-place reference(): stepping tick by tick, each reference()
   // then solves one new IK instead of three. (Single-threaded use, as

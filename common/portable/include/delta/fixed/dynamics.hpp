@@ -9,7 +9,11 @@
 //           + Fs_i exp(-(qd_i / vs)^2) tanh(qd_i / w) + o_i
 //
 // with pdd = J qdd + J'q' and psi_i the forearm rods' coupling term. The
-// `lumped` model is the case Gs = 0, B' = 0, m_in = m_w. Every Q format is
+// `lumped` model is the case Gs = 0, B' = 0, m_in = m_w. J is never formed
+// for the torques: the platform's terms are J^T F for one force F, and J^T
+// = diag(a n_k . e_k) N^-T with N the forearms' directions, so they take
+// one solve with N's adjugate, the constraint forces (lambda) at this
+// pose. Every Q format is
 // in the types; the figures against the double model are in
 // docs/firmware.md (tests/unit/common/fixed_dynamics_test.cpp measures them).
 #pragma once
@@ -46,14 +50,16 @@ struct ModelParametersQ {
 };
 
 // A joint-space state: the reference the controller tracks. Where the
-// platform's position at q is known already (a Cartesian trajectory solved
-// it), the model takes it instead of solving the forward kinematics again.
+// platform's position and acceleration at this state are known already (a
+// Cartesian trajectory has them), the model takes them instead of solving
+// the forward kinematics and J qdd + J'q' again.
 struct JointStateQ {
   JointAnglesQ q_rad{};
   std::array<Q10_21, 3> qd_rad_s{};
   std::array<Q14_17, 3> qdd_rad_s2{};
   bool platform_known{false};
   Vec3Q platform_m{};
+  std::array<Q10_21, 3> platform_acceleration_m_s2{};
 };
 
 // The velocity kinematics at one pose, as the double version computes them
@@ -73,13 +79,17 @@ VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& 
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p);
 
 // A model ready to run: its parameters, the geometry it was fitted for, and
-// what model_torque() would otherwise divide by at every state.
+// what model_torque() would otherwise work out at every state (reciprocals
+// and products of the parameters). Only prepare_model() makes one: a
+// parameter changed afterwards would leave those stale.
 struct ModelQ {
   GeometryQ geometry{};
   ModelParametersQ parameters{};
   Q7_24 inverse_forearm_per_m{};         // 1 / b
   Q10_21 inverse_smoothing_s_per_rad{};  // 1 / w
   Q10_21 inverse_stribeck_s_per_rad{};   // 1 / vs; 0 without the Stribeck term
+  Q7_24 coupling_moment_kg_m{};          // m_c a
+  Q12_19 platform_weight_N{};            // m_w g
   friend constexpr bool operator==(const ModelQ&, const ModelQ&) = default;
 };
 
