@@ -49,7 +49,11 @@ class Path {
             "no Fourier excitation fits this geometry's workspace around (0, 0, -0.42) m");
       }
     } else if (o.trajectory == "pick-and-place") {
+      if (!(o.segment_duration_s >= 0.1) || !(o.segment_duration_s <= 10.0)) {
+        throw delta::InputError("--segment-s must be between 0.1 and 10 s");
+      }
       pnp_ = delta::default_pick_and_place(o.geometry);
+      pnp_.segment_duration_s = o.segment_duration_s;
     } else {
       throw delta::InputError("--trajectory must be 'fourier' or 'pick-and-place', got '" +
                               o.trajectory + "'");

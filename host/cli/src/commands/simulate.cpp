@@ -52,6 +52,11 @@ void add_path_options(CLI::App& c, SimulateOptions& s) {
   c.add_option("--amplitude", s.amplitude_rad, "largest joint amplitude of the Fourier path, rad")
       ->check(kPositive)
       ->capture_default_str();
+  c.add_option("--segment-s", s.segment_duration_s,
+               "the pick-and-place path's time per segment, s (accelerations grow as its "
+               "inverse square)")
+      ->check(finite_range(0.1, 10.0))
+      ->capture_default_str();
 }
 
 void add_measurement_options(CLI::App& c, SimulateOptions& s) {

@@ -34,11 +34,12 @@ struct SimulateOptions {
   std::uint64_t seed{1};
   unsigned harmonics{5};
   double base_frequency_hz{0.2};
-  double amplitude_rad{0.35};    // worst-case joint amplitude of the Fourier path
-  double torque_noise{0.0};      // Gaussian, as a fraction of each joint's RMS torque
-  unsigned encoder_bits{0};      // quantise q to 2 pi / 2^bits; 0: off
-  bool with_derivatives{false};  // write the plant's own qd, qdd columns
-  std::string name;              // the log's `trajectory` metadata
+  double amplitude_rad{0.35};      // worst-case joint amplitude of the Fourier path
+  double segment_duration_s{0.4};  // of the pick-and-place path, 0.1 to 10 s
+  double torque_noise{0.0};        // Gaussian, as a fraction of each joint's RMS torque
+  unsigned encoder_bits{0};        // quantise q to 2 pi / 2^bits; 0: off
+  bool with_derivatives{false};    // write the plant's own qd, qdd columns
+  std::string name;                // the log's `trajectory` metadata
   // The lumped plant's robot:
   delta::Geometry geometry{delta::kDefaultGeometry};
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};
