@@ -347,6 +347,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   Regression& all_rows = pre.regression;
   r.samples_in_log = pre.report.samples_in_log;
   r.derivatives = pre.report.derivatives;
+  r.state_cutoff_hz = pre.report.state_cutoff_hz;
   r.gaps = log.gaps;
   r.geometry = log.geometry;
   r.segments_used = pre.report.segments_used;

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -26,8 +27,11 @@ struct Segment {
 // The filter and how much it needs at the ends, designed for one log.
 struct FilterDesign {
   bool logged_derivatives{false};  // the log has qd and qdd: no filtering at all
-  std::array<Biquad, 2> filter{};
-  std::size_t pad{0};   // reflected samples at each end of a filtered series
+  std::array<Biquad, 2> filter{};  // tau and the regressor's columns
+  std::size_t pad{0};              // reflected samples at each end of a filtered series
+  StateCutoff state;               // q's filter before its differences
+  std::array<Biquad, 2> state_filter{};
+  std::size_t state_pad{0};
   std::size_t trim{0};  // samples dropped at each segment end after filtering
   double sample_rate_hz{0};
   double median_step_s{0};    // of the whole log
@@ -56,6 +60,31 @@ double median_step(const double* t, std::size_t n) {
   return dt[dt.size() / 2];
 }
 
+// q's cut-off: the one given, or chosen from the log's q, segment by
+// segment (gaps split it), all three joints together.
+StateCutoff state_cutoff(const DeltaLog& log, const PrepareOptions& options, double fs) {
+  if (options.state_cutoff_hz) {
+    const double fc = *options.state_cutoff_hz;
+    if (!(fc > 0.0) || !(fc < 0.5 * fs)) {
+      std::ostringstream s;
+      s << log.name << ": the state filter's cut-off " << fc
+        << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log";
+      throw delta::InputError(s.str());
+    }
+    return StateCutoff{fc, 0.0, false};
+  }
+  std::vector<std::size_t> bounds{0};
+  for (const SampleGap& g : log.gaps) bounds.push_back(g.index);
+  bounds.push_back(log.size());
+  std::vector<Span> spans;
+  for (unsigned j = 0; j < 3; ++j) {
+    for (std::size_t k = 0; k + 1 < bounds.size(); ++k) {
+      spans.push_back({log.q[j].data() + bounds[k], bounds[k + 1] - bounds[k]});
+    }
+  }
+  return choose_state_cutoff(spans, fs, options.cutoff_hz);
+}
+
 FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   (void)check_time_steps(log, options.time_steps);  // throws where they cannot be trusted
   FilterDesign d;
@@ -73,11 +102,14 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
       << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log";
     throw delta::InputError(s.str());
   }
-  d.trim = options.trim_samples >= 0
-               ? static_cast<std::size_t>(options.trim_samples)
-               : static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz));
+  d.state = state_cutoff(log, options, fs);
+  const double slowest_hz = std::min(options.cutoff_hz, d.state.cutoff_hz);
+  d.trim = options.trim_samples >= 0 ? static_cast<std::size_t>(options.trim_samples)
+                                     : static_cast<std::size_t>(std::ceil(3.0 * fs / slowest_hz));
   d.pad = static_cast<std::size_t>(std::ceil(3.0 * fs / options.cutoff_hz));
   d.filter = butterworth4_lowpass(options.cutoff_hz, fs);
+  d.state_pad = static_cast<std::size_t>(std::ceil(3.0 * fs / d.state.cutoff_hz));
+  d.state_filter = butterworth4_lowpass(d.state.cutoff_hz, fs);
   return d;
 }
 
@@ -99,7 +131,7 @@ void filter_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, st
   for (unsigned j = 0; j < 3; ++j) {
     std::copy(log.q[j].begin() + static_cast<std::ptrdiff_t>(b),
               log.q[j].begin() + static_cast<std::ptrdiff_t>(e), q[j].begin());
-    filtfilt_in_place(d.filter, q[j], d.pad);
+    filtfilt_in_place(d.state_filter, q[j], d.state_pad);
   }
 }
 
@@ -213,18 +245,28 @@ States joint_states(const DeltaLog& log, const FilterDesign& d, unsigned threads
   return out;
 }
 
+std::string rad_text(double rad) {
+  std::ostringstream t;
+  t << std::setprecision(2) << rad << " rad RMS";
+  return t.str();
+}
+
 std::string describe(const FilterDesign& d, const PrepareOptions& options, const States& s) {
   std::ostringstream text;
   if (d.logged_derivatives) {
     text << "qd and qdd from the log's columns (no filtering)";
   } else {
-    text << "q low-pass filtered at " << options.cutoff_hz
-         << " Hz (4th-order Butterworth, forward-backward), "
+    text << "q low-pass filtered at " << std::setprecision(3) << d.state.cutoff_hz << " Hz ("
+         << (options.state_cutoff_hz ? "as set"
+             : d.state.from_content
+                 ? "chosen from the log's spectrum; noise floor " + rad_text(d.state.noise_rms_rad)
+                 : "too little motion or too short to choose from: --cutoff-hz")
+         << "; 4th-order Butterworth, forward-backward), "
          << (s.any_nonuniform  ? "three-point differences on uneven time"
              : d.nominal_steps ? "five-point central differences at the nominal step (the "
                                  "timestamps' jitter set aside: --time-steps nominal)"
                                : "five-point central differences")
-         << "; tau and the regressor filtered alike; " << d.trim
+         << "; tau and the regressor filtered at " << options.cutoff_hz << " Hz; " << d.trim
          << " samples trimmed at each segment end";
   }
   return text.str();
@@ -239,6 +281,7 @@ PreprocessReport report_of(const DeltaLog& log, const FilterDesign& d,
   report.derivatives = describe(d, options, s);
   report.samples_in_log = log.size();
   report.sample_rate_hz = d.sample_rate_hz;
+  report.state_cutoff_hz = d.logged_derivatives ? 0.0 : d.state.cutoff_hz;
   return report;
 }
 

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstddef>
+#include <unsupported/Eigen/FFT>
 #include <vector>
 
 namespace host_id {
@@ -103,6 +105,124 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<do
                              std::size_t pad) {
   filtfilt_in_place(filter, x, pad);
   return x;
+}
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The Welch spectrum of the spans in windows of l samples, in arbitrary
+// units (only its shape matters), summed over every window of every span.
+// Each window is pre-whitened: the spectrum of its second differences,
+// divided by their gain (2 - 2 cos w)^2, so that the strong slow motion
+// does not leak through the window's sidelobes into the frequencies where
+// signal and noise are told apart.
+std::vector<double> welch_spectrum(const std::vector<Span>& spans, std::size_t l,
+                                   std::size_t& windows) {
+  std::vector<double> power(l / 2 + 1, 0.0);
+  std::vector<double> hann(l), x(l);
+  for (std::size_t i = 0; i < l; ++i) {
+    hann[i] = 0.5 - 0.5 * std::cos(2.0 * kPi * static_cast<double>(i) / static_cast<double>(l));
+  }
+  Eigen::FFT<double> fft;
+  std::vector<std::complex<double>> spectrum;
+  // At most kMaxWindows, spread over the spans: more add little to the
+  // estimate but cost time on a long log.
+  constexpr std::size_t kMaxWindows = 48;
+  std::size_t all = 0;
+  for (const Span& span : spans) all += span.n >= l + 2 ? (span.n - l - 2) / (l / 2) + 1 : 0;
+  const std::size_t hop = l / 2 * ((all + kMaxWindows - 1) / kMaxWindows);
+  windows = 0;
+  for (const Span& span : spans) {
+    for (std::size_t first = 1; span.n >= l + 2 && first + l + 1 <= span.n; first += hop) {
+      double mean = 0.0;
+      for (std::size_t i = 0; i < l; ++i) {
+        const double* q = span.x + first + i;
+        x[i] = q[1] - 2.0 * q[0] + q[-1];
+        mean += x[i] / static_cast<double>(l);
+      }
+      for (std::size_t i = 0; i < l; ++i) x[i] = (x[i] - mean) * hann[i];
+      fft.fwd(spectrum, x);
+      for (std::size_t k = 1; k < power.size(); ++k) power[k] += std::norm(spectrum[k]);
+      ++windows;
+    }
+  }
+  for (std::size_t k = 1; k < power.size(); ++k) {
+    const double g =
+        2.0 - 2.0 * std::cos(2.0 * kPi * static_cast<double>(k) / static_cast<double>(l));
+    power[k] /= g * g;
+  }
+  return power;
+}
+
+}  // namespace
+
+StateCutoff choose_state_cutoff(const std::vector<Span>& spans, double fs, double lowest_hz) {
+  StateCutoff choice{lowest_hz, 0.0, false};
+  std::size_t longest = 0;
+  for (const Span& s : spans) longest = std::max(longest, s.n);
+  std::size_t l = 4096;
+  while (l + 2 > longest && l > 0) l /= 2;
+  if (l < 256 || !(fs > 0.0)) return choice;
+  std::size_t windows = 0;
+  const std::vector<double> power = welch_spectrum(spans, l, windows);
+  // The floor: the median over the top of the band.
+  std::vector<double> top;
+  for (std::size_t k = 0; k < power.size(); ++k) {
+    const double f = static_cast<double>(k) / static_cast<double>(l);  // cycles per sample
+    if (f >= 0.25 && f <= 0.45) top.push_back(power[k]);
+  }
+  double floor = 0.0;
+  for (const double p : top) floor += p / static_cast<double>(top.size());
+  // Hann windows of l samples: a white variance v gives sum |X|^2 = v * 3 l / 8 per bin.
+  choice.noise_rms_rad =
+      std::sqrt(floor / (static_cast<double>(windows) * 3.0 * static_cast<double>(l) / 8.0));
+  // The signal: the spectrum less the floor, up to the last band (10 %
+  // wide, at least 3 bins) that stands above four times the floor; above
+  // that band, what rises over the floor (quantisation's own lines) is
+  // noise too.
+  std::size_t edge = 0;
+  for (std::size_t k = 1;
+       k < power.size() && static_cast<double>(k) / static_cast<double>(l) < 0.2;) {
+    const std::size_t end = std::min(power.size(), k + std::max<std::size_t>(3, k / 10));
+    double band = 0.0;
+    for (std::size_t i = k; i < end; ++i) band += power[i] / static_cast<double>(end - k);
+    if (band > 4.0 * floor) edge = end;
+    k = end;
+  }
+  double signal_total = 0.0;
+  std::vector<double> signal(power.size(), 0.0), weight(power.size(), 0.0);
+  for (std::size_t k = 1; k < power.size(); ++k) {
+    const double w = 2.0 * kPi * static_cast<double>(k) / static_cast<double>(l);
+    const double d2 = -2.0 * std::cos(2.0 * w) + 32.0 * std::cos(w) - 30.0;  // x 1 / (12 h^2)
+    weight[k] = d2 * d2;
+    if (k < edge) signal[k] = std::max(0.0, power[k] - floor);
+    signal_total += signal[k] * weight[k];
+  }
+  if (!(signal_total > 0.0)) return choice;  // no motion to judge by
+  double best = 0.0;
+  // The filter's gain |H|^2 at w, forward and backward: the bilinear
+  // transform of a 4th-order Butterworth is 1 / (1 + (tan(w/2) / tan(wc/2))^8)
+  // in magnitude squared, so G is its square.
+  std::vector<double> tan_half(power.size());
+  for (std::size_t k = 1; k < power.size(); ++k) {
+    tan_half[k] = std::tan(kPi * static_cast<double>(k) / static_cast<double>(l));
+  }
+  for (double fc = lowest_hz; fc <= 0.2 * fs; fc *= 1.05) {
+    const double tan_c = std::tan(kPi * fc / fs);
+    double error = 0.0;
+    for (std::size_t k = 1; k < power.size(); ++k) {
+      const double r = tan_half[k] / tan_c, r2 = r * r, r4 = r2 * r2;
+      const double g = 1.0 / (1.0 + r4 * r4);
+      error += weight[k] * ((1.0 - g) * (1.0 - g) * signal[k] + g * g * floor);
+    }
+    if (!choice.from_content || error < best) {
+      best = error;
+      choice.cutoff_hz = fc;
+      choice.from_content = true;
+    }
+  }
+  return choice;
 }
 
 }  // namespace host_id

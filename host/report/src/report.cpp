@@ -373,6 +373,9 @@ nlohmann::json json_report(const FitResult& r) {
         {"platform_radius_m", r.geometry.platform_radius_m}}},
       {"preprocessing",
        {{"cutoff_hz", o.prepare.cutoff_hz},
+        {"state_cutoff_hz", o.prepare.state_cutoff_hz ? nlohmann::json(*o.prepare.state_cutoff_hz)
+                                                      : nlohmann::json("auto")},
+        {"state_cutoff_hz_used", r.state_cutoff_hz},
         {"trim_samples", o.prepare.trim_samples},
         {"time_steps", o.prepare.time_steps == TimeSteps::kNominal    ? "nominal"
                        : o.prepare.time_steps == TimeSteps::kAsLogged ? "as-logged"
@@ -434,6 +437,17 @@ SavedResult read_saved_result(const std::string& path) {
     }
     const json& pre = need(j, "preprocessing", "");
     s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
+    // Results saved before the state filter had its own cut-off filtered q
+    // at cutoff_hz.
+    const json state = pre.value("state_cutoff_hz", json(s.prepare.cutoff_hz));
+    if (state.is_string()) {
+      if (state.get<std::string>() != "auto") {
+        throw delta::InputError(path + ": preprocessing.state_cutoff_hz is '" +
+                                state.get<std::string>() + "', not auto or a number of Hz");
+      }
+    } else {
+      s.prepare.state_cutoff_hz = state.get<double>();
+    }
     s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();
     if (const auto it = pre.find("time_steps"); it != pre.end()) {
       const std::string steps = it->get<std::string>();

@@ -136,11 +136,14 @@ TEST(ChainIdentify, ViscousFrictionUnbiasedWithoutTheSlowEquations) {
 
   const host_id::FitResult fit = host_id::fit_log(log, least_squares_per_joint());
   EXPECT_EQ(fit.min_speed_rad_s, host_id::kDefaultMinSpeedRadS);
+  double without = 0.0;  // the worst viscous error without the slow equations
   for (unsigned j = 0; j < 3; ++j) {
     const std::string n = std::to_string(j + 1);
     SCOPED_TRACE("joint " + n);
     EXPECT_LT(fit.equations_used[j], fit.fit.samples);
     EXPECT_GT(fit.equations_used[j], fit.fit.samples * 3 / 4);
+    without = std::max(without, std::abs(relative_error(parameter(fit, "viscous_friction_" + n),
+                                                        truth.viscous_friction_Nm_s_per_rad[j])));
     EXPECT_NEAR(relative_error(parameter(fit, "viscous_friction_" + n),
                                truth.viscous_friction_Nm_s_per_rad[j]),
                 0.0, 0.03);
@@ -163,7 +166,14 @@ TEST(ChainIdentify, ViscousFrictionUnbiasedWithoutTheSlowEquations) {
                      relative_error(parameter(biased, "viscous_friction_" + std::to_string(j + 1)),
                                     truth.viscous_friction_Nm_s_per_rad[j]));
   }
-  EXPECT_GT(worst, 0.05);
+  // Measured: 3.4 % with every equation, 2.0 % without the slow ones (with
+  // q filtered at 20 Hz whatever the log, the first was 5-7 %: the sharper
+  // states of a cut-off chosen from the log's content leave less bias).
+  std::printf(
+      "viscous friction's worst error: %.4f with every equation, %.4f without the slow "
+      "ones\n",
+      worst, without);
+  EXPECT_GT(worst, without + 0.01);
 }
 
 // With the emulator's current noise the viscous estimate scatters by about

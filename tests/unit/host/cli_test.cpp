@@ -635,6 +635,46 @@ TEST_F(CliTest, PredictUsesTheLogsDerivativesAsTheyAre) {
   }
 }
 
+// q's cut-off: chosen from each log's content by default and saved as
+// "auto", so that predict and validate choose it from their own logs; a
+// number where set; a result saved before it had its own key filtered q
+// at cutoff_hz, and predict does so still.
+TEST_F(CliTest, TheStateCutoffIsChosenPerLogUnlessSet) {
+  simulate("a.csv", {"--torque-noise", "0.01", "--encoder-bits", "17"});
+  simulate("b.csv", {"--encoder-bits", "17", "--trajectory", "pick-and-place"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0)
+      << err_.str();
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_EQ(j["preprocessing"]["state_cutoff_hz"], "auto");
+  EXPECT_GE(j["preprocessing"]["state_cutoff_hz_used"].get<double>(), 20.0);
+  ASSERT_EQ(run({"predict", path("r.json"), path("b.csv"), "-o", path("p.csv")}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("chosen from the log's spectrum; noise floor"), std::string::npos)
+      << out_.str();
+
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--state-cutoff-hz", "35", "--out",
+                 path("r35.json"), "--quiet"}),
+            0)
+      << err_.str();
+  j = nlohmann::json::parse(delta::read_whole_file(path("r35.json")));
+  EXPECT_EQ(j["preprocessing"]["state_cutoff_hz"], 35.0);
+  ASSERT_EQ(run({"predict", path("r35.json"), path("b.csv"), "-o", path("p.csv")}), 0);
+  EXPECT_NE(out_.str().find("q low-pass filtered at 35 Hz (as set"), std::string::npos)
+      << out_.str();
+
+  j["preprocessing"].erase("state_cutoff_hz");
+  std::ofstream(path("old.json")) << j.dump();
+  ASSERT_EQ(run({"predict", path("old.json"), path("b.csv"), "-o", path("p.csv")}), 0);
+  EXPECT_NE(out_.str().find("q low-pass filtered at 20 Hz (as set"), std::string::npos)
+      << out_.str();
+  j["preprocessing"]["state_cutoff_hz"] = "fast";
+  std::ofstream(path("bad.json")) << j.dump();
+  EXPECT_EQ(run({"predict", path("bad.json"), path("b.csv"), "-o", path("p.csv")}), 1);
+  EXPECT_NE(err_.str().find("preprocessing.state_cutoff_hz is 'fast', not auto or a number"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--state-cutoff-hz", "fast"}), 2);
+}
+
 TEST_F(CliTest, PredictNamesWhatIsWrongAndWritesNothing) {
   simulate("a.csv");
   ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0);

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <vector>
 
 namespace host_id {
@@ -151,6 +152,122 @@ TEST(SignalTest, UniformDifferencesAreExactForQuadraticsAtEverySample) {
       EXPECT_NEAR(d.second, -80.0, 1e-8) << n << ", " << i;
     }
   }
+}
+
+// The state cut-off's choice prices the filter by the closed form of a
+// bilinear 4th-order Butterworth: |H|^2 = 1 / (1 + (tan(w/2) / tan(wc/2))^8).
+TEST(SignalTest, TheButterworthsGainIsItsClosedForm) {
+  for (const double fc : {10.0, 20.0, 47.0, 180.0}) {
+    const auto f = butterworth4_lowpass(fc, 1000.0);
+    for (double freq = 0.5; freq < 500.0; freq *= 1.3) {
+      const double r = std::tan(kPi * freq / 1000.0) / std::tan(kPi * fc / 1000.0);
+      EXPECT_NEAR(std::pow(gain(f, freq, 1000.0), 2), 1.0 / (1.0 + std::pow(r, 8)), 1e-12)
+          << fc << " Hz, at " << freq << " Hz";
+    }
+  }
+}
+
+// A joint angle with its exact second derivative, at 1 kHz for 20 s,
+// quantised as a 17-bit encoder does.
+struct Motion {
+  std::vector<double> q, qdd;
+};
+
+Motion quantised(const Motion& exact) {
+  const double lsb = 2.0 * kPi / 131072.0;
+  Motion m = exact;
+  for (double& v : m.q) v = lsb * std::round(v / lsb);
+  return m;
+}
+
+// Minimum-jerk moves of 0.3 rad back and forth, segment_s each.
+Motion pick_and_place_like(double segment_s) {
+  Motion m;
+  for (int i = 0; i < 20000; ++i) {
+    const double t = i / 1000.0;
+    const int seg = static_cast<int>(t / segment_s);
+    const double s = t / segment_s - seg;
+    const double dir = seg % 2 == 0 ? 1.0 : -1.0;
+    const double w = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+    const double ddw = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / (segment_s * segment_s);
+    m.q.push_back(0.3 * (seg % 2 == 0 ? w : 1.0 - w));
+    m.qdd.push_back(0.3 * dir * ddw);
+  }
+  return m;
+}
+
+// An excitation of five harmonics of 0.2 Hz.
+Motion slow_fourier() {
+  Motion m;
+  for (int i = 0; i < 20000; ++i) {
+    const double t = i / 1000.0;
+    double q = 0.0, qdd = 0.0;
+    for (int k = 1; k <= 5; ++k) {
+      const double w = 2.0 * kPi * 0.2 * k;
+      q += 0.3 / k * std::sin(w * t + k);
+      qdd -= 0.3 / k * w * w * std::sin(w * t + k);
+    }
+    m.q.push_back(q);
+    m.qdd.push_back(qdd);
+  }
+  return m;
+}
+
+// RMS of qdd from q filtered at cutoff_hz and differentiated, against the
+// exact one, away from the ends.
+double qdd_error(const Motion& noisy, const Motion& exact, double cutoff_hz) {
+  const auto q = filtfilt(butterworth4_lowpass(cutoff_hz, 1000.0), noisy.q,
+                          static_cast<std::size_t>(std::ceil(3000.0 / cutoff_hz)));
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 1000; i + 1000 < q.size(); ++i, ++n) {
+    const double e = uniform_derivatives_at(q.data(), q.size(), 1e-3, i).second - exact.qdd[i];
+    sum += e * e;
+  }
+  return std::sqrt(sum / static_cast<double>(n));
+}
+
+// The cut-off chosen from the samples alone (from 10 Hz up) does about as
+// well as the best one a grid finds with the exact qdd known, on motions
+// whose best cut-offs differ by a factor of five; and it reads the
+// encoder's noise.
+TEST(SignalTest, TheStateCutoffFromALogsSpectrumIsNearTheBestForItsMotion) {
+  double previous_hz = 0.0;
+  for (const Motion& exact :
+       {slow_fourier(), pick_and_place_like(0.5), pick_and_place_like(0.25)}) {
+    const Motion noisy = quantised(exact);
+    const StateCutoff c = choose_state_cutoff({{noisy.q.data(), noisy.q.size()}}, 1000.0, 10.0);
+    ASSERT_TRUE(c.from_content);
+    const double lsb = 2.0 * kPi / 131072.0;
+    EXPECT_NEAR(c.noise_rms_rad, lsb / std::sqrt(12.0), 0.15 * lsb / std::sqrt(12.0));
+    double best = 1e300, best_hz = 0.0;
+    for (double fc = 10.0; fc < 200.0; fc *= 1.05) {
+      const double e = qdd_error(noisy, exact, fc);
+      if (e < best) {
+        best = e;
+        best_hz = fc;
+      }
+    }
+    const double chosen = qdd_error(noisy, exact, c.cutoff_hz);
+    std::printf("cut-off chosen %.1f Hz (qdd error %.3g rad/s^2), best %.1f Hz (%.3g)\n",
+                c.cutoff_hz, chosen, best_hz, best);
+    EXPECT_LT(chosen, 1.25 * best);
+    EXPECT_GT(c.cutoff_hz, 1.3 * previous_hz);  // faster motion, higher cut-off
+    EXPECT_GE(c.cutoff_hz, 10.0);
+    previous_hz = c.cutoff_hz;
+  }
+}
+
+TEST(SignalTest, TheStateCutoffFallsBackWhereTheLogCannotTell) {
+  const std::vector<double> still(20000, 0.25), short_one(200, 0.0);
+  const StateCutoff a = choose_state_cutoff({{still.data(), still.size()}}, 1000.0, 20.0);
+  EXPECT_FALSE(a.from_content);
+  EXPECT_EQ(a.cutoff_hz, 20.0);
+  const Motion m = quantised(pick_and_place_like(0.25));
+  const StateCutoff b = choose_state_cutoff({{m.q.data(), 200}}, 1000.0, 20.0);
+  EXPECT_FALSE(b.from_content);
+  EXPECT_EQ(b.cutoff_hz, 20.0);
+  EXPECT_FALSE(choose_state_cutoff({}, 1000.0, 15.0).from_content);
 }
 
 }  // namespace

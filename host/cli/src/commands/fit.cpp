@@ -50,6 +50,7 @@ struct FitArguments {
   bool quiet{false};
   bool allow_other_geometry{false};
   std::string time_steps{"check"};
+  std::string state_cutoff{"auto"};
   std::optional<ModelSelection> selection;  // with --model auto
   std::string base_path;                    // --base: a payload on this fit
   std::string calibrate_path;               // --calibrate-torque: the loaded log
@@ -152,8 +153,15 @@ void add_estimator_options(CLI::App& c, FitArguments& a) {
 
 void add_sample_options(CLI::App& c, FitArguments& a) {
   c.add_option("--cutoff-hz", a.fit.prepare.cutoff_hz,
-               "low-pass cut-off for q and tau when the log has no qd/qdd columns")
+               "low-pass cut-off for tau and the regressor (parallel filtering) when the log has "
+               "no qd/qdd columns")
       ->check(kPositive)
+      ->capture_default_str()
+      ->group("samples");
+  c.add_option("--state-cutoff-hz", a.state_cutoff,
+               "low-pass cut-off for q before it is differentiated: 'auto' chooses it from each "
+               "log's own spectrum and noise floor, or a number in Hz")
+      ->check(CLI::IsMember({"auto"}) | kPositive)
       ->capture_default_str()
       ->group("samples");
   a.trim_given = c.add_option("--trim", a.trim,
@@ -219,6 +227,7 @@ FitOptions fit_options(const FitArguments& a) {
   f.weights = a.weights == "none" ? LsWeights::kNone : LsWeights::kJoint;
   f.prepare.trim_samples = a.trim_given->count() ? static_cast<long>(a.trim) : -1;
   f.prepare.time_steps = time_steps_named(a.time_steps);
+  if (a.state_cutoff != "auto") f.prepare.state_cutoff_hz = std::stod(a.state_cutoff);
   if (a.min_speed_given->count()) f.min_speed_rad_s = a.min_speed_rad_s;
   return f;
 }

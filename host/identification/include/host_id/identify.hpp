@@ -122,6 +122,7 @@ struct FitResult {
   std::array<std::size_t, 3> equations_used{};  // per joint, of fit.samples each
   std::size_t samples_in_log{0};
   std::string derivatives;
+  double state_cutoff_hz{0};  // q's filter's, as used on the fit log (0: its qd, qdd columns)
   std::vector<SampleGap> gaps;
   std::size_t segments_used{0}, segments_dropped{0};
   std::vector<ParameterEstimate> parameters;

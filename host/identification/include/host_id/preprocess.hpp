@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,14 +18,18 @@
 
 namespace host_id {
 
-// 20 Hz keeps the excitation (harmonics up to ~2 Hz) untouched (4th-order
-// Butterworth run twice: gain 1 - 1e-10 at 2 Hz) and cuts the white
-// quantisation noise of a 17-bit encoder at 1 kHz by a factor of 5 in q and
-// ~100 in qdd compared with unfiltered five-point differences.
+// The parallel filter's cut-off: 20 Hz keeps the excitation (harmonics up
+// to ~2 Hz) untouched (4th-order Butterworth run twice: gain 1 - 1e-10 at
+// 2 Hz) and removes the torque noise above it.
 constexpr double kDefaultCutoffHz = 20.0;
 
 struct PrepareOptions {
+  // Of the parallel filter: tau and the regressor's columns alike.
   double cutoff_hz{kDefaultCutoffHz};
+  // Of q's filter before its differences; none: chosen from each log's own
+  // content (choose_state_cutoff, signal.hpp), --cutoff-hz where the log
+  // is too short or too still to judge by.
+  std::optional<double> state_cutoff_hz;
   // The samples' times where q is differentiated (delta_log.hpp): checked
   // (uneven steps refused), the nominal median step, or as logged.
   TimeSteps time_steps{TimeSteps::kCheck};
@@ -48,6 +53,7 @@ struct PreprocessReport {
   std::size_t segments_dropped{0};  // too short to fit after trimming
   std::string derivatives;          // how qd and qdd were obtained
   double sample_rate_hz{0};
+  double state_cutoff_hz{0};  // q's filter's; 0: the log's qd, qdd columns
 };
 
 struct Preprocessed {

@@ -48,6 +48,34 @@ void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::siz
   }
 }
 
+// The cut-off for q's filter before its five-point second differences that
+// makes qdd's expected squared error least, judged from q's own content:
+// - the Welch spectrum of q (Hann windows of up to 4096 samples, half
+//   overlapping, at most 48 spread over a long log, pre-whitened by second
+//   differences so that the slow motion does not leak into the rest);
+// - its white noise floor, the mean of the spectrum between 0.25 and 0.45
+//   of the sample rate;
+// - the signal, the spectrum less that floor, below the last band (10 %
+//   wide) that stands above four times the floor;
+// - for each cut-off on a grid from lowest_hz to a fifth of the sample rate
+//   (5 % steps), the distortion (1 - G)^2 S plus the noise G^2 N, both
+//   weighted by the squared response of the five-point second difference,
+//   with G the filter's forward-backward gain |H|^2.
+// spans: the series (each joint's q in each segment), all sampled at
+// sample_rate_hz.
+struct StateCutoff {
+  double cutoff_hz{0};
+  double noise_rms_rad{0};   // the floor as white noise per sample, RMS
+  bool from_content{false};  // false: too little to judge by (no span of
+                             // 258 samples, or no motion): lowest_hz
+};
+struct Span {
+  const double* x;
+  std::size_t n;
+};
+StateCutoff choose_state_cutoff(const std::vector<Span>& spans, double sample_rate_hz,
+                                double lowest_hz);
+
 // The first and second derivatives at one sample.
 struct Derivatives {
   double first{0}, second{0};
