@@ -10,6 +10,7 @@
 
 #include "delta/input_error.hpp"
 #include "host_id/friction_shape.hpp"
+#include "host_id/model_selection.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -355,6 +356,10 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name);
+  if (options.model.name != "paper14" && all_rows.samples() >= 20 * kSupportFolds) {
+    r.support = judge_support(*model, options.model, all_rows, pre.fast_rows, kSupportFolds,
+                              options.threads);
+  }
 
   const auto te = std::chrono::steady_clock::now();
   Box box;
@@ -419,6 +424,20 @@ std::vector<std::string> doubts_of(const FitResult& r) {
   if (pinned_count >= kPinnedDoubt) {
     doubts.push_back(std::to_string(pinned_count) + " parameters sit at their bound 0 (" + pinned +
                      "): the log cannot tell them from 0");
+  }
+  if (r.support) {
+    const ModelSelection& s = *r.support;
+    const VariantScore& fitted = s.variants[variant_index(r.options.model)];
+    const VariantScore& best = s.variants[s.chosen];
+    if (best.held_out_rmse_Nm <= (1.0 - kSupportDoubt) * fitted.held_out_rmse_Nm) {
+      m.str("");
+      m << "the log supports " << best.name << ": held-out torque error " << best.held_out_rmse_Nm
+        << " N m against " << fitted.held_out_rmse_Nm << " N m for the " << fitted.name
+        << " fitted (" << s.folds << " time blocks); fit with --model auto (or"
+        << (best.model.per_joint ? " --per-joint" : "") << (best.model.offsets ? " --offsets" : "")
+        << ")";
+      doubts.push_back(m.str());
+    }
   }
   return doubts;
 }

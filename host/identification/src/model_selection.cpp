@@ -9,6 +9,7 @@
 
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/parallel.hpp"
 #include "host_id/preprocess.hpp"
 
 namespace host_id {
@@ -103,48 +104,30 @@ std::string variant_name(const ModelOptions& m) {
          (m.offsets ? ", torque offsets" : "");
 }
 
-}  // namespace
-
-ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsigned folds) {
-  if (options.model.name == "paper14") {
-    throw delta::InputError(
-        "--model auto chooses among the delta and lumped models' variants; "
-        "paper14 has none");
-  }
+// The variants' held-out errors from the superset's fold moments, and the
+// choice among them: per-joint arms first (physics the shared model lacks),
+// then torque offsets on top of the arms chosen; each must lower the
+// held-out error by more than the margin.
+ModelSelection choose_variant(const std::vector<FoldMoments>& moments, const Model& superset,
+                              const ModelOptions& base, unsigned folds) {
   ModelSelection out;
   out.folds = folds;
-  ModelOptions largest = options.model;
-  largest.per_joint = true;
-  largest.offsets = true;
-  const auto superset = make_model(largest);
-  PrepareOptions prepare = options.prepare;
-  prepare.slow_rows_last_below_rad_s = min_speed_for(options);
-  const Preprocessed pre = preprocess(*superset, log, prepare, options.threads);
-  if (pre.regression.samples() < 20 * folds) {
-    throw delta::InputError(log.name + ": too short to judge the model on " +
-                            std::to_string(folds) + " time blocks");
-  }
-  const std::vector<FoldMoments> moments = fold_moments(pre.regression, pre.fast_rows, folds);
   std::size_t rows = 0;
   for (const FoldMoments& f : moments) rows += f.rows;
   // shared arms, per-joint arms, shared arms with offsets, both
   for (const bool offsets : {false, true}) {
     for (const bool per_joint : {false, true}) {
-      ModelOptions m = options.model;
+      ModelOptions m = base;
       m.per_joint = per_joint;
       m.offsets = offsets;
       const auto variant = make_model(m);
       std::vector<bool> nonnegative;
       for (const ParameterInfo& p : variant->parameters()) nonnegative.push_back(p.nonnegative);
-      const double sse = held_out_sse(moments, column_map(*superset, *variant), nonnegative);
+      const double sse = held_out_sse(moments, column_map(superset, *variant), nonnegative);
       out.variants.push_back(
           {variant_name(m), m, variant->size(), std::sqrt(sse / static_cast<double>(rows))});
     }
   }
-  // variants: shared, per-joint, offsets, both (the loops' order). The
-  // arms first (per-joint arms are physics the shared model lacks), then
-  // torque offsets on top of the arms chosen; each must lower the held-out
-  // error by more than the margin.
   const auto better = [&](std::size_t x, std::size_t y) {
     return out.variants[x].held_out_rmse_Nm <
            out.variants[y].held_out_rmse_Nm * (1.0 - kSelectionMargin);
@@ -172,6 +155,205 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
   }
   out.reason = why.str();
   return out;
+}
+
+// Each fold's and joint's moments of a fit's rows z = (psi, 1) and tau,
+// gathered a chunk of rows at a time (no copy of the regression).
+struct BlockMoments {
+  Eigen::MatrixXd zz;
+  Eigen::VectorXd z_tau;
+  double tau_tau{0};
+  std::size_t rows{0};
+};
+
+// Each joint's own columns (the others are zero in its rows), then the
+// constant and tau.
+std::array<std::vector<Eigen::Index>, 3> own_columns(const Regression& r) {
+  const Eigen::Index p = r.psi.cols();
+  std::array<std::vector<Eigen::Index>, 3> own;
+  for (unsigned j = 0; j < 3; ++j) {
+    if (!r.joint_columns[j].empty() && r.joint_columns_of == p) {
+      own[j] = r.joint_columns[j];
+    } else {
+      for (Eigen::Index c = 0; c < p; ++c) own[j].push_back(c);
+    }
+    own[j].push_back(p);      // the constant
+    own[j].push_back(p + 1);  // tau
+  }
+  return own;
+}
+
+// The moments of rows [first, end) of one fold, a chunk of consecutive
+// rows at a time: a chunk's columns are contiguous in psi (column-major),
+// and each joint's rows are gathered from its copy.
+void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
+                        const std::array<std::vector<Eigen::Index>, 3>& own,
+                        BlockMoments* joint_blocks) {
+  const Eigen::Index p = r.psi.cols(), q = p + 1;
+  constexpr Eigen::Index kChunk = 1024;
+  Eigen::MatrixXd chunk(kChunk, q + 1), joint_rows(kChunk, q + 1);
+  std::array<Eigen::MatrixXd, 3> sums;  // over each joint's own columns
+  for (unsigned j = 0; j < 3; ++j) {
+    const auto k = static_cast<Eigen::Index>(own[j].size());
+    sums[j] = Eigen::MatrixXd::Zero(k, k);
+  }
+  std::vector<Eigen::Index> members;
+  for (std::size_t from = first; from < end;) {
+    const std::size_t to = std::min(end, from + static_cast<std::size_t>(kChunk));
+    const auto n = static_cast<Eigen::Index>(to - from);
+    const auto at = static_cast<Eigen::Index>(from);
+    chunk.topLeftCorner(n, p) = r.psi.middleRows(at, n);
+    chunk.col(p).head(n).setOnes();
+    chunk.col(q).head(n) = r.tau.segment(at, n);
+    for (unsigned j = 0; j < 3; ++j) {
+      members.clear();
+      for (std::size_t i = from; i < to; ++i) {
+        if (r.joint[i] == j) members.push_back(static_cast<Eigen::Index>(i - from));
+      }
+      if (members.empty()) continue;
+      const auto m = static_cast<Eigen::Index>(members.size());
+      const auto k = static_cast<Eigen::Index>(own[j].size());
+      joint_rows.topLeftCorner(m, k) = chunk(members, own[j]);
+      sums[j].selfadjointView<Eigen::Lower>().rankUpdate(
+          joint_rows.topLeftCorner(m, k).transpose());
+      joint_blocks[j].rows += members.size();
+    }
+    from = to;
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    BlockMoments& b = joint_blocks[j];
+    b.zz = Eigen::MatrixXd::Zero(q, q);
+    b.z_tau = Eigen::VectorXd::Zero(q);
+    const auto k = static_cast<Eigen::Index>(own[j].size());
+    const Eigen::MatrixXd full = sums[j].selfadjointView<Eigen::Lower>();
+    for (Eigen::Index x = 0; x + 1 < k; ++x) {
+      for (Eigen::Index y = 0; y + 1 < k; ++y) b.zz(own[j][x], own[j][y]) = full(x, y);
+      b.z_tau(own[j][x]) = full(x, k - 1);
+    }
+    b.tau_tau = full(k - 1, k - 1);
+  }
+}
+
+std::vector<BlockMoments> block_moments(const Regression& r, std::size_t rows, unsigned folds,
+                                        unsigned threads) {
+  // The folds' row ranges: the fast rows are in time order.
+  const std::size_t samples = r.samples();
+  std::vector<std::size_t> bounds(folds + 1, rows);
+  bounds[0] = 0;
+  for (std::size_t i = 0, f = 1; i < rows && f < folds; ++i) {
+    while (f < folds && r.sample[i] * folds / samples >= f) bounds[f++] = i;
+  }
+  const auto own = own_columns(r);
+  std::vector<BlockMoments> blocks(3 * folds);
+  run_tasks(folds, workers_for(rows, threads, 60000), [&](std::size_t, std::size_t f) {
+    fold_block_moments(r, bounds[f], bounds[f + 1], own, &blocks[3 * f]);
+  });
+  return blocks;
+}
+
+// Where each of the superset's parameters comes from in a fitted model's
+// rows: a column (the constant 1 for a torque offset the fit lacks) and the
+// joints whose rows it is taken in.
+struct Source {
+  Eigen::Index column;
+  std::array<bool, 3> joints;
+};
+
+std::vector<Source> sources(const Model& superset, const Model& fitted) {
+  const auto& big = superset.parameters();
+  const auto& own = fitted.parameters();
+  const auto find = [&](const std::string& name) -> Eigen::Index {
+    for (std::size_t c = 0; c < own.size(); ++c) {
+      if (own[c].name == name) return static_cast<Eigen::Index>(c);
+    }
+    return -1;
+  };
+  std::vector<Source> out;
+  for (const ParameterInfo& p : big) {
+    if (const Eigen::Index c = find(p.name); c >= 0) {
+      out.push_back({c, {true, true, true}});
+      continue;
+    }
+    // NAME_j: the fit's shared NAME in joint j's rows, or (a torque offset
+    // it lacks) the constant 1 there.
+    const std::string& n = p.name;
+    const int j = n.size() > 2 && n[n.size() - 2] == '_' ? n.back() - '1' : -1;
+    if (j < 0 || j > 2) throw std::logic_error("model support: no column for " + n);
+    const std::string base = n.substr(0, n.size() - 2);
+    Eigen::Index c = find(base);
+    if (c < 0 && base == "torque_offset") c = static_cast<Eigen::Index>(own.size());
+    if (c < 0) throw std::logic_error("model support: no column for " + n);
+    std::array<bool, 3> joints{};
+    joints[static_cast<std::size_t>(j)] = true;
+    out.push_back({c, joints});
+  }
+  return out;
+}
+
+}  // namespace
+
+ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsigned folds) {
+  if (options.model.name == "paper14") {
+    throw delta::InputError(
+        "--model auto chooses among the delta and lumped models' variants; "
+        "paper14 has none");
+  }
+  ModelOptions largest = options.model;
+  largest.per_joint = true;
+  largest.offsets = true;
+  const auto superset = make_model(largest);
+  PrepareOptions prepare = options.prepare;
+  prepare.slow_rows_last_below_rad_s = min_speed_for(options);
+  const Preprocessed pre = preprocess(*superset, log, prepare, options.threads);
+  if (pre.regression.samples() < 20 * folds) {
+    throw delta::InputError(log.name + ": too short to judge the model on " +
+                            std::to_string(folds) + " time blocks");
+  }
+  return choose_variant(fold_moments(pre.regression, pre.fast_rows, folds), *superset,
+                        options.model, folds);
+}
+
+ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_options,
+                             const Regression& r, std::size_t rows, unsigned folds,
+                             unsigned threads) {
+  if (fitted_options.name == "paper14") {
+    throw delta::InputError("paper14 has no variants to judge");
+  }
+  if (r.samples() < 20 * folds) {
+    throw delta::InputError("too short to judge the model on " + std::to_string(folds) +
+                            " time blocks");
+  }
+  ModelOptions largest = fitted_options;
+  largest.per_joint = true;
+  largest.offsets = true;
+  const auto superset = make_model(largest);
+  const std::vector<Source> src = sources(*superset, fitted);
+  const std::vector<BlockMoments> blocks = block_moments(r, rows, folds, threads);
+  const auto p = static_cast<Eigen::Index>(src.size());
+  std::vector<FoldMoments> moments(folds);
+  for (unsigned f = 0; f < folds; ++f) {
+    FoldMoments& m = moments[f];
+    m.gram = Eigen::MatrixXd::Zero(p, p);
+    m.psi_tau = Eigen::VectorXd::Zero(p);
+    for (std::size_t j = 0; j < 3; ++j) {
+      const BlockMoments& b = blocks[f * 3 + j];
+      m.tau_tau += b.tau_tau;
+      m.rows += b.rows;
+      for (Eigen::Index x = 0; x < p; ++x) {
+        const Source& sx = src[static_cast<std::size_t>(x)];
+        if (!sx.joints[j]) continue;
+        m.psi_tau(x) += b.z_tau(sx.column);
+        for (Eigen::Index y = 0; y < p; ++y) {
+          const Source& sy = src[static_cast<std::size_t>(y)];
+          if (sy.joints[j]) m.gram(x, y) += b.zz(sx.column, sy.column);
+        }
+      }
+    }
+  }
+  ModelOptions base = fitted_options;
+  base.per_joint = false;
+  base.offsets = false;
+  return choose_variant(moments, *superset, base, folds);
 }
 
 }  // namespace host_id

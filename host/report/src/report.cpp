@@ -168,6 +168,23 @@ void text_samples(const FitResult& r, std::ostream& s) {
   for (const auto& g : r.gaps)
     s << "  gap       line " << g.line << ": " << g.what << " (not bridged)\n";
   s << "  model     " << model_summary(r.options.model, r.parameters.size()) << "\n";
+  if (r.support) {
+    const ModelSelection& m = *r.support;
+    const VariantScore& fitted = m.variants[variant_index(r.options.model)];
+    const VariantScore& best = m.variants[m.chosen];
+    s << "  support   ";
+    if (&best == &fitted) {
+      s << fitted.name << ", as fitted: the log supports no other variant (held-out torque error "
+        << fmt("%.4g", fitted.held_out_rmse_Nm) << " N m over " << m.folds << " time blocks)";
+    } else {
+      s << "the log supports " << best.name << ": held-out torque error "
+        << fmt("%.4g", best.held_out_rmse_Nm) << " N m against "
+        << fmt("%.4g", fitted.held_out_rmse_Nm) << " N m for the " << fitted.name << " fitted ("
+        << m.folds << " time blocks)";
+    }
+    if (!m.alike.empty()) s << "; " << m.alike << " explain it as well";
+    s << "\n";
+  }
 }
 
 // How it was fitted: the method, the weights, the friction's shape, the time.
@@ -344,6 +361,20 @@ nlohmann::json json_pso(const FitResult& r) {
 
 }  // namespace
 
+nlohmann::json json_model_selection(const ModelSelection& s) {
+  nlohmann::json variants = nlohmann::json::array();
+  for (const VariantScore& v : s.variants) {
+    variants.push_back({{"variant", v.name},
+                        {"per_joint", v.model.per_joint},
+                        {"offsets", v.model.offsets},
+                        {"parameters", v.parameters},
+                        {"held_out_rmse_Nm", v.held_out_rmse_Nm}});
+  }
+  return {{"folds", s.folds},     {"criterion", "held-out torque RMSE over time blocks (k-fold)"},
+          {"variants", variants}, {"chosen", s.variants[s.chosen].name},
+          {"alike", s.alike},     {"reason", s.reason}};
+}
+
 nlohmann::json json_report(const FitResult& r) {
   using nlohmann::json;
   const auto& o = r.options;
@@ -365,6 +396,7 @@ nlohmann::json json_report(const FitResult& r) {
         {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
       {"method", o.method == Method::kPso ? "pso" : "ls"},
       {"doubts", r.doubts},
+      {"model_support", r.support ? json_model_selection(*r.support) : nlohmann::json(nullptr)},
       {"correlation", json_correlation(r)},
       {"geometry",
        {{"upper_arm_length_m", r.geometry.upper_arm_length_m},

@@ -342,6 +342,39 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
       << err_.str();
 }
 
+// Every fit of the delta or lumped model says which variant the log
+// supports, judged on its own rows; where another variant's held-out error
+// is 10 % or more below the fitted one's, the fit is doubtful and says how
+// to fit that variant.
+TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
+  std::ofstream(path("arms.json"))
+      << R"({"arm_inertia_1": 0.0076, "arm_inertia_2": 0.0072, "arm_inertia_3": 0.0068,
+             "arm_gravity_moment_1": 0.42, "arm_gravity_moment_2": 0.44,
+             "arm_gravity_moment_3": 0.46, "platform_mass": 0.4})";
+  simulate("differ.csv", {"--params", path("arms.json"), "--torque-noise", "0.01"});
+  simulate("equal.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--json"}), 0)
+      << err_.str();
+  auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
+  ASSERT_EQ(j["doubts"].size(), 1u);
+  EXPECT_NE(j["doubts"][0].get<std::string>().find("the log supports per-joint arms"),
+            std::string::npos);
+  EXPECT_NE(j["doubts"][0].get<std::string>().find("fit with --model auto (or --per-joint)"),
+            std::string::npos);
+  EXPECT_NE(err_.str().find("warning: the lumped fit is doubtful: the log supports per-joint"),
+            std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--per-joint"}),
+            0);
+  EXPECT_NE(out_.str().find("support   per-joint arms, as fitted"), std::string::npos)
+      << out_.str();
+  ASSERT_EQ(run({"fit", path("equal.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_support"]["chosen"], "shared arms");
+  EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
+}
+
 // fit LOADED.csv --base RESULT.json: the payload's mass alone, and with -o
 // the base result with the payload added, which predict then uses.
 TEST_F(CliTest, APayloadOnABaseFitIsItsMassAndSavesTheLoadedResult) {

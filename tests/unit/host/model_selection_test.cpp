@@ -112,6 +112,35 @@ TEST(ModelSelectionTest, OnAMultibodyRobotArmsThatDifferChoosePerJointArms) {
   EXPECT_LT(joint_rmse, 0.75 * shared_rmse);
 }
 
+// What a plain fit reports as its model's support comes from its own
+// regression (the shared model's, slow rows last as a fit builds it): the
+// same choice and held-out errors as select_model(), which preprocesses
+// the log again with the largest variant, on logs where each variant wins.
+TEST(ModelSelectionTest, ThePlainFitsJudgementFromItsOwnRowsIsSelectModels) {
+  delta::LumpedParameters differ = delta::default_lumped_parameters();
+  differ.arm_inertia_kg_m2[0] *= 1.05;
+  differ.arm_gravity_moment_Nm[2] *= 1.05;
+  delta::LumpedParameters offsets = delta::default_lumped_parameters();
+  offsets.torque_offset_Nm = {0.05, -0.04, 0.03};
+  const FitOptions ls = test::least_squares();
+  for (const DeltaLog& log : {lumped_log(delta::default_lumped_parameters(), 35),
+                              lumped_log(differ, 36), lumped_log(offsets, 37, "pick-and-place")}) {
+    const ModelSelection reference = select_model(log, ls);
+    const auto model = make_model(ls.model);
+    PrepareOptions prepare = ls.prepare;
+    prepare.slow_rows_last_below_rad_s = min_speed_for(ls);
+    const Preprocessed pre = preprocess(*model, log, prepare);
+    const ModelSelection own = judge_support(*model, ls.model, pre.regression, pre.fast_rows);
+    print(own);
+    EXPECT_EQ(own.chosen, reference.chosen);
+    for (std::size_t v = 0; v < 4; ++v) {
+      EXPECT_NEAR(own.variants[v].held_out_rmse_Nm, reference.variants[v].held_out_rmse_Nm,
+                  1e-9 * reference.variants[v].held_out_rmse_Nm)
+          << own.variants[v].name;
+    }
+  }
+}
+
 // A smaller variant's columns are sums of the largest one's: its
 // preprocessed regression is the superset's mapped, to rounding.
 TEST(ModelSelectionTest, TheSharedModelsColumnsAreSumsOfThePerJointOnes) {

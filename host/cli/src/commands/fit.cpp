@@ -246,20 +246,6 @@ FitOptions options_for_model(FitOptions f, const std::string& name) {
   return f;
 }
 
-nlohmann::json json_selection(const ModelSelection& s) {
-  nlohmann::json variants = nlohmann::json::array();
-  for (const VariantScore& v : s.variants) {
-    variants.push_back({{"variant", v.name},
-                        {"per_joint", v.model.per_joint},
-                        {"offsets", v.model.offsets},
-                        {"parameters", v.parameters},
-                        {"held_out_rmse_Nm", v.held_out_rmse_Nm}});
-  }
-  return {{"folds", s.folds},     {"criterion", "held-out torque RMSE over time blocks (k-fold)"},
-          {"variants", variants}, {"chosen", s.variants[s.chosen].name},
-          {"alike", s.alike},     {"reason", s.reason}};
-}
-
 std::string text_selection(const ModelSelection& s) {
   std::ostringstream t;
   t << "host_id fit: --model auto: held-out torque RMSE over " << s.folds
@@ -281,7 +267,7 @@ void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
                    std::ostream& out) {
   const FitResult& r = results.front();
   nlohmann::json j = json_report(r);
-  if (a.selection) j["model_selection"] = json_selection(*a.selection);
+  if (a.selection) j["model_selection"] = json_model_selection(*a.selection);
   if (results.size() > 1) {
     j["other_models"] = nlohmann::json::array();
     for (std::size_t i = 1; i < results.size(); ++i) {

@@ -15,6 +15,7 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/model.hpp"
+#include "host_id/model_support.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
 
@@ -149,6 +150,9 @@ struct FitResult {
   // Parameter name -> its truth, where the caller knows it (fit --truth).
   std::map<std::string, double> truth;
   std::optional<FrictionShapeResult> friction_shape;
+  // Which variant the log supports, judged on the fit's own rows (delta and
+  // lumped, long enough logs): model_selection.hpp's judge_support().
+  std::optional<ModelSelection> support;
   // Set where the log cannot separate every parameter: the estimate is of
   // the base parameters (least_squares.hpp).
   std::optional<Identifiability> identifiability;
@@ -168,10 +172,14 @@ struct FitResult {
 // passes kConditionDoubt (good excitations: about 30), where a parameter's
 // uncertainty stands for more than kStdShareDoubt of the torque
 // (ParameterEstimate::std_torque_share), or where kPinnedDoubt or more
-// parameters sit at their bounds.
+// parameters sit at their bounds; and where the log supports another
+// variant (FitResult::support) whose held-out error is kSupportDoubt or
+// more below the fitted one's.
 inline constexpr double kConditionDoubt = 1e3;
 inline constexpr double kStdShareDoubt = 0.1;
 inline constexpr std::size_t kPinnedDoubt = 3;
+inline constexpr double kSupportDoubt = 0.1;
+inline constexpr unsigned kSupportFolds = 5;
 std::vector<std::string> doubts_of(const FitResult& r);
 
 // Torques of the sign opposite to docs/conventions.md's are refused: where

@@ -14,32 +14,24 @@
 
 #include "host_id/delta_log.hpp"
 #include "host_id/identify.hpp"
+#include "host_id/model_support.hpp"
+#include "host_id/regression.hpp"
 
 namespace host_id {
-
-struct VariantScore {
-  std::string name;  // "shared arms", "per-joint arms, offsets", ...
-  ModelOptions model;
-  std::size_t parameters{0};
-  double held_out_rmse_Nm{0};  // over every fold's held-out rows
-};
-
-struct ModelSelection {
-  unsigned folds{0};
-  std::vector<VariantScore> variants;  // fewest parameters first
-  std::size_t chosen{0};
-  // The variant that explains the log as well without being nested in the
-  // chosen one (per-joint arms against torque offsets); "" if none.
-  std::string alike;
-  std::string reason;
-};
-
-// A variant with more parameters is chosen only where it lowers the
-// held-out error by more than this fraction against every simpler one.
-inline constexpr double kSelectionMargin = 0.01;
 
 // Throws InputError for paper14 (no variants) or a log too short for
 // `folds` blocks.
 ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsigned folds = 5);
+
+// The same judgement from a fit's own regression, without preprocessing the
+// log again (what `fit` reports as the model's support): a per-joint arm
+// column is the shared one in its joint's rows alone, and a torque offset
+// is 1 in its joint's rows (a filtered constant). rows: the equations the
+// fit took (the fast ones first). It agrees with select_model() on the same
+// log to rounding. Throws InputError for paper14 or too short a regression.
+// The folds' moments are taken on `threads` threads (0: all cores).
+ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_options,
+                             const Regression& r, std::size_t rows, unsigned folds = 5,
+                             unsigned threads = 0);
 
 }  // namespace host_id

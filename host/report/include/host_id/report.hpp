@@ -13,6 +13,9 @@ namespace host_id {
 
 std::string text_report(const FitResult& r);
 nlohmann::json json_report(const FitResult& r);
+// The variants' held-out errors and the choice (--model auto's selection,
+// and every fit's "model_support").
+nlohmann::json json_model_selection(const ModelSelection& s);
 
 // A saved result, as read back by `host_id validate`.
 struct SavedResult {
