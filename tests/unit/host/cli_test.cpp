@@ -375,6 +375,30 @@ TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
   EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
 }
 
+// Without --model the variant is the one the log supports (--model auto):
+// per-joint arms for arms that differ, fitted from the file again, and no
+// doubt left; --per-joint alone names the delta model.
+TEST_F(CliTest, TheDefaultModelIsTheVariantTheLogSupports) {
+  std::ofstream(path("arms.json"))
+      << R"({"arm_inertia_1": 0.0076, "arm_inertia_2": 0.0072, "arm_inertia_3": 0.0068,
+             "arm_gravity_moment_1": 0.42, "arm_gravity_moment_2": 0.44,
+             "arm_gravity_moment_3": 0.46, "platform_mass": 0.4})";
+  simulate("differ.csv", {"--params", path("arms.json"), "--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_selection"]["chosen"], "per-joint arms");
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_EQ(j["model"]["per_joint"], true);
+  EXPECT_EQ(j["parameters"].size(), 18u);
+  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
+  EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--offsets", "--json"}), 0);
+  j = nlohmann::json::parse(out_.str());
+  EXPECT_FALSE(j.contains("model_selection"));
+  EXPECT_EQ(j["model"]["per_joint"], false);
+  EXPECT_EQ(j["model"]["offsets"], true);
+}
+
 // fit LOADED.csv --base RESULT.json: the payload's mass alone, and with -o
 // the base result with the payload added, which predict then uses.
 TEST_F(CliTest, APayloadOnABaseFitIsItsMassAndSavesTheLoadedResult) {

@@ -15,7 +15,7 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
-#include "host_id/model_selection.hpp"
+#include "host_id/model_support.hpp"
 #include "host_id/payload.hpp"
 #include "host_id/report.hpp"
 #include "host_id/svg_plot.hpp"
@@ -41,7 +41,7 @@ struct FitArguments {
   std::string weights{"none"};
   std::size_t trim{0};
   double min_speed_rad_s{0};
-  std::vector<std::string> models{"delta"};  // the first is the primary model
+  std::vector<std::string> models{"auto"};  // the first is the primary model
   std::vector<std::string> validate;
   std::string out_path;
   std::string plot_path;
@@ -55,6 +55,7 @@ struct FitArguments {
   std::string base_path;                    // --base: a payload on this fit
   std::string calibrate_path;               // --calibrate-torque: the loaded log
   double payload_mass_kg{0};                // --payload-mass, with --calibrate-torque
+  CLI::Option* model_given{nullptr};
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
 };
@@ -66,17 +67,20 @@ std::vector<std::string> model_names_and_auto() {
 }
 
 void add_model_options(CLI::App& c, FitArguments& a) {
-  c.add_option("--model", a.models,
-               "delta: the higher-fidelity model (arm centre of mass off its line, inertial "
-               "and weight platform masses, forearm coupling); lumped: point masses at elbow "
-               "and platform; both with lambda solved per sample; paper14: the paper's 14 "
-               "coefficients; auto: the delta model with shared or per-joint arms, with or "
-               "without torque offsets, as held-out error on time blocks of the log decides "
-               "(docs/identification.md, 'Choosing the model'). Given more than once, each model "
-               "is fitted and Table 2 covers them all; the first is the one --out and --plot save")
-      ->check(CLI::IsMember(model_names_and_auto()))
-      ->capture_default_str()
-      ->group("model");
+  a.model_given =
+      c.add_option("--model", a.models,
+                   "delta: the higher-fidelity model (arm centre of mass off its line, inertial "
+                   "and weight platform masses, forearm coupling); lumped: point masses at elbow "
+                   "and platform; both with lambda solved per sample; paper14: the paper's 14 "
+                   "coefficients; auto (the default; delta where --per-joint or --offsets is "
+                   "given): the delta model with shared or per-joint arms, with or without "
+                   "torque offsets, as held-out error on time blocks of the log decides "
+                   "(docs/identification.md, 'Choosing the model'). Given more than once, each "
+                   "model is fitted and Table 2 covers them all; the first is the one --out and "
+                   "--plot save")
+          ->check(CLI::IsMember(model_names_and_auto()))
+          ->capture_default_str()
+          ->group("model");
   c.add_flag("--per-joint", a.fit.model.per_joint,
              "delta, lumped: arm inertia and gravity moments per joint")
       ->group("model");
@@ -407,6 +411,12 @@ int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err)
 }
 
 int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  // --model auto unless told: --per-joint, --offsets, a payload or a torque
+  // calibration name their model, delta.
+  if (a.model_given->count() == 0 && (a.fit.model.per_joint || a.fit.model.offsets ||
+                                      !a.calibrate_path.empty() || !a.base_path.empty())) {
+    a.models = {"delta"};
+  }
   if (!a.calibrate_path.empty()) {
     if (a.models.size() > 1 || a.models.front() == "auto" || !a.validate.empty() ||
         !a.plot_path.empty() || !a.truth_path.empty() || !a.base_path.empty()) {
@@ -462,12 +472,20 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
     check_geometry(a.log, log.geometry, "the robot of --truth " + a.truth_path, robot->geometry,
                    a.allow_other_geometry, err);
   }
-  if (automatic) {
-    a.selection = select_model(log, f);
-    f.model = a.selection->variants[a.selection->chosen].model;
-  }
   std::vector<FitResult> results;
-  for (std::size_t i = 0; i < a.models.size(); ++i) {
+  if (automatic) {
+    // The shared arms' fit judges the variants on its own rows; another
+    // variant the log supports is fitted from the file again.
+    results.push_back(fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty()));
+    a.selection = results.back().support;
+    if (a.selection && a.selection->chosen != variant_index(f.model)) {
+      f.model = a.selection->variants[a.selection->chosen].model;
+      results.back() =
+          fit_log(read_delta_log(a.log), f, pointers(validation_logs), !a.plot_path.empty());
+    }
+    if (robot) results.back().truth = parameter_truth(f.model, *robot);
+  }
+  for (std::size_t i = 0; i < a.models.size() && !automatic; ++i) {
     const FitOptions fi = i == 0 ? f : options_for_model(f, a.models[i]);
     const bool last = i + 1 == a.models.size();
     // The last fit takes the log itself (a long log's memory); the others a copy.
