@@ -227,8 +227,11 @@ void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
     const auto k = static_cast<Eigen::Index>(own[j].size());
     const Eigen::MatrixXd full = sums[j].selfadjointView<Eigen::Lower>();
     for (Eigen::Index x = 0; x + 1 < k; ++x) {
-      for (Eigen::Index y = 0; y + 1 < k; ++y) b.zz(own[j][x], own[j][y]) = full(x, y);
-      b.z_tau(own[j][x]) = full(x, k - 1);
+      const Eigen::Index cx = own[j][static_cast<std::size_t>(x)];
+      for (Eigen::Index y = 0; y + 1 < k; ++y) {
+        b.zz(cx, own[j][static_cast<std::size_t>(y)]) = full(x, y);
+      }
+      b.z_tau(cx) = full(x, k - 1);
     }
     b.tau_tau = full(k - 1, k - 1);
   }
