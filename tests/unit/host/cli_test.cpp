@@ -42,6 +42,15 @@ class CliTest : public ::testing::Test {
     args.insert(args.end(), extra.begin(), extra.end());
     ASSERT_EQ(run(args), 0) << err_.str();
   }
+  // A lumped log of arms whose inertias and gravity moments differ by up to
+  // 5 % (simulate --params with per-joint values).
+  void simulate_arms_that_differ(const std::string& name) {
+    std::ofstream(path("arms.json"))
+        << R"({"arm_inertia_1": 0.0076, "arm_inertia_2": 0.0072, "arm_inertia_3": 0.0068,
+               "arm_gravity_moment_1": 0.42, "arm_gravity_moment_2": 0.44,
+               "arm_gravity_moment_3": 0.46, "platform_mass": 0.4})";
+    simulate(name, {"--params", path("arms.json"), "--torque-noise", "0.01"});
+  }
 
   const testsupport::ScratchDirectory scratch_{"host_id_cli"};
   const std::string dir_ = scratch_.path();
@@ -347,11 +356,7 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
 // is 10 % or more below the fitted one's, the fit is doubtful and says how
 // to fit that variant.
 TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
-  std::ofstream(path("arms.json"))
-      << R"({"arm_inertia_1": 0.0076, "arm_inertia_2": 0.0072, "arm_inertia_3": 0.0068,
-             "arm_gravity_moment_1": 0.42, "arm_gravity_moment_2": 0.44,
-             "arm_gravity_moment_3": 0.46, "platform_mass": 0.4})";
-  simulate("differ.csv", {"--params", path("arms.json"), "--torque-noise", "0.01"});
+  simulate_arms_that_differ("differ.csv");
   simulate("equal.csv", {"--torque-noise", "0.01"});
   ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--json"}), 0)
       << err_.str();
@@ -379,11 +384,7 @@ TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
 // per-joint arms for arms that differ, fitted from the file again, and no
 // doubt left; --per-joint alone names the delta model.
 TEST_F(CliTest, TheDefaultModelIsTheVariantTheLogSupports) {
-  std::ofstream(path("arms.json"))
-      << R"({"arm_inertia_1": 0.0076, "arm_inertia_2": 0.0072, "arm_inertia_3": 0.0068,
-             "arm_gravity_moment_1": 0.42, "arm_gravity_moment_2": 0.44,
-             "arm_gravity_moment_3": 0.46, "platform_mass": 0.4})";
-  simulate("differ.csv", {"--params", path("arms.json"), "--torque-noise", "0.01"});
+  simulate_arms_that_differ("differ.csv");
   ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--json"}), 0) << err_.str();
   auto j = nlohmann::json::parse(out_.str());
   EXPECT_EQ(j["model_selection"]["chosen"], "per-joint arms");
