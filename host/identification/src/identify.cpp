@@ -433,9 +433,15 @@ std::vector<std::string> doubts_of(const FitResult& r) {
       m.str("");
       m << "the log supports " << best.name << ": held-out torque error " << best.held_out_rmse_Nm
         << " N m against " << fitted.held_out_rmse_Nm << " N m for the " << fitted.name
-        << " fitted (" << s.folds << " time blocks); fit with --model auto (or"
-        << (best.model.per_joint ? " --per-joint" : "") << (best.model.offsets ? " --offsets" : "")
-        << ")";
+        << " fitted (" << s.folds << " time blocks); fit with ";
+      const std::string flags = std::string(best.model.per_joint ? " --per-joint" : "") +
+                                (best.model.offsets ? " --offsets" : "");
+      // --model auto chooses among the delta model's variants.
+      if (r.options.model.name == "delta") {
+        m << "--model auto (or" << flags << ")";
+      } else {
+        m << "--model " << r.options.model.name << flags;
+      }
       doubts.push_back(m.str());
     }
   }

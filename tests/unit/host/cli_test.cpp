@@ -365,10 +365,14 @@ TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
   ASSERT_EQ(j["doubts"].size(), 1u);
   EXPECT_NE(j["doubts"][0].get<std::string>().find("the log supports per-joint arms"),
             std::string::npos);
-  EXPECT_NE(j["doubts"][0].get<std::string>().find("fit with --model auto (or --per-joint)"),
-            std::string::npos);
+  EXPECT_NE(j["doubts"][0].get<std::string>().find("fit with --model lumped --per-joint"),
+            std::string::npos)
+      << j["doubts"][0];
   EXPECT_NE(err_.str().find("warning: the lumped fit is doubtful: the log supports per-joint"),
             std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "delta", "--method", "ls"}), 0);
+  EXPECT_NE(err_.str().find("fit with --model auto (or --per-joint)"), std::string::npos)
       << err_.str();
   ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--per-joint"}),
             0);
