@@ -7,6 +7,7 @@
 
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/model_selection.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/regression.hpp"
 
@@ -99,6 +100,21 @@ Eigen::VectorXd ln_shape_std(ShapePreprocess& pre, const DeltaLog& log, const Fi
   return aug.std_dev.tail(k);
 }
 
+// Whether the log supports the shape found: held-out error over time
+// blocks with the given shape and with the fitted one.
+void judge_shape(ShapePreprocess& pre, const FitOptions& options, const ModelOptions& fitted,
+                 FrictionShapeResult& r) {
+  const auto held_out = [&](const ModelOptions& m) {
+    const std::unique_ptr<Model> model = make_model(m);
+    const Preprocessed& p = pre.with_shape(*model);
+    if (p.regression.samples() < 20 * kSupportFolds) return 0.0;
+    return held_out_rmse(*model, p.regression, p.fast_rows, kSupportFolds, options.threads);
+  };
+  r.held_out_given_Nm = held_out(options.model);
+  r.held_out_fitted_Nm = held_out(fitted);
+  r.supported = r.held_out_fitted_Nm < r.held_out_given_Nm * (1.0 - kSelectionMargin);
+}
+
 }  // namespace
 
 FrictionShapeResult fit_friction_shape(const DeltaLog& log, const FitOptions& options) {
@@ -139,6 +155,7 @@ FrictionShapeResult fit_friction_shape(const DeltaLog& log, const FitOptions& op
     r.stribeck_velocity_rad_s = std::exp(best.best(1));
     r.stribeck_velocity_std = r.stribeck_velocity_rad_s * std_ln(1);
   }
+  judge_shape(pre, options, with_shape(options.model, best.best), r);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

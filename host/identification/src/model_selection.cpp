@@ -359,4 +359,33 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
   return choose_variant(moments, *superset, base, folds);
 }
 
+double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
+                     unsigned threads) {
+  if (r.samples() < 20 * folds) {
+    throw delta::InputError("too short to judge the model on " + std::to_string(folds) +
+                            " time blocks");
+  }
+  const std::vector<BlockMoments> blocks = block_moments(r, rows, folds, threads);
+  const auto p = static_cast<Eigen::Index>(model.size());
+  std::vector<FoldMoments> moments(folds);
+  std::size_t all_rows = 0;
+  for (unsigned f = 0; f < folds; ++f) {
+    FoldMoments& m = moments[f];
+    m.gram = Eigen::MatrixXd::Zero(p, p);
+    m.psi_tau = Eigen::VectorXd::Zero(p);
+    for (std::size_t j = 0; j < 3; ++j) {
+      const BlockMoments& b = blocks[f * 3 + j];
+      m.gram += b.zz.topLeftCorner(p, p);
+      m.psi_tau += b.z_tau.head(p);
+      m.tau_tau += b.tau_tau;
+      m.rows += b.rows;
+    }
+    all_rows += m.rows;
+  }
+  std::vector<bool> nonnegative;
+  for (const ParameterInfo& info : model.parameters()) nonnegative.push_back(info.nonnegative);
+  const double sse = held_out_sse(moments, Eigen::MatrixXd::Identity(p, p), nonnegative);
+  return std::sqrt(sse / static_cast<double>(all_rows));
+}
+
 }  // namespace host_id

@@ -183,6 +183,7 @@ void text_samples(const FitResult& r, std::ostream& s) {
         << m.folds << " time blocks)";
     }
     if (!m.alike.empty()) s << "; " << m.alike << " explain it as well";
+    if (!r.friction_shape) s << "; friction shape as given (--fit-friction-shape judges it)";
     s << "\n";
   }
 }
@@ -218,6 +219,14 @@ void text_method(const FitResult& r, std::ostream& s) {
     }
     s << "\n            cost " << fmt("%.6e", f.cost_given_Nm2) << " with the given shape, "
       << fmt("%.6e", f.cost_fitted_Nm2) << " fitted (least squares within the bounds)\n";
+    if (f.held_out_given_Nm > 0.0) {
+      s << "            held-out torque error " << fmt("%.4g", f.held_out_fitted_Nm)
+        << " N m with the fitted shape, " << fmt("%.4g", f.held_out_given_Nm)
+        << " N m with the given one (" << kSupportFolds << " time blocks): "
+        << (f.supported ? "the log supports the fitted shape"
+                        : "the given shape explains the log as well")
+        << "\n";
+    }
   }
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
@@ -322,6 +331,9 @@ nlohmann::json json_friction_shape(const FitResult& r) {
           {"stribeck_velocity_std_rad_s", f.stribeck_velocity_std},
           {"cost_given_Nm2", f.cost_given_Nm2},
           {"cost_fitted_Nm2", f.cost_fitted_Nm2},
+          {"held_out_given_Nm", f.held_out_given_Nm},
+          {"held_out_fitted_Nm", f.held_out_fitted_Nm},
+          {"supported", f.supported},
           {"evaluations", f.evaluations},
           {"seconds", f.seconds}};
 }

@@ -90,6 +90,22 @@ TEST(IdentifyTest, OnTheDefaultMultibodyRobotTheDefaultModelFindsItsTruth) {
 // started from a Stribeck velocity of 0.3 and the default smoothing, PSO
 // finds both within their printed uncertainty, and the parameters the
 // fixed shape biased come to the truth.
+// On a log whose friction has the shape given (the lumped plant's default
+// smoothing, no Stribeck term), the shape found explains it no better held
+// out: the fit says the given shape serves.
+TEST(IdentifyTest, AFrictionShapeTheLogDoesNotNeedIsNotCalledSupported) {
+  FitOptions f = least_squares(model_named("lumped"));
+  f.fit_friction_shape = true;
+  const FitResult r = fit_log(simulated(3, 0.01, 17, false), f);
+  ASSERT_TRUE(r.friction_shape.has_value());
+  const FrictionShapeResult& shape = *r.friction_shape;
+  std::cout << "held out: " << shape.held_out_fitted_Nm << " N m fitted shape ("
+            << shape.coulomb_smoothing_rad_s << " rad/s), " << shape.held_out_given_Nm
+            << " N m given\n";
+  EXPECT_GT(shape.held_out_given_Nm, 0.0);
+  EXPECT_FALSE(shape.supported);
+}
+
 TEST(IdentifyTest, FrictionShapeByVariableProjectionFindsTheRobotsShape) {
   const delta::RobotDescription robot = delta::default_robot_description();
   const DeltaLog fit_path = multibody_log(robot, 0.4);
@@ -107,6 +123,12 @@ TEST(IdentifyTest, FrictionShapeByVariableProjectionFindsTheRobotsShape) {
   EXPECT_LT(shape.stribeck_velocity_std, 0.02);
   EXPECT_LT(shape.cost_fitted_Nm2, shape.cost_given_Nm2);
   EXPECT_EQ(r.options.model.stribeck_velocity_rad_s, shape.stribeck_velocity_rad_s);
+  // Held out over time blocks, the robot's shape predicts better than the
+  // one given: the log supports it.
+  std::cout << "held out: " << shape.held_out_fitted_Nm << " N m fitted shape, "
+            << shape.held_out_given_Nm << " N m given\n";
+  EXPECT_TRUE(shape.supported);
+  EXPECT_LT(shape.held_out_fitted_Nm, 0.99 * shape.held_out_given_Nm);
   delta::HighFidelityParameters truth = delta::high_fidelity_truth(robot);
   const auto model = make_model(r.options.model);
   const std::vector<double> t = model->parameter_vector(truth);

@@ -58,6 +58,12 @@ struct FrictionShapeResult {
   double stribeck_velocity_rad_s{0}, stribeck_velocity_std{0};  // 0: no Stribeck term
   double cost_given_Nm2{0};   // with the shape given in the options
   double cost_fitted_Nm2{0};  // with the shape found
+  // Held-out torque RMSE over kSupportFolds time blocks with each shape
+  // (the shape itself found on the whole log); 0 for too short a log.
+  double held_out_given_Nm{0}, held_out_fitted_Nm{0};
+  // The fitted shape lowers the held-out error by more than
+  // kSelectionMargin: the log supports it.
+  bool supported{false};
   std::size_t evaluations{0};
   double seconds{0};
 };
