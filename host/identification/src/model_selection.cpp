@@ -293,6 +293,34 @@ std::vector<Source> sources(const Model& superset, const Model& fitted) {
   return out;
 }
 
+// Each fold's moments of the columns `src` names, from the folds' and
+// joints' moments of the fitted rows.
+std::vector<FoldMoments> moments_from_blocks(const std::vector<BlockMoments>& blocks,
+                                             const std::vector<Source>& src, unsigned folds) {
+  const auto p = static_cast<Eigen::Index>(src.size());
+  std::vector<FoldMoments> moments(folds);
+  for (unsigned f = 0; f < folds; ++f) {
+    FoldMoments& m = moments[f];
+    m.gram = Eigen::MatrixXd::Zero(p, p);
+    m.psi_tau = Eigen::VectorXd::Zero(p);
+    for (std::size_t j = 0; j < 3; ++j) {
+      const BlockMoments& b = blocks[f * 3 + j];
+      m.tau_tau += b.tau_tau;
+      m.rows += b.rows;
+      for (Eigen::Index x = 0; x < p; ++x) {
+        const Source& sx = src[static_cast<std::size_t>(x)];
+        if (!sx.joints[j]) continue;
+        m.psi_tau(x) += b.z_tau(sx.column);
+        for (Eigen::Index y = 0; y < p; ++y) {
+          const Source& sy = src[static_cast<std::size_t>(y)];
+          if (sy.joints[j]) m.gram(x, y) += b.zz(sx.column, sy.column);
+        }
+      }
+    }
+  }
+  return moments;
+}
+
 }  // namespace
 
 ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsigned folds) {
@@ -331,28 +359,8 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
   largest.offsets = true;
   const auto superset = make_model(largest);
   const std::vector<Source> src = sources(*superset, fitted);
-  const std::vector<BlockMoments> blocks = block_moments(r, rows, folds, threads);
-  const auto p = static_cast<Eigen::Index>(src.size());
-  std::vector<FoldMoments> moments(folds);
-  for (unsigned f = 0; f < folds; ++f) {
-    FoldMoments& m = moments[f];
-    m.gram = Eigen::MatrixXd::Zero(p, p);
-    m.psi_tau = Eigen::VectorXd::Zero(p);
-    for (std::size_t j = 0; j < 3; ++j) {
-      const BlockMoments& b = blocks[f * 3 + j];
-      m.tau_tau += b.tau_tau;
-      m.rows += b.rows;
-      for (Eigen::Index x = 0; x < p; ++x) {
-        const Source& sx = src[static_cast<std::size_t>(x)];
-        if (!sx.joints[j]) continue;
-        m.psi_tau(x) += b.z_tau(sx.column);
-        for (Eigen::Index y = 0; y < p; ++y) {
-          const Source& sy = src[static_cast<std::size_t>(y)];
-          if (sy.joints[j]) m.gram(x, y) += b.zz(sx.column, sy.column);
-        }
-      }
-    }
-  }
+  const std::vector<FoldMoments> moments =
+      moments_from_blocks(block_moments(r, rows, folds, threads), src, folds);
   ModelOptions base = fitted_options;
   base.per_joint = false;
   base.offsets = false;
@@ -365,23 +373,13 @@ double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, 
     throw delta::InputError("too short to judge the model on " + std::to_string(folds) +
                             " time blocks");
   }
-  const std::vector<BlockMoments> blocks = block_moments(r, rows, folds, threads);
   const auto p = static_cast<Eigen::Index>(model.size());
-  std::vector<FoldMoments> moments(folds);
+  std::vector<Source> own;  // every column as it is
+  for (Eigen::Index c = 0; c < p; ++c) own.push_back({c, {true, true, true}});
+  const std::vector<FoldMoments> moments =
+      moments_from_blocks(block_moments(r, rows, folds, threads), own, folds);
   std::size_t all_rows = 0;
-  for (unsigned f = 0; f < folds; ++f) {
-    FoldMoments& m = moments[f];
-    m.gram = Eigen::MatrixXd::Zero(p, p);
-    m.psi_tau = Eigen::VectorXd::Zero(p);
-    for (std::size_t j = 0; j < 3; ++j) {
-      const BlockMoments& b = blocks[f * 3 + j];
-      m.gram += b.zz.topLeftCorner(p, p);
-      m.psi_tau += b.z_tau.head(p);
-      m.tau_tau += b.tau_tau;
-      m.rows += b.rows;
-    }
-    all_rows += m.rows;
-  }
+  for (const FoldMoments& m : moments) all_rows += m.rows;
   std::vector<bool> nonnegative;
   for (const ParameterInfo& info : model.parameters()) nonnegative.push_back(info.nonnegative);
   const double sse = held_out_sse(moments, Eigen::MatrixXd::Identity(p, p), nonnegative);
