@@ -703,21 +703,33 @@ TEST(InProcessPortTest, ALateAnswerToARetriedSdoRequestIsIgnored) {
   EXPECT_EQ(rig.master.last_problem(), "");
 }
 
-// After each run delta_fw prints `tracking NAME: rms_rad=a,b,c
-// max_rad=a,b,c`, the controller's own statistics over the trajectory.
-TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
-  Rig rig;
+// path2, checked at start as `delta_fw --run path2` checks it.
+std::vector<NamedRun> path2_checked_at_start(const fw::ControllerConfig& core) {
   const auto traj = named_trajectory("path2", Rig::config());
-  ASSERT_TRUE(traj.has_value());
-  std::ostringstream messages;
-  const fw::ControllerConfig core = controller_config(Rig::config());
+  EXPECT_TRUE(traj.has_value());
   std::vector<NamedRun> runs;
-  runs.push_back({"path2", fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *traj)});
-  RunCoordinator coordinator(std::move(runs), true, nullptr, messages);
+  if (traj) {
+    runs.push_back({"path2", fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *traj)});
+  }
+  return runs;
+}
+
+// Cycles the rig until the coordinator has an exit code (at most 20 000).
+void run_until_exit(Rig& rig, RunCoordinator& coordinator) {
   for (int i = 0; i < 20000 && !coordinator.exit_code(); ++i) {
     rig.cycle();
     coordinator.after_step(rig.controller, rig.hw, rig.master);
   }
+}
+
+// After each run delta_fw prints `tracking NAME: rms_rad=a,b,c
+// max_rad=a,b,c`, the controller's own statistics over the trajectory.
+TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
+  Rig rig;
+  std::ostringstream messages;
+  const fw::ControllerConfig core = controller_config(Rig::config());
+  RunCoordinator coordinator(path2_checked_at_start(core), true, nullptr, messages);
+  run_until_exit(rig, coordinator);
   ASSERT_EQ(coordinator.exit_code(), kExitDone) << messages.str();
   const std::string text = messages.str();
   const std::size_t at = text.find("\ntracking path2: rms_rad=");
@@ -743,13 +755,9 @@ TEST(InProcessPortTest, EachRunEndsWithItsTrackingLine) {
 // and delta_fw says why and what to do.
 TEST(InProcessPortTest, ARunCheckedBeforeAModelWasLoadedIsRefusedWithItsReason) {
   Rig rig;
-  const auto traj = named_trajectory("path2", Rig::config());
-  ASSERT_TRUE(traj.has_value());
   std::ostringstream messages;
   const fw::ControllerConfig core = controller_config(Rig::config());
-  std::vector<NamedRun> runs;
-  runs.push_back({"path2", fw::CheckedTrajectory::check(fw::trajectory_bounds(core), *traj)});
-  RunCoordinator coordinator(std::move(runs), true, nullptr, messages);
+  RunCoordinator coordinator(path2_checked_at_start(core), true, nullptr, messages);
   delta::IdentifiedModel m;
   m.kind = "lumped";
   m.geometry = delta::kDefaultGeometry;
@@ -758,10 +766,7 @@ TEST(InProcessPortTest, ARunCheckedBeforeAModelWasLoadedIsRefusedWithItsReason) 
   model.mode = fw::FeedForwardMode::kModel;
   model.model = delta::fx::prepare_model(core.geometry, delta::model_parameters_q(m));
   ASSERT_TRUE(rig.controller.set_feed_forward(model));  // before the first cycle: boot
-  for (int i = 0; i < 20000 && !coordinator.exit_code(); ++i) {
-    rig.cycle();
-    coordinator.after_step(rig.controller, rig.hw, rig.master);
-  }
+  run_until_exit(rig, coordinator);
   EXPECT_EQ(coordinator.exit_code(), kExitRejected);
   EXPECT_NE(messages.str().find("trajectory 'path2' rejected: it was checked at start against "
                                 "another feed-forward (a model was loaded since); start "
