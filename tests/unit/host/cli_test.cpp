@@ -397,6 +397,13 @@ TEST_F(CliTest, TheDefaultModelIsTheVariantTheLogSupports) {
   EXPECT_EQ(j["parameters"].size(), 18u);
   EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
   EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
+  // Too short to judge: the shared arms, and it says so.
+  ASSERT_EQ(run({"simulate", "-o", path("short.csv"), "--duration", "0.39"}), 0) << err_.str();
+  ASSERT_EQ(run({"fit", path("short.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("warning: --model auto: 91 samples are too few to judge the model's "
+                            "variants on 5 time blocks (at least 100); the shared arms are fitted"),
+            std::string::npos)
+      << err_.str();
   ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--offsets", "--json"}), 0);
   j = nlohmann::json::parse(out_.str());
   EXPECT_FALSE(j.contains("model_selection"));

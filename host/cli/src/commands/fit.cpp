@@ -478,6 +478,11 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
     // variant the log supports is fitted from the file again.
     results.push_back(fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty()));
     a.selection = results.back().support;
+    if (!a.selection) {
+      err << a.log << ": warning: --model auto: " << results.back().fit.samples
+          << " samples are too few to judge the model's variants on " << kSupportFolds
+          << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
+    }
     if (a.selection && a.selection->chosen != variant_index(f.model)) {
       f.model = a.selection->variants[a.selection->chosen].model;
       results.back() =
