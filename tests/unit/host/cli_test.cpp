@@ -509,8 +509,14 @@ TEST_F(CliTest, SimulateValidatesItsOptions) {
   EXPECT_NE(err_.str().find("--torque-noise: must be in [0, 1), got '1'"), std::string::npos)
       << err_.str();
   EXPECT_FALSE(exists("s.csv"));
+  EXPECT_EQ(run({"simulate", "-o", path("s.csv"), "--trajectory", "pick-and-place", "--segment-s",
+                 "0.05"}),
+            2);
+  EXPECT_NE(err_.str().find("--segment-s: must be in [0.1, 10], got '0.05'"), std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("s.csv"));
   ASSERT_EQ(run({"simulate", "-o", path("s.csv"), "--trajectory", "pick-and-place", "--duration",
-                 "1", "--with-derivatives"}),
+                 "1", "--with-derivatives", "--segment-s", "0.25"}),
             0);
   const std::string text = delta::read_whole_file(path("s.csv"));
   EXPECT_NE(text.find("seq,t,q1,q2,q3,tau1,tau2,tau3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n"),
