@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Instructions per firmware control step (pick-and-place trajectory with IK,
-# joint control, torque from current, through Controller::step()):
+# Instructions per firmware control step (a pick-and-place trajectory with
+# IK, then a Fourier excitation; the identified model's feed-forward, joint
+# control, torque from current, through Controller::step()):
 #   - host build: valgrind's callgrind over exactly the measured loop;
 #   - Cortex-M4 image: qemu mps2-an386 with -icount shift=0, SysTick
 #     calibrated on a loop of known length (firmware/target/step_target_main.cpp).
@@ -10,9 +11,11 @@ build=${1:-build}
 steps=1000
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
-valgrind --tool=callgrind --callgrind-out-file="$out" \
-  --toggle-collect='*measured_control_steps*' "$build/bin/step_host" "$steps" >/dev/null 2>&1
-host_total=$(callgrind_annotate "$out" 2>/dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
-echo "host (x86-64, -O3): $((host_total / steps)) instructions per control step (callgrind, $steps steps)"
+for kind in pick_and_place fourier; do
+  valgrind --tool=callgrind --callgrind-out-file="$out" \
+    --toggle-collect='*measured_control_steps*' "$build/bin/step_host" "$steps" "$kind" >/dev/null 2>&1
+  host_total=$(callgrind_annotate "$out" 2>/dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
+  echo "host (x86-64, -O3), $kind: $((host_total / steps)) instructions per control step (callgrind, $steps steps)"
+done
 qemu-system-arm -M mps2-an386 -nographic -icount shift=0 -semihosting-config enable=on,target=native \
   -kernel "$build/firmware-target/step_target.elf" 2>&1 | sed 's/^/cortex-m4 (qemu): /'

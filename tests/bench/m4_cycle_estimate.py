@@ -2,8 +2,9 @@
 """Cycles per control step on a Cortex-M4, estimated from the executed
 instructions: qemu runs the step image one instruction per translation block
 and logs every one it executes (-singlestep -d exec,nochain); each executed
-instruction of the measured window (between the image's mark_begin and
-mark_end around the control steps) is priced with the cycle counts of the
+instruction of a measured window (between the image's step_window_begin and
+step_window_end around the control steps: a pick-and-place trajectory,
+then a Fourier excitation) is priced with the cycle counts of the
 Cortex-M4 Technical Reference Manual (ARM 100166, table 3-1, zero wait
 states), branches as taken or not from the next executed address.
 
@@ -124,13 +125,15 @@ def cycles(pc, next_pc, refill, previous_pc=None, pipelined=False):
     return 1
 
 
-# The measured window: after mark_begin returns into the steps, until mark_end.
+# The measured windows: after step_window_begin returns into the steps,
+# until step_window_end; in the order the image runs them.
+WINDOWS = ["pick-and-place", "Fourier excitation"]
 qemu = subprocess.Popen(
     ["qemu-system-arm", "-M", "mps2-an386", "-nographic", "-icount", "shift=0", "-singlestep",
      "-d", "exec,nochain", "-D", "/dev/stderr", "-semihosting-config",
      "enable=on,target=native", "-kernel", elf],
     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-trace = []
+traces = []
 state = "before"
 for line in qemu.stderr:
     if not line.startswith("Trace"):
@@ -140,41 +143,46 @@ for line in qemu.stderr:
         continue  # the same instruction again, re-executed for its I/O access
     symbol = fields[-1]
     if state == "before":
-        if symbol.endswith("mark_beginEv"):
+        if symbol.endswith("step_window_beginEv"):
             state = "begin"
         continue
     if state == "begin":
-        if symbol.endswith("mark_beginEv"):
+        if symbol.endswith("step_window_beginEv"):
             continue
         state = "in"
-    if symbol.endswith("mark_endEv"):
-        break
-    trace.append(int(fields[3].split("/")[1], 16))
+        traces.append([])
+    if symbol.endswith("step_window_endEv"):
+        state = "before"
+        if len(traces) == len(WINDOWS):
+            break
+        continue
+    traces[-1].append(int(fields[3].split("/")[1], 16))
 qemu.kill()
 qemu.wait()
-if not trace:
-    sys.exit("m4_cycle_estimate: no measured window found in the trace")
+if len(traces) != len(WINDOWS):
+    sys.exit(f"m4_cycle_estimate: {len(traces)} measured windows in the trace, not {len(WINDOWS)}")
 
-by_kind = Counter()
-# (refill P, loads and stores pipelined as the TRM allows)
-models = {(1, True): 0, (2, True): 0, (3, False): 0}
-for i, pc in enumerate(trace):
-    nxt = trace[i + 1] if i + 1 < len(trace) else None
-    prev = trace[i - 1] if i > 0 else None
-    if pc not in insns:
-        sys.exit(f"m4_cycle_estimate: executed address {pc:#x} is not in the disassembly")
-    by_kind[kind(insns[pc][1], insns[pc][2])] += 1
-    for p, pipelined in models:
-        models[(p, pipelined)] += cycles(pc, nxt, p, prev, pipelined)
-
-n = len(trace) / STEPS
-print(f"cortex-m4 cycle estimate: {n:.0f} instructions per control step "
-      f"({len(trace)} over {STEPS} steps)")
-for k, c in sorted(by_kind.items(), key=lambda kv: -kv[1]):
-    print(f"  {k:9s} {c / STEPS:7.1f} per step")
 names = {(1, True): "best (P = 1, loads pipelined)",
          (2, True): "middle (P = 2, loads pipelined)",
          (3, False): "worst (P = 3, every load 2 cycles)"}
-for key, total in models.items():
-    c = total / STEPS
-    print(f"  {names[key]:35s} {c:5.0f} cycles = {c / MHZ:4.1f} us at {MHZ} MHz (CPI {c / n:.2f})")
+for window, trace in zip(WINDOWS, traces):
+    by_kind = Counter()
+    # (refill P, loads and stores pipelined as the TRM allows)
+    models = {(1, True): 0, (2, True): 0, (3, False): 0}
+    for i, pc in enumerate(trace):
+        nxt = trace[i + 1] if i + 1 < len(trace) else None
+        prev = trace[i - 1] if i > 0 else None
+        if pc not in insns:
+            sys.exit(f"m4_cycle_estimate: executed address {pc:#x} is not in the disassembly")
+        by_kind[kind(insns[pc][1], insns[pc][2])] += 1
+        for p, pipelined in models:
+            models[(p, pipelined)] += cycles(pc, nxt, p, prev, pipelined)
+    n = len(trace) / STEPS
+    print(f"{window}: cortex-m4 cycle estimate: {n:.0f} instructions per control step "
+          f"({len(trace)} over {STEPS} steps)")
+    for k, c in sorted(by_kind.items(), key=lambda kv: -kv[1]):
+        print(f"  {k:9s} {c / STEPS:7.1f} per step")
+    for key, total in models.items():
+        c = total / STEPS
+        print(f"  {names[key]:35s} {c:5.0f} cycles = {c / MHZ:4.1f} us at {MHZ} MHz "
+              f"(CPI {c / n:.2f})")

@@ -60,6 +60,24 @@ TrajectoryConfig pick_and_place() {
   return t;
 }
 
+TrajectoryConfig fourier() {
+  TrajectoryConfig t;
+  t.kind = TrajectoryKind::kFourier;
+  auto& f = t.fourier;
+  f.base_frequency_mHz = 200;
+  f.harmonics = 5;
+  f.q0_rad = {Q3_28::from(0.35), Q3_28::from(0.25), Q3_28::from(0.3)};
+  for (unsigned j = 0; j < 3; ++j) {
+    for (unsigned k = 0; k < 5; ++k) {
+      const auto sign = (j + k) % 2 == 0 ? 1 : -1;
+      f.sin_amplitude_rad[j][k] = Q3_28::from(0.04).scaled_by(sign);
+      f.cos_amplitude_rad[j][k] = Q3_28::from(-0.02).scaled_by(sign);
+    }
+  }
+  f.periods = 2;
+  return t;
+}
+
 // The measured loop, apart so that callgrind can collect exactly it.
 __attribute__((noinline)) std::uint32_t measured_control_steps(Controller<FollowingHardware>& ctl,
                                                                std::uint32_t n) {
@@ -70,16 +88,19 @@ __attribute__((noinline)) std::uint32_t measured_control_steps(Controller<Follow
 
 }  // namespace
 
-std::uint32_t run_control_steps(std::uint32_t n, void (*mark_begin)(), void (*mark_end)()) {
+std::uint32_t run_control_steps(StepTrajectory kind, std::uint32_t n, void (*mark_begin)(),
+                                void (*mark_end)()) {
   const ControllerConfig cfg = config();
+  const TrajectoryConfig trajectory =
+      kind == StepTrajectory::kFourier ? fourier() : pick_and_place();
   // The joints rest at the trajectory's first pose.
   JointReference start{};
-  Trajectory(cfg.geometry, pick_and_place()).reference(0, start);
+  Trajectory(cfg.geometry, trajectory).reference(0, start);
   FollowingHardware hw;
   hw.reference = &start;
   Controller<FollowingHardware> ctl(hw, cfg);
   for (int i = 0; i < 3; ++i) ctl.step();  // boot, configure, ready
-  if (!ctl.start(pick_and_place()).accepted) return 0;
+  if (!ctl.start(trajectory).accepted) return 0;
   ctl.step();  // enters running
   ctl.step();  // the one-tick approach
   hw.reference = &ctl.reference();
