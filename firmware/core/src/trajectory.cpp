@@ -10,6 +10,7 @@ using delta::fx::kTwoPi;
 using delta::fx::mul;
 using delta::fx::Q16_15;
 using delta::fx::sincos;
+using delta::fx::SinCos;
 using delta::fx::detail::saturate32;
 using delta::fx::detail::shift_round;
 using i64 = std::int64_t;
@@ -59,12 +60,26 @@ u64 length_ticks_of(const TrajectoryConfig& c) {
   return saturating_mul(u64{p.waypoints} * p.segment_ticks, p.cycles);
 }
 
-// The angle of phase (k * tick * f * dt) in (-pi, pi], exactly from integers.
-Q3_28 harmonic_phase(std::uint32_t tick, unsigned k, std::uint32_t f_mHz, std::uint32_t dt_us) {
-  const u64 turns_e9 = (u64{tick} * k * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
-  const auto phase32 = static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
-  const i64 signed_turns = static_cast<std::int32_t>(phase32);  // (-1/2, 1/2] turn
+// The base harmonic's phase (tick * f * dt) as a fraction of a turn in
+// Q0.32, exactly from integers (floor): it never drifts, however long the
+// run. Harmonic k's phase is k times it, wrapping: within k/2^32 turn.
+std::uint32_t base_phase_turns_q32(std::uint32_t tick, std::uint32_t f_mHz, std::uint32_t dt_us) {
+  const u64 turns_e9 = (u64{tick} * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
+  return static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
+}
+
+// A phase in Q0.32 turns as an angle in (-pi, pi].
+Q3_28 phase_angle(std::uint32_t turns_q32) {
+  const i64 signed_turns = static_cast<std::int32_t>(turns_q32);  // (-1/2, 1/2] turn
   return Q3_28::from_raw(static_cast<std::int32_t>(shift_round(signed_turns * kTwoPi.raw(), 32)));
+}
+
+// The sine and cosine of the angle a + b from theirs, each with one
+// rounding.
+SinCos angle_sum(const SinCos& a, const SinCos& b) {
+  const auto unit = [](i64 v) { return Q1_30::from_raw(saturate32(shift_round(v, 30))); };
+  return {unit(i64{a.sin.raw()} * b.cos.raw() + i64{a.cos.raw()} * b.sin.raw()),
+          unit(i64{a.cos.raw()} * b.cos.raw() - i64{a.sin.raw()} * b.sin.raw())};
 }
 
 // x * ticks_per_second, saturating: the second of the two multiplies that
@@ -126,6 +141,17 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
     // w = 2 pi f: Q3.28 * mHz / 1000 -> Q10.21.
     base_omega_rad_s_ = Q10_21::from_raw(
         saturate32(shift_round(i64{kTwoPi.raw()} * config_.fourier.base_frequency_mHz, 7) / 1000));
+    const auto& f = config_.fourier;
+    for (unsigned k = 1; k <= f.harmonics; ++k) {
+      const Q10_21 kw = base_omega_rad_s_.scaled_by(static_cast<std::int32_t>(k));
+      for (unsigned j = 0; j < 3; ++j) {
+        HarmonicRates& r = harmonic_rates_[j][k - 1];
+        r.sin_velocity = mul<Q10_21>(f.sin_amplitude_rad[j][k - 1], kw);
+        r.cos_velocity = mul<Q10_21>(f.cos_amplitude_rad[j][k - 1], kw);
+        r.sin_acceleration = mul<Q14_17>(r.sin_velocity, kw);
+        r.cos_acceleration = mul<Q14_17>(r.cos_velocity, kw);
+      }
+    }
   } else {
     // Segments per second, saturated (beyond 65536 the accelerations are
     // far over any joint limit, which check_trajectory() refuses).
@@ -150,17 +176,20 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   std::array<Q3_28, 3> d{};     // delta(t)
   std::array<Q10_21, 3> dd{};   // delta'(t)
   std::array<Q14_17, 3> ddd{};  // delta''(t)
+  // Harmonic 1's sine and cosine; harmonic k's from k - 1's by the angle
+  // sum (below 10^-8 from sincos of k times the phase, for k <= 6).
+  const SinCos base =
+      sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
+  SinCos sc = base;
   for (unsigned k = 1; k <= f.harmonics; ++k) {
-    const auto sc = sincos(harmonic_phase(tick, k, f.base_frequency_mHz, config_.tick_period_us));
-    const Q10_21 kw = base_omega_rad_s_.scaled_by(static_cast<std::int32_t>(k));
+    if (k > 1) sc = angle_sum(sc, base);
     for (unsigned j = 0; j < 3; ++j) {
       const Q3_28 A = f.sin_amplitude_rad[j][k - 1];
       const Q3_28 B = f.cos_amplitude_rad[j][k - 1];
+      const HarmonicRates& r = harmonic_rates_[j][k - 1];
       d[j] += mul<Q3_28>(A, sc.sin) + mul<Q3_28>(B, sc.cos);
-      const Q10_21 vA = mul<Q10_21>(A, kw), vB = mul<Q10_21>(B, kw);
-      dd[j] += mul<Q10_21>(vA, sc.cos) - mul<Q10_21>(vB, sc.sin);
-      const Q14_17 aA = mul<Q14_17>(vA, kw), aB = mul<Q14_17>(vB, kw);
-      ddd[j] -= mul<Q14_17>(aA, sc.sin) + mul<Q14_17>(aB, sc.cos);
+      dd[j] += mul<Q10_21>(r.sin_velocity, sc.cos) - mul<Q10_21>(r.cos_velocity, sc.sin);
+      ddd[j] -= mul<Q14_17>(r.sin_acceleration, sc.sin) + mul<Q14_17>(r.cos_acceleration, sc.cos);
     }
   }
   // The window: rising over the first blend, falling over the last.

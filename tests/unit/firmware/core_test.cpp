@@ -129,6 +129,41 @@ TEST(TrajectoryTest, FourierMatchesItsDoubleEvaluationWithExactDerivatives) {
   EXPECT_LT(worst[2], 2e-4);  // rad/s^2
 }
 
+// All six harmonics (the sines and cosines of harmonics 2 to 6 come from
+// the base's by the angle sum), late in a long run (the base phase from
+// integers does not drift): as close to the double evaluation as above.
+TEST(TrajectoryTest, FourierSixHarmonicsMatchDoubleLateInALongRun) {
+  TrajectoryConfig c = fourier_config();
+  auto& f = c.fourier;
+  f.base_frequency_mHz = 170;
+  f.harmonics = kMaxHarmonics;
+  f.periods = 100;  // 588 s, near the longest run (kMaxTrajectoryTicks)
+  for (unsigned j = 0; j < 3; ++j) {
+    for (unsigned k = 0; k < kMaxHarmonics; ++k) {
+      const double sign = (j + k) % 2 == 0 ? 1.0 : -1.0;
+      f.sin_amplitude_rad[j][k] = to_q<Q3_28>(sign * 0.06 / (k + 1));
+      f.cos_amplitude_rad[j][k] = to_q<Q3_28>(-sign * 0.03 / (k + 1));
+    }
+  }
+  const Trajectory traj(default_geometry(), c);
+  const double length_s = traj.length_ticks() * 1e-3;
+  double worst[3] = {0, 0, 0};
+  for (std::uint32_t tick = 1500; tick < traj.length_ticks() - 1000; tick += 997) {
+    JointReference r;
+    ASSERT_EQ(traj.reference(tick, r), KinematicsStatus::kOk);
+    double d[3][3];
+    fourier_double(c, tick * 1e-3, length_s, d);
+    for (unsigned j = 0; j < 3; ++j) {
+      worst[0] = std::max(worst[0], std::abs(to_d(r.q_rad[j]) - d[j][0]));
+      worst[1] = std::max(worst[1], std::abs(to_d(r.qd_rad_s[j]) - d[j][1]));
+      worst[2] = std::max(worst[2], std::abs(to_d(r.qdd_rad_s2[j]) - d[j][2]));
+    }
+  }
+  EXPECT_LT(worst[0], 1e-7);  // rad
+  EXPECT_LT(worst[1], 2e-5);  // rad/s
+  EXPECT_LT(worst[2], 2e-4);  // rad/s^2
+}
+
 TEST(TrajectoryTest, FourierStartsAndEndsAtRestAtQ0) {
   const TrajectoryConfig c = fourier_config();
   const Trajectory traj(default_geometry(), c);

@@ -116,6 +116,12 @@ class Trajectory {
   std::uint32_t length_ticks_{0};
   std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
+  // Fourier: each harmonic's amplitudes times k w and (k w)^2, per joint.
+  struct HarmonicRates {
+    Q10_21 sin_velocity{}, cos_velocity{};          // A k w, B k w
+    Q14_17 sin_acceleration{}, cos_acceleration{};  // A (k w)^2, B (k w)^2
+  };
+  std::array<std::array<HarmonicRates, kMaxHarmonics>, 3> harmonic_rates_{};
   delta::fx::Q16_15 segments_per_second_{};  // pick-and-place
   // The IK at ticks centre - 1, centre and centre + 1 of the last
   // pick-and-place reference(): stepping tick by tick, each reference()
