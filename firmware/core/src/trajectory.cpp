@@ -177,7 +177,7 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   std::array<Q10_21, 3> dd{};   // delta'(t)
   std::array<Q14_17, 3> ddd{};  // delta''(t)
   // Harmonic 1's sine and cosine; harmonic k's from k - 1's by the angle
-  // sum (below 10^-8 from sincos of k times the phase, for k <= 6).
+  // sum (within 2e-8 of the sine and cosine of k times the phase, k <= 6).
   const SinCos base =
       sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
   SinCos sc = base;
