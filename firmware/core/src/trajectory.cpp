@@ -160,14 +160,15 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
   }
 }
 
-KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out) const {
+KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out,
+                                       bool with_platform) const {
   if (length_ticks_ == 0) return KinematicsStatus::kUnreachable;
   if (tick > length_ticks_) tick = length_ticks_;
   if (config_.kind == TrajectoryKind::kFourier) {
     fourier(tick, out);
     return KinematicsStatus::kOk;
   }
-  return pick_and_place(tick, out);
+  return pick_and_place(tick, out, with_platform);
 }
 
 void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
@@ -252,7 +253,8 @@ std::array<Q10_21, 3> Trajectory::cartesian_acceleration(std::uint32_t tick) con
   return {per_s2(a.x_m, b.x_m), per_s2(a.y_m, b.y_m), per_s2(a.z_m, b.z_m)};
 }
 
-KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& out) const {
+KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& out,
+                                            bool with_platform) const {
   IkWindow& w = ik_window_;
   const i64 centre = tick;
   if (centre == w.centre + 1) {  // the next tick: one new IK
@@ -276,9 +278,11 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
   const JointAnglesQ& now = w.q[1];
   const JointAnglesQ& after = w.q[2];
   const std::uint32_t rate = ticks_per_second_;
-  out.platform_known = true;
-  out.platform_m = w.platform[1];
-  out.platform_acceleration_m_s2 = cartesian_acceleration(tick);
+  out.platform_known = with_platform;
+  if (with_platform) {
+    out.platform_m = w.platform[1];
+    out.platform_acceleration_m_s2 = cartesian_acceleration(tick);
+  }
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = now[j];
     // Central differences: Q3.28 per tick -> Q10.21 per second (and Q14.17).

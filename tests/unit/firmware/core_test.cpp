@@ -364,6 +364,25 @@ TEST(TrajectoryTest, PickAndPlaceGivesThePlatformsAccelerationOfItsPath) {
       largest, worst_path, worst_joints);
 }
 
+// Without the platform (the nominal feed-forward has no use for it), the
+// joints' reference is the same and platform_known says it is not there.
+TEST(TrajectoryTest, PickAndPlaceWithoutThePlatformGivesTheSameJoints) {
+  const TrajectoryConfig c = pick_and_place({{-0.08, 0.0, -0.48}, {0.08, 0.05, -0.42}}, 300, 1);
+  const Trajectory with(default_geometry(), c), without(default_geometry(), c);
+  for (std::uint32_t tick = 0; tick <= with.length_ticks(); tick += 13) {
+    JointReference a, b;
+    ASSERT_EQ(with.reference(tick, a), KinematicsStatus::kOk);
+    ASSERT_EQ(without.reference(tick, b, false), KinematicsStatus::kOk);
+    EXPECT_TRUE(a.platform_known);
+    EXPECT_FALSE(b.platform_known);
+    for (unsigned j = 0; j < 3; ++j) {
+      EXPECT_EQ(a.q_rad[j], b.q_rad[j]);
+      EXPECT_EQ(a.qd_rad_s[j], b.qd_rad_s[j]);
+      EXPECT_EQ(a.qdd_rad_s2[j], b.qdd_rad_s2[j]);
+    }
+  }
+}
+
 // reference() keeps the IK of the last three ticks, so that stepping tick by
 // tick solves one new IK. The reference must not depend on what was asked
 // before: stepping, a scrambled order and a fresh Trajectory per tick agree

@@ -248,7 +248,9 @@ class Controller {
       approach_reference(start);
       return true;
     }
-    return trajectory_.reference(run_tick_ - approach, reference_) == KinematicsStatus::kOk;
+    // The platform's position and acceleration only for the model.
+    const bool model = config_.feed_forward.mode == FeedForwardMode::kModel;
+    return trajectory_.reference(run_tick_ - approach, reference_, model) == KinematicsStatus::kOk;
   }
 
   // Minimum-jerk joint move from approach_from_ to start over approach_ticks.

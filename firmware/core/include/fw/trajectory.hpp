@@ -99,13 +99,17 @@ class Trajectory {
   // Ticks from the start to the end at rest (the last tick is included).
   std::uint32_t length_ticks() const { return length_ticks_; }
   // The reference at tick (0 <= tick <= length_ticks()); kUnreachable for a
-  // Cartesian point outside the workspace.
-  KinematicsStatus reference(std::uint32_t tick, JointReference& out) const;
+  // Cartesian point outside the workspace. A Cartesian trajectory gives the
+  // platform's position and acceleration too (platform_known), unless
+  // with_platform is false: only the model's feed-forward uses them.
+  KinematicsStatus reference(std::uint32_t tick, JointReference& out,
+                             bool with_platform = true) const;
   const TrajectoryConfig& config() const { return config_; }
 
  private:
   void fourier(std::uint32_t tick, JointReference& out) const;
-  KinematicsStatus pick_and_place(std::uint32_t tick, JointReference& out) const;
+  KinematicsStatus pick_and_place(std::uint32_t tick, JointReference& out,
+                                  bool with_platform) const;
   KinematicsStatus cartesian_ik(std::int64_t tick, JointAnglesQ& q, Vec3Q& platform) const;
   // The platform's acceleration at a pick-and-place tick, from the
   // minimum-jerk profile's second derivative.
