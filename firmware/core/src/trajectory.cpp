@@ -62,7 +62,7 @@ u64 length_ticks_of(const TrajectoryConfig& c) {
 
 // The base harmonic's phase (tick * f * dt) as a fraction of a turn in
 // Q0.32, exactly from integers (floor): it never drifts, however long the
-// run. Harmonic k's phase is k times it, wrapping: within k/2^32 turn.
+// run.
 std::uint32_t base_phase_turns_q32(std::uint32_t tick, std::uint32_t f_mHz, std::uint32_t dt_us) {
   const u64 turns_e9 = (u64{tick} * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
   return static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
