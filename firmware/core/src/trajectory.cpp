@@ -60,22 +60,12 @@ u64 length_ticks_of(const TrajectoryConfig& c) {
   return saturating_mul(u64{p.waypoints} * p.segment_ticks, p.cycles);
 }
 
-// The base harmonic's phase step per tick (f * dt) as a fraction of a turn
-// in Q0.64, from integers: floor(((f dt) mod 1e9) 2^64 / 1e9), by long
-// division in two 32-bit digits (made once, with the trajectory).
-u64 phase_step_turns_q64(std::uint32_t f_mHz, std::uint32_t dt_us) {
-  const u64 n = u64{f_mHz} * dt_us % kNanoPerSecondMilli;  // < 2^30
-  const u64 high = (n << 32) / kNanoPerSecondMilli;
-  const u64 rest = (n << 32) % kNanoPerSecondMilli;
-  return (high << 32) | ((rest << 32) / kNanoPerSecondMilli);
-}
-
-// The base phase at tick, in Q0.32 turns: tick times the step, wrapping.
-// The step is within 2^-64 turn of exact, so after the longest run
-// (kMaxTrajectoryTicks < 2^20 ticks) the phase is within 2^-44 turn: it
-// never drifts.
-std::uint32_t base_phase_turns_q32(std::uint32_t tick, u64 step_turns_q64) {
-  return static_cast<std::uint32_t>((tick * step_turns_q64) >> 32);
+// The base harmonic's phase (tick * f * dt) as a fraction of a turn in
+// Q0.32, exactly from integers (floor): it never drifts, however long the
+// run.
+std::uint32_t base_phase_turns_q32(std::uint32_t tick, std::uint32_t f_mHz, std::uint32_t dt_us) {
+  const u64 turns_e9 = (u64{tick} * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
+  return static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
 }
 
 // A phase in Q0.32 turns as an angle in (-pi, pi].
@@ -152,7 +142,6 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
     base_omega_rad_s_ = Q10_21::from_raw(
         saturate32(shift_round(i64{kTwoPi.raw()} * config_.fourier.base_frequency_mHz, 7) / 1000));
     const auto& f = config_.fourier;
-    phase_step_turns_q64_ = phase_step_turns_q64(f.base_frequency_mHz, config_.tick_period_us);
     for (unsigned k = 1; k <= f.harmonics; ++k) {
       const Q10_21 kw = base_omega_rad_s_.scaled_by(static_cast<std::int32_t>(k));
       for (unsigned j = 0; j < 3; ++j) {
@@ -190,7 +179,8 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   std::array<Q14_17, 3> ddd{};  // delta''(t)
   // Harmonic 1's sine and cosine; harmonic k's from k - 1's by the angle
   // sum (within 2e-8 of the sine and cosine of k times the phase, k <= 6).
-  const SinCos base = sincos(phase_angle(base_phase_turns_q32(tick, phase_step_turns_q64_)));
+  const SinCos base =
+      sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
   SinCos sc = base;
   for (unsigned k = 1; k <= f.harmonics; ++k) {
     if (k > 1) sc = angle_sum(sc, base);

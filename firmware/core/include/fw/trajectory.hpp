@@ -120,9 +120,7 @@ class Trajectory {
   std::uint32_t length_ticks_{0};
   std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
-  // Fourier: the base phase's step per tick in Q0.64 turns, and each
-  // harmonic's amplitudes times k w and (k w)^2, per joint.
-  std::uint64_t phase_step_turns_q64_{0};
+  // Fourier: each harmonic's amplitudes times k w and (k w)^2, per joint.
   struct HarmonicRates {
     Q10_21 sin_velocity{}, cos_velocity{};          // A k w, B k w
     Q14_17 sin_acceleration{}, cos_acceleration{};  // A (k w)^2, B (k w)^2
