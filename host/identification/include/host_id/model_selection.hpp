@@ -30,14 +30,15 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
 // fit took (the fast ones first). It agrees with select_model() on the same
 // log to rounding. Throws InputError for paper14 or too short a regression.
 // The folds' moments are taken on `threads` threads (0: all cores).
-// The held-out torque RMSE of one model over `folds` time blocks of its
-// regression's first `rows` rows (each block predicted by the bounded fit
-// of the others). Throws InputError for too short a regression.
-double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
-                     unsigned threads = 0);
-
 ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_options,
                              const Regression& r, std::size_t rows, unsigned folds = 5,
                              unsigned threads = 0);
+
+// The held-out torque RMSE of one model over `folds` time blocks of its
+// regression's first `rows` rows (each block predicted by the bounded fit
+// of the others), on `threads` threads. Throws InputError for too short a
+// regression.
+double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
+                     unsigned threads = 0);
 
 }  // namespace host_id
