@@ -52,18 +52,13 @@ constexpr std::int32_t mul30(std::int32_t a, std::int32_t b) {
   return static_cast<std::int32_t>((std::int64_t{a} * b + (std::int64_t{1} << 29)) >> 30);
 }
 
-// p * v for a fraction v in Q0.32 (0 <= v < 1/2), in p's format, rounded
-// half up: the result is the high word of the product, so a Horner step
-// is one multiply-accumulate and an add on Cortex-M4.
-constexpr std::int32_t times_fraction(std::int32_t p, std::int32_t v_q32) {
-  return static_cast<std::int32_t>((std::int64_t{p} * v_q32 + (std::int64_t{1} << 31)) >> 32);
-}
-
-// c[0] v^(n-1) + ... + c[n-1], Horner's rule with times_fraction().
+// c[0] v^(n-1) + ... + c[n-1] for a fraction v in Q0.32 (0 <= v < 1/2):
+// Horner's rule, each step c + p v rounded half up (one SMMLAR on
+// Cortex-M4).
 template <std::size_t N>
 constexpr std::int32_t horner(const std::int32_t (&c)[N], std::int32_t v_q32) {
   std::int32_t p = c[0];
-  for (std::size_t k = 1; k < N; ++k) p = c[k] + times_fraction(p, v_q32);
+  for (std::size_t k = 1; k < N; ++k) p = detail::add_high_product(c[k], p, v_q32);
   return p;
 }
 
@@ -87,7 +82,7 @@ Reduced reduce(Q3_28 angle_rad) {
 }
 
 // v = r^2 / 2 in Q0.32 from r in Q1.30: below 0.31 for |r| <= pi/4 (+ a
-// hair), so it fits and times_fraction() applies.
+// hair), so it fits and horner() applies.
 std::int32_t half_square_q32(std::int32_t r) {
   return static_cast<std::int32_t>((std::int64_t{r} * r + (std::int64_t{1} << 28)) >> 29);
 }

@@ -33,6 +33,10 @@ namespace detail {
 // which is how an out-of-range constant is reported.
 inline void fixed_point_constant_out_of_range() {}
 
+[[gnu::cold, gnu::noinline]] constexpr std::int32_t saturated_of_sign(std::int64_t v) {
+  return v < 0 ? INT32_MIN : INT32_MAX;
+}
+
 constexpr std::int32_t saturate32(std::int64_t v) {
   // In range when the high word is the sign of the low one: one compare on
   // a 32-bit machine for the common case, laid out as the branch not taken
@@ -41,7 +45,7 @@ constexpr std::int32_t saturate32(std::int64_t v) {
   if (static_cast<std::int32_t>(v >> 32) == (low >> 31)) [[likely]] {
     return low;
   }
-  return v < 0 ? INT32_MIN : INT32_MAX;
+  return saturated_of_sign(v);
 }
 
 // a + b and a - b, saturated to 32 bits. Where the DSP extension is there
@@ -85,6 +89,40 @@ constexpr std::int64_t shift_round(std::int64_t v, int shift) {
 constexpr std::int32_t shift_round32(std::int32_t v, int shift) {
   const std::int32_t half = std::int32_t{1} << (shift - 1);
   return (v + half) >> shift;
+}
+
+// The Cortex-M4 forms of two products, each one instruction (GCC does not
+// always find them: it multiplies a saturated value in 64 x 64 bits, and
+// builds SMMULR from three instructions). The portable forms below them
+// give the same bits.
+
+// a * b in 64 bits (SMULL).
+constexpr std::int64_t wide_product(std::int32_t a, std::int32_t b) {
+#if defined(__ARM_FEATURE_DSP)
+  if (!std::is_constant_evaluated()) {
+    std::uint32_t low = 0;
+    std::int32_t high = 0;
+    asm("smull %0, %1, %2, %3" : "=r"(low), "=r"(high) : "r"(a), "r"(b));
+    return static_cast<std::int64_t>(
+        static_cast<std::uint64_t>(static_cast<std::uint32_t>(high)) << 32 | low);
+  }
+#endif
+  return std::int64_t{a} * b;
+}
+
+// c + (a * b) / 2^32 rounded to nearest, ties upwards (SMMLAR; the sum
+// wraps at 32 bits, so callers keep it in range).
+constexpr std::int32_t add_high_product(std::int32_t c, std::int32_t a, std::int32_t b) {
+#if defined(__ARM_FEATURE_DSP)
+  if (!std::is_constant_evaluated()) {
+    std::int32_t r = 0;
+    asm("smmlar %0, %1, %2, %3" : "=r"(r) : "r"(a), "r"(b), "r"(c));
+    return r;
+  }
+#endif
+  return static_cast<std::int32_t>(
+      static_cast<std::uint32_t>(c) +
+      static_cast<std::uint32_t>((std::int64_t{a} * b + (std::int64_t{1} << 31)) >> 32));
 }
 
 }  // namespace detail
@@ -169,7 +207,7 @@ constexpr T abs(T v) {
 // r = a * b in format R, rounded to nearest and saturated.
 template <class R, int IA, int FA, int IB, int FB>
 constexpr R mul(Q<IA, FA> a, Q<IB, FB> b) {
-  const std::int64_t p = std::int64_t{a.raw()} * b.raw();
+  const std::int64_t p = detail::wide_product(a.raw(), b.raw());
   return R::from_raw(detail::saturate32(detail::shift_round(p, FA + FB - R::kFracBits)));
 }
 
