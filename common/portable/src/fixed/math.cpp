@@ -241,29 +241,26 @@ std::uint64_t isqrt_round(std::uint64_t v) {
 
 namespace {
 
-// log2(e) and ln 2 in Q1.30.
+// log2(e) in Q1.30.
 constexpr std::int64_t kLog2eQ30 = 1549082005;  // 1.4426950408889634 * 2^30
-constexpr std::int32_t kLn2Q30 = 744261118;     // 0.6931471805599453 * 2^30
-// 1 / n! for n = 10 down to 0, Q1.30.
-constexpr std::int32_t kExpTaylorQ30[11] = {296,       2959,       26631,     213044,
-                                            1491308,   8947849,    44739243,  178956971,
-                                            536870912, 1073741824, 1073741824};
+// 2^-f = 2^-(2 v) as a polynomial in v = f / 2 on [0, 1/2], highest power
+// first, Q1.30 (mpmath chebyfit, degree 7: 3.0e-11; with the Q1.30
+// coefficients and rounded Horner steps within 1.07 LSB).
+constexpr std::int32_t kExp2PolyQ30[8] = {-1487275,   10119783,   -45622651,   165194165,
+                                          -476771116, 1031764646, -1488522228, 1073741824};
 
 }  // namespace
 
 Q1_30 exp_neg(Q10_21 x) {
   if (x.raw() <= 0) return Q1_30::from_raw(1 << 30);
-  // y = x log2(e) in Q.51: k its whole part, the fraction f in Q0.30.
+  // y = x log2(e) in Q.51: k its whole part, the fraction f; e^-x =
+  // 2^-k 2^-f.
   const std::int64_t y = std::int64_t{x.raw()} * kLog2eQ30;
   const std::int64_t k = y >> 51;
   if (k >= 31) return Q1_30::zero();
-  const auto f = static_cast<std::int32_t>(
-      ((y & ((std::int64_t{1} << 51) - 1)) + (std::int64_t{1} << 20)) >> 21);
-  // e^-z with z = f ln 2 in [0, ln 2]: Horner in v = -z, every partial sum
-  // within Q1.30.
-  const std::int32_t v = -mul30(f, kLn2Q30);
-  std::int32_t p = kExpTaylorQ30[0];
-  for (std::size_t n = 1; n < 11; ++n) p = kExpTaylorQ30[n] + mul30(p, v);
+  // v = f / 2 in Q0.32, below 1/2 (truncated: within 2^-32).
+  const auto v = static_cast<std::int32_t>((y & ((std::int64_t{1} << 51) - 1)) >> 20);
+  const std::int32_t p = horner(kExp2PolyQ30, v);  // every partial sum within Q1.30
   if (k == 0) return Q1_30::from_raw(p);
   return Q1_30::from_raw(detail::shift_round32(p, static_cast<int>(k)));
 }
@@ -273,8 +270,9 @@ Q1_30 tanh(Q10_21 x) {
   const Q10_21 magnitude = negative ? -x : x;
   // (1 - t) / (1 + t) with 1 + t = 2 D, D = (1 + t) / 2 in [1/2, 1].
   const std::int64_t t = exp_neg(magnitude.scaled_by(2)).raw();
-  const auto den = static_cast<std::uint32_t>((kOneQ30 + t) << 1);  // D in Q0.32
-  if (den == 0) return Q1_30::zero();                               // t = 1 (x = 0): D = 1 wraps
+  if (t == 0) return Q1_30::from_raw(negative ? -(1 << 30) : 1 << 30);  // |x| > 10.7
+  const auto den = static_cast<std::uint32_t>((kOneQ30 + t) << 1);      // D in Q0.32
+  if (den == 0) return Q1_30::zero();  // t = 1 (x = 0): D = 1 wraps
   const std::int64_t q = ((kOneQ30 - t) * reciprocal_q30(den) + (std::int64_t{1} << 30)) >> 31;
   const auto r = static_cast<std::int32_t>(q > kOneQ30 ? kOneQ30 : q);
   return Q1_30::from_raw(negative ? -r : r);

@@ -38,8 +38,8 @@ Q3_28 atan2(Q<I, F> y, Q<I, F> x) {
   return atan2_raw(y.raw(), x.raw());
 }
 
-// e^-x for x >= 0 (x <= 0 gives 1): x log2(e) = k + f, e^-x = 2^-k e^(-f ln 2),
-// a degree-10 Taylor polynomial on [0, ln 2].
+// e^-x for x >= 0 (x <= 0 gives 1): x log2(e) = k + f, e^-x = 2^-k 2^-f,
+// with 2^-f (f in [0, 1)) a degree-7 polynomial.
 Q1_30 exp_neg(Q10_21 x);
 
 // tanh(x) = (1 - e^-2|x|) / (1 + e^-2|x|), with the sign of x.

@@ -33,6 +33,8 @@ namespace detail {
 // which is how an out-of-range constant is reported.
 inline void fixed_point_constant_out_of_range() {}
 
+// The extreme of v's sign, out of line: GCC would otherwise work out the
+// sign for it ahead of every in-range test.
 [[gnu::cold, gnu::noinline]] constexpr std::int32_t saturated_of_sign(std::int64_t v) {
   return v < 0 ? INT32_MIN : INT32_MAX;
 }
