@@ -94,6 +94,41 @@ i64 per_second(i64 x, std::uint32_t ticks_per_second) {
   return x * ticks_per_second;
 }
 
+// num / den (both > 0, the quotient below 2^30) as m 2^-e with m in
+// [2^30, 2^31), rounded: once per trajectory.
+ScaledValue scaled_ratio(u64 num, u64 den) {
+  int e = 0;
+  while (num < (den << 30)) {  // den < 2^32: no wrap
+    num <<= 1;
+    ++e;
+  }
+  u64 m = (num + den / 2) / den;
+  if (m >= (u64{1} << 31)) {
+    m >>= 1;
+    --e;
+  }
+  return {static_cast<std::int32_t>(m), e};
+}
+
+// The square of a scaled value, in the same form.
+ScaledValue squared(ScaledValue v) {
+  u64 m = (u64{static_cast<std::uint32_t>(v.mantissa)} * static_cast<std::uint32_t>(v.mantissa) +
+           (u64{1} << 30)) >>
+          31;
+  int e = 2 * v.exponent - 31;
+  if (m < (u64{1} << 30)) {
+    m <<= 1;
+    ++e;
+  }
+  return {static_cast<std::int32_t>(m), e};
+}
+
+// x (raw, fraction bits from) times a scaled value, to a raw value with
+// fraction bits to; rounded, saturated.
+std::int32_t times_scaled(std::int32_t x, int from, ScaledValue v, int to) {
+  return saturate32(shift_round(i64{x} * v.mantissa, from + v.exponent - to));
+}
+
 }  // namespace
 
 namespace {
@@ -152,6 +187,8 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
         r.cos_acceleration = mul<Q14_17>(r.cos_velocity, kw);
       }
     }
+    per_blend_ = scaled_ratio(ticks_per_second_, config_.blend_ticks);
+    per_blend_squared_ = squared(per_blend_);
   } else {
     // Segments per second, saturated (beyond 65536 the accelerations are
     // far over any joint limit, which check_trajectory() refuses).
@@ -173,25 +210,35 @@ KinematicsStatus Trajectory::reference(std::uint32_t tick, JointReference& out,
 
 void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   const auto& f = config_.fourier;
-  out.platform_known = false;   // joint space: the model solves it
-  std::array<Q3_28, 3> d{};     // delta(t)
-  std::array<Q10_21, 3> dd{};   // delta'(t)
-  std::array<Q14_17, 3> ddd{};  // delta''(t)
-  // Harmonic 1's sine and cosine; harmonic k's from k - 1's by the angle
-  // sum (within 2e-8 of the sine and cosine of k times the phase, k <= 6).
+  out.platform_known = false;  // joint space: the model solves it
+  // Harmonic k's sine and cosine, in Q1.28 (so that the twelve products of
+  // a sum stay below 2^63); harmonic 1's from sincos(), harmonic k's from
+  // k - 1's by the angle sum (within 2e-8 of those of k times the phase).
   const SinCos base =
       sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
+  std::array<std::int32_t, kMaxHarmonics> sin_q28{}, cos_q28{};
   SinCos sc = base;
-  for (unsigned k = 1; k <= f.harmonics; ++k) {
-    if (k > 1) sc = angle_sum(sc, base);
-    for (unsigned j = 0; j < 3; ++j) {
-      const Q3_28 A = f.sin_amplitude_rad[j][k - 1];
-      const Q3_28 B = f.cos_amplitude_rad[j][k - 1];
-      const HarmonicRates& r = harmonic_rates_[j][k - 1];
-      d[j] += mul<Q3_28>(A, sc.sin) + mul<Q3_28>(B, sc.cos);
-      dd[j] += mul<Q10_21>(r.sin_velocity, sc.cos) - mul<Q10_21>(r.cos_velocity, sc.sin);
-      ddd[j] -= mul<Q14_17>(r.sin_acceleration, sc.sin) + mul<Q14_17>(r.cos_acceleration, sc.cos);
+  for (unsigned k = 0; k < f.harmonics; ++k) {
+    if (k > 0) sc = angle_sum(sc, base);
+    sin_q28[k] = delta::fx::detail::shift_round32(sc.sin.raw(), 2);
+    cos_q28[k] = delta::fx::detail::shift_round32(sc.cos.raw(), 2);
+  }
+  // delta(t), delta'(t), delta''(t): each a sum of products rounded once.
+  std::array<Q3_28, 3> d{};
+  std::array<Q10_21, 3> dd{};
+  std::array<Q14_17, 3> ddd{};
+  for (unsigned j = 0; j < 3; ++j) {
+    i64 position = 0, velocity = 0, acceleration = 0;  // Q.56, Q.49, Q.45
+    for (unsigned k = 0; k < f.harmonics; ++k) {
+      const HarmonicRates& r = harmonic_rates_[j][k];
+      const i64 s = sin_q28[k], c = cos_q28[k];
+      position += f.sin_amplitude_rad[j][k].raw() * s + f.cos_amplitude_rad[j][k].raw() * c;
+      velocity += r.sin_velocity.raw() * c - r.cos_velocity.raw() * s;
+      acceleration -= r.sin_acceleration.raw() * s + r.cos_acceleration.raw() * c;
     }
+    d[j] = Q3_28::from_raw(saturate32(shift_round(position, 28)));
+    dd[j] = Q10_21::from_raw(saturate32(shift_round(velocity, 28)));
+    ddd[j] = Q14_17::from_raw(saturate32(shift_round(acceleration, 28)));
   }
   // The window: rising over the first blend, falling over the last.
   const std::uint32_t nb = config_.blend_ticks;
@@ -203,13 +250,11 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   if (rising || falling) {
     const std::uint32_t n = rising ? tick : length_ticks_ - tick;
     const MinJerk win = min_jerk(delta::fx::ratio(n, nb));
-    const i64 blend_us = i64{nb} * config_.tick_period_us;
     // d/dt = (d/ds) / T_blend; d2/dt2 = (d2/ds2) / T_blend^2.
-    const i64 dw = shift_round(win.dw.raw() * i64{1000000} / blend_us, 9);
-    const i64 ddw = shift_round(win.ddw.raw() * i64{1000000} / blend_us * 1000000 / blend_us, 11);
+    const std::int32_t dw = times_scaled(win.dw.raw(), 30, per_blend_, 21);
     w = win.w;
-    dw_dt = Q10_21::from_raw(saturate32(falling && !rising ? -dw : dw));
-    ddw_dt2 = Q14_17::from_raw(saturate32(ddw));
+    dw_dt = falling && !rising ? -Q10_21::from_raw(dw) : Q10_21::from_raw(dw);
+    ddw_dt2 = Q14_17::from_raw(times_scaled(win.ddw.raw(), 28, per_blend_squared_, 17));
   }
   for (unsigned j = 0; j < 3; ++j) {
     out.q_rad[j] = f.q0_rad[j] + mul<Q3_28>(w, d[j]);

@@ -93,6 +93,13 @@ struct TrajectoryCheck {
   int joint{-1};
 };
 
+// A positive value as mantissa 2^-exponent, the mantissa in [2^30, 2^31):
+// 31 significant bits whatever the value's size.
+struct ScaledValue {
+  std::int32_t mantissa{0};
+  int exponent{0};
+};
+
 class Trajectory {
  public:
   Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config);
@@ -126,6 +133,9 @@ class Trajectory {
     Q14_17 sin_acceleration{}, cos_acceleration{};  // A (k w)^2, B (k w)^2
   };
   std::array<std::array<HarmonicRates, kMaxHarmonics>, 3> harmonic_rates_{};
+  // Fourier: 1 / T_blend and 1 / T_blend^2 in 1/s and 1/s^2 (no division
+  // per tick).
+  ScaledValue per_blend_{}, per_blend_squared_{};
   delta::fx::Q16_15 segments_per_second_{};  // pick-and-place
   // The IK at ticks centre - 1, centre and centre + 1 of the last
   // pick-and-place reference(): stepping tick by tick, each reference()
