@@ -124,10 +124,11 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
     return r;
   }
   // Unit vectors in Q1.30.
-  // Quotients through a reciprocal (a 64-bit division is a library call on
-  // Cortex-M4).
-  const Q1_30 ex[3] = {quotient<Q1_30>(d21.x_m, d), quotient<Q1_30>(d21.y_m, d),
-                       quotient<Q1_30>(d21.z_m, d)};
+  // Quotients through one reciprocal each of d and j (a 64-bit division is
+  // a library call on Cortex-M4).
+  const Divisor by_d(d);
+  const Q1_30 ex[3] = {by_d.divide<Q1_30>(d21.x_m), by_d.divide<Q1_30>(d21.y_m),
+                       by_d.divide<Q1_30>(d21.z_m)};
   const Q7_24 i =
       mul<Q7_24>(ex[0], d31.x_m) + mul<Q7_24>(ex[1], d31.y_m) + mul<Q7_24>(ex[2], d31.z_m);
   const Vec3Q ey_raw{d31.x_m - mul<Q7_24>(ex[0], i), d31.y_m - mul<Q7_24>(ex[1], i),
@@ -138,8 +139,9 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
     r.status = KinematicsStatus::kSingular;
     return r;
   }
-  const Q1_30 ey[3] = {quotient<Q1_30>(ey_raw.x_m, j), quotient<Q1_30>(ey_raw.y_m, j),
-                       quotient<Q1_30>(ey_raw.z_m, j)};
+  const Divisor by_j(j);
+  const Q1_30 ey[3] = {by_j.divide<Q1_30>(ey_raw.x_m), by_j.divide<Q1_30>(ey_raw.y_m),
+                       by_j.divide<Q1_30>(ey_raw.z_m)};
   Q1_30 ez[3] = {mul<Q1_30>(ex[1], ey[2]) - mul<Q1_30>(ex[2], ey[1]),
                  mul<Q1_30>(ex[2], ey[0]) - mul<Q1_30>(ex[0], ey[2]),
                  mul<Q1_30>(ex[0], ey[1]) - mul<Q1_30>(ex[1], ey[0])};

@@ -51,20 +51,39 @@ Q1_30 tanh(Q10_21 x);
 // a library call on Cortex-M4.
 std::uint32_t reciprocal_q30(std::uint32_t den);
 
+// A divisor b != 0 made ready for several quotients a / b: its reciprocal
+// once, then one multiply per quotient (quotient() is the case of one;
+// shift_ is k below).
+template <int IB, int FB>
+class Divisor {
+ public:
+  explicit Divisor(Q<IB, FB> b) : negative_(b.raw() < 0) {
+    const auto magnitude = negative_ ? static_cast<std::uint32_t>(-std::int64_t{b.raw()})
+                                     : static_cast<std::uint32_t>(b.raw());
+    shift_ = __builtin_clz(magnitude);
+    reciprocal_q30_ = reciprocal_q30(magnitude << shift_);
+  }
+  // a / b in format R, rounded to nearest and saturated.
+  template <class R, int IA, int FA>
+  R divide(Q<IA, FA> a) const {
+    // a / b = a_raw r 2^(k - 62) in raw units of 2^(FB - FA).
+    const std::int64_t p = std::int64_t{a.raw()} * static_cast<std::int64_t>(reciprocal_q30_);
+    const std::int64_t q = detail::shift_round(p, 62 - shift_ - R::kFracBits + FA - FB);
+    return R::from_raw(detail::saturate32(negative_ ? -q : q));
+  }
+
+ private:
+  bool negative_;
+  int shift_{0};
+  std::uint32_t reciprocal_q30_{0};
+};
+
 // a / b in format R through reciprocal_q30(): within 1e-9 relative (and
 // the rounding of R), saturated; b = 0 gives the extreme of a's sign.
 template <class R, int IA, int FA, int IB, int FB>
 R quotient(Q<IA, FA> a, Q<IB, FB> b) {
   if (b.raw() == 0) return a.raw() >= 0 ? R::max() : R::min();
-  const bool negative_b = b.raw() < 0;
-  const auto magnitude = negative_b ? static_cast<std::uint32_t>(-std::int64_t{b.raw()})
-                                    : static_cast<std::uint32_t>(b.raw());
-  const int k = __builtin_clz(magnitude);
-  // a / b = a_raw r 2^(k - 62) in raw units of 2^(FB - FA).
-  const std::int64_t p =
-      std::int64_t{a.raw()} * static_cast<std::int64_t>(reciprocal_q30(magnitude << k));
-  const std::int64_t q = detail::shift_round(p, 62 - k - R::kFracBits + FA - FB);
-  return R::from_raw(detail::saturate32(negative_b ? -q : q));
+  return Divisor<IB, FB>(b).template divide<R>(a);
 }
 
 // Square root of an unsigned 64-bit integer, rounded to nearest (up to 2^32).
