@@ -51,17 +51,29 @@ V along_arm(unsigned k, const SinCos& t, const std::array<V, 3>& v) {
 // matrix of rows n_k), whose column k is n_k+1 x n_k+2, and 1 / det N.
 // With them J = a adj(N) diag(t) / det N, and J^T F = a t_k (adj(N)^T
 // F)_k / det N: the constraint forces (lambda) at this very pose.
+// (pose_of() sets every member before any is read: no initialisers, which
+// would clear the whole struct at every step.)
 struct PoseQ {
-  std::array<SinCos, 3> trig{};
-  std::array<Vec3Unit, 3> forearm{};
-  std::array<Vec3Unit, 3> adjugate_columns{};
-  std::array<Q1_30, 3> transmission{};
-  Q7_24 inverse_determinant{};              // |.| <= 64
-  std::array<Q7_24, 3> jacobian_scale_m{};  // a t_k / det N: J's column k is it times adj column k
+  std::array<SinCos, 3> trig;
+  std::array<Vec3Unit, 3> forearm;
+  std::array<Vec3Unit, 3> adjugate_columns;
+  std::array<Q1_30, 3> transmission;
+  Q7_24 inverse_determinant;              // |.| <= 64
+  std::array<Q7_24, 3> jacobian_scale_m;  // a t_k / det N: J's column k is it times adj column k
 };
 
-KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ& q,
-                         const Vec3Q* position, PoseQ& pose) {
+// n_k from the platform's position over b (ForearmRatios), in Q3.28 until
+// the last step: p / b exceeds Q1.30's range, n_k does not.
+Vec3Unit forearm_direction(unsigned k, const std::array<Q3_28, 3>& p_over_b,
+                           const ForearmRatios& ratios, const SinCos& t) {
+  const Q3_28 c = ratios.radius_offset - mul<Q3_28>(ratios.arm, t.cos);
+  return {convert<Q1_30>(p_over_b[0] + mul<Q3_28>(c, kChainCosQ[k])),
+          convert<Q1_30>(p_over_b[1] + mul<Q3_28>(c, kChainSinQ[k])),
+          convert<Q1_30>(p_over_b[2] + mul<Q3_28>(ratios.arm, t.sin))};
+}
+
+KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const ForearmRatios& ratios,
+                         const JointAnglesQ& q, const Vec3Q* position, PoseQ& pose) {
   for (unsigned k = 0; k < 3; ++k) pose.trig[k] = sincos(q[k]);
   Vec3Q p{};
   if (position != nullptr) {
@@ -72,14 +84,9 @@ KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ
     p = fk.position;
   }
   auto& n = pose.forearm;
-  for (unsigned k = 0; k < 3; ++k) {
-    const Vec3Q elbow = elbow_position(g, static_cast<int>(k), pose.trig[k]);
-    const Vec3Q d{p.x_m + mul<Q7_24>(g.platform_radius_m, kChainCosQ[k]) - elbow.x_m,
-                  p.y_m + mul<Q7_24>(g.platform_radius_m, kChainSinQ[k]) - elbow.y_m,
-                  p.z_m - elbow.z_m};
-    n[k] = {mul<Q1_30>(d.x_m, inverse_b), mul<Q1_30>(d.y_m, inverse_b),
-            mul<Q1_30>(d.z_m, inverse_b)};
-  }
+  const std::array<Q3_28, 3> p_over_b{mul<Q3_28>(p.x_m, inverse_b), mul<Q3_28>(p.y_m, inverse_b),
+                                      mul<Q3_28>(p.z_m, inverse_b)};
+  for (unsigned k = 0; k < 3; ++k) n[k] = forearm_direction(k, p_over_b, ratios, pose.trig[k]);
   for (unsigned k = 0; k < 3; ++k) {
     pose.adjugate_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
   }
@@ -179,27 +186,37 @@ Joint3Q12_19 platform_torque(const ModelQ& model, const JointStateQ& s, const Po
   return tau;
 }
 
-// Fv qd + Fc tanh(qd / w) + Fs exp(-(qd / vs)^2) tanh(qd / w).
-Q12_19 friction(const ModelQ& model, unsigned j, Q10_21 qd) {
+// Joint j's terms in cos q, sin q and the smoothed sign of qd, rounded
+// once: -Gc cos q + Gs sin q + (Fc + Fs exp(-(qd / vs)^2)) tanh(qd / w).
+Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10_21 qd) {
   const ModelParametersQ& m = model.parameters;
   const Q1_30 sign = tanh(mul<Q10_21>(qd, model.inverse_smoothing_s_per_rad));
-  Q12_19 f = mul<Q12_19>(m.viscous_friction_Nm_s_per_rad[j], qd) +
-             mul<Q12_19>(m.coulomb_friction_Nm[j], sign);
+  Q12_19 coulomb = m.coulomb_friction_Nm[j];
   if (model.inverse_stribeck_s_per_rad.raw() > 0) {
     const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
-    const Q1_30 decay = exp_neg(mul<Q10_21>(v, v));
-    f += mul<Q12_19>(m.stribeck_friction_Nm[j], mul<Q1_30>(decay, sign));
+    coulomb += mul<Q12_19>(m.stribeck_friction_Nm[j], exp_neg(mul<Q10_21>(v, v)));
   }
-  return f;
+  // Three products of Q12.19 and Q1.30 values, each below 2^61 in
+  // magnitude: their sum fits 64 bits.
+  const i64 sum = i64{m.arm_gravity_sin_Nm[j].raw()} * t.sin.raw() -
+                  i64{m.arm_gravity_cos_Nm[j].raw()} * t.cos.raw() +
+                  i64{coulomb.raw()} * sign.raw();
+  return narrowed<Q12_19>(sum, 30);
 }
 
 }  // namespace
+
+ForearmRatios forearm_ratios(const GeometryQ& g) {
+  const Divisor by_b(g.forearm_length_m);
+  return {by_b.divide<Q3_28>(g.upper_arm_length_m),
+          by_b.divide<Q3_28>(g.platform_radius_m - g.base_radius_m)};
+}
 
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p) {
   PoseQ pose;
   const Q7_24 inverse_b = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
-  const KinematicsStatus status = pose_of(g, inverse_b, q, &p, pose);
+  const KinematicsStatus status = pose_of(g, inverse_b, forearm_ratios(g), q, &p, pose);
   if (status != KinematicsStatus::kOk) return VelocityKinematicsQ{status, {}, {}};
   return pose_velocity_kinematics(g, inverse_b, qd, pose);
 }
@@ -209,6 +226,7 @@ ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m) {
   model.geometry = g;
   model.parameters = m;
   model.inverse_forearm_per_m = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
+  model.forearm_ratios = forearm_ratios(g);
   model.inverse_smoothing_s_per_rad =
       quotient<Q10_21>(Q10_21::from_int(1), m.coulomb_smoothing_rad_s);
   if (m.stribeck_velocity_rad_s.raw() > 0) {
@@ -225,18 +243,19 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   const GeometryQ& g = model.geometry;
   const ModelParametersQ& m = model.parameters;
   PoseQ pose;
-  const KinematicsStatus status = pose_of(g, model.inverse_forearm_per_m, s.q_rad,
-                                          s.platform_known ? &s.platform_m : nullptr, pose);
+  const KinematicsStatus status =
+      pose_of(g, model.inverse_forearm_per_m, model.forearm_ratios, s.q_rad,
+              s.platform_known ? &s.platform_m : nullptr, pose);
   if (status != KinematicsStatus::kOk) return status;
   const Vec3Rate pdd = s.platform_known
                            ? s.platform_acceleration_m_s2
                            : platform_acceleration(g, model.inverse_forearm_per_m, s, pose);
   const Joint3Q12_19 platform = platform_torque(model, s, pose, pdd);
   for (unsigned i = 0; i < 3; ++i) {
-    tau_Nm[i] = mul<Q12_19>(m.arm_inertia_kg_m2[i], s.qdd_rad_s2[i]) -
-                mul<Q12_19>(m.arm_gravity_cos_Nm[i], pose.trig[i].cos) +
-                mul<Q12_19>(m.arm_gravity_sin_Nm[i], pose.trig[i].sin) + platform[i] +
-                friction(model, i, s.qd_rad_s[i]) + m.torque_offset_Nm[i];
+    tau_Nm[i] = mul<Q12_19>(m.arm_inertia_kg_m2[i], s.qdd_rad_s2[i]) +
+                mul<Q12_19>(m.viscous_friction_Nm_s_per_rad[i], s.qd_rad_s[i]) +
+                gravity_and_coulomb(model, i, pose.trig[i], s.qd_rad_s[i]) + platform[i] +
+                m.torque_offset_Nm[i];
   }
   return KinematicsStatus::kOk;
 }

@@ -78,6 +78,16 @@ inline constexpr Q1_30 kMinForearmDeterminant = Q1_30::from(1.0 / 64.0);
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p);
 
+// The forearm's direction n_k = d_k / b of chain k is p / b + c_k u_k + (0,
+// 0, (a / b) sin q_k) with c_k = (r_p - r_b) / b - (a / b) cos q_k: these
+// ratios of the geometry, worked out once.
+struct ForearmRatios {
+  Q3_28 arm{};            // a / b
+  Q3_28 radius_offset{};  // (r_p - r_b) / b
+  friend constexpr bool operator==(const ForearmRatios&, const ForearmRatios&) = default;
+};
+ForearmRatios forearm_ratios(const GeometryQ& g);
+
 // A model ready to run: its parameters, the geometry it was fitted for, and
 // what model_torque() would otherwise work out at every state (reciprocals
 // and products of the parameters). Only prepare_model() makes one: a
@@ -86,6 +96,7 @@ struct ModelQ {
   GeometryQ geometry{};
   ModelParametersQ parameters{};
   Q7_24 inverse_forearm_per_m{};         // 1 / b
+  ForearmRatios forearm_ratios{};        // a / b, (r_p - r_b) / b
   Q10_21 inverse_smoothing_s_per_rad{};  // 1 / w
   Q10_21 inverse_stribeck_s_per_rad{};   // 1 / vs; 0 without the Stribeck term
   Q7_24 coupling_moment_kg_m{};          // m_c a
