@@ -80,7 +80,9 @@ VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& 
 
 // The forearm's direction n_k = d_k / b of chain k is p / b + c_k u_k + (0,
 // 0, (a / b) sin q_k) with c_k = (r_p - r_b) / b - (a / b) cos q_k: these
-// ratios of the geometry, worked out once.
+// ratios of the geometry, worked out once. They, c_k and p / b stay within
+// Q3.28 while a + |r_b - r_p| < 7 b (the controller's configuration
+// requires it).
 struct ForearmRatios {
   Q3_28 arm{};            // a / b
   Q3_28 radius_offset{};  // (r_p - r_b) / b
@@ -110,7 +112,7 @@ inline constexpr Q10_21 kMinFrictionVelocity = Q10_21::from(1.0 / 1000.0);
 
 // Prepares m for geometry g. The caller checks the values' ranges first
 // (smoothing and Stribeck velocities of at least kMinFrictionVelocity, a
-// forearm longer than 1/128 m).
+// forearm longer than 1/128 m and than (a + |r_b - r_p|) / 7).
 ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m);
 
 // The model's joint torques at state s. kUnreachable or kSingular where the
