@@ -323,9 +323,10 @@ std::uint32_t write_golden_vectors(TextSink& out) {
         .num(sat[2])
         .end(lines);
   }
-  // The arithmetic itself on edge operands: saturating add and subtract
-  // (one QADD or QSUB on Cortex-M4, a portable form on the host), and the
-  // rounding of mul, div and convert at ties and at the extremes.
+  // The arithmetic itself on edge operands: saturating add, subtract and
+  // negation (one QADD or QSUB on Cortex-M4, a portable form on the host),
+  // and the rounding and saturation of mul (shifts of 30 and 31), narrow
+  // (8), div and convert at ties and at the extremes (SSAT on Cortex-M4).
   const std::int32_t edges[] = {0,          1,         -1,         3,
                                 -3,         1 << 29,   -(1 << 29), 123456789,
                                 -987654321, INT32_MAX, INT32_MIN,  INT32_MIN + 1};
@@ -334,6 +335,7 @@ std::uint32_t write_golden_vectors(TextSink& out) {
         .num(a)
         .num(delta::fx::convert<Q7_24>(Q1_30::from_raw(a)).raw())
         .num(delta::fx::convert<Q1_30>(Q7_24::from_raw(a)).raw())
+        .num((-Q7_24::from_raw(a)).raw())
         .end(lines);
     for (const std::int32_t b : edges) {
       const Q7_24 qa = Q7_24::from_raw(a), qb = Q7_24::from_raw(b);
@@ -343,6 +345,8 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .num((qa + qb).raw())
           .num((qa - qb).raw())
           .num(delta::fx::mul<Q7_24>(Q1_30::from_raw(a), qb).raw())
+          .num(delta::fx::mul<delta::fx::Q14_17>(qa, qb).raw())
+          .num(delta::fx::detail::narrow<8>(std::int64_t{a} * b))
           .num(delta::fx::div<Q7_24>(qa, qb).raw())
           .end(lines);
     }

@@ -11,6 +11,7 @@ using delta::fx::mul;
 using delta::fx::Q16_15;
 using delta::fx::sincos;
 using delta::fx::SinCos;
+using delta::fx::detail::narrow;
 using delta::fx::detail::saturate32;
 using delta::fx::detail::shift_round;
 using i64 = std::int64_t;
@@ -236,9 +237,9 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
       velocity += r.sin_velocity.raw() * c - r.cos_velocity.raw() * s;
       acceleration -= r.sin_acceleration.raw() * s + r.cos_acceleration.raw() * c;
     }
-    d[j] = Q3_28::from_raw(saturate32(shift_round(position, 28)));
-    dd[j] = Q10_21::from_raw(saturate32(shift_round(velocity, 28)));
-    ddd[j] = Q14_17::from_raw(saturate32(shift_round(acceleration, 28)));
+    d[j] = Q3_28::from_raw(narrow<28>(position));
+    dd[j] = Q10_21::from_raw(narrow<28>(velocity));
+    ddd[j] = Q14_17::from_raw(narrow<28>(acceleration));
   }
   // The window: rising over the first blend, falling over the last.
   const std::uint32_t nb = config_.blend_ticks;
@@ -335,8 +336,8 @@ KinematicsStatus Trajectory::pick_and_place(std::uint32_t tick, JointReference& 
     // bits; only the second multiply of d2 needs per_second's check.
     const i64 d1 = i64{after[j].raw()} - before[j].raw();
     const i64 d2 = i64{after[j].raw()} - 2 * i64{now[j].raw()} + before[j].raw();
-    out.qd_rad_s[j] = Q10_21::from_raw(saturate32(shift_round(d1 * rate, 8)));
-    out.qdd_rad_s2[j] = Q14_17::from_raw(saturate32(shift_round(per_second(d2 * rate, rate), 11)));
+    out.qd_rad_s[j] = Q10_21::from_raw(narrow<8>(d1 * rate));
+    out.qdd_rad_s2[j] = Q14_17::from_raw(narrow<11>(per_second(d2 * rate, rate)));
   }
   return KinematicsStatus::kOk;
 }

@@ -15,14 +15,14 @@ template <class A, class B>
 i64 dot_raw(const std::array<A, 3>& a, const std::array<B, 3>& b) {
   return i64{a[0].raw()} * b[0].raw() + i64{a[1].raw()} * b[1].raw() + i64{a[2].raw()} * b[2].raw();
 }
-template <class R>
-R narrowed(i64 v, int shift) {
-  return R::from_raw(detail::saturate32(detail::shift_round(v, shift)));
+template <class R, int Shift>
+R narrowed(i64 v) {
+  return R::from_raw(detail::narrow<Shift>(v));
 }
 
 Vec3Unit cross(const Vec3Unit& a, const Vec3Unit& b) {
   const auto c = [](Q1_30 p, Q1_30 q, Q1_30 r, Q1_30 s) {
-    return narrowed<Q1_30>(i64{p.raw()} * q.raw() - i64{r.raw()} * s.raw(), 30);
+    return narrowed<Q1_30, 30>(i64{p.raw()} * q.raw() - i64{r.raw()} * s.raw());
   };
   return {c(a[1], b[2], a[2], b[1]), c(a[2], b[0], a[0], b[2]), c(a[0], b[1], a[1], b[0])};
 }
@@ -41,9 +41,9 @@ Vec3Unit arm_curvature(unsigned k, const SinCos& t) {
 // + cos q v_z), with one rounding.
 template <class V>
 V along_arm(unsigned k, const SinCos& t, const std::array<V, 3>& v) {
-  const V radial = narrowed<V>(
-      i64{kChainCosQ[k].raw()} * v[0].raw() + i64{kChainSinQ[k].raw()} * v[1].raw(), 30);
-  return narrowed<V>(-(i64{t.sin.raw()} * radial.raw() + i64{t.cos.raw()} * v[2].raw()), 30);
+  const V radial = narrowed<V, 30>(i64{kChainCosQ[k].raw()} * v[0].raw() +
+                                   i64{kChainSinQ[k].raw()} * v[1].raw());
+  return narrowed<V, 30>(-(i64{t.sin.raw()} * radial.raw() + i64{t.cos.raw()} * v[2].raw()));
 }
 
 // What one pose gives the dynamics: per chain the forearm's direction n_k
@@ -90,12 +90,12 @@ KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const ForearmRatio
   for (unsigned k = 0; k < 3; ++k) {
     pose.adjugate_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
   }
-  const Q1_30 det = narrowed<Q1_30>(dot_raw(n[0], pose.adjugate_columns[0]), 30);
+  const Q1_30 det = narrowed<Q1_30, 30>(dot_raw(n[0], pose.adjugate_columns[0]));
   if (abs(det) < kMinForearmDeterminant) return KinematicsStatus::kSingular;
   pose.inverse_determinant = quotient<Q7_24>(Q1_30::from_raw(1 << 30), det);
   const Q7_24 scale_m = mul<Q7_24>(g.upper_arm_length_m, pose.inverse_determinant);
   for (unsigned k = 0; k < 3; ++k) {
-    pose.transmission[k] = narrowed<Q1_30>(dot_raw(n[k], arm_tangent(k, pose.trig[k])), 30);
+    pose.transmission[k] = narrowed<Q1_30, 30>(dot_raw(n[k], arm_tangent(k, pose.trig[k])));
     pose.jacobian_scale_m[k] = mul<Q7_24>(scale_m, pose.transmission[k]);
   }
   return KinematicsStatus::kOk;
@@ -113,25 +113,25 @@ VelocityKinematicsQ pose_velocity_kinematics(const GeometryQ& g, Q7_24 inverse_b
     }
   }
   Vec3Rate pd{};
-  for (unsigned r = 0; r < 3; ++r) pd[r] = narrowed<Q10_21>(dot_raw(J[r], qd), 24);
+  for (unsigned r = 0; r < 3; ++r) pd[r] = narrowed<Q10_21, 24>(dot_raw(J[r], qd));
   const Q7_24 ab = mul<Q7_24>(g.upper_arm_length_m, g.forearm_length_m);
   Vec3Rate rhs{};
   for (unsigned k = 0; k < 3; ++k) {
     const Q14_17 qd_sq = mul<Q14_17>(qd[k], qd[k]);
     const Vec3Unit h = arm_curvature(k, pose.trig[k]);
     const Vec3Unit e = arm_tangent(k, pose.trig[k]);
-    const Q7_24 d_dot_h = mul<Q7_24>(ab, narrowed<Q1_30>(dot_raw(pose.forearm[k], h), 30));
+    const Q7_24 d_dot_h = mul<Q7_24>(ab, narrowed<Q1_30, 30>(dot_raw(pose.forearm[k], h)));
     Vec3Rate d_rate{};
     for (unsigned r = 0; r < 3; ++r) {
       d_rate[r] = pd[r] - mul<Q10_21>(mul<Q7_24>(g.upper_arm_length_m, e[r]), qd[k]);
     }
-    rhs[k] = mul<Q10_21>(d_dot_h, qd_sq) - narrowed<Q10_21>(dot_raw(d_rate, d_rate), 21);
+    rhs[k] = mul<Q10_21>(d_dot_h, qd_sq) - narrowed<Q10_21, 21>(dot_raw(d_rate, d_rate));
   }
   // A^-1 rhs = adj(N) rhs / (b det N).
   for (unsigned r = 0; r < 3; ++r) {
     const std::array<Q1_30, 3> row{pose.adjugate_columns[0][r], pose.adjugate_columns[1][r],
                                    pose.adjugate_columns[2][r]};
-    const Q10_21 w = narrowed<Q10_21>(dot_raw(row, rhs), 30);
+    const Q10_21 w = narrowed<Q10_21, 30>(dot_raw(row, rhs));
     vk.jacobian_dot_qdot_m_s2[r] = mul<Q10_21>(mul<Q10_21>(w, pose.inverse_determinant), inverse_b);
   }
   vk.status = KinematicsStatus::kOk;
@@ -145,7 +145,7 @@ Vec3Rate platform_acceleration(const GeometryQ& g, Q7_24 inverse_b, const JointS
   Vec3Rate pdd{};
   for (unsigned r = 0; r < 3; ++r) {
     const i64 jqdd = dot_raw(vk.jacobian_m_per_rad[r], s.qdd_rad_s2);  // Q.41
-    pdd[r] = narrowed<Q10_21>(jqdd + (i64{vk.jacobian_dot_qdot_m_s2[r].raw()} << 20), 20);
+    pdd[r] = narrowed<Q10_21, 20>(jqdd + (i64{vk.jacobian_dot_qdot_m_s2[r].raw()} << 20));
   }
   return pdd;
 }
@@ -161,25 +161,25 @@ Joint3Q12_19 platform_torque(const ModelQ& model, const JointStateQ& s, const Po
   for (unsigned k = 0; k < 3; ++k) {
     const SinCos& t = pose.trig[k];
     const Q14_17 qd_sq = mul<Q14_17>(s.qd_rad_s[k], s.qd_rad_s[k]);
-    const Q14_17 alpha = narrowed<Q14_17>(
-        i64{t.sin.raw()} * s.qdd_rad_s2[k].raw() + i64{t.cos.raw()} * qd_sq.raw(), 30);
+    const Q14_17 alpha = narrowed<Q14_17, 30>(i64{t.sin.raw()} * s.qdd_rad_s2[k].raw() +
+                                              i64{t.cos.raw()} * qd_sq.raw());
     sx -= i64{alpha.raw()} * kChainCosQ[k].raw();
     sy -= i64{alpha.raw()} * kChainSinQ[k].raw();
     sz += i64{t.sin.raw()} * qd_sq.raw() - i64{t.cos.raw()} * s.qdd_rad_s2[k].raw();
   }
-  const std::array<Q14_17, 3> elbows{narrowed<Q14_17>(sx, 30), narrowed<Q14_17>(sy, 30),
-                                     narrowed<Q14_17>(sz, 30)};
+  const std::array<Q14_17, 3> elbows{narrowed<Q14_17, 30>(sx), narrowed<Q14_17, 30>(sy),
+                                     narrowed<Q14_17, 30>(sz)};
   // F in N: m_in pdd (Q7.24 x Q10.21 = Q.45) + m_c a S (Q7.24 x Q14.17 = Q.41).
   std::array<Q12_19, 3> force{};
   for (unsigned r = 0; r < 3; ++r) {
     const i64 f = i64{model.parameters.platform_inertial_mass_kg.raw()} * pdd[r].raw() +
                   (i64{model.coupling_moment_kg_m.raw()} * elbows[r].raw() << 4);
-    force[r] = narrowed<Q12_19>(f, 26);
+    force[r] = narrowed<Q12_19, 26>(f);
   }
   force[2] += model.platform_weight_N;
   Joint3Q12_19 tau{};
   for (unsigned i = 0; i < 3; ++i) {
-    const Q12_19 lambda = narrowed<Q12_19>(dot_raw(pose.adjugate_columns[i], force), 30);
+    const Q12_19 lambda = narrowed<Q12_19, 30>(dot_raw(pose.adjugate_columns[i], force));
     tau[i] = mul<Q12_19>(pose.jacobian_scale_m[i], lambda) +
              mul<Q12_19>(model.coupling_moment_kg_m, along_arm(i, pose.trig[i], pdd));
   }
@@ -201,7 +201,7 @@ Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10
   const i64 sum = i64{m.arm_gravity_sin_Nm[j].raw()} * t.sin.raw() -
                   i64{m.arm_gravity_cos_Nm[j].raw()} * t.cos.raw() +
                   i64{coulomb.raw()} * sign.raw();
-  return narrowed<Q12_19>(sum, 30);
+  return narrowed<Q12_19, 30>(sum);
 }
 
 }  // namespace

@@ -33,10 +33,10 @@ namespace detail {
 // which is how an out-of-range constant is reported.
 inline void fixed_point_constant_out_of_range() {}
 
-// The extreme of v's sign, out of line: GCC would otherwise work out the
-// sign for it ahead of every in-range test.
-[[gnu::cold, gnu::noinline]] constexpr std::int32_t saturated_of_sign(std::int64_t v) {
-  return v < 0 ? INT32_MIN : INT32_MAX;
+// The extreme of the sign of a 64-bit value given its high word, out of
+// line: GCC would otherwise work out the sign ahead of every in-range test.
+[[gnu::cold, gnu::noinline]] constexpr std::int32_t saturated_of_sign(std::int32_t high_word) {
+  return high_word < 0 ? INT32_MIN : INT32_MAX;
 }
 
 constexpr std::int32_t saturate32(std::int64_t v) {
@@ -47,7 +47,7 @@ constexpr std::int32_t saturate32(std::int64_t v) {
   if (static_cast<std::int32_t>(v >> 32) == (low >> 31)) [[likely]] {
     return low;
   }
-  return saturated_of_sign(v);
+  return saturated_of_sign(static_cast<std::int32_t>(v >> 32));
 }
 
 // a + b and a - b, saturated to 32 bits. Where the DSP extension is there
@@ -85,6 +85,29 @@ constexpr std::int64_t shift_round(std::int64_t v, int shift) {
   if (shift >= 63) return 0;
   const std::int64_t half = std::int64_t{1} << (shift - 1);
   return (v + half) >> shift;
+}
+
+// saturate32(shift_round(v, Shift)) for 0 < Shift < 32. With the
+// Cortex-M4's SSAT the range test is on the rounded value's high word
+// before the shift: r / 2^Shift fits 32 bits exactly when r's high word
+// fits Shift bits.
+template <int Shift>
+constexpr std::int32_t narrow(std::int64_t v) {
+  static_assert(Shift > 0 && Shift < 32);
+#if defined(__ARM_FEATURE_DSP)
+  if (!std::is_constant_evaluated()) {
+    const std::int64_t r = v + (std::int64_t{1} << (Shift - 1));
+    const auto high = static_cast<std::int32_t>(r >> 32);
+    std::int32_t high_saturated = 0;
+    asm("ssat %0, %1, %2" : "=r"(high_saturated) : "I"(Shift), "r"(high));
+    if (high_saturated == high) [[likely]] {
+      return static_cast<std::int32_t>(
+          static_cast<std::uint32_t>(static_cast<std::uint64_t>(r) >> Shift));
+    }
+    return saturated_of_sign(high);
+  }
+#endif
+  return saturate32(shift_round(v, Shift));
 }
 
 // The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic).
@@ -173,7 +196,7 @@ class Q {
 
   friend constexpr Q operator+(Q a, Q b) { return from_raw(detail::add_saturate(a.raw_, b.raw_)); }
   friend constexpr Q operator-(Q a, Q b) { return from_raw(detail::sub_saturate(a.raw_, b.raw_)); }
-  constexpr Q operator-() const { return from_raw(detail::saturate32(-std::int64_t{raw_})); }
+  constexpr Q operator-() const { return from_raw(detail::sub_saturate(0, raw_)); }
   constexpr Q& operator+=(Q o) { return *this = *this + o; }
   constexpr Q& operator-=(Q o) { return *this = *this - o; }
   friend constexpr auto operator<=>(Q a, Q b) = default;
@@ -210,7 +233,12 @@ constexpr T abs(T v) {
 template <class R, int IA, int FA, int IB, int FB>
 constexpr R mul(Q<IA, FA> a, Q<IB, FB> b) {
   const std::int64_t p = detail::wide_product(a.raw(), b.raw());
-  return R::from_raw(detail::saturate32(detail::shift_round(p, FA + FB - R::kFracBits)));
+  constexpr int kShift = FA + FB - R::kFracBits;
+  if constexpr (kShift > 0 && kShift < 32) {
+    return R::from_raw(detail::narrow<kShift>(p));
+  } else {
+    return R::from_raw(detail::saturate32(detail::shift_round(p, kShift)));
+  }
 }
 
 // r = a / b in format R, rounded to nearest and saturated; b = 0 gives the
