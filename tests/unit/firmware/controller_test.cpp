@@ -253,7 +253,7 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
 
 // The tracking statistics' integer arithmetic: errors rounded to 2^-20 rad
 // and squared, the largest kept in Q3.28, a sum that would wrap held at
-// its largest value.
+// its largest value, an error past 8 rad counted as 8 rad.
 TEST(TrackingStatsTest, SumsSquaresInQ3_20AndKeepsTheLargestError) {
   using delta::fx::Q3_28;
   fw::TrackingStats t;
@@ -270,6 +270,14 @@ TEST(TrackingStatsTest, SumsSquaresInQ3_20AndKeepsTheLargestError) {
   t.sum_sq_rad2_q40[1] = UINT64_MAX - 1;
   t.add(zero, q);
   EXPECT_EQ(t.sum_sq_rad2_q40[1], UINT64_MAX);
+  // An error past Q3.28's range (from -7 rad to +7 rad) counts as 8 rad.
+  fw::TrackingStats far;
+  const delta::fx::JointAnglesQ low{Q3_28::from(-7.0), Q3_28::zero(), Q3_28::zero()};
+  const delta::fx::JointAnglesQ high{Q3_28::from(7.0), Q3_28::zero(), Q3_28::zero()};
+  far.add(high, low);
+  far.add(low, high);
+  EXPECT_EQ(far.max_abs_rad[0].raw(), INT32_MAX);
+  EXPECT_EQ(far.sum_sq_rad2_q40[0], 2u * (std::uint64_t{1} << 23) * (std::uint64_t{1} << 23));
 }
 
 TEST_F(ControllerTest, TheCoreLogOfAnExcitationIdentifiesThePlant) {
