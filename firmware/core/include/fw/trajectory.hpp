@@ -103,8 +103,9 @@ struct ScaledValue {
 // A Fourier excitation's base phase at a tick, tick f dt as a fraction of
 // a turn in Q0.32 (floor), exactly from integers: it never drifts, however
 // long the run. Per tick without a 64-bit division (a library call on the
-// M4): the remainders modulo 10^9 come from multiplies by a reciprocal,
-// each then corrected to the exact value.
+// M4): the turns modulo 10^9 from a multiply by a reciprocal (a whole turn
+// may be left, which vanishes in Q0.32), then the Q0.32 fraction from
+// another, corrected once to the exact floor.
 class BasePhase {
  public:
   BasePhase() = default;
