@@ -8,7 +8,7 @@ Does what `host_id fit LOG.csv --model lumped --method ls` does, vectorised
 over samples: read the delta-log/1 file, low-pass filter q forward and
 backward (4th-order Butterworth at 20 Hz), five-point differences for qd and
 qdd, the lumped model's regressor (forward kinematics, Jacobian and Jdot
-qdot per sample, docs/identification.md), the regressor's columns and tau filtered alike,
+qdot per sample, docs/model.md), the regressor's columns and tau filtered alike,
 150 samples trimmed at each end, the equations of joints slower than
 0.05 rad/s left out, and numpy's lstsq. Prints its parameters next to
 host_id's and the wall time of each, each in a fresh process (median of

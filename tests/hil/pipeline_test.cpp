@@ -374,7 +374,7 @@ void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
     // Viscous friction is the least excited parameter: over 14 emulator
     // noise seeds of path1 (in-process, the same code) its errors were within
     // 4.3, 3.8 and 5.5 %, with a spread of 1.8, 0.9 and 2.3 % that the fit's
-    // printed standard deviation matches (docs/hil.md). In the VM one run
+    // printed standard deviation matches (docs/trust.md). In the VM one run
     // gave -9.2 % on joint 3, on a starved machine with 3 lock-step cycles
     // whose TPDOs came late. Such cycles are now marked stale and left out,
     // but in-process four of them moved the estimate by less than 1 point
@@ -388,7 +388,7 @@ void expect_fit_matches_truth(const std::string& log, const std::string& dir) {
 // The multibody robot against the default (higher-fidelity) model, which
 // contains it but for the friction's shape: its arm and platform
 // parameters with bounds of about three of their standard deviations on
-// path1 (docs/hil.md; offline on the demo's path1: +1.3 % (std dev 4.2 %),
+// path1 (docs/dev/hil-tests.md; offline on the demo's path1: +1.3 % (std dev 4.2 %),
 // -0.4 % (0.3 %), +0.9 % (4.9 %), -0.03 % (1.0 %), +0.4 % (0.35 %)), the
 // Coulomb levels within 25 % (the Stribeck excess adds to them: +10 %).
 // The viscous friction absorbs the friction's shape: printed, not checked.
@@ -902,7 +902,7 @@ TEST(SdoTool, ReadsAndWritesTheControllersAndADrivesObjects) {
 // The drives watch the controller (0x1016): when delta_fw dies mid-motion
 // (SIGKILL: no clean exit), every drive faults with EMCY 0x8130 (heartbeat
 // lost) within its consumer timeout plus the emulator's wall-clock grace
-// for a starved lock-step controller (docs/hil.md), and drops its torque.
+// for a starved lock-step controller (docs/firmware.md), and drops its torque.
 TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   const testsupport::ScratchDirectory scratch("delta_hil");
   const std::string& dir = scratch.path();
@@ -1287,7 +1287,7 @@ namespace {
 
 // --- Modbus clients that abuse the server: the control loop keeps its rate --
 
-// The fault matrix's Modbus row (docs/hil.md): three clients reading as
+// The fault matrix's Modbus row (docs/dev/hil-tests.md): three clients reading as
 // fast as they can, one trickling its requests a byte every 150 ms and one
 // connecting and leaving in a loop, while delta_fw runs in real time at
 // 100 Hz with SCHED_FIFO (an 8 ms response window: the VM's emulated CPUs

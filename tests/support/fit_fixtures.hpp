@@ -79,7 +79,7 @@ inline ModelOptions model_named(const std::string& name) {
 // its two ends, the arm's centre of mass on the arm line, plain Coulomb
 // friction with the model's smoothing), the fit recovers its truth; with
 // the default robot's bodies it does not, by what the lumped model lacks
-// (docs/identification.md).
+// (docs/model.md).
 inline delta::RobotDescription point_mass_robot() {
   delta::RobotDescription d = delta::default_robot_description();
   d.rod.elbow_cup_mass_kg += d.rod.tube_mass_kg / 2.0;

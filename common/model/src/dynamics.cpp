@@ -45,7 +45,7 @@ JointVector<T> transpose_times(const Mat3<T>& J, const Vec3<T>& v) {
 }
 
 // The rods' coupling term psi_i = J_i . sum_k Bdd_k + e_i . pdd of the
-// higher-fidelity model (docs/identification.md). The elbow
+// higher-fidelity model (docs/model.md). The elbow
 // B_k = (R + a cos q) u_k - a sin q z moves with e_k = dB_k/dq_k =
 // -a (sin q u_k + cos q z), and accelerates at Bdd_k = e_k qdd_k + f_k qd_k^2
 // with f_k = de_k/dq_k = a (-cos q u_k + sin q z).

@@ -723,7 +723,7 @@ std::string check_time_steps(const DeltaLog& log, TimeSteps mode) {
            "evenly, --time-steps nominal is more accurate";
   }
   text << ": differentiated on these times, q's derivatives are noisy and bias the fit "
-          "(docs/identification.md, \"Timestamps\"). If the samples were taken evenly and only "
+          "(docs/preprocessing.md, \"Timestamps\"). If the samples were taken evenly and only "
           "their timestamps jitter (a logger on a host), use --time-steps nominal; if they were "
           "taken at these times, use --time-steps as-logged";
   throw delta::InputError(log.name + ": " + text.str());

@@ -87,7 +87,7 @@ std::string parameter_table(const FitResult& r) {
     s << buf;
     if (!e.combination.empty()) s << "      (estimates " << e.combination << ")\n";
   }
-  if (truth) s << "  (truth: derived from the robot description, docs/identification.md)\n";
+  if (truth) s << "  (truth: derived from the robot description, docs/model.md)\n";
   if (r.identifiability) {
     s << "  note      " << r.identifiability->message
       << ": the estimate is of the base parameters, the combinations named above\n";

@@ -1,7 +1,7 @@
 // The fixed-point model (delta/fixed/dynamics.hpp) against the double one
 // (delta/dynamics.hpp) at random states inside the workspace, up to the
 // controller's default velocity and acceleration limits: the bar is 0.1 %
-// of the default max torque (8 N m), and docs/firmware.md states the
+// of the default max torque (8 N m), and docs/design/fixed-point-core.md states the
 // measured worst case.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Worst-case errors of the fixed-point math against double, over the whole
 // input domain. The bounds asserted here are the ones documented in
-// common/portable/include/delta/fixed/math.hpp and docs/firmware.md.
+// common/portable/include/delta/fixed/math.hpp and docs/design/fixed-point-core.md.
 #include <gtest/gtest.h>
 
 #include <algorithm>

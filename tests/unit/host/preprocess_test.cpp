@@ -206,7 +206,7 @@ TEST(PreprocessTest, CutoffAboveNyquistIsRejected) {
 }  // namespace
 }  // namespace host_id
 
-// Timestamps that jitter (docs/identification.md, "Timestamps"): a log
+// Timestamps that jitter (docs/preprocessing.md, "Timestamps"): a log
 // sampled evenly at 1 kHz whose timestamps are off by up to +-0.2 ms, as a
 // host-side logger stamps them. Differentiated on those times the fit is
 // wrong (the test measures how wrong); so `check` refuses the log naming

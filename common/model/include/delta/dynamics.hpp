@@ -41,7 +41,7 @@ struct LumpedParameters {
   double gravity_m_s2{9.81};
 };
 
-// The higher-fidelity model's parameters (docs/identification.md): the
+// The higher-fidelity model's parameters (docs/model.md): the
 // lumped model's, with the arm's centre of mass off the arm line (a sin term),
 // the platform's mass split into the mass that is accelerated and the mass
 // whose weight is carried, and the coupling of the forearm rods' elbow and

@@ -1,5 +1,5 @@
 // A model `host_id fit --out RESULT.json` saved (format host_id-result/1,
-// docs/identification.md), read as physical parameters: what the
+// docs/report.md), read as physical parameters: what the
 // controller's feed_forward.model and `host_id model load` take. Only the
 // physical models (delta, lumped) have them; paper14's coefficients do not.
 #pragma once

@@ -1,5 +1,5 @@
 // The physical parameters of the identification models `delta` and
-// `lumped` (docs/identification.md), written once: their names and units as
+// `lumped` (docs/model.md), written once: their names and units as
 // `host_id fit` reports them, the basis term each multiplies, and where its
 // value sits in HighFidelityParameters. The host's regressor and every
 // reader of a saved result (the controller's feed_forward.model) use it.

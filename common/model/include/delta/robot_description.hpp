@@ -2,7 +2,7 @@
 // from a robot description file (docs/robot-description.md). The multibody
 // plant (common/plant) is built from it, and so is the "truth" that
 // identification is measured against: the lumped model's parameters and
-// those of the higher-fidelity model, each derived in docs/identification.md.
+// those of the higher-fidelity model, each derived in docs/model.md.
 //
 // Frames: the arm frame of chain i has its origin on the motor axis, x from
 // the motor axis towards the elbow, y along the motor axis (so that a
@@ -108,14 +108,14 @@ struct RodMassSplit {
 };
 RodMassSplit rod_mass_split(const ForearmRod& rod, double length_m);
 
-// The lumped model that best stands for this robot (docs/identification.md):
+// The lumped model that best stands for this robot (docs/model.md):
 // each rod's weight split between elbow and platform (half the tube each,
 // plus its cup), the arm's centre of mass on the arm line, the armature in
 // the arm inertia, the friction's Coulomb level with the default smoothing.
 LumpedParameters lumped_truth(const RobotDescription& d);
 
 // The higher-fidelity model's parameters for this robot (docs/
-// identification.md), with the friction's shape (Stribeck excess and
+// model.md), with the friction's shape (Stribeck excess and
 // velocity, smoothing; those of joint 1 where the joints differ): exact for
 // the multibody robot.
 HighFidelityParameters high_fidelity_truth(const RobotDescription& d);

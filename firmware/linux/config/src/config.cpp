@@ -485,7 +485,7 @@ void validate_control(const PortConfig& c, std::vector<std::string>& problems) {
   const std::string geometry = delta::describe_geometry_fault(c.geometry);
   require(problems, geometry.empty(), "geometry: " + geometry);
   // The fixed-point model holds p / b, a / b and (r_p - r_b) / b in Q3.28
-  // (docs/firmware.md): with a + |r_b - r_p| below 7 b they stay below 8.
+  // (docs/design/fixed-point-core.md): with a + |r_b - r_p| below 7 b they stay below 8.
   const delta::Geometry& g = c.geometry;
   const double reach_m = g.upper_arm_length_m + std::abs(g.base_radius_m - g.platform_radius_m);
   require(problems, !geometry.empty() || reach_m < 7.0 * g.forearm_length_m,

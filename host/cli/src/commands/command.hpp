@@ -42,7 +42,7 @@ extern const CLI::Validator kSvgPath;
 // (delta::output_path_problem), checked before any work.
 extern const CLI::Validator kOutputPath;
 
-// --time-steps nominal|as-logged (docs/identification.md, "Timestamps"):
+// --time-steps nominal|as-logged (docs/preprocessing.md, "Timestamps"):
 // how the samples' times are taken where q is differentiated; `given`
 // tells whether the option was on the command line.
 CLI::Option* add_time_steps_option(CLI::App& c, std::string& value);

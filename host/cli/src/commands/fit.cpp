@@ -75,7 +75,7 @@ void add_model_options(CLI::App& c, FitArguments& a) {
                    "coefficients; auto (the default; delta where --per-joint or --offsets is "
                    "given): the delta model with shared or per-joint arms, with or without "
                    "torque offsets, as held-out error on time blocks of the log decides "
-                   "(docs/identification.md, 'Choosing the model'). Given more than once, each "
+                   "(docs/model-selection.md, 'Choosing the model'). Given more than once, each "
                    "model is fitted and Table 2 covers them all; the first is the one --out and "
                    "--plot save")
           ->check(CLI::IsMember(model_names_and_auto()))
@@ -201,7 +201,7 @@ void add_output_options(CLI::App& c, FitArguments& a) {
   c.add_flag("--quiet", a.quiet, "no progress bar")->group("output");
   c.add_option("--base", a.base_path,
                "RESULT.json of the robot without the payload: estimate only the payload's mass "
-               "on LOG.csv, everything else held (docs/identification.md, 'A payload'); --out "
+               "on LOG.csv, everything else held (docs/payload.md, 'A payload'); --out "
                "then saves the base result with the payload added to the platform")
       ->check(CLI::ExistingFile)
       ->group("output");
@@ -209,7 +209,7 @@ void add_output_options(CLI::App& c, FitArguments& a) {
                "LOADED.csv: the same robot with a payload of known mass (--payload-mass): each "
                "joint's torque scale (logged torque per true torque: motor constant x gear x "
                "efficiency as configured against the truth), from LOG.csv (without the payload) "
-               "and this log together (docs/identification.md, 'A payload')")
+               "and this log together (docs/payload.md, 'A payload')")
       ->check(CLI::ExistingFile)
       ->group("output");
   c.add_option("--payload-mass", a.payload_mass_kg, "kg: the payload of --calibrate-torque")

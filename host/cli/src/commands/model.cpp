@@ -56,7 +56,7 @@ void run_show(const ModelCommandOptions& o, CommandContext& context) {
 void add_model_command(CLI::App& command, CommandContext& context) {
   CLI::App* c = &command;
   c->description(
-      "The identified model the controller runs as its feed-forward (docs/identification.md, "
+      "The identified model the controller runs as its feed-forward (docs/using-the-model.md, "
       "\"Using the model\"). load writes a saved fit (host_id fit LOG --out RESULT.json) to "
       "the controller by SDO; it checks the model whole (kind, geometry, every value), uses it "
       "from the next run on and keeps it across restarts. show prints the model in use. Exit "

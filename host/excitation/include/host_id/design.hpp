@@ -1,5 +1,5 @@
 // `host_id design`: an excitation designed for the user's robot
-// (docs/identification.md, "Designing an excitation"). Fourier joint
+// (docs/design-excitation.md, "Designing an excitation"). Fourier joint
 // trajectories, run as the controller runs them (faded in from rest, whole
 // periods, faded out), with coefficients found by PSO to minimise the
 // condition number of the chosen model's column-scaled regressor (or to

@@ -85,7 +85,7 @@ void release_samples(DeltaLog& log);
 inline constexpr std::size_t kGapWarningsShown = 10;
 
 // How the times of a log's samples are taken where q is differentiated
-// (docs/identification.md, "Timestamps"):
+// (docs/preprocessing.md, "Timestamps"):
 //   kCheck    the time steps must be even: a spread above kTimeStepError
 //             is refused, one above kTimeStepWarning is warned of;
 //   kNominal  the samples were taken evenly and only their timestamps

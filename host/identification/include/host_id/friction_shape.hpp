@@ -3,7 +3,7 @@
 // model has a Stribeck term) in log scale, and for each candidate the
 // linear parameters are solved exactly (bounded least squares on the
 // preprocessed log), so the swarm only sees the profiled cost
-// (docs/identification.md, "The friction's shape").
+// (docs/model.md, "The friction's shape").
 #pragma once
 
 #include "host_id/delta_log.hpp"

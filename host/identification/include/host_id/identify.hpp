@@ -26,7 +26,7 @@ enum class Method { kPso, kLeastSquares };
 // The delta model's default for FitOptions::min_speed_rad_s. On the HIL
 // chain's path1 it leaves out 14-17 % of each joint's equations and removes
 // the +4..7 % bias of the viscous friction that the equations around each
-// reversal leave (docs/identification.md).
+// reversal leave (docs/preprocessing.md).
 constexpr double kDefaultMinSpeedRadS = 0.05;
 
 struct FitOptions {

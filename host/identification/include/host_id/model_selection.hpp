@@ -1,5 +1,5 @@
 // Which model variant the data support (`host_id fit --model auto`,
-// docs/identification.md, "Choosing the model"): the delta or lumped model
+// docs/model-selection.md, "Choosing the model"): the delta or lumped model
 // with shared or per-joint arm parameters, with or without torque offsets,
 // judged by their held-out torque error over time blocks of the fit log
 // (k-fold cross-validation). The log is preprocessed once, with the

@@ -1,5 +1,5 @@
 // A payload's mass on a fitted robot (`host_id fit LOADED.csv --base
-// RESULT.json`, docs/identification.md, "A payload"): with every parameter
+// RESULT.json`, docs/payload.md, "A payload"): with every parameter
 // of the base fit held, the loaded log's torque left unexplained is
 // regressed on the platform's mass columns (inertial and weight), and the
 // one coefficient is the payload's mass, with its standard deviation (the

@@ -1,5 +1,5 @@
 // `host_id predict`: a fitted model's torque at every sample of a log that a
-// fit would use (docs/identification.md, "Predicting torques").
+// fit would use (docs/using-the-model.md, "Predicting torques").
 #pragma once
 
 #include <Eigen/Dense>

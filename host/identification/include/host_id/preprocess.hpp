@@ -2,7 +2,7 @@
 // consumes: it designs the low-pass filter, splits the log at its gaps,
 // filters q and differentiates it (where the log has no qd/qdd columns),
 // builds the regressor Psi, filters its columns and tau alike ("parallel
-// filtering"), and trims the filters' end transients. docs/identification.md
+// filtering"), and trims the filters' end transients. docs/preprocessing.md
 // describes each step.
 #pragma once
 

@@ -2,7 +2,7 @@
 // (chi = 0.7298, c1 = c2 = 2.05), global-best or ring topology, in
 // coordinates normalised to the bounds. A coordinate that leaves the box is
 // put back on the bound it crossed, and its velocity reversed and halved
-// (docs/identification.md: absorbing walls, velocity zeroed, let the swarm
+// (docs/estimators.md: absorbing walls, velocity zeroed, let the swarm
 // collapse onto a wall).
 #pragma once
 
@@ -27,7 +27,7 @@ struct PsoOptions {
   // On a stall, restart the swarm around the best point this many times
   // before stopping. None by default: the fit's cost is a convex quadratic
   // over a box, so a stall is at its one minimum, and no restart has yet
-  // improved it (docs/identification.md).
+  // improved it (docs/estimators.md).
   std::size_t restarts{0};
   // Called every progress_every iterations (and at the end) when set.
   std::function<void(std::size_t iteration, std::size_t max_iterations, double best_cost)> progress;

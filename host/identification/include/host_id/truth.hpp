@@ -1,5 +1,5 @@
 // What a fit should find on a robot whose description is known: each
-// parameter's truth for the chosen model (docs/identification.md, "The truth
+// parameter's truth for the chosen model (docs/model.md, "The truth
 // of a multibody robot"), so that `host_id fit --truth ROBOT.json` can print
 // the error beside each estimate.
 #pragma once

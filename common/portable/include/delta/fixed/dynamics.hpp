@@ -1,5 +1,5 @@
 // The identified dynamic model in fixed point: the torques of the `delta`
-// model that `host_id fit` identifies (docs/identification.md), with the
+// model that `host_id fit` identifies (docs/model.md), with the
 // constraint forces resolved at every state through the forward
 // kinematics, the Jacobian J and J'q' (lambda is not a constant):
 //
@@ -15,7 +15,7 @@
 // one solve with N's adjugate, the constraint forces (lambda) at this
 // pose. Every Q format is
 // in the types; the figures against the double model are in
-// docs/firmware.md (tests/unit/common/fixed_dynamics_test.cpp measures them).
+// docs/design/fixed-point-core.md (tests/unit/common/fixed_dynamics_test.cpp measures them).
 #pragma once
 
 #include <array>

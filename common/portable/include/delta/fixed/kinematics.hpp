@@ -3,7 +3,7 @@
 // branch choices), for the firmware core. Lengths are Q7.24 metres, angles
 // Q3.28 radians. Agreement with the double version over the workspace grid
 // (tests/unit/common/fixed_kinematics_test.cpp): better than 2e-5 rad and
-// 10 um; see docs/firmware.md for the measured figures.
+// 10 um; see docs/design/fixed-point-core.md for the measured figures.
 #pragma once
 
 #include <array>

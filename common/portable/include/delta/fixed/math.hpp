@@ -1,15 +1,8 @@
-// Fixed-point sin/cos, atan2 and sqrt: integer arithmetic only, so results
-// are bit-identical on every target. Worst-case errors against double,
-// measured over the whole input domain by tests/unit/common/fixed_math_test.cpp:
-//
-//   sincos(Q3_28 angle)   |error| <= 2 LSB of Q1.30 (1.9e-9); measured 1.63 LSB
-//   atan2(y, x) -> Q3_28  |error| <= 2 LSB of Q3.28 (7.5e-9 rad); measured 1.80 LSB
-//                         (octant reduction, Newton reciprocal, degree-9 polynomial)
-//   sqrt(Q<I,F>)          rounded to the nearest LSB (|error| <= 0.5 LSB)
-//   exp_neg(Q10_21 x)     e^-x, |error| <= 2 LSB of Q1.30 (1.9e-9)
-//   tanh(Q10_21 x)        |error| <= 3 LSB of Q1.30 (2.8e-9)
-//
-// (docs/firmware.md keeps the same table.)
+// Fixed-point sin/cos, atan2, sqrt, exp and tanh: integer arithmetic only,
+// so results are bit-identical on every target. Their error bounds against
+// double are asserted over the whole input domain by
+// tests/unit/common/fixed_math_test.cpp; the measured figures are in
+// docs/design/fixed-point-core.md ("Accuracy, measured by the tests").
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 // Exit codes of delta_fw, in one place: main(), the port's loop and the run
-// coordinator return them, and docs/hil.md lists them.
+// coordinator return them, and docs/firmware.md lists them.
 #pragma once
 
 namespace fw_linux {
