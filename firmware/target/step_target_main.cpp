@@ -1,7 +1,7 @@
 // The Cortex-M image that counts instructions per control step on qemu run
 // with -icount shift=0 (one instruction = 1 ns of virtual time): SysTick,
 // clocked by the CPU clock, is calibrated on a loop of known length, then
-// read around 200 control steps of each kind of trajectory.
+// read around 200 control steps of each path (step_bench.hpp).
 #include <cstdint>
 
 #include "delta/fixed/dynamics.hpp"
@@ -35,12 +35,10 @@ void mark_begin() {
 void mark_end() {
   end_ticks = reg(kSysTickVal);
 }
-// The control steps' windows, under their own names so that
-// tests/bench/m4_cycle_estimate.py finds them in qemu's trace.
-__attribute__((noinline)) void step_window_begin() {
+void step_window_begin() {
   mark_begin();
 }
-__attribute__((noinline)) void step_window_end() {
+void step_window_end() {
   mark_end();
 }
 
@@ -72,20 +70,17 @@ extern "C" int firmware_main() {
   const std::uint32_t steps = 200;
   print_number("calibration_ticks_per_2e6_instructions ", calib_ticks);
   bool all_done = true;
-  // The order m4_cycle_estimate.py names the windows in.
-  for (const auto kind :
-       {fw::bench::StepTrajectory::kPickAndPlace, fw::bench::StepTrajectory::kFourier}) {
-    const bool fourier = kind == fw::bench::StepTrajectory::kFourier;
+  for (const auto& path : fw::bench::kStepPaths) {
     const std::uint32_t done =
-        fw::bench::run_control_steps(kind, steps, step_window_begin, step_window_end);
+        fw::bench::run_control_steps(path, steps, {step_window_begin, step_window_end, nullptr});
     const std::uint32_t step_ticks = begin_ticks - end_ticks;
     // instructions = ticks * (2,000,000 / calib_ticks)
     const auto per_step = static_cast<std::uint32_t>(
         (std::uint64_t{step_ticks} * 2000000u / calib_ticks) / (done ? done : 1));
-    print_number(fourier ? "fourier_steps " : "pick_and_place_steps ", done);
-    print_number(
-        fourier ? "fourier_instructions_per_step " : "pick_and_place_instructions_per_step ",
-        per_step);
+    semihosting::write(path.name);
+    print_number(" steps ", done);
+    semihosting::write(path.name);
+    print_number(" instructions_per_step ", per_step);
     all_done = all_done && done == steps;
   }
   // The primitives, 1000 calls each, for where the step's instructions go.

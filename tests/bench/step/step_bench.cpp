@@ -35,14 +35,12 @@ struct FollowingHardware {
   }
 };
 
-ControllerConfig config() {
+ControllerConfig config(FeedForwardMode feed_forward) {
   ControllerConfig c;
   c.geometry = {Q7_24::from(0.20), Q7_24::from(0.46), Q7_24::from(0.10), Q7_24::from(0.035)};
   c.approach_ticks = 1;
-  c.feed_forward.mode = FeedForwardMode::kModel;
+  c.feed_forward.mode = feed_forward;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
-  // The identified model's feed-forward with every term on (the Stribeck
-  // term too): the step's most expensive configuration.
   c.feed_forward.model = delta::fx::prepare_model(c.geometry, golden::example_model_parameters());
   return c;
 }
@@ -80,19 +78,22 @@ TrajectoryConfig fourier() {
 
 // The measured loop, apart so that callgrind can collect exactly it.
 __attribute__((noinline)) std::uint32_t measured_control_steps(Controller<FollowingHardware>& ctl,
-                                                               std::uint32_t n) {
+                                                               std::uint32_t n,
+                                                               void (*after_step)()) {
   std::uint32_t done = 0;
-  for (; done < n && ctl.state() == State::kRunning; ++done) ctl.step();
+  for (; done < n && ctl.state() == State::kRunning; ++done) {
+    ctl.step();
+    if (after_step != nullptr) after_step();
+  }
   return done;
 }
 
 }  // namespace
 
-std::uint32_t run_control_steps(StepTrajectory kind, std::uint32_t n, void (*mark_begin)(),
-                                void (*mark_end)()) {
-  const ControllerConfig cfg = config();
+std::uint32_t run_control_steps(const StepPath& path, std::uint32_t n, const StepMarks& marks) {
+  const ControllerConfig cfg = config(path.feed_forward);
   const TrajectoryConfig trajectory =
-      kind == StepTrajectory::kFourier ? fourier() : pick_and_place();
+      path.trajectory == StepTrajectory::kFourier ? fourier() : pick_and_place();
   // The joints rest at the trajectory's first pose.
   JointReference start{};
   Trajectory(cfg.geometry, trajectory).reference(0, start);
@@ -104,9 +105,9 @@ std::uint32_t run_control_steps(StepTrajectory kind, std::uint32_t n, void (*mar
   ctl.step();  // enters running
   ctl.step();  // the one-tick approach
   hw.reference = &ctl.reference();
-  mark_begin();
-  const std::uint32_t done = measured_control_steps(ctl, n);
-  mark_end();
+  marks.begin();
+  const std::uint32_t done = measured_control_steps(ctl, n, marks.after_step);
+  marks.end();
   last_state = static_cast<int>(ctl.state());
   last_fault = static_cast<int>(ctl.fault());
   return done;

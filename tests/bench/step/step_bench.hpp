@@ -1,11 +1,14 @@
 // The control step under measurement: Controller::step() running a
-// trajectory, the identified model's feed-forward, joint control and torque
-// from current, against a hardware stand-in whose joints follow the
-// reference. Shared by the host benchmark (callgrind) and the Cortex-M
-// image (qemu).
+// trajectory, the feed-forward, joint control and torque from current,
+// against a hardware stand-in whose joints follow the reference. Shared by
+// the host benchmark (callgrind), the Cortex-M image that counts
+// instructions on qemu, and the image whose every step the budget test
+// prices (tests/bench/m4_cycle_estimate.py).
 #pragma once
 
 #include <cstdint>
+
+#include "fw/feed_forward.hpp"
 
 namespace fw::bench {
 
@@ -17,11 +20,36 @@ namespace fw::bench {
 //   the forward kinematics and J'q' at every tick.
 enum class StepTrajectory { kPickAndPlace, kFourier };
 
+// One path through the step: a trajectory and a feed-forward. The budget
+// holds for each of them (docs/firmware.md, "Speed").
+struct StepPath {
+  const char* name;
+  StepTrajectory trajectory;
+  FeedForwardMode feed_forward;
+};
+
+// Every path, in the order the images measure them. The model's
+// feed-forward has every term on (the Stribeck term too): its most
+// expensive configuration.
+inline constexpr StepPath kStepPaths[] = {
+    {"pick_and_place_nominal", StepTrajectory::kPickAndPlace, FeedForwardMode::kNominal},
+    {"pick_and_place_model", StepTrajectory::kPickAndPlace, FeedForwardMode::kModel},
+    {"fourier_nominal", StepTrajectory::kFourier, FeedForwardMode::kNominal},
+    {"fourier_model", StepTrajectory::kFourier, FeedForwardMode::kModel},
+};
+
+// Called around the measured steps: begin() before the first, end() after
+// the last, and after_step() after each (nullptr: not called).
+struct StepMarks {
+  void (*begin)();
+  void (*end)();
+  void (*after_step)();
+};
+
 // Sets up a controller, brings it to running and returns the number of
 // running steps done (n on success). Only the n measured steps run between
-// the calls to mark_begin() and mark_end().
-std::uint32_t run_control_steps(StepTrajectory kind, std::uint32_t n, void (*mark_begin)(),
-                                void (*mark_end)());
+// marks.begin() and marks.end().
+std::uint32_t run_control_steps(const StepPath& path, std::uint32_t n, const StepMarks& marks);
 
 // The controller's state and fault after the last run (for messages).
 extern int last_state;
