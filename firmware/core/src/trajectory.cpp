@@ -61,42 +61,13 @@ u64 length_ticks_of(const TrajectoryConfig& c) {
   return saturating_mul(u64{p.waypoints} * p.segment_ticks, p.cycles);
 }
 
-// y less whole turns of 10^9, for y < 2^47: below 2 10^9. The quotient
-// from y's top 32 bits times floor(2^47 / 10^9) is at most one short (it
-// loses less than 0.49 + 2^15 / 10^9 before its floor). A whole turn left
-// in the result vanishes in Q0.32, where a turn is 2^32.
-std::uint32_t less_whole_turns_e9(u64 y) {
-  constexpr u64 kInverseQ47 = (u64{1} << 47) / kNanoPerSecondMilli;  // 140737
-  const u64 quotient = ((y >> 15) * kInverseQ47) >> 32;
-  return static_cast<std::uint32_t>(y - quotient * kNanoPerSecondMilli);
+// The base harmonic's phase (tick * f * dt) as a fraction of a turn in
+// Q0.32, exactly from integers (floor): it never drifts, however long the
+// run.
+std::uint32_t base_phase_turns_q32(std::uint32_t tick, std::uint32_t f_mHz, std::uint32_t dt_us) {
+  const u64 turns_e9 = (u64{tick} * f_mHz % kNanoPerSecondMilli) * dt_us % kNanoPerSecondMilli;
+  return static_cast<std::uint32_t>((turns_e9 << 32) / kNanoPerSecondMilli);
 }
-
-}  // namespace
-
-BasePhase::BasePhase(std::uint32_t frequency_mHz, std::uint32_t tick_period_us)
-    : step_e9_(static_cast<std::uint32_t>(u64{frequency_mHz % kNanoPerSecondMilli} *
-                                          (tick_period_us % kNanoPerSecondMilli) %
-                                          kNanoPerSecondMilli)),
-      step_e9_x65536_(static_cast<std::uint32_t>((u64{step_e9_} << 16) % kNanoPerSecondMilli)) {}
-
-std::uint32_t BasePhase::turns_q32(std::uint32_t tick) const {
-  // tick f dt = tick_hi (f dt 2^16) + tick_lo f dt, whole turns left out of
-  // each factor: both products below 2^46.
-  const std::uint32_t turns_e9 =
-      less_whole_turns_e9(u64{tick >> 16} * step_e9_x65536_ + u64{tick & 0xFFFFu} * step_e9_);
-  // floor(turns 2^32 / 10^9), modulo 2^32: 4 turns + turns (2^32 - 4 10^9)
-  // / 10^9, the second through floor(2^64 / 10^9) - 2^34, which is 0.71
-  // short of its exact value: for turns below 2 10^9 the estimate loses
-  // less than 0.34 + 1 (its floor), so it is at most one short, and the
-  // remainder turns 2^32 - q 10^9, in [0, 2 10^9), is its low 32 bits.
-  constexpr auto kE9 = static_cast<std::uint32_t>(kNanoPerSecondMilli);
-  constexpr auto kFractionQ32 = static_cast<std::uint32_t>(~u64{0} / kE9 - (u64{1} << 34));
-  const std::uint32_t q =
-      4 * turns_e9 + static_cast<std::uint32_t>((u64{turns_e9} * kFractionQ32) >> 32);
-  return 0u - q * kE9 >= kE9 ? q + 1 : q;
-}
-
-namespace {
 
 // A phase in Q0.32 turns as an angle in (-pi, pi].
 Q3_28 phase_angle(std::uint32_t turns_q32) {
@@ -207,7 +178,6 @@ Trajectory::Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config
     base_omega_rad_s_ = Q10_21::from_raw(
         saturate32(shift_round(i64{kTwoPi.raw()} * config_.fourier.base_frequency_mHz, 7) / 1000));
     const auto& f = config_.fourier;
-    base_phase_ = BasePhase(f.base_frequency_mHz, config_.tick_period_us);
     for (unsigned k = 1; k <= f.harmonics; ++k) {
       const Q10_21 kw = base_omega_rad_s_.scaled_by(static_cast<std::int32_t>(k));
       for (unsigned j = 0; j < 3; ++j) {
@@ -245,7 +215,8 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   // Harmonic k's sine and cosine, in Q1.28 (so that the twelve products of
   // a sum stay below 2^63); harmonic 1's from sincos(), harmonic k's from
   // k - 1's by the angle sum (within 2e-8 of those of k times the phase).
-  const SinCos base = sincos(phase_angle(base_phase_.turns_q32(tick)));
+  const SinCos base =
+      sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
   std::array<std::int32_t, kMaxHarmonics> sin_q28{}, cos_q28{};
   SinCos sc = base;
   for (unsigned k = 0; k < f.harmonics; ++k) {

@@ -158,49 +158,6 @@ TEST(TrajectoryTest, FourierSixHarmonicsMatchDoubleLateInALongRun) {
   expect_fourier_matches_double(traj, c, 1500, traj.length_ticks() - 1000, 997);
 }
 
-// The base phase without 64-bit divisions against the plain formula
-// floor((tick f dt mod 10^9) 2^32 / 10^9), at the extremes of every input
-// and over a million random ones.
-TEST(TrajectoryTest, BasePhaseEqualsItsExactIntegerFormula) {
-  const auto exact = [](std::uint32_t tick, std::uint32_t f, std::uint32_t dt) {
-    constexpr std::uint64_t kE9 = 1000000000u;
-    const std::uint64_t turns = (std::uint64_t{tick} * f % kE9) * dt % kE9;
-    return static_cast<std::uint32_t>((turns << 32) / kE9);
-  };
-  const std::uint32_t edges[] = {0u,          1u,          2u,          999u,        1000u,
-                                 65535u,      65536u,      999999999u,  1000000000u, 1000000001u,
-                                 2147483647u, 2147483648u, 4294967295u, 4294967294u, 123456789u};
-  std::size_t checked = 0, mismatches = 0;
-  for (const std::uint32_t f : edges) {
-    for (const std::uint32_t dt : edges) {
-      const fw::BasePhase phase(f, dt);
-      for (const std::uint32_t tick : edges) {
-        mismatches += phase.turns_q32(tick) != exact(tick, f, dt) ? 1u : 0u;
-        ++checked;
-      }
-    }
-  }
-  std::uint64_t state = 0x9E3779B97F4A7C15ull;
-  const auto next = [&state] {
-    state ^= state << 13;
-    state ^= state >> 7;
-    state ^= state << 17;
-    return static_cast<std::uint32_t>(state >> 11);
-  };
-  for (int i = 0; i < 1000000; ++i) {
-    const std::uint32_t f = next(), dt = i % 2 ? next() % 100000u : next(), tick = next();
-    mismatches += fw::BasePhase(f, dt).turns_q32(tick) != exact(tick, f, dt) ? 1u : 0u;
-    ++checked;
-  }
-  // Where a remainder is just under 10^9 (the corrections at their largest).
-  const fw::BasePhase near_turn(999999999u, 1u);
-  for (std::uint32_t tick = 1; tick < 100000u; ++tick) {
-    mismatches += near_turn.turns_q32(tick) != exact(tick, 999999999u, 1u) ? 1u : 0u;
-    ++checked;
-  }
-  EXPECT_EQ(mismatches, 0u) << "of " << checked;
-}
-
 TEST(TrajectoryTest, FourierStartsAndEndsAtRestAtQ0) {
   const TrajectoryConfig c = fourier_config();
   const Trajectory traj(default_geometry(), c);

@@ -100,23 +100,6 @@ struct ScaledValue {
   int exponent{0};
 };
 
-// A Fourier excitation's base phase at a tick, tick f dt as a fraction of
-// a turn in Q0.32 (floor), exactly from integers: it never drifts, however
-// long the run. Per tick without a 64-bit division (a library call on the
-// M4): the turns modulo 10^9 from a multiply by a reciprocal (a whole turn
-// may be left, which vanishes in Q0.32), then the Q0.32 fraction from
-// another, corrected once to the exact floor.
-class BasePhase {
- public:
-  BasePhase() = default;
-  BasePhase(std::uint32_t frequency_mHz, std::uint32_t tick_period_us);
-  std::uint32_t turns_q32(std::uint32_t tick) const;
-
- private:
-  // f dt and f dt 2^16, modulo 10^9, in 10^-9 turns per tick (mHz us).
-  std::uint32_t step_e9_{0}, step_e9_x65536_{0};
-};
-
 class Trajectory {
  public:
   Trajectory(const GeometryQ& geometry, const TrajectoryConfig& config);
@@ -144,7 +127,6 @@ class Trajectory {
   std::uint32_t length_ticks_{0};
   std::uint32_t ticks_per_second_{0};
   Q10_21 base_omega_rad_s_{};
-  BasePhase base_phase_{};
   // Fourier: each harmonic's amplitudes times k w and (k w)^2, per joint.
   struct HarmonicRates {
     Q10_21 sin_velocity{}, cos_velocity{};          // A k w, B k w
