@@ -1,8 +1,5 @@
 #include "delta/fixed/dynamics.hpp"
 
-#include <cstddef>
-#include <new>
-
 #include "delta/fixed/math.hpp"
 
 namespace delta::fx {
@@ -55,26 +52,12 @@ V along_arm(unsigned k, const SinCos& t, const std::array<V, 3>& v) {
 // With them J = a adj(N) diag(t) / det N, and J^T F = a t_k (adj(N)^T
 // F)_k / det N: the constraint forces (lambda) at this very pose.
 struct PoseQ {
-  std::array<SinCos, 3> trig;
-  std::array<Vec3Unit, 3> forearm;
-  std::array<Vec3Unit, 3> adjugate_columns;
-  std::array<Q1_30, 3> transmission;
-  Q7_24 inverse_determinant;              // |.| <= 64
-  std::array<Q7_24, 3> jacobian_scale_m;  // a t_k / det N: J's column k is it times adj column k
-};
-
-// Storage for a PoseQ whose members start unset, for the step: pose_of()
-// sets every member before any is read, and a declared PoseQ would have
-// its Q members set to zero first (100 bytes at every step: GCC does not
-// see them all overwritten). PoseQ is an aggregate, so an implicit-lifetime
-// type: the byte array holds one, members unset, from its start (C++20
-// implicit object creation).
-class UnsetPose {
- public:
-  PoseQ& pose() { return *std::launder(static_cast<PoseQ*>(static_cast<void*>(bytes_))); }
-
- private:
-  alignas(PoseQ) std::byte bytes_[sizeof(PoseQ)];
+  std::array<SinCos, 3> trig{};
+  std::array<Vec3Unit, 3> forearm{};
+  std::array<Vec3Unit, 3> adjugate_columns{};
+  std::array<Q1_30, 3> transmission{};
+  Q7_24 inverse_determinant{};              // |.| <= 64
+  std::array<Q7_24, 3> jacobian_scale_m{};  // a t_k / det N: J's column k is it times adj column k
 };
 
 // n_k from the platform's position over b (ForearmRatios), in Q3.28 until
@@ -257,8 +240,7 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   tau_Nm = {};
   const GeometryQ& g = model.geometry;
   const ModelParametersQ& m = model.parameters;
-  UnsetPose unset;
-  PoseQ& pose = unset.pose();
+  PoseQ pose;
   const KinematicsStatus status =
       pose_of(g, model.inverse_forearm_per_m, model.forearm_ratios, s.q_rad,
               s.platform_known ? &s.platform_m : nullptr, pose);
