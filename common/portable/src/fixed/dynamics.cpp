@@ -93,7 +93,7 @@ KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const ForearmRatio
   pose.inverse_determinant = quotient<Q7_24>(Q1_30::from_raw(1 << 30), det);
   const Q7_24 scale_m = mul<Q7_24>(g.upper_arm_length_m, pose.inverse_determinant);
   for (unsigned k = 0; k < 3; ++k) {
-    pose.transmission[k] = along_arm(k, pose.trig[k], n[k]);
+    pose.transmission[k] = narrowed<Q1_30, 30>(dot_raw(n[k], arm_tangent(k, pose.trig[k])));
     pose.jacobian_scale_m[k] = mul<Q7_24>(scale_m, pose.transmission[k]);
   }
   return KinematicsStatus::kOk;
