@@ -208,13 +208,6 @@ TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
                       "cycles of period_us = 200000), and controller_heartbeat_timeout_ms = 150"),
             std::string::npos)
       << config_error("period_us = 200000\n");
-  // A forearm under a seventh of the arm: the fixed-point model's ratios
-  // would leave Q3.28.
-  EXPECT_NE(config_error("geometry.forearm_length_m = 0.03\n")
-                .find("geometry: forearm_length_m = 0.030000 is too short for the controller's "
-                      "fixed-point model"),
-            std::string::npos)
-      << config_error("geometry.forearm_length_m = 0.03\n");
   EXPECT_NE(config_error("gains.max_torque_Nm = 5000\n").find("does not fit Q12.19"),
             std::string::npos)
       << config_error("gains.max_torque_Nm = 5000\n");

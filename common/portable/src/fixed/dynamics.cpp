@@ -60,18 +60,8 @@ struct PoseQ {
   std::array<Q7_24, 3> jacobian_scale_m{};  // a t_k / det N: J's column k is it times adj column k
 };
 
-// n_k from the platform's position over b (ForearmRatios), in Q3.28 until
-// the last step: p / b exceeds Q1.30's range, n_k does not.
-Vec3Unit forearm_direction(unsigned k, const std::array<Q3_28, 3>& p_over_b,
-                           const ForearmRatios& ratios, const SinCos& t) {
-  const Q3_28 c = ratios.radius_offset - mul<Q3_28>(ratios.arm, t.cos);
-  return {convert<Q1_30>(p_over_b[0] + mul<Q3_28>(c, kChainCosQ[k])),
-          convert<Q1_30>(p_over_b[1] + mul<Q3_28>(c, kChainSinQ[k])),
-          convert<Q1_30>(p_over_b[2] + mul<Q3_28>(ratios.arm, t.sin))};
-}
-
-KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const ForearmRatios& ratios,
-                         const JointAnglesQ& q, const Vec3Q* position, PoseQ& pose) {
+KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const JointAnglesQ& q,
+                         const Vec3Q* position, PoseQ& pose) {
   for (unsigned k = 0; k < 3; ++k) pose.trig[k] = sincos(q[k]);
   Vec3Q p{};
   if (position != nullptr) {
@@ -82,9 +72,14 @@ KinematicsStatus pose_of(const GeometryQ& g, Q7_24 inverse_b, const ForearmRatio
     p = fk.position;
   }
   auto& n = pose.forearm;
-  const std::array<Q3_28, 3> p_over_b{mul<Q3_28>(p.x_m, inverse_b), mul<Q3_28>(p.y_m, inverse_b),
-                                      mul<Q3_28>(p.z_m, inverse_b)};
-  for (unsigned k = 0; k < 3; ++k) n[k] = forearm_direction(k, p_over_b, ratios, pose.trig[k]);
+  for (unsigned k = 0; k < 3; ++k) {
+    const Vec3Q elbow = elbow_position(g, static_cast<int>(k), pose.trig[k]);
+    const Vec3Q d{p.x_m + mul<Q7_24>(g.platform_radius_m, kChainCosQ[k]) - elbow.x_m,
+                  p.y_m + mul<Q7_24>(g.platform_radius_m, kChainSinQ[k]) - elbow.y_m,
+                  p.z_m - elbow.z_m};
+    n[k] = {mul<Q1_30>(d.x_m, inverse_b), mul<Q1_30>(d.y_m, inverse_b),
+            mul<Q1_30>(d.z_m, inverse_b)};
+  }
   for (unsigned k = 0; k < 3; ++k) {
     pose.adjugate_columns[k] = cross(n[(k + 1) % 3], n[(k + 2) % 3]);
   }
@@ -204,17 +199,11 @@ Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10
 
 }  // namespace
 
-ForearmRatios forearm_ratios(const GeometryQ& g) {
-  const Divisor by_b(g.forearm_length_m);
-  return {by_b.divide<Q3_28>(g.upper_arm_length_m),
-          by_b.divide<Q3_28>(g.platform_radius_m - g.base_radius_m)};
-}
-
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p) {
   PoseQ pose;
   const Q7_24 inverse_b = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
-  const KinematicsStatus status = pose_of(g, inverse_b, forearm_ratios(g), q, &p, pose);
+  const KinematicsStatus status = pose_of(g, inverse_b, q, &p, pose);
   if (status != KinematicsStatus::kOk) return VelocityKinematicsQ{status, {}, {}};
   return pose_velocity_kinematics(g, inverse_b, qd, pose);
 }
@@ -224,7 +213,6 @@ ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m) {
   model.geometry = g;
   model.parameters = m;
   model.inverse_forearm_per_m = quotient<Q7_24>(Q7_24::from_int(1), g.forearm_length_m);
-  model.forearm_ratios = forearm_ratios(g);
   model.inverse_smoothing_s_per_rad =
       quotient<Q10_21>(Q10_21::from_int(1), m.coulomb_smoothing_rad_s);
   if (m.stribeck_velocity_rad_s.raw() > 0) {
@@ -241,9 +229,8 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
   const GeometryQ& g = model.geometry;
   const ModelParametersQ& m = model.parameters;
   PoseQ pose;
-  const KinematicsStatus status =
-      pose_of(g, model.inverse_forearm_per_m, model.forearm_ratios, s.q_rad,
-              s.platform_known ? &s.platform_m : nullptr, pose);
+  const KinematicsStatus status = pose_of(g, model.inverse_forearm_per_m, s.q_rad,
+                                          s.platform_known ? &s.platform_m : nullptr, pose);
   if (status != KinematicsStatus::kOk) return status;
   const Vec3Rate pdd = s.platform_known
                            ? s.platform_acceleration_m_s2

@@ -484,15 +484,6 @@ void validate_control(const PortConfig& c, std::vector<std::string>& problems) {
           "response_window_us must be shorter than period_us");
   const std::string geometry = delta::describe_geometry_fault(c.geometry);
   require(problems, geometry.empty(), "geometry: " + geometry);
-  // The fixed-point model holds p / b, a / b and (r_p - r_b) / b in Q3.28
-  // (docs/design/fixed-point-core.md): with a + |r_b - r_p| below 7 b they stay below 8.
-  const delta::Geometry& g = c.geometry;
-  const double reach_m = g.upper_arm_length_m + std::abs(g.base_radius_m - g.platform_radius_m);
-  require(problems, !geometry.empty() || reach_m < 7.0 * g.forearm_length_m,
-          "geometry: forearm_length_m = " + std::to_string(g.forearm_length_m) +
-              " is too short for the controller's fixed-point model: upper_arm_length_m + "
-              "|base_radius_m - platform_radius_m| = " +
-              std::to_string(reach_m) + " must stay below 7 forearm lengths");
   require(problems, c.min_rad < c.max_rad, "limits.min_rad must be below limits.max_rad");
   require(problems,
           c.max_velocity_rad_s > 0 && c.max_acceleration_rad_s2 > 0 && c.max_tracking_error_rad > 0,

@@ -78,18 +78,6 @@ inline constexpr Q1_30 kMinForearmDeterminant = Q1_30::from(1.0 / 64.0);
 VelocityKinematicsQ velocity_kinematics(const GeometryQ& g, const JointAnglesQ& q,
                                         const std::array<Q10_21, 3>& qd, const Vec3Q& p);
 
-// The forearm's direction n_k = d_k / b of chain k is p / b + c_k u_k + (0,
-// 0, (a / b) sin q_k) with c_k = (r_p - r_b) / b - (a / b) cos q_k: these
-// ratios of the geometry, worked out once. They, c_k and p / b stay within
-// Q3.28 while a + |r_b - r_p| < 7 b (the controller's configuration
-// requires it).
-struct ForearmRatios {
-  Q3_28 arm{};            // a / b
-  Q3_28 radius_offset{};  // (r_p - r_b) / b
-  friend constexpr bool operator==(const ForearmRatios&, const ForearmRatios&) = default;
-};
-ForearmRatios forearm_ratios(const GeometryQ& g);
-
 // A model ready to run: its parameters, the geometry it was fitted for, and
 // what model_torque() would otherwise work out at every state (reciprocals
 // and products of the parameters). Only prepare_model() makes one: a
@@ -98,7 +86,6 @@ struct ModelQ {
   GeometryQ geometry{};
   ModelParametersQ parameters{};
   Q7_24 inverse_forearm_per_m{};         // 1 / b
-  ForearmRatios forearm_ratios{};        // a / b, (r_p - r_b) / b
   Q10_21 inverse_smoothing_s_per_rad{};  // 1 / w
   Q10_21 inverse_stribeck_s_per_rad{};   // 1 / vs; 0 without the Stribeck term
   Q7_24 coupling_moment_kg_m{};          // m_c a
@@ -112,7 +99,7 @@ inline constexpr Q10_21 kMinFrictionVelocity = Q10_21::from(1.0 / 1000.0);
 
 // Prepares m for geometry g. The caller checks the values' ranges first
 // (smoothing and Stribeck velocities of at least kMinFrictionVelocity, a
-// forearm longer than 1/128 m and than (a + |r_b - r_p|) / 7).
+// forearm longer than 1/128 m).
 ModelQ prepare_model(const GeometryQ& g, const ModelParametersQ& m);
 
 // The model's joint torques at state s. kUnreachable or kSingular where the
