@@ -346,7 +346,7 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .num((qa - qb).raw())
           .num(delta::fx::mul<Q7_24>(Q1_30::from_raw(a), qb).raw())
           .num(delta::fx::mul<delta::fx::Q14_17>(qa, qb).raw())
-          .num(delta::fx::detail::narrow<8>(std::int64_t{a} * b))
+          .num(delta::fx::narrow<8>(std::int64_t{a} * b))
           .num(delta::fx::div<Q7_24>(qa, qb).raw())
           .end(lines);
     }

@@ -5,8 +5,8 @@
 namespace fw {
 
 using delta::fx::mul;
-using delta::fx::detail::saturate32;
-using delta::fx::detail::shift_round;
+using delta::fx::saturate32;
+using delta::fx::shift_round;
 
 std::array<Q12_19, 3> JointController::update(const JointReference& ref, const JointAnglesQ& q,
                                               const std::array<Q10_21, 3>& qd,

@@ -8,12 +8,12 @@ using delta::fx::convert;
 using delta::fx::div;
 using delta::fx::kTwoPi;
 using delta::fx::mul;
+using delta::fx::narrow;
 using delta::fx::Q16_15;
+using delta::fx::saturate32;
+using delta::fx::shift_round;
 using delta::fx::sincos;
 using delta::fx::SinCos;
-using delta::fx::detail::narrow;
-using delta::fx::detail::saturate32;
-using delta::fx::detail::shift_round;
 using i64 = std::int64_t;
 using u64 = std::uint64_t;
 
@@ -221,8 +221,8 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   SinCos sc = base;
   for (unsigned k = 0; k < f.harmonics; ++k) {
     if (k > 0) sc = angle_sum(sc, base);
-    sin_q28[k] = delta::fx::detail::shift_round32(sc.sin.raw(), 2);
-    cos_q28[k] = delta::fx::detail::shift_round32(sc.cos.raw(), 2);
+    sin_q28[k] = delta::fx::shift_round32(sc.sin.raw(), 2);
+    cos_q28[k] = delta::fx::shift_round32(sc.cos.raw(), 2);
   }
   // delta(t), delta'(t), delta''(t): each a sum of products rounded once.
   std::array<Q3_28, 3> d{};

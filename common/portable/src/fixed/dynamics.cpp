@@ -17,7 +17,7 @@ i64 dot_raw(const std::array<A, 3>& a, const std::array<B, 3>& b) {
 }
 template <class R, int Shift>
 R narrowed(i64 v) {
-  return R::from_raw(detail::narrow<Shift>(v));
+  return R::from_raw(narrow<Shift>(v));
 }
 
 Vec3Unit cross(const Vec3Unit& a, const Vec3Unit& b) {

@@ -151,7 +151,7 @@ ForwardKinematicsQ forward_kinematics(const GeometryQ& g, const std::array<SinCo
   // Equal radii: x = d / 2, y = (i^2 + j^2 - 2 i x) / (2 j), z = sqrt(b^2 - x^2 - y^2).
   const Q7_24 x = d.halved(1);
   const i64 num48 = prod48(i, i) + prod48(j, j) - 2 * prod48(i, x);
-  const Q7_24 y = quotient<Q7_24>(Q7_24::from_raw(detail::narrow<24>(num48)), j.scaled_by(2));
+  const Q7_24 y = quotient<Q7_24>(Q7_24::from_raw(narrow<24>(num48)), j.scaled_by(2));
   const i64 z_sq48 = prod48(g.forearm_length_m, g.forearm_length_m) - prod48(x, x) - prod48(y, y);
   if (z_sq48 < 0) {
     r.status = KinematicsStatus::kUnreachable;

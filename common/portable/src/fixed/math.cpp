@@ -58,7 +58,7 @@ constexpr std::int32_t mul30(std::int32_t a, std::int32_t b) {
 template <std::size_t N>
 constexpr std::int32_t horner(const std::int32_t (&c)[N], std::int32_t v_q32) {
   std::int32_t p = c[0];
-  for (std::size_t k = 1; k < N; ++k) p = detail::add_high_product(c[k], p, v_q32);
+  for (std::size_t k = 1; k < N; ++k) p = add_high_product(c[k], p, v_q32);
   return p;
 }
 
@@ -78,7 +78,7 @@ Reduced reduce(Q3_28 angle_rad) {
   const std::int64_t n = (scaled + (std::int64_t{1} << 59)) >> 60;
   const std::int64_t a58 = std::int64_t{angle_rad.raw()} * (std::int64_t{1} << 30);
   const std::int64_t r58 = a58 - n * kHalfPiQ58;
-  return {static_cast<int>(n & 3), static_cast<std::int32_t>(detail::shift_round(r58, 28))};
+  return {static_cast<int>(n & 3), static_cast<std::int32_t>(shift_round(r58, 28))};
 }
 
 // v = r^2 / 2 in Q0.32 from r in Q1.30: below 0.31 for |r| <= pi/4 (+ a
@@ -184,7 +184,7 @@ Q3_28 atan2_raw(std::int64_t y, std::int64_t x) {
   if (uy > ux) angle = kHalfPiQ29 - angle;
   if (x < 0) angle = kPiQ29 - angle;
   if (y < 0) angle = -angle;
-  return Q3_28::from_raw(detail::shift_round32(angle, 1));
+  return Q3_28::from_raw(shift_round32(angle, 1));
 }
 
 namespace {
@@ -262,7 +262,7 @@ Q1_30 exp_neg(Q10_21 x) {
   const auto v = static_cast<std::int32_t>((y & ((std::int64_t{1} << 51) - 1)) >> 20);
   const std::int32_t p = horner(kExp2PolyQ30, v);  // every partial sum within Q1.30
   if (k == 0) return Q1_30::from_raw(p);
-  return Q1_30::from_raw(detail::shift_round32(p, static_cast<int>(k)));
+  return Q1_30::from_raw(shift_round32(p, static_cast<int>(k)));
 }
 
 Q1_30 tanh(Q10_21 x) {

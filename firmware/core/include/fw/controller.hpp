@@ -264,9 +264,9 @@ class Controller {
     for (unsigned j = 0; j < 3; ++j) {
       const Q3_28 span = start.q_rad[j] - approach_from_[j];
       reference_.q_rad[j] = approach_from_[j] + mul<Q3_28>(w, span);
-      const std::int64_t v = delta::fx::detail::shift_round(
+      const std::int64_t v = delta::fx::shift_round(
           std::int64_t{mul<Q3_28>(dw, span).raw()} * 1000000 / approach_us, 7);
-      reference_.qd_rad_s[j] = Q10_21::from_raw(delta::fx::detail::saturate32(v));
+      reference_.qd_rad_s[j] = Q10_21::from_raw(delta::fx::saturate32(v));
       reference_.qdd_rad_s2[j] = {};  // the feedback tracks the small approach accelerations
     }
   }

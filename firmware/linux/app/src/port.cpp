@@ -73,8 +73,8 @@ p::LogPayloads log_payloads(const fw::LogRecord& r) {
   std::array<std::int32_t, 3> q{};
   std::array<std::int32_t, 3> tau{};
   for (unsigned j = 0; j < 3; ++j) {
-    q[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.q_rad[j].raw(), 8));
-    tau[j] = static_cast<std::int32_t>(delta::fx::detail::shift_round(r.tau_Nm[j].raw(), 3));
+    q[j] = static_cast<std::int32_t>(delta::fx::shift_round(r.q_rad[j].raw(), 8));
+    tau[j] = static_cast<std::int32_t>(delta::fx::shift_round(r.tau_Nm[j].raw(), 3));
   }
   return p::pack_log(r.seq, r.stale, q, tau);
 }

@@ -16,8 +16,8 @@ namespace {
 
 // raw * 10^6 / 2^frac, rounded: micro-units of a Q value for the registers.
 std::int32_t micro(std::int32_t raw, int frac) {
-  const std::int64_t v = delta::fx::detail::shift_round(std::int64_t{raw} * 1000000, frac);
-  return delta::fx::detail::saturate32(v);
+  const std::int64_t v = delta::fx::shift_round(std::int64_t{raw} * 1000000, frac);
+  return delta::fx::saturate32(v);
 }
 
 }  // namespace

@@ -61,8 +61,8 @@ class Divisor {
   R divide(Q<IA, FA> a) const {
     // a / b = a_raw r 2^(k - 62) in raw units of 2^(FB - FA).
     const std::int64_t p = std::int64_t{a.raw()} * static_cast<std::int64_t>(reciprocal_q30_);
-    const std::int64_t q = detail::shift_round(p, 62 - shift_ - R::kFracBits + FA - FB);
-    return R::from_raw(detail::saturate32(negative_ ? -q : q));
+    const std::int64_t q = shift_round(p, 62 - shift_ - R::kFracBits + FA - FB);
+    return R::from_raw(saturate32(negative_ ? -q : q));
   }
 
  private:

@@ -39,6 +39,12 @@ inline void fixed_point_constant_out_of_range() {}
   return high_word < 0 ? INT32_MIN : INT32_MAX;
 }
 
+}  // namespace detail
+
+// The rounding and saturation every Q operation uses, for integer code that
+// works on raw values (sums of products rounded once, log scalings).
+
+// v saturated to 32 bits.
 constexpr std::int32_t saturate32(std::int64_t v) {
   // In range when the high word is the sign of the low one: one compare on
   // a 32-bit machine for the common case, laid out as the branch not taken
@@ -47,28 +53,7 @@ constexpr std::int32_t saturate32(std::int64_t v) {
   if (static_cast<std::int32_t>(v >> 32) == (low >> 31)) [[likely]] {
     return low;
   }
-  return saturated_of_sign(static_cast<std::int32_t>(v >> 32));
-}
-
-// a + b and a - b, saturated to 32 bits. Where the DSP extension is there
-// (Cortex-M4), one QADD or QSUB instruction computes exactly this; it also
-// keeps the result a plain 32-bit value for the widening multiplies after
-// it, where the branch of the portable form makes GCC multiply in 64 bits.
-constexpr std::int32_t add_saturate(std::int32_t a, std::int32_t b) {
-#if defined(__ARM_FEATURE_DSP)
-  if (!std::is_constant_evaluated()) return __qadd(a, b);
-#endif
-  std::int32_t r = 0;
-  if (__builtin_add_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
-  return r;
-}
-constexpr std::int32_t sub_saturate(std::int32_t a, std::int32_t b) {
-#if defined(__ARM_FEATURE_DSP)
-  if (!std::is_constant_evaluated()) return __qsub(a, b);
-#endif
-  std::int32_t r = 0;
-  if (__builtin_sub_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
-  return r;
+  return detail::saturated_of_sign(static_cast<std::int32_t>(v >> 32));
 }
 
 // v / 2^shift rounded to nearest, ties upwards; shift may be <= 0 (a left
@@ -85,6 +70,60 @@ constexpr std::int64_t shift_round(std::int64_t v, int shift) {
   if (shift >= 63) return 0;
   const std::int64_t half = std::int64_t{1} << (shift - 1);
   return (v + half) >> shift;
+}
+
+// The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic).
+constexpr std::int32_t shift_round32(std::int32_t v, int shift) {
+  const std::int32_t half = std::int32_t{1} << (shift - 1);
+  return (v + half) >> shift;
+}
+
+// The primitives the Cortex-M4 does in one instruction each (QADD, QSUB,
+// SSAT, SMULL, SMMLAR; GCC does not always find them). Their portable forms
+// give the same bits: the Cortex-M image checks the two against each other
+// on random and extreme operands (tests/golden, "asm-vs-portable").
+namespace portable {
+
+constexpr std::int32_t add_saturate(std::int32_t a, std::int32_t b) {
+  std::int32_t r = 0;
+  if (__builtin_add_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
+  return r;
+}
+constexpr std::int32_t sub_saturate(std::int32_t a, std::int32_t b) {
+  std::int32_t r = 0;
+  if (__builtin_sub_overflow(a, b, &r)) return a < 0 ? INT32_MIN : INT32_MAX;
+  return r;
+}
+template <int Shift>
+constexpr std::int32_t narrow(std::int64_t v) {
+  static_assert(Shift > 0 && Shift < 32);
+  return saturate32(shift_round(v, Shift));
+}
+constexpr std::int64_t wide_product(std::int32_t a, std::int32_t b) {
+  return std::int64_t{a} * b;
+}
+constexpr std::int32_t add_high_product(std::int32_t c, std::int32_t a, std::int32_t b) {
+  return static_cast<std::int32_t>(
+      static_cast<std::uint32_t>(c) +
+      static_cast<std::uint32_t>((std::int64_t{a} * b + (std::int64_t{1} << 31)) >> 32));
+}
+
+}  // namespace portable
+
+// a + b and a - b, saturated to 32 bits (QADD, QSUB). They also keep the
+// result a plain 32-bit value for the widening multiplies after it, where
+// the branch of the portable form makes GCC multiply in 64 bits.
+constexpr std::int32_t add_saturate(std::int32_t a, std::int32_t b) {
+#if defined(__ARM_FEATURE_DSP)
+  if (!std::is_constant_evaluated()) return __qadd(a, b);
+#endif
+  return portable::add_saturate(a, b);
+}
+constexpr std::int32_t sub_saturate(std::int32_t a, std::int32_t b) {
+#if defined(__ARM_FEATURE_DSP)
+  if (!std::is_constant_evaluated()) return __qsub(a, b);
+#endif
+  return portable::sub_saturate(a, b);
 }
 
 // saturate32(shift_round(v, Shift)) for 0 < Shift < 32. With the
@@ -104,22 +143,11 @@ constexpr std::int32_t narrow(std::int64_t v) {
       return static_cast<std::int32_t>(
           static_cast<std::uint32_t>(static_cast<std::uint64_t>(r) >> Shift));
     }
-    return saturated_of_sign(high);
+    return detail::saturated_of_sign(high);
   }
 #endif
-  return saturate32(shift_round(v, Shift));
+  return portable::narrow<Shift>(v);
 }
-
-// The same for a 32-bit value and 0 < shift < 31 (no 64-bit arithmetic).
-constexpr std::int32_t shift_round32(std::int32_t v, int shift) {
-  const std::int32_t half = std::int32_t{1} << (shift - 1);
-  return (v + half) >> shift;
-}
-
-// The Cortex-M4 forms of two products, each one instruction (GCC does not
-// always find them: it multiplies a saturated value in 64 x 64 bits, and
-// builds SMMULR from three instructions). The portable forms below them
-// give the same bits.
 
 // a * b in 64 bits (SMULL).
 constexpr std::int64_t wide_product(std::int32_t a, std::int32_t b) {
@@ -132,7 +160,7 @@ constexpr std::int64_t wide_product(std::int32_t a, std::int32_t b) {
         static_cast<std::uint64_t>(static_cast<std::uint32_t>(high)) << 32 | low);
   }
 #endif
-  return std::int64_t{a} * b;
+  return portable::wide_product(a, b);
 }
 
 // c + (a * b) / 2^32 rounded to nearest, ties upwards (SMMLAR; the sum
@@ -145,12 +173,8 @@ constexpr std::int32_t add_high_product(std::int32_t c, std::int32_t a, std::int
     return r;
   }
 #endif
-  return static_cast<std::int32_t>(
-      static_cast<std::uint32_t>(c) +
-      static_cast<std::uint32_t>((std::int64_t{a} * b + (std::int64_t{1} << 31)) >> 32));
+  return portable::add_high_product(c, a, b);
 }
-
-}  // namespace detail
 
 template <int IntBits, int FracBits>
 class Q {
@@ -171,7 +195,7 @@ class Q {
   }
   // A whole number, saturated.
   static constexpr Q from_int(std::int32_t v) {
-    return from_raw(detail::saturate32(detail::shift_round(v, -FracBits)));
+    return from_raw(saturate32(shift_round(v, -FracBits)));
   }
   // A compile-time constant from a floating-point literal, rounded to
   // nearest (ties upwards, like every rounding here); out of range does not
@@ -194,9 +218,9 @@ class Q {
 
   constexpr std::int32_t raw() const { return raw_; }
 
-  friend constexpr Q operator+(Q a, Q b) { return from_raw(detail::add_saturate(a.raw_, b.raw_)); }
-  friend constexpr Q operator-(Q a, Q b) { return from_raw(detail::sub_saturate(a.raw_, b.raw_)); }
-  constexpr Q operator-() const { return from_raw(detail::sub_saturate(0, raw_)); }
+  friend constexpr Q operator+(Q a, Q b) { return from_raw(add_saturate(a.raw_, b.raw_)); }
+  friend constexpr Q operator-(Q a, Q b) { return from_raw(sub_saturate(a.raw_, b.raw_)); }
+  constexpr Q operator-() const { return from_raw(sub_saturate(0, raw_)); }
   constexpr Q& operator+=(Q o) { return *this = *this + o; }
   constexpr Q& operator-=(Q o) { return *this = *this - o; }
   friend constexpr auto operator<=>(Q a, Q b) = default;
@@ -204,11 +228,11 @@ class Q {
 
   // Multiplication by a whole number, saturated.
   constexpr Q scaled_by(std::int32_t k) const {
-    return from_raw(detail::saturate32(std::int64_t{raw_} * k));
+    return from_raw(saturate32(std::int64_t{raw_} * k));
   }
   // Division by 2^n, rounded.
   constexpr Q halved(int n) const {
-    return from_raw(static_cast<std::int32_t>(detail::shift_round(raw_, n)));
+    return from_raw(static_cast<std::int32_t>(shift_round(raw_, n)));
   }
 
  private:
@@ -232,12 +256,12 @@ constexpr T abs(T v) {
 // r = a * b in format R, rounded to nearest and saturated.
 template <class R, int IA, int FA, int IB, int FB>
 constexpr R mul(Q<IA, FA> a, Q<IB, FB> b) {
-  const std::int64_t p = detail::wide_product(a.raw(), b.raw());
+  const std::int64_t p = wide_product(a.raw(), b.raw());
   constexpr int kShift = FA + FB - R::kFracBits;
   if constexpr (kShift > 0 && kShift < 32) {
-    return R::from_raw(detail::narrow<kShift>(p));
+    return R::from_raw(narrow<kShift>(p));
   } else {
-    return R::from_raw(detail::saturate32(detail::shift_round(p, kShift)));
+    return R::from_raw(saturate32(shift_round(p, kShift)));
   }
 }
 
@@ -271,7 +295,7 @@ constexpr R div(Q<IA, FA> a, Q<IB, FB> b) {
   } else if (2 * rem < -den) {
     --q;
   }
-  return R::from_raw(detail::saturate32(detail::shift_round(q, -post)));
+  return R::from_raw(saturate32(shift_round(q, -post)));
 }
 
 // n / d as a Q1.30 fraction, rounded to nearest (d > 0, n <= d): tick ratios
@@ -286,13 +310,13 @@ constexpr Q<1, 30> ratio(std::uint32_t n, std::uint32_t d) {
     return Q<1, 30>::from_raw(static_cast<std::int32_t>((q1 << 15) + q2 + (2 * r2 >= d ? 1u : 0u)));
   }
   const std::int64_t num = std::int64_t{n} << 30;
-  return Q<1, 30>::from_raw(detail::saturate32((num + d / 2) / d));
+  return Q<1, 30>::from_raw(saturate32((num + d / 2) / d));
 }
 
 // The same value in another format, rounded to nearest and saturated.
 template <class R, int I, int F>
 constexpr R convert(Q<I, F> a) {
-  return R::from_raw(detail::saturate32(detail::shift_round(a.raw(), F - R::kFracBits)));
+  return R::from_raw(saturate32(shift_round(a.raw(), F - R::kFracBits)));
 }
 
 }  // namespace delta::fx
