@@ -1,5 +1,7 @@
 #include "golden_vectors.hpp"
 
+#include <utility>
+
 #include "delta/fixed/kinematics.hpp"
 #include "delta/fixed/math.hpp"
 #include "fw/feed_forward.hpp"
@@ -225,12 +227,9 @@ void update_lines(Line& l, std::uint32_t& lines) {
       .end(lines);
 }
 
-std::uint32_t write_golden_vectors(TextSink& out) {
-  std::uint32_t lines = 0;
-  Line l(out);
-  l.word("delta-golden/1").end(lines);
-  Lcg rng{12345u};
+namespace {
 
+void math_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
   for (int i = 0; i < 64; ++i) {
     const Q3_28 a = Q3_28::from_raw(static_cast<std::int32_t>(rng.next()));
     const auto sc = delta::fx::sincos(a);
@@ -245,6 +244,9 @@ std::uint32_t write_golden_vectors(TextSink& out) {
     const Q7_24 v = Q7_24::from_raw(rng.in(0, 2147483647));
     l.word("sqrt").num(v.raw()).num(delta::fx::sqrt<Q7_24>(v).raw()).end(lines);
   }
+}
+
+void kinematics_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
   for (int i = 0; i < 96; ++i) {
     const delta::fx::Vec3Q p{Q7_24::from_raw(rng.in(-2500000, 2500000)),
                              Q7_24::from_raw(rng.in(-2500000, 2500000)),
@@ -267,6 +269,9 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .end(lines);
     }
   }
+}
+
+void trajectory_lines(Line& l, std::uint32_t& lines) {
   const Trajectory fourier(kGeometry, fourier_config());
   for (std::uint32_t tick = 0; tick <= fourier.length_ticks(); tick += 97) {
     JointReference r;
@@ -281,6 +286,9 @@ std::uint32_t write_golden_vectors(TextSink& out) {
     l.word("pnp-status").num(static_cast<int>(pnp.reference(tick, r))).end(lines);
     reference_line(l, "pnp", tick, r, lines);
   }
+}
+
+void torque_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
   JointTorqueConfig tc;
   tc.gear_ratio = Q12_19::from(9.0);
   tc.torque_constant_Nm_per_A = Q7_24::from(0.08);
@@ -295,6 +303,10 @@ std::uint32_t write_golden_vectors(TextSink& out) {
         .num(current_from_torque(tc, torque_from_current(tc, amps)).raw())
         .end(lines);
   }
+}
+
+void control_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
+  const Trajectory fourier(kGeometry, fourier_config());
   JointGains gains;
   gains.ki_Nm_per_rad_s = Q16_15::from(20.0);
   const FeedForwardConfig nominal{
@@ -313,31 +325,28 @@ std::uint32_t write_golden_vectors(TextSink& out) {
     Joint3Q12_19 ff{};
     feed_forward_torque(nominal, r, ff);
     const auto tau = ctl.update(r, q, qd, ff, sat);
-    l.word("control")
-        .num(tick)
-        .num(tau[0].raw())
-        .num(tau[1].raw())
-        .num(tau[2].raw())
-        .num(sat[0])
-        .num(sat[1])
-        .num(sat[2])
-        .end(lines);
+    l.word("control").num(tick).num(tau[0].raw()).num(tau[1].raw()).num(tau[2].raw());
+    l.num(sat[0]).num(sat[1]).num(sat[2]).end(lines);
   }
-  // The arithmetic itself on edge operands: saturating add, subtract and
-  // negation (one QADD or QSUB on Cortex-M4, a portable form on the host),
-  // and the rounding and saturation of mul (shifts of 30 and 31), narrow
-  // (8), div and convert at ties and at the extremes (SSAT on Cortex-M4).
-  const std::int32_t edges[] = {0,          1,         -1,         3,
-                                -3,         1 << 29,   -(1 << 29), 123456789,
-                                -987654321, INT32_MAX, INT32_MIN,  INT32_MIN + 1};
-  for (const std::int32_t a : edges) {
+}
+
+// The arithmetic itself on edge operands: saturating add, subtract and
+// negation (one QADD or QSUB on Cortex-M4, a portable form on the host),
+// and the rounding and saturation of mul (shifts of 30 and 31), narrow
+// (8), div and convert at ties and at the extremes (SSAT on Cortex-M4).
+constexpr std::int32_t kEdges[] = {0,          1,         -1,         3,
+                                   -3,         1 << 29,   -(1 << 29), 123456789,
+                                   -987654321, INT32_MAX, INT32_MIN,  INT32_MIN + 1};
+
+void arithmetic_lines(Line& l, std::uint32_t& lines) {
+  for (const std::int32_t a : kEdges) {
     l.word("convert")
         .num(a)
         .num(delta::fx::convert<Q7_24>(Q1_30::from_raw(a)).raw())
         .num(delta::fx::convert<Q1_30>(Q7_24::from_raw(a)).raw())
         .num((-Q7_24::from_raw(a)).raw())
         .end(lines);
-    for (const std::int32_t b : edges) {
+    for (const std::int32_t b : kEdges) {
       const Q7_24 qa = Q7_24::from_raw(a), qb = Q7_24::from_raw(b);
       l.word("q")
           .num(a)
@@ -351,8 +360,109 @@ std::uint32_t write_golden_vectors(TextSink& out) {
           .end(lines);
     }
   }
+}
+
+// The Cortex-M4's one-instruction primitives (QADD, QSUB, SSAT, SMULL,
+// SMMLAR) against their portable forms (q.hpp) on extreme and random
+// operands. Each line: the operands tried, the disagreements (0), and a
+// checksum of the results, which the host (where both forms are the
+// portable one) and the M4 must share.
+struct Agreement {
+  std::uint32_t operands = 0, mismatches = 0, checksum = 0;
+  void add(std::int64_t fast, std::int64_t portable) {
+    ++operands;
+    if (fast != portable) ++mismatches;
+    const auto u = static_cast<std::uint64_t>(fast);
+    checksum =
+        (checksum * 31u) ^ static_cast<std::uint32_t>(u) ^ static_cast<std::uint32_t>(u >> 32);
+  }
+  void line(Line& l, const char* name, std::uint32_t& lines) const {
+    l.word("asm-vs-portable").word(name).num(operands).num(mismatches).num(checksum).end(lines);
+  }
+};
+
+// A 32-bit operand of random size and sign.
+std::int32_t random_narrow(Lcg& rng) {
+  return static_cast<std::int32_t>(rng.next()) >> (rng.next() % 32);
+}
+// A 64-bit value of random size and sign below 2^62 in magnitude (what a
+// product of two 32-bit values reaches).
+std::int64_t random_wide(Lcg& rng) {
+  const std::uint64_t bits = (std::uint64_t{rng.next()} << 32) | rng.next();
+  const auto v = static_cast<std::int64_t>(bits >> (2 + rng.next() % 62));
+  return (rng.next() & 1u) != 0 ? -v : v;
+}
+
+constexpr int kRandomOperands = 20000;
+
+template <int Shift>
+void narrow_agreement(Agreement& a, Lcg& rng) {
+  const std::int64_t half = std::int64_t{1} << (Shift - 1);
+  // Where the rounded value leaves 32 bits, on both sides, and around 0.
+  for (const std::int64_t at : {std::int64_t{INT32_MAX} * (2 * half),
+                                std::int64_t{INT32_MIN} * (2 * half), std::int64_t{0}}) {
+    for (const std::int64_t d : {-half - 1, -half, -half + 1, std::int64_t{-1}, std::int64_t{0},
+                                 std::int64_t{1}, half - 1, half, half + 1}) {
+      a.add(delta::fx::narrow<Shift>(at + d), delta::fx::portable::narrow<Shift>(at + d));
+    }
+  }
+  for (int i = 0; i < kRandomOperands / 8; ++i) {
+    const std::int64_t v = random_wide(rng);
+    a.add(delta::fx::narrow<Shift>(v), delta::fx::portable::narrow<Shift>(v));
+  }
+}
+
+template <int... S>
+void every_narrow(Agreement& a, Lcg& rng, std::integer_sequence<int, S...>) {
+  (narrow_agreement<S + 1>(a, rng), ...);
+}
+
+void primitive_lines(Line& l, std::uint32_t& lines) {
+  namespace fx = delta::fx;
+  Lcg rng{20261204u};
+  Agreement add, sub, wide, high, narrow;
+  const auto pair = [&](std::int32_t x, std::int32_t y) {
+    add.add(fx::add_saturate(x, y), fx::portable::add_saturate(x, y));
+    sub.add(fx::sub_saturate(x, y), fx::portable::sub_saturate(x, y));
+    wide.add(fx::wide_product(x, y), fx::portable::wide_product(x, y));
+  };
+  for (const std::int32_t x : kEdges) {
+    for (const std::int32_t y : kEdges) {
+      pair(x, y);
+      for (const std::int32_t c : kEdges) {
+        high.add(fx::add_high_product(c, x, y), fx::portable::add_high_product(c, x, y));
+      }
+    }
+  }
+  for (int i = 0; i < kRandomOperands; ++i) {
+    const std::int32_t x = random_narrow(rng), y = random_narrow(rng), c = random_narrow(rng);
+    pair(x, y);
+    high.add(fx::add_high_product(c, x, y), fx::portable::add_high_product(c, x, y));
+  }
+  every_narrow(narrow, rng, std::make_integer_sequence<int, 31>{});
+  add.line(l, "qadd", lines);
+  sub.line(l, "qsub", lines);
+  wide.line(l, "smull", lines);
+  high.line(l, "smmlar", lines);
+  narrow.line(l, "ssat-narrow-1-to-31", lines);
+}
+
+}  // namespace
+
+std::uint32_t write_golden_vectors(TextSink& out) {
+  std::uint32_t lines = 0;
+  Line l(out);
+  l.word("delta-golden/1").end(lines);
+  Lcg rng{12345u};
+  math_lines(l, rng, lines);
+  kinematics_lines(l, rng, lines);
+  trajectory_lines(l, lines);
+  torque_lines(l, rng, lines);
+  control_lines(l, rng, lines);
+  arithmetic_lines(l, lines);
   model_lines(l, rng, lines);
   update_lines(l, lines);
+  primitive_lines(l, lines);
   l.word("end").num(lines + 1).end(lines);
   return lines;
 }
