@@ -215,6 +215,9 @@ void Trajectory::fourier(std::uint32_t tick, JointReference& out) const {
   // Harmonic k's sine and cosine, in Q1.28 (so that the twelve products of
   // a sum stay below 2^63); harmonic 1's from sincos(), harmonic k's from
   // k - 1's by the angle sum (within 2e-8 of those of k times the phase).
+  // Each product is a 32-bit value times one of at most 2^28: below 2^59,
+  // so 2 kMaxHarmonics of them stay below 2^63 while that is at most 16.
+  static_assert(2 * kMaxHarmonics <= 16, "the Fourier sums of products would leave 64 bits");
   const SinCos base =
       sincos(phase_angle(base_phase_turns_q32(tick, f.base_frequency_mHz, config_.tick_period_us)));
   std::array<std::int32_t, kMaxHarmonics> sin_q28{}, cos_q28{};

@@ -1,5 +1,7 @@
 #include "delta/fixed/dynamics.hpp"
 
+#include <type_traits>
+
 #include "delta/fixed/math.hpp"
 
 namespace delta::fx {
@@ -189,8 +191,11 @@ Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10
     const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
     coulomb += mul<Q12_19>(m.stribeck_friction_Nm[j], exp_neg(mul<Q10_21>(v, v)));
   }
-  // Three products of Q12.19 and Q1.30 values, each below 2^61 in
-  // magnitude: their sum fits 64 bits.
+  // Three products of a 32-bit value and a Q1.30 one of at most 1 in
+  // magnitude (2^30), each at most 2^61: their sum fits 64 bits.
+  static_assert(std::is_same_v<decltype(SinCos::sin), Q1_30> &&
+                    std::is_same_v<std::remove_cv_t<decltype(sign)>, Q1_30>,
+                "the sum of three products needs unit factors to stay within 64 bits");
   const i64 sum = i64{m.arm_gravity_sin_Nm[j].raw()} * t.sin.raw() -
                   i64{m.arm_gravity_cos_Nm[j].raw()} * t.cos.raw() +
                   i64{coulomb.raw()} * sign.raw();
