@@ -3,17 +3,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "delta/q_conversion.hpp"
+
 namespace delta {
 
 namespace {
-
-template <class Q>
-Q to_q(double v) {
-  const double scaled = std::ldexp(v, Q::kFracBits);
-  if (!(scaled < 2147483647.0)) return Q::max();
-  if (!(scaled > -2147483648.0)) return Q::min();
-  return Q::from_raw(static_cast<std::int32_t>(std::llround(scaled)));
-}
 
 // The largest magnitude a Q format holds (one step below its range).
 template <class Q>
@@ -50,8 +44,9 @@ struct Check {
 }  // namespace
 
 fx::GeometryQ geometry_q(const Geometry& g) {
-  return {to_q<fx::Q7_24>(g.upper_arm_length_m), to_q<fx::Q7_24>(g.forearm_length_m),
-          to_q<fx::Q7_24>(g.base_radius_m), to_q<fx::Q7_24>(g.platform_radius_m)};
+  return {to_q_saturated<fx::Q7_24>(g.upper_arm_length_m),
+          to_q_saturated<fx::Q7_24>(g.forearm_length_m), to_q_saturated<fx::Q7_24>(g.base_radius_m),
+          to_q_saturated<fx::Q7_24>(g.platform_radius_m)};
 }
 
 controller::ModelRecord model_record(const IdentifiedModel& m) {
@@ -65,12 +60,8 @@ controller::ModelRecord model_record(const IdentifiedModel& m) {
 namespace {
 
 template <class Q>
-double from_q(Q v) {
-  return std::ldexp(static_cast<double>(v.raw()), -Q::kFracBits);
-}
-template <class Q>
 Joint3 from_q3(const std::array<Q, 3>& v) {
-  return {from_q(v[0]), from_q(v[1]), from_q(v[2])};
+  return {to_double(v[0]), to_double(v[1]), to_double(v[2])};
 }
 
 }  // namespace
@@ -80,22 +71,23 @@ IdentifiedModel identified_model(const controller::ModelRecord& r) {
   const fx::ModelParametersQ& q = r.parameters;
   m.kind = q.kind == fx::ModelKind::kLumped ? "lumped" : "delta";
   m.fit_id = r.fit_id;
-  m.geometry = Geometry{from_q(r.geometry.upper_arm_length_m), from_q(r.geometry.forearm_length_m),
-                        from_q(r.geometry.base_radius_m), from_q(r.geometry.platform_radius_m)};
+  m.geometry =
+      Geometry{to_double(r.geometry.upper_arm_length_m), to_double(r.geometry.forearm_length_m),
+               to_double(r.geometry.base_radius_m), to_double(r.geometry.platform_radius_m)};
   HighFidelityParameters& h = m.parameters;
   h.arm_inertia_kg_m2 = from_q3(q.arm_inertia_kg_m2);
   h.arm_gravity_cos_Nm = from_q3(q.arm_gravity_cos_Nm);
   h.arm_gravity_sin_Nm = from_q3(q.arm_gravity_sin_Nm);
-  h.platform_inertial_mass_kg = from_q(q.platform_inertial_mass_kg);
-  h.platform_weight_mass_kg = from_q(q.platform_weight_mass_kg);
-  h.forearm_coupling_kg = from_q(q.forearm_coupling_kg);
+  h.platform_inertial_mass_kg = to_double(q.platform_inertial_mass_kg);
+  h.platform_weight_mass_kg = to_double(q.platform_weight_mass_kg);
+  h.forearm_coupling_kg = to_double(q.forearm_coupling_kg);
   h.viscous_friction_Nm_s_per_rad = from_q3(q.viscous_friction_Nm_s_per_rad);
   h.coulomb_friction_Nm = from_q3(q.coulomb_friction_Nm);
   h.stribeck_friction_Nm = from_q3(q.stribeck_friction_Nm);
   h.torque_offset_Nm = from_q3(q.torque_offset_Nm);
-  h.coulomb_smoothing_rad_s = from_q(q.coulomb_smoothing_rad_s);
-  h.stribeck_velocity_rad_s = from_q(q.stribeck_velocity_rad_s);
-  h.gravity_m_s2 = from_q(q.gravity_m_s2);
+  h.coulomb_smoothing_rad_s = to_double(q.coulomb_smoothing_rad_s);
+  h.stribeck_velocity_rad_s = to_double(q.stribeck_velocity_rad_s);
+  h.gravity_m_s2 = to_double(q.gravity_m_s2);
   m.per_joint = h.arm_inertia_kg_m2[0] != h.arm_inertia_kg_m2[1] ||
                 h.arm_inertia_kg_m2[1] != h.arm_inertia_kg_m2[2];
   m.offsets = h.torque_offset_Nm != Joint3{};
@@ -166,20 +158,20 @@ fx::ModelParametersQ model_parameters_q(const IdentifiedModel& m) {
   ModelParametersQ q;
   q.kind = m.kind == "lumped" ? ModelKind::kLumped : ModelKind::kDelta;
   for (unsigned j = 0; j < 3; ++j) {
-    q.arm_inertia_kg_m2[j] = to_q<Q7_24>(p.arm_inertia_kg_m2[j]);
-    q.arm_gravity_cos_Nm[j] = to_q<Q12_19>(p.arm_gravity_cos_Nm[j]);
-    q.arm_gravity_sin_Nm[j] = to_q<Q12_19>(p.arm_gravity_sin_Nm[j]);
-    q.viscous_friction_Nm_s_per_rad[j] = to_q<Q12_19>(p.viscous_friction_Nm_s_per_rad[j]);
-    q.coulomb_friction_Nm[j] = to_q<Q12_19>(p.coulomb_friction_Nm[j]);
-    q.stribeck_friction_Nm[j] = to_q<Q12_19>(p.stribeck_friction_Nm[j]);
-    q.torque_offset_Nm[j] = to_q<Q12_19>(p.torque_offset_Nm[j]);
+    q.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(p.arm_inertia_kg_m2[j]);
+    q.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(p.arm_gravity_cos_Nm[j]);
+    q.arm_gravity_sin_Nm[j] = to_q_saturated<Q12_19>(p.arm_gravity_sin_Nm[j]);
+    q.viscous_friction_Nm_s_per_rad[j] = to_q_saturated<Q12_19>(p.viscous_friction_Nm_s_per_rad[j]);
+    q.coulomb_friction_Nm[j] = to_q_saturated<Q12_19>(p.coulomb_friction_Nm[j]);
+    q.stribeck_friction_Nm[j] = to_q_saturated<Q12_19>(p.stribeck_friction_Nm[j]);
+    q.torque_offset_Nm[j] = to_q_saturated<Q12_19>(p.torque_offset_Nm[j]);
   }
-  q.platform_inertial_mass_kg = to_q<Q7_24>(p.platform_inertial_mass_kg);
-  q.platform_weight_mass_kg = to_q<Q7_24>(p.platform_weight_mass_kg);
-  q.forearm_coupling_kg = to_q<Q7_24>(p.forearm_coupling_kg);
-  q.coulomb_smoothing_rad_s = to_q<Q10_21>(p.coulomb_smoothing_rad_s);
-  q.stribeck_velocity_rad_s = to_q<Q10_21>(p.stribeck_velocity_rad_s);
-  q.gravity_m_s2 = to_q<Q7_24>(p.gravity_m_s2);
+  q.platform_inertial_mass_kg = to_q_saturated<Q7_24>(p.platform_inertial_mass_kg);
+  q.platform_weight_mass_kg = to_q_saturated<Q7_24>(p.platform_weight_mass_kg);
+  q.forearm_coupling_kg = to_q_saturated<Q7_24>(p.forearm_coupling_kg);
+  q.coulomb_smoothing_rad_s = to_q_saturated<Q10_21>(p.coulomb_smoothing_rad_s);
+  q.stribeck_velocity_rad_s = to_q_saturated<Q10_21>(p.stribeck_velocity_rad_s);
+  q.gravity_m_s2 = to_q_saturated<Q7_24>(p.gravity_m_s2);
   return q;
 }
 

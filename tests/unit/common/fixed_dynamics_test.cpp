@@ -13,16 +13,16 @@
 #include "delta/fixed/dynamics.hpp"
 #include "delta/kinematics.hpp"
 #include "delta/model_q.hpp"
+#include "delta/q_conversion.hpp"
 #include "delta/splitmix.hpp"
-#include "q_convert.hpp"
 
 namespace delta::fx {
 namespace {
 
 constexpr double kMaxTorqueNm = 8.0;
 
-using testq::to_d;
-using testq::to_q;
+using delta::to_double;
+using delta::to_q_saturated;
 
 // A robot with every term of the model present and joints that differ.
 HighFidelityParameters every_term() {
@@ -87,12 +87,13 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     JointStateQ sq;
     JointState sd;
     for (unsigned k = 0; k < 3; ++k) {
-      sq.q_rad[k] = to_q<Q3_28>(ws.theta_rad[k]);
-      sq.qd_rad_s[k] = to_q<Q10_21>(uniform(-max_speed_rad_s, max_speed_rad_s));
-      sq.qdd_rad_s2[k] = to_q<Q14_17>(uniform(-max_acceleration_rad_s2, max_acceleration_rad_s2));
-      sd.q_rad[k] = to_d(sq.q_rad[k]);
-      sd.qd_rad_s[k] = to_d(sq.qd_rad_s[k]);
-      sd.qdd_rad_s2[k] = to_d(sq.qdd_rad_s2[k]);
+      sq.q_rad[k] = to_q_saturated<Q3_28>(ws.theta_rad[k]);
+      sq.qd_rad_s[k] = to_q_saturated<Q10_21>(uniform(-max_speed_rad_s, max_speed_rad_s));
+      sq.qdd_rad_s2[k] =
+          to_q_saturated<Q14_17>(uniform(-max_acceleration_rad_s2, max_acceleration_rad_s2));
+      sd.q_rad[k] = to_double(sq.q_rad[k]);
+      sd.qd_rad_s[k] = to_double(sq.qd_rad_s[k]);
+      sd.qdd_rad_s2[k] = to_double(sq.qdd_rad_s2[k]);
     }
     Joint3Q12_19 tq{};
     Joint3 td{};
@@ -101,22 +102,22 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     EXPECT_EQ(model_torque(m, sq, tq), KinematicsStatus::kOk);
     ++w.states;
     for (unsigned k = 0; k < 3; ++k) {
-      w.torque_Nm = std::max(w.torque_Nm, std::abs(to_d(tq[k]) - td[k]));
+      w.torque_Nm = std::max(w.torque_Nm, std::abs(to_double(tq[k]) - td[k]));
     }
     // The velocity kinematics alone, at the same pose.
     const auto fk = forward_kinematics(g, sd.q_rad);
     const auto vk = velocity_kinematics(g, sd.q_rad, sd.qd_rad_s, fk.position_m);
-    const Vec3Q pq{to_q<Q7_24>(fk.position_m.x), to_q<Q7_24>(fk.position_m.y),
-                   to_q<Q7_24>(fk.position_m.z)};
+    const Vec3Q pq{to_q_saturated<Q7_24>(fk.position_m.x), to_q_saturated<Q7_24>(fk.position_m.y),
+                   to_q_saturated<Q7_24>(fk.position_m.z)};
     const VelocityKinematicsQ vq = velocity_kinematics(gq, sq.q_rad, sq.qd_rad_s, pq);
     EXPECT_EQ(vq.status, KinematicsStatus::kOk);
     const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
     for (unsigned r = 0; r < 3; ++r) {
       for (unsigned c = 0; c < 3; ++c) {
-        w.jacobian_m =
-            std::max(w.jacobian_m, std::abs(to_d(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
+        w.jacobian_m = std::max(
+            w.jacobian_m, std::abs(to_double(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
       }
-      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(to_d(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
+      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(to_double(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
     }
     JointStateQ given = sq;
     given.platform_known = true;
@@ -124,11 +125,11 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     for (unsigned r = 0; r < 3; ++r) {
       double pdd = jdq[r];
       for (unsigned c = 0; c < 3; ++c) pdd += vk.jacobian(r, c) * sd.qdd_rad_s2[c];
-      given.platform_acceleration_m_s2[r] = to_q<Q10_21>(pdd);
+      given.platform_acceleration_m_s2[r] = to_q_saturated<Q10_21>(pdd);
     }
     EXPECT_EQ(model_torque(m, given, tq), KinematicsStatus::kOk);
     for (unsigned k = 0; k < 3; ++k) {
-      w.given_platform_Nm = std::max(w.given_platform_Nm, std::abs(to_d(tq[k]) - td[k]));
+      w.given_platform_Nm = std::max(w.given_platform_Nm, std::abs(to_double(tq[k]) - td[k]));
     }
   }
   return w;
@@ -197,7 +198,7 @@ TEST(FixedDynamicsTest, RefusesPosesWithoutKinematics) {
   const GeometryQ gq = geometry_q(Geometry{0.2, 0.2, 0.1, 0.035});
   const ModelQ m = prepare_model(gq, parameters_q(every_term()));
   JointStateQ s;
-  const Q3_28 flat = to_q<Q3_28>(std::acos(0.67499));
+  const Q3_28 flat = to_q_saturated<Q3_28>(std::acos(0.67499));
   s.q_rad = {flat, flat, flat};
   Joint3Q12_19 tau{Q12_19::from(1.0), Q12_19::from(1.0), Q12_19::from(1.0)};
   EXPECT_EQ(model_torque(m, s, tau), KinematicsStatus::kSingular);

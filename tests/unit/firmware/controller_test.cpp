@@ -9,15 +9,15 @@
 #include <vector>
 
 #include "delta/dynamics.hpp"
+#include "delta/q_conversion.hpp"
 #include "host_id/identify.hpp"
-#include "q_convert.hpp"
 
 namespace fw {
 namespace {
 
+using delta::to_double;
+using delta::to_q_saturated;
 using delta::fx::Q7_24;
-using testq::to_d;
-using testq::to_q;
 
 // The simulated delta: forward dynamics integrated with RK4 over sub-steps.
 struct Plant {
@@ -75,8 +75,9 @@ struct FakeHardware {
     for (unsigned j = 0; j < 3; ++j) {
       const double q = std::round(plant.q[j] / kEncoderStep) * kEncoderStep +
                        (j == 0 ? position_offset_rad : 0.0);
-      fb[j].position_rad = to_q<Q3_28>(q);
-      fb[j].velocity_rad_s = to_q<Q10_21>(plant.qd[j] + (j == 0 ? velocity_offset_rad_s : 0.0));
+      fb[j].position_rad = to_q_saturated<Q3_28>(q);
+      fb[j].velocity_rad_s =
+          to_q_saturated<Q10_21>(plant.qd[j] + (j == 0 ? velocity_offset_rad_s : 0.0));
       fb[j].current_A =
           current_from_torque(config->torque[j], drives_enabled ? torque[j] : Q12_19::zero());
       fb[j].problem = j == 1 ? problem_on_joint2 : FeedbackProblem::kNone;
@@ -101,7 +102,7 @@ struct FakeHardware {
       return;
     }
     delta::Joint3 tau{};
-    for (unsigned j = 0; j < 3; ++j) tau[j] = to_d(torque[j]);
+    for (unsigned j = 0; j < 3; ++j) tau[j] = to_double(torque[j]);
     plant.advance(tau, dt);
   }
 };
@@ -109,8 +110,9 @@ struct FakeHardware {
 ControllerConfig default_config() {
   ControllerConfig c;
   const delta::Geometry g = delta::kDefaultGeometry;
-  c.geometry = {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
-                to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
+  c.geometry = {to_q_saturated<Q7_24>(g.upper_arm_length_m),
+                to_q_saturated<Q7_24>(g.forearm_length_m), to_q_saturated<Q7_24>(g.base_radius_m),
+                to_q_saturated<Q7_24>(g.platform_radius_m)};
   // Nominal feed-forward: the arm plus a third of the platform at the elbow.
   c.feed_forward.nominal.arm_inertia_kg_m2 = Q12_19::from(0.0072 + 0.40 * 0.04 / 3.0);
   c.feed_forward.nominal.gravity_moment_Nm = Q12_19::from(0.441 + 0.40 * 9.81 * 0.2 / 3.0);
@@ -129,14 +131,15 @@ TrajectoryConfig excitation() {
   f.base_frequency_mHz = 200;
   f.harmonics = 4;
   f.periods = 2;
-  f.q0_rad = {to_q<Q3_28>(0.45), to_q<Q3_28>(0.45), to_q<Q3_28>(0.45)};
+  f.q0_rad = {to_q_saturated<Q3_28>(0.45), to_q_saturated<Q3_28>(0.45),
+              to_q_saturated<Q3_28>(0.45)};
   const double a[3][4][2] = {{{0.12, 0.05}, {-0.05, 0.04}, {0.03, -0.02}, {0.01, 0.01}},
                              {{-0.1, 0.07}, {0.06, 0.02}, {-0.02, 0.03}, {0.01, -0.01}},
                              {{0.09, -0.1}, {0.04, -0.04}, {0.02, 0.01}, {-0.01, 0.01}}};
   for (unsigned j = 0; j < 3; ++j) {
     for (unsigned k = 0; k < 4; ++k) {
-      f.sin_amplitude_rad[j][k] = to_q<Q3_28>(a[j][k][0]);
-      f.cos_amplitude_rad[j][k] = to_q<Q3_28>(a[j][k][1]);
+      f.sin_amplitude_rad[j][k] = to_q_saturated<Q3_28>(a[j][k][0]);
+      f.cos_amplitude_rad[j][k] = to_q_saturated<Q3_28>(a[j][k][1]);
     }
   }
   return c;
@@ -202,7 +205,7 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
     tick();
     ++cycles;
     for (unsigned j = 0; j < 3; ++j) {
-      const double e = to_d(ctl.reference().q_rad[j]) - q_seen[j];
+      const double e = to_double(ctl.reference().q_rad[j]) - q_seen[j];
       worst = std::max(worst, std::abs(e));
       if (on_trajectory && ctl.state() == State::kRunning) {
         sum_sq[j] += e * e;
@@ -218,9 +221,9 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
                                  static_cast<double>(t.ticks));
     const double rms_double = std::sqrt(sum_sq[j] / trajectory_ticks);
     std::printf("joint %u tracking: rms %.4g rad (double from the plant %.4g), max %.4g (%.4g)\n",
-                j, rms, rms_double, to_d(t.max_abs_rad[j]), largest[j]);
+                j, rms, rms_double, to_double(t.max_abs_rad[j]), largest[j]);
     EXPECT_NEAR(rms, rms_double, 0.05 * rms_double + 2e-6) << j;  // encoder quantisation apart
-    EXPECT_NEAR(to_d(t.max_abs_rad[j]), largest[j], 0.1 * largest[j] + 1e-5) << j;
+    EXPECT_NEAR(to_double(t.max_abs_rad[j]), largest[j], 0.1 * largest[j] + 1e-5) << j;
     EXPECT_GT(rms, 1e-6) << "a run without any error is not this plant";
   }
   // approach (1000) + blends (2000) + 2 periods of 5 s (10000), then stopping.
@@ -243,12 +246,12 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   double worst_tau = 0.0;
   for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
     for (unsigned j = 0; j < 3; ++j) {
-      worst_tau = std::max(worst_tau, std::abs(to_d(hw.log_records[i].tau_Nm[j]) -
-                                               to_d(hw.torque_behind_current[i][j])));
+      worst_tau = std::max(worst_tau, std::abs(to_double(hw.log_records[i].tau_Nm[j]) -
+                                               to_double(hw.torque_behind_current[i][j])));
     }
   }
   EXPECT_LT(worst_tau, 2e-5);
-  EXPECT_GT(std::abs(to_d(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
+  EXPECT_GT(std::abs(to_double(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
 }
 
 // The tracking statistics' integer arithmetic: errors rounded to 2^-20 rad
@@ -295,8 +298,8 @@ TEST_F(ControllerTest, TheCoreLogOfAnExcitationIdentifiesThePlant) {
     log.t.push_back(static_cast<double>(r.seq) * 1e-3);
     log.seq.push_back(r.seq);
     for (unsigned j = 0; j < 3; ++j) {
-      log.q[j].push_back(to_d(r.q_rad[j]));
-      log.tau[j].push_back(to_d(r.tau_Nm[j]));
+      log.q[j].push_back(to_double(r.q_rad[j]));
+      log.tau[j].push_back(to_double(r.tau_Nm[j]));
     }
   }
   host_id::FitOptions f;
@@ -326,7 +329,7 @@ TEST_F(ControllerTest, StartIsRefusedOutsideReadyOrForATrajectoryThatBreaksALimi
   EXPECT_TRUE(ctl.start(excitation()).wrong_state);
   to_ready();
   TrajectoryConfig far = excitation();
-  far.fourier.sin_amplitude_rad[1][0] = to_q<Q3_28>(1.5);
+  far.fourier.sin_amplitude_rad[1][0] = to_q_saturated<Q3_28>(1.5);
   const StartResult r = ctl.start(far);
   EXPECT_FALSE(r.accepted);
   EXPECT_NE(r.check.fault, TrajectoryFault::kOk);
@@ -346,15 +349,15 @@ TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajec
   m.kind = ModelKind::kLumped;
   const delta::LumpedParameters truth = delta::default_lumped_parameters();
   for (unsigned j = 0; j < 3; ++j) {
-    m.arm_inertia_kg_m2[j] = to_q<Q7_24>(truth.arm_inertia_kg_m2[j]);
-    m.arm_gravity_cos_Nm[j] = to_q<Q12_19>(truth.arm_gravity_moment_Nm[j]);
+    m.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(truth.arm_inertia_kg_m2[j]);
+    m.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(truth.arm_gravity_moment_Nm[j]);
   }
-  m.platform_inertial_mass_kg = to_q<Q7_24>(truth.platform_mass_kg);
-  m.platform_weight_mass_kg = to_q<Q7_24>(truth.platform_mass_kg);
+  m.platform_inertial_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  m.platform_weight_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
   FeedForwardConfig model = ctl.feed_forward();
   model.mode = FeedForwardMode::kModel;
   GeometryQ other = config.geometry;
-  other.upper_arm_length_m = to_q<Q7_24>(0.25);
+  other.upper_arm_length_m = to_q_saturated<Q7_24>(0.25);
   model.model = delta::fx::prepare_model(other, m);
   EXPECT_FALSE(ctl.set_feed_forward(model));  // fitted for another robot
   FeedForwardConfig empty = model;
@@ -381,7 +384,7 @@ TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajec
   ControllerConfig heavy = config;
   heavy.feed_forward = model;
   delta::fx::ModelParametersQ heavy_parameters = m;
-  heavy_parameters.platform_weight_mass_kg = to_q<Q7_24>(20.0);
+  heavy_parameters.platform_weight_mass_kg = to_q_saturated<Q7_24>(20.0);
   heavy.feed_forward.model = delta::fx::prepare_model(heavy.geometry, heavy_parameters);
   const TrajectoryCheck c = check_trajectory(trajectory_bounds(heavy), excitation());
   EXPECT_EQ(c.fault, TrajectoryFault::kFeedForwardLimit);

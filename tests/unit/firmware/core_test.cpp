@@ -6,24 +6,24 @@
 #include <initializer_list>
 
 #include "delta/kinematics.hpp"
+#include "delta/q_conversion.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
 #include "fw/trajectory.hpp"
-#include "q_convert.hpp"
 
 namespace fw {
 namespace {
 
+using delta::to_double;
+using delta::to_q_saturated;
 using delta::fx::Q7_24;
-using testq::to_d;
-using testq::to_q;
 
 constexpr double kTwoPi = 6.283185307179586;
 
 GeometryQ default_geometry() {
   const delta::Geometry g = delta::kDefaultGeometry;
-  return {to_q<Q7_24>(g.upper_arm_length_m), to_q<Q7_24>(g.forearm_length_m),
-          to_q<Q7_24>(g.base_radius_m), to_q<Q7_24>(g.platform_radius_m)};
+  return {to_q_saturated<Q7_24>(g.upper_arm_length_m), to_q_saturated<Q7_24>(g.forearm_length_m),
+          to_q_saturated<Q7_24>(g.base_radius_m), to_q_saturated<Q7_24>(g.platform_radius_m)};
 }
 
 // A pick-and-place trajectory through points [m], one segment each.
@@ -34,7 +34,8 @@ TrajectoryConfig pick_and_place(std::initializer_list<std::array<double, 3>> poi
   auto& p = c.pick_and_place;
   p.waypoints = 0;
   for (const auto& pt : points) {
-    p.points[p.waypoints++] = {to_q<Q7_24>(pt[0]), to_q<Q7_24>(pt[1]), to_q<Q7_24>(pt[2])};
+    p.points[p.waypoints++] = {to_q_saturated<Q7_24>(pt[0]), to_q_saturated<Q7_24>(pt[1]),
+                               to_q_saturated<Q7_24>(pt[2])};
   }
   p.segment_ticks = segment_ticks;
   p.cycles = cycles;
@@ -48,11 +49,11 @@ TEST(TorqueFromCurrentTest, GearRatioTorqueConstantEfficiencySignAndOffset) {
   c.efficiency = Q1_30::from(0.9);
   c.offset_Nm = Q12_19::from(0.02);
   // 10 * 0.05 * 0.9 * 2 A + 0.02 = 0.92 N m.
-  EXPECT_NEAR(to_d(torque_from_current(c, Q12_19::from(2.0))), 0.92, 4e-6);
+  EXPECT_NEAR(to_double(torque_from_current(c, Q12_19::from(2.0))), 0.92, 4e-6);
   c.inverted = true;
-  EXPECT_NEAR(to_d(torque_from_current(c, Q12_19::from(2.0))), -0.88, 4e-6);
+  EXPECT_NEAR(to_double(torque_from_current(c, Q12_19::from(2.0))), -0.88, 4e-6);
   // The inverse gives back the current.
-  EXPECT_NEAR(to_d(current_from_torque(c, Q12_19::from(-0.88))), 2.0, 1e-5);
+  EXPECT_NEAR(to_double(current_from_torque(c, Q12_19::from(-0.88))), 2.0, 1e-5);
   c.gear_ratio = Q12_19::zero();
   EXPECT_EQ(current_from_torque(c, Q12_19::from(1.0)).raw(), 0);
 }
@@ -66,14 +67,15 @@ TrajectoryConfig fourier_config() {
   f.base_frequency_mHz = 250;
   f.harmonics = 3;
   f.periods = 2;
-  f.q0_rad = {to_q<Q3_28>(0.45), to_q<Q3_28>(0.45), to_q<Q3_28>(0.45)};
+  f.q0_rad = {to_q_saturated<Q3_28>(0.45), to_q_saturated<Q3_28>(0.45),
+              to_q_saturated<Q3_28>(0.45)};
   const double amp[3][3][2] = {{{0.10, 0.05}, {-0.04, 0.03}, {0.02, -0.01}},
                                {{-0.08, 0.06}, {0.05, 0.02}, {-0.01, 0.02}},
                                {{0.07, -0.09}, {0.03, -0.03}, {0.015, 0.01}}};
   for (unsigned j = 0; j < 3; ++j) {
     for (unsigned k = 0; k < 3; ++k) {
-      f.sin_amplitude_rad[j][k] = to_q<Q3_28>(amp[j][k][0]);
-      f.cos_amplitude_rad[j][k] = to_q<Q3_28>(amp[j][k][1]);
+      f.sin_amplitude_rad[j][k] = to_q_saturated<Q3_28>(amp[j][k][0]);
+      f.cos_amplitude_rad[j][k] = to_q_saturated<Q3_28>(amp[j][k][1]);
     }
   }
   return c;
@@ -95,13 +97,14 @@ void fourier_double(const TrajectoryConfig& c, double t, double length_s, double
   for (unsigned j = 0; j < 3; ++j) {
     double d = 0, dd = 0, ddd = 0;
     for (unsigned k = 1; k <= f.harmonics; ++k) {
-      const double A = to_d(f.sin_amplitude_rad[j][k - 1]), B = to_d(f.cos_amplitude_rad[j][k - 1]);
+      const double A = to_double(f.sin_amplitude_rad[j][k - 1]),
+                   B = to_double(f.cos_amplitude_rad[j][k - 1]);
       const double kw = k * w0;
       d += A * std::sin(kw * t) + B * std::cos(kw * t);
       dd += kw * (A * std::cos(kw * t) - B * std::sin(kw * t));
       ddd += -kw * kw * (A * std::sin(kw * t) + B * std::cos(kw * t));
     }
-    out[j][0] = to_d(f.q0_rad[j]) + w * d;
+    out[j][0] = to_double(f.q0_rad[j]) + w * d;
     out[j][1] = w * dd + dw * d;
     out[j][2] = w * ddd + 2 * dw * dd + ddw * d;
   }
@@ -120,9 +123,9 @@ void expect_fourier_matches_double(const Trajectory& traj, const TrajectoryConfi
     double d[3][3];
     fourier_double(c, tick * 1e-3, length_s, d);
     for (unsigned j = 0; j < 3; ++j) {
-      worst[0] = std::max(worst[0], std::abs(to_d(r.q_rad[j]) - d[j][0]));
-      worst[1] = std::max(worst[1], std::abs(to_d(r.qd_rad_s[j]) - d[j][1]));
-      worst[2] = std::max(worst[2], std::abs(to_d(r.qdd_rad_s2[j]) - d[j][2]));
+      worst[0] = std::max(worst[0], std::abs(to_double(r.q_rad[j]) - d[j][0]));
+      worst[1] = std::max(worst[1], std::abs(to_double(r.qd_rad_s[j]) - d[j][1]));
+      worst[2] = std::max(worst[2], std::abs(to_double(r.qdd_rad_s2[j]) - d[j][2]));
     }
   }
   EXPECT_LT(worst[0], 1e-7);  // rad
@@ -150,8 +153,8 @@ TEST(TrajectoryTest, FourierSixHarmonicsMatchDoubleLateInALongRun) {
   for (unsigned j = 0; j < 3; ++j) {
     for (unsigned k = 0; k < kMaxHarmonics; ++k) {
       const double sign = (j + k) % 2 == 0 ? 1.0 : -1.0;
-      f.sin_amplitude_rad[j][k] = to_q<Q3_28>(sign * 0.06 / (k + 1));
-      f.cos_amplitude_rad[j][k] = to_q<Q3_28>(-sign * 0.03 / (k + 1));
+      f.sin_amplitude_rad[j][k] = to_q_saturated<Q3_28>(sign * 0.06 / (k + 1));
+      f.cos_amplitude_rad[j][k] = to_q_saturated<Q3_28>(-sign * 0.03 / (k + 1));
     }
   }
   const Trajectory traj(default_geometry(), c);
@@ -182,8 +185,8 @@ TEST(TrajectoryTest, VelocityIsTheDerivativeOfPositionThroughTheBlends) {
     traj.reference(tick, m);
     traj.reference(tick + 1, b);
     for (unsigned j = 0; j < 3; ++j) {
-      const double fd = (to_d(b.q_rad[j]) - to_d(a.q_rad[j])) / 2e-3;
-      worst = std::max(worst, std::abs(fd - to_d(m.qd_rad_s[j])));
+      const double fd = (to_double(b.q_rad[j]) - to_double(a.q_rad[j])) / 2e-3;
+      worst = std::max(worst, std::abs(fd - to_double(m.qd_rad_s[j])));
     }
   }
   EXPECT_LT(worst, 1e-4);
@@ -195,23 +198,23 @@ TEST(TrajectoryTest, LimitCheckNamesTheBrokenLimitTickAndJoint) {
   EXPECT_EQ(check_trajectory(g, c, JointLimits{}).fault, TrajectoryFault::kOk);
 
   JointLimits tight;
-  tight.max_rad = to_q<Q3_28>(0.5);
+  tight.max_rad = to_q_saturated<Q3_28>(0.5);
   TrajectoryCheck r = check_trajectory(g, c, tight);
   EXPECT_EQ(r.fault, TrajectoryFault::kJointLimit);
   EXPECT_GT(r.tick, 0u);
   EXPECT_GE(r.joint, 0);
 
   JointLimits slow;
-  slow.max_velocity_rad_s = to_q<Q10_21>(0.1);
+  slow.max_velocity_rad_s = to_q_saturated<Q10_21>(0.1);
   EXPECT_EQ(check_trajectory(g, c, slow).fault, TrajectoryFault::kVelocityLimit);
 
   JointLimits gentle;
-  gentle.max_acceleration_rad_s2 = to_q<Q14_17>(0.2);
+  gentle.max_acceleration_rad_s2 = to_q_saturated<Q14_17>(0.2);
   EXPECT_EQ(check_trajectory(g, c, gentle).fault, TrajectoryFault::kAccelerationLimit);
 
   // Forearms of 0.25 m cannot close over elbows 0.265 m out: no platform pose.
   GeometryQ short_forearms = g;
-  short_forearms.forearm_length_m = to_q<Q7_24>(0.25);
+  short_forearms.forearm_length_m = to_q_saturated<Q7_24>(0.25);
   TrajectoryConfig flat = c;
   for (auto& q : flat.fourier.q0_rad) q = Q3_28::zero();
   const TrajectoryCheck w = check_trajectory(short_forearms, flat, JointLimits{});
@@ -233,7 +236,7 @@ TEST(TrajectoryTest, LimitCheckNamesTheBrokenLimitTickAndJoint) {
 TEST(TrajectoryTest, ATrajectoryLongerThanTheCheckWalksIsRefusedAsTooLong) {
   const GeometryQ g = default_geometry();
   JointLimits above_q0;  // q0 is 0.45 rad: every walk stops at tick 0
-  above_q0.min_rad = to_q<Q3_28>(0.5);
+  above_q0.min_rad = to_q_saturated<Q3_28>(0.5);
   TrajectoryConfig c = fourier_config();  // 250 mHz: 4000 ticks a period
   c.blend_ticks = 2000;
   c.fourier.periods = 149;  // 2 * 2000 + 149 * 4000 = 600000
@@ -284,8 +287,8 @@ TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) 
   const auto ik =
       delta::inverse_kinematics(delta::kDefaultGeometry, delta::Vec3<double>{0.08, 0.05, -0.42});
   for (unsigned j = 0; j < 3; ++j) {
-    EXPECT_NEAR(to_d(r.q_rad[j]), ik.theta_rad[j], 2e-6);
-    EXPECT_NEAR(to_d(r.qd_rad_s[j]), 0.0, 1e-3);
+    EXPECT_NEAR(to_double(r.q_rad[j]), ik.theta_rad[j], 2e-6);
+    EXPECT_NEAR(to_double(r.qd_rad_s[j]), 0.0, 1e-3);
   }
   // Mid-segment: qd is the central difference of q.
   JointReference a, b;
@@ -293,18 +296,19 @@ TEST(TrajectoryTest, PickAndPlaceFollowsTheInverseKinematicsOfTheCartesianPath) 
   traj.reference(1250, r);
   traj.reference(1251, b);
   for (unsigned j = 0; j < 3; ++j) {
-    EXPECT_NEAR(to_d(r.qd_rad_s[j]), (to_d(b.q_rad[j]) - to_d(a.q_rad[j])) / 2e-3, 1e-5);
-    EXPECT_GT(std::abs(to_d(r.qd_rad_s[j])), 0.01);
+    EXPECT_NEAR(to_double(r.qd_rad_s[j]), (to_double(b.q_rad[j]) - to_double(a.q_rad[j])) / 2e-3,
+                1e-5);
+    EXPECT_GT(std::abs(to_double(r.qd_rad_s[j])), 0.01);
   }
   // A path towards a point out of reach breaks the velocity limit near the
   // singularity before it leaves the workspace: the first broken limit is named.
-  p.points[1].z_m = to_q<Q7_24>(-0.9);
+  p.points[1].z_m = to_q_saturated<Q7_24>(-0.9);
   const TrajectoryCheck towards = check_trajectory(g, c, JointLimits{});
   EXPECT_EQ(towards.fault, TrajectoryFault::kVelocityLimit);
   EXPECT_GT(towards.tick, 0u);  // within segment 0, which heads to point 1
   EXPECT_LT(towards.tick, 500u);
   // Starting out of reach fails at tick 0.
-  p.points[0].z_m = to_q<Q7_24>(-0.9);
+  p.points[0].z_m = to_q_saturated<Q7_24>(-0.9);
   const TrajectoryCheck start = check_trajectory(g, c, JointLimits{});
   EXPECT_EQ(start.fault, TrajectoryFault::kOutsideWorkspace);
   EXPECT_EQ(start.tick, 0u);
@@ -331,16 +335,16 @@ TEST(TrajectoryTest, PickAndPlaceGivesThePlatformsAccelerationOfItsPath) {
     const double ddw = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / (0.3 * 0.3);  // per s^2
     delta::JointVector<double> q{}, qd{}, qdd{};
     for (unsigned j = 0; j < 3; ++j) {
-      q[j] = to_d(r.q_rad[j]);
-      qd[j] = to_d(r.qd_rad_s[j]);
-      qdd[j] = to_d(r.qdd_rad_s2[j]);
+      q[j] = to_double(r.q_rad[j]);
+      qd[j] = to_double(r.qd_rad_s[j]);
+      qdd[j] = to_double(r.qdd_rad_s2[j]);
     }
-    const delta::Vec3<double> p{to_d(r.platform_m.x_m), to_d(r.platform_m.y_m),
-                                to_d(r.platform_m.z_m)};
+    const delta::Vec3<double> p{to_double(r.platform_m.x_m), to_double(r.platform_m.y_m),
+                                to_double(r.platform_m.z_m)};
     const auto vk = delta::velocity_kinematics(delta::kDefaultGeometry, q, qd, p);
     const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
     for (unsigned r3 = 0; r3 < 3; ++r3) {
-      const double given = to_d(r.platform_acceleration_m_s2[r3]);
+      const double given = to_double(r.platform_acceleration_m_s2[r3]);
       const double path = (pts[1 - seg][r3] - pts[seg][r3]) * ddw;
       double joints = jdq[r3];
       for (unsigned j = 0; j < 3; ++j) joints += vk.jacobian(r3, j) * qdd[j];
@@ -438,28 +442,30 @@ TEST(JointControllerTest, PdWithFeedForwardSaturationAndAntiWindup) {
       FeedForwardMode::kNominal, NominalDynamics{Q12_19::from(0.01), Q12_19::from(0.4)}, {}};
   JointController ctl(gains, 1000);
   JointReference ref;
-  ref.q_rad = {to_q<Q3_28>(0.30), to_q<Q3_28>(0.30), to_q<Q3_28>(0.30)};
-  ref.qd_rad_s = {to_q<Q10_21>(0.5), {}, {}};
-  ref.qdd_rad_s2 = {to_q<Q14_17>(10.0), {}, {}};
-  const JointAnglesQ q = {to_q<Q3_28>(0.29), to_q<Q3_28>(0.30), to_q<Q3_28>(0.0)};
-  const std::array<Q10_21, 3> qd = {to_q<Q10_21>(0.4), {}, {}};
+  ref.q_rad = {to_q_saturated<Q3_28>(0.30), to_q_saturated<Q3_28>(0.30),
+               to_q_saturated<Q3_28>(0.30)};
+  ref.qd_rad_s = {to_q_saturated<Q10_21>(0.5), {}, {}};
+  ref.qdd_rad_s2 = {to_q_saturated<Q14_17>(10.0), {}, {}};
+  const JointAnglesQ q = {to_q_saturated<Q3_28>(0.29), to_q_saturated<Q3_28>(0.30),
+                          to_q_saturated<Q3_28>(0.0)};
+  const std::array<Q10_21, 3> qd = {to_q_saturated<Q10_21>(0.4), {}, {}};
   std::array<bool, 3> sat{};
   Joint3Q12_19 ff{};
   ASSERT_EQ(feed_forward_torque(nominal, ref, ff), KinematicsStatus::kOk);
   const auto tau = ctl.update(ref, q, qd, ff, sat);
   // Joint 1: 50 * 0.01 + 2 * 0.1 + 0.01 * 10 - 0.4 cos(0.3); the integral
   // (Ki e dt = 1e-3 per cycle) acts from the next cycle on.
-  EXPECT_NEAR(to_d(tau[0]), 0.5 + 0.2 + 0.1 - 0.4 * std::cos(0.3), 1e-5);
-  EXPECT_NEAR(to_d(ctl.integral()[0]), 0.001, 1e-5);
+  EXPECT_NEAR(to_double(tau[0]), 0.5 + 0.2 + 0.1 - 0.4 * std::cos(0.3), 1e-5);
+  EXPECT_NEAR(to_double(ctl.integral()[0]), 0.001, 1e-5);
   EXPECT_FALSE(sat[0]);
   // Joint 3: 50 * 0.3 = 15 N m -> saturated at 3 N m.
-  EXPECT_NEAR(to_d(tau[2]), 3.0, 1e-6);
+  EXPECT_NEAR(to_double(tau[2]), 3.0, 1e-6);
   EXPECT_TRUE(sat[2]);
   // While saturated the integral of joint 3 does not wind up.
   for (int i = 0; i < 1000; ++i) ctl.update(ref, q, qd, ff, sat);
   EXPECT_EQ(ctl.integral()[2].raw(), 0);
   // Joint 1's integral grows, but stops at its limit.
-  EXPECT_NEAR(to_d(ctl.integral()[0]), 0.5, 1e-6);
+  EXPECT_NEAR(to_double(ctl.integral()[0]), 0.5, 1e-6);
 }
 
 }  // namespace

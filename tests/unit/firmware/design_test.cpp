@@ -9,14 +9,14 @@
 #include <cmath>
 #include <iostream>
 
+#include "delta/q_conversion.hpp"
 #include "fw/trajectory.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/trajectories.hpp"
-#include "q_convert.hpp"
 
 namespace {
 
-using testq::to_d;
+using delta::to_double;
 
 TEST(DesignTest, TheHostsFourierTrajectoryIsTheControllers) {
   const fw_linux::PortConfig config;
@@ -35,9 +35,9 @@ TEST(DesignTest, TheHostsFourierTrajectoryIsTheControllers) {
     ASSERT_EQ(fw_path.reference(tick, ref), delta::KinematicsStatus::kOk);
     const delta::JointState s = host_path.at(tick * dt);
     for (unsigned j = 0; j < 3; ++j) {
-      worst_q = std::max(worst_q, std::abs(to_d(ref.q_rad[j]) - s.q_rad[j]));
-      worst_qd = std::max(worst_qd, std::abs(to_d(ref.qd_rad_s[j]) - s.qd_rad_s[j]));
-      worst_qdd = std::max(worst_qdd, std::abs(to_d(ref.qdd_rad_s2[j]) - s.qdd_rad_s2[j]));
+      worst_q = std::max(worst_q, std::abs(to_double(ref.q_rad[j]) - s.q_rad[j]));
+      worst_qd = std::max(worst_qd, std::abs(to_double(ref.qd_rad_s[j]) - s.qd_rad_s[j]));
+      worst_qdd = std::max(worst_qdd, std::abs(to_double(ref.qdd_rad_s2[j]) - s.qdd_rad_s2[j]));
     }
   }
   std::cout << "largest difference: q " << worst_q << " rad, qd " << worst_qd << " rad/s, qdd "

@@ -17,6 +17,7 @@
 #include "delta/dynamics.hpp"
 #include "delta/input_error.hpp"
 #include "delta/model_q.hpp"
+#include "delta/q_conversion.hpp"
 #include "delta/trajectory_file.hpp"
 #include "fw_linux/drive_plan.hpp"
 
@@ -361,14 +362,11 @@ void require_representable_torque_constant(std::vector<std::string>& problems, c
 
 template <class Q>
 Q to_q(double v, const char* what) {
-  const double scaled = std::ldexp(v, Q::kFracBits);
-  if (!std::isfinite(scaled) || std::fabs(scaled) > 2147483647.0) {
-    std::ostringstream m;
-    m << what << " = " << v << " does not fit Q" << Q::kIntBits << "." << Q::kFracBits
-      << " (range +/- " << std::ldexp(1.0, Q::kIntBits) << ")";
-    throw ConfigError(m.str());
-  }
-  return Q::from_raw(static_cast<std::int32_t>(std::llround(scaled)));
+  if (const auto q = delta::to_q<Q>(v)) return *q;
+  std::ostringstream m;
+  m << what << " = " << v << " does not fit Q" << Q::kIntBits << "." << Q::kFracBits
+    << " (range +/- " << std::ldexp(1.0, Q::kIntBits) << ")";
+  throw ConfigError(m.str());
 }
 
 template delta::fx::Q3_28 to_q<delta::fx::Q3_28>(double, const char*);
