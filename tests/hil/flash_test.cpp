@@ -51,6 +51,26 @@ void write_bytes(const std::string& path, const std::vector<char>& bytes) {
       .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
+// A small image whose program is a script that runs `program` (a build of
+// delta_fw) with delta_boot's arguments: it starts, confirms and reports
+// its version as that build does, for the tests whose point is not the
+// transfer of a whole build (which takes most of a minute in the VM).
+// `padding_bytes` of comment after the script make the transfer longer.
+std::string wrapper_image(const std::string& dir, const std::string& name,
+                          const std::string& program, const std::string& version,
+                          std::size_t padding_bytes = 0) {
+  const std::string script = dir + "/" + name + ".sh";
+  {
+    std::ofstream out(script);
+    out << "#!/bin/sh\nexec " << program << " \"$@\"\n";
+    for (std::size_t i = 0; i < padding_bytes / 64; ++i) out << '#' << std::string(62, 'x') << '\n';
+  }
+  const std::string image = dir + "/" + name + ".img";
+  const ToolRun made = host_id({"image", "make", script, "-o", image, "--version", version});
+  EXPECT_EQ(made.code, 0) << made.err;
+  return image;
+}
+
 // The emulator, and delta_boot running delta_fw (lock-step) from a fresh
 // state folder; `extra` goes to delta_boot, `program` to delta_fw.
 class Flashing : public ::testing::Test {
@@ -124,11 +144,12 @@ TEST_F(Flashing, ANewerBuildIsDownloadedStartedConfirmedAndReportsItsVersion) {
   EXPECT_GE(nominal_kB_s, 40.0) << "CiA 302-3 block download's usual 40-55 kB/s";
   // Flashing the older build back needs --allow-downgrade; as a script
   // runs it, with --json --quiet: the outcome alone, no progress.
-  const ToolRun down = host_id({"flash", kBin + "/delta_fw.img", "--can", kIface});
+  const std::string older = wrapper_image(dir_, "older", kBin + "/delta_fw", kVersion);
+  const ToolRun down = host_id({"flash", older, "--can", kIface});
   EXPECT_EQ(down.code, 5) << down.err;
   EXPECT_NE(down.err.find("older than the running " + kNextVersion), std::string::npos) << down.err;
-  const ToolRun back = host_id(
-      {"flash", kBin + "/delta_fw.img", "--can", kIface, "--allow-downgrade", "--json", "--quiet"});
+  const ToolRun back =
+      host_id({"flash", older, "--can", kIface, "--allow-downgrade", "--json", "--quiet"});
   ASSERT_EQ(back.code, 0) << back.err << log();
   EXPECT_NE(back.out.find("\"version\": \"" + kVersion + "\""), std::string::npos) << back.out;
   EXPECT_NE(back.out.find("\"was\": \"" + kNextVersion + "\""), std::string::npos) << back.out;
@@ -137,8 +158,9 @@ TEST_F(Flashing, ANewerBuildIsDownloadedStartedConfirmedAndReportsItsVersion) {
 
 TEST_F(Flashing, ACorruptedImageIsRefusedWithCrcErrorAndTheOldProgramRunsOn) {
   start();
-  std::vector<char> image = bytes_of(kBin + "/delta_fw_next.img");
-  image[image.size() / 2] ^= 0x01;
+  std::vector<char> image =
+      bytes_of(wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion));
+  image[image.size() - 2] ^= 0x01;  // in the program, after the header
   write_bytes(path("corrupted.img"), image);
   const ToolRun here = host_id({"flash", path("corrupted.img"), "--can", kIface});
   EXPECT_EQ(here.code, 5) << here.err;
@@ -176,10 +198,10 @@ TEST_F(Flashing, ASignedControllerRefusesUnsignedAndWronglySignedImages) {
                   .code,
               0);
   }
-  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw_next.img", "--key", path("theirs.key"),
-                     "-o", path("theirs.img")})
-                .code,
-            0);
+  const std::string next = wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion);
+  ASSERT_EQ(
+      host_id({"image", "sign", next, "--key", path("theirs.key"), "-o", path("theirs.img")}).code,
+      0);
   // The installed program is signed with our key too.
   ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw.img", "--key", path("ours.key"), "-o",
                      path("installed.img")})
@@ -187,17 +209,15 @@ TEST_F(Flashing, ASignedControllerRefusesUnsignedAndWronglySignedImages) {
             0);
   install_ = path("installed.img");
   start({"--public-key", path("ours.pub")});
-  const ToolRun unsigned_run = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  const ToolRun unsigned_run = host_id({"flash", next, "--can", kIface});
   EXPECT_EQ(unsigned_run.code, 3) << unsigned_run.err;
   EXPECT_NE(unsigned_run.err.find("flash secured"), std::string::npos) << unsigned_run.err;
   EXPECT_NE(unsigned_run.err.find("image is not signed"), std::string::npos) << unsigned_run.err;
   const ToolRun theirs = host_id({"flash", path("theirs.img"), "--can", kIface});
   EXPECT_EQ(theirs.code, 3) << theirs.err;
   EXPECT_NE(theirs.err.find("signature"), std::string::npos) << theirs.err;
-  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw_next.img", "--key", path("ours.key"), "-o",
-                     path("ours.img")})
-                .code,
-            0);
+  ASSERT_EQ(
+      host_id({"image", "sign", next, "--key", path("ours.key"), "-o", path("ours.img")}).code, 0);
   const ToolRun ours = host_id({"flash", path("ours.img"), "--can", kIface});
   EXPECT_EQ(ours.code, 0) << ours.err << log();
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
@@ -233,15 +253,17 @@ TEST_F(Flashing, ADownloadWhileATrajectoryRunsIsRefusedWithTheDeviceStateAbort) 
 
 TEST_F(Flashing, AFlashKilledPartWayLeavesTheOldProgramAndASecondAttemptSucceeds) {
   start();
-  hil::Child flash =
-      hil::Child::spawn({kBin + "/host_id", "flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  // Long enough a transfer (several seconds) to be killed part way.
+  const std::string next =
+      wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion, 256 * 1024);
+  hil::Child flash = hil::Child::spawn({kBin + "/host_id", "flash", next, "--can", kIface});
   ASSERT_TRUE(flash.wait_for_output(" kB/s", 120s)) << flash.err();
   kill(flash.pid(), SIGKILL);
   flash.wait(30s);
   EXPECT_EQ(log().find("delta_boot: staged"), std::string::npos);
   // The second attempt ends the transfer the node still holds (an SDO abort),
   // then starts over.
-  const ToolRun again = host_id({"flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  const ToolRun again = host_id({"flash", next, "--can", kIface});
   EXPECT_EQ(again.code, 0) << again.err << log();
   EXPECT_NE(again.out.find("(was " + kVersion + ")"), std::string::npos) << "the old one ran on";
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
@@ -252,8 +274,8 @@ TEST_F(Flashing, AFlashKilledPartWayLeavesTheOldProgramAndASecondAttemptSucceeds
 // confirms itself and runs.
 TEST_F(Flashing, AFlashKilledWhileItWaitsForTheConfirmationStillEndsConfirmed) {
   start();
-  hil::Child flash =
-      hil::Child::spawn({kBin + "/host_id", "flash", kBin + "/delta_fw_next.img", "--can", kIface});
+  const std::string next = wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion);
+  hil::Child flash = hil::Child::spawn({kBin + "/host_id", "flash", next, "--can", kIface});
   ASSERT_TRUE(flash.wait_for_output("waiting for it to confirm", 120s)) << flash.err() << log();
   kill(flash.pid(), SIGKILL);
   EXPECT_EQ(flash.wait(30s).value_or(-1), 128 + SIGKILL);
