@@ -56,6 +56,12 @@ class Section {
   double number_or(const std::string& key, double fallback) {
     return has(key) ? number(key) : (used_.insert(key), fallback);
   }
+  bool boolean_or(const std::string& key, bool fallback) {
+    if (!has(key)) return fallback;
+    const nlohmann::json& v = at(key);
+    if (!v.is_boolean()) fail(key_path(key), "must be true or false");
+    return v.get<bool>();
+  }
   Vec3<double> vec3(const std::string& key) {
     const nlohmann::json& v = at(key);
     if (!v.is_array() || v.size() != 3 ||
@@ -133,6 +139,14 @@ JointDrive read_joint(Section s) {
   j.friction_smoothing_rad_s = s.number("friction_smoothing_rad_s");
   j.stribeck_friction_Nm = s.number_or("stribeck_friction_Nm", 0.0);
   j.stribeck_velocity_rad_s = s.number_or("stribeck_velocity_rad_s", j.stribeck_velocity_rad_s);
+  j.gearbox_stiffness_Nm_per_rad = s.number_or("gearbox_stiffness_Nm_per_rad", 0.0);
+  j.gearbox_damping_Nm_s_per_rad = s.number_or("gearbox_damping_Nm_s_per_rad", 0.0);
+  j.arm_encoder = s.boolean_or("arm_encoder", false);
+  j.torque_constant_ratio = s.number_or("torque_constant_ratio", 1.0);
+  j.current_filter_time_constant_s = s.number_or("current_filter_time_constant_s", 0.0);
+  j.load_friction_coefficient = s.number_or("load_friction_coefficient", 0.0);
+  j.cogging_amplitude_Nm = s.number_or("cogging_amplitude_Nm", 0.0);
+  j.cogging_periods_per_motor_rev = s.number_or("cogging_periods_per_motor_rev", 0.0);
   s.done();
   return j;
 }
@@ -245,6 +259,34 @@ void validate_joint(const std::string& where, const std::string& key, const Join
   require_non_negative(where, key + ".stribeck_friction_Nm", j.stribeck_friction_Nm);
   require_positive(where, key + ".stribeck_velocity_rad_s", j.stribeck_velocity_rad_s);
   require_positive(where, key + ".friction_smoothing_rad_s", j.friction_smoothing_rad_s);
+  require_non_negative(where, key + ".gearbox_stiffness_Nm_per_rad",
+                       j.gearbox_stiffness_Nm_per_rad);
+  require_non_negative(where, key + ".gearbox_damping_Nm_s_per_rad",
+                       j.gearbox_damping_Nm_s_per_rad);
+  if (!j.elastic() && (j.gearbox_damping_Nm_s_per_rad > 0.0 || j.arm_encoder)) {
+    throw InputError(where + ": " + key +
+                     ": gearbox_damping_Nm_s_per_rad and arm_encoder need an elastic gearbox "
+                     "(gearbox_stiffness_Nm_per_rad above 0)");
+  }
+  if (j.elastic() && !(j.rotor_inertia_kg_m2 > 0.0)) {
+    throw InputError(where + ": " + key +
+                     ".rotor_inertia_kg_m2: must be positive with an elastic gearbox (the motor "
+                     "side moves on its own)");
+  }
+  require_positive(where, key + ".torque_constant_ratio", j.torque_constant_ratio);
+  require_non_negative(where, key + ".current_filter_time_constant_s",
+                       j.current_filter_time_constant_s);
+  if (!(j.load_friction_coefficient >= 0.0 && j.load_friction_coefficient < 1.0)) {
+    throw InputError(where + ": " + key + ".load_friction_coefficient: must lie in [0, 1) (got " +
+                     number_text(j.load_friction_coefficient) + ")");
+  }
+  require_non_negative(where, key + ".cogging_amplitude_Nm", j.cogging_amplitude_Nm);
+  require_non_negative(where, key + ".cogging_periods_per_motor_rev",
+                       j.cogging_periods_per_motor_rev);
+  if (j.cogging_amplitude_Nm > 0.0 && !(j.cogging_periods_per_motor_rev >= 1.0)) {
+    throw InputError(where + ": " + key +
+                     ".cogging_periods_per_motor_rev: must be at least 1 with a cogging amplitude");
+  }
 }
 
 }  // namespace
@@ -277,6 +319,13 @@ void validate_robot_description(const RobotDescription& d, const std::string& wh
   require_non_negative(where, "payload.mass_kg", d.payload.mass_kg);
   for (unsigned i = 0; i < 3; ++i) {
     validate_joint(where, "joints[" + std::to_string(i) + "]", d.joints[i]);
+  }
+  const auto elastic = std::count_if(d.joints.begin(), d.joints.end(),
+                                     [](const JointDrive& j) { return j.elastic(); });
+  if (elastic != 0 && elastic != 3) {
+    throw InputError(where +
+                     ": joints: gearbox_stiffness_Nm_per_rad: give all three joints an elastic "
+                     "gearbox or none (a robot's gearboxes are of one kind)");
   }
   // The model is built in its home pose, all arms horizontal.
   if (forward_kinematics(d.geometry, Joint3{0.0, 0.0, 0.0}).status != KinematicsStatus::kOk) {

@@ -124,6 +124,42 @@ TEST(RobotDescriptionTest, EveryErrorNamesTheFileAndTheKey) {
             "robot.json: format: must be \"delta-robot/1\"");
 }
 
+// The drive train's keys: today's rigid, ideal drive when left out; each
+// read as given; each refusal names the joint and the key.
+TEST(RobotDescriptionTest, TheDriveTrainKeysAreReadAndChecked) {
+  const RobotDescription plain = read_robot_description(kExample);
+  EXPECT_FALSE(plain.joints[0].elastic());
+  EXPECT_EQ(plain.joints[0].torque_constant_ratio, 1.0);
+  const auto elastic = [](nlohmann::json& j) {
+    for (auto& joint : j["joints"]) {
+      joint["gearbox_stiffness_Nm_per_rad"] = 3000;
+      joint["gearbox_damping_Nm_s_per_rad"] = 0.3;
+    }
+  };
+  EXPECT_EQ(error_with(elastic), "");
+  EXPECT_EQ(error_with([&](auto& j) {
+              elastic(j);
+              j["joints"][1].erase("gearbox_stiffness_Nm_per_rad");
+              j["joints"][1].erase("gearbox_damping_Nm_s_per_rad");
+            }),
+            "robot.json: joints: gearbox_stiffness_Nm_per_rad: give all three joints an elastic "
+            "gearbox or none (a robot's gearboxes are of one kind)");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["arm_encoder"] = true; }),
+            "robot.json: joints[0]: gearbox_damping_Nm_s_per_rad and arm_encoder need an elastic "
+            "gearbox (gearbox_stiffness_Nm_per_rad above 0)");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["arm_encoder"] = 1; }),
+            "robot.json: joints[0].arm_encoder: must be true or false");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][2]["torque_constant_ratio"] = 0; }),
+            "robot.json: joints[2].torque_constant_ratio: must be positive (got 0)");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][1]["load_friction_coefficient"] = 1.2; }),
+            "robot.json: joints[1].load_friction_coefficient: must lie in [0, 1) (got 1.2)");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["cogging_amplitude_Nm"] = 0.02; }),
+            "robot.json: joints[0].cogging_periods_per_motor_rev: must be at least 1 with a "
+            "cogging amplitude");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["current_filter_time_constant_s"] = -1; }),
+            "robot.json: joints[0].current_filter_time_constant_s: must not be negative (got -1)");
+}
+
 // Arms that differ: upper_arms gives arm i its own body (null: upper_arm's),
 // which the truth follows per joint; its errors name the entry.
 TEST(RobotDescriptionTest, ArmsThatDifferHaveTheirOwnBodiesAndTruths) {

@@ -62,6 +62,28 @@ struct JointDrive {
   double friction_smoothing_rad_s{0.02};
   // What the rotor adds to the joint's inertia: rotor inertia * ratio^2.
   double armature_kg_m2() const { return rotor_inertia_kg_m2 * gear_ratio * gear_ratio; }
+
+  // The drive train as it is (docs/robot-description.md, "The drive
+  // train"); each default is today's rigid, ideal drive.
+  // The gearbox as a spring between the motor (its encoder, its inertia
+  // and the friction above act there) and the arm; 0: rigid.
+  double gearbox_stiffness_Nm_per_rad{0.0};
+  double gearbox_damping_Nm_s_per_rad{0.0};
+  bool arm_encoder{false};  // a second encoder on the arm side (logged as qa)
+  // The motor's actual torque constant over the nominal one the drive
+  // converts with: the torque applied and the torque reported are both
+  // nominal constant * current, the arm gets this ratio times it.
+  double torque_constant_ratio{1.0};
+  // The drive reports its current through a first-order filter; 0: none.
+  double current_filter_time_constant_s{0.0};
+  // Gear friction that grows with the torque the gear carries:
+  // coefficient * |torque|, opposing the motion like the Coulomb term.
+  double load_friction_coefficient{0.0};
+  // Cogging: amplitude * sin(periods * motor angle) at the joint.
+  double cogging_amplitude_Nm{0.0};
+  double cogging_periods_per_motor_rev{0.0};
+
+  bool elastic() const { return gearbox_stiffness_Nm_per_rad > 0.0; }
 };
 
 struct RobotDescription {

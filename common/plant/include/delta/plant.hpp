@@ -27,9 +27,13 @@ class Plant {
   virtual PlantStatus step(const Joint3& tau_Nm, double dt_s) = 0;
   // The brakes hold the arms: every velocity becomes zero.
   virtual void stop() = 0;
-  // The joint state at the current time (qdd: the accelerations of the last
-  // step's start, or zero before the first).
+  // The joint state at the current time as the drives' encoders see it
+  // (qdd: the accelerations of the last step's start, or zero before the
+  // first).
   virtual JointState state() const = 0;
+  // The arms' own joint state: the same as state() but behind an elastic
+  // gearbox, whose encoder sits on the motor.
+  virtual JointState arm_state() const { return state(); }
   // Why the plant faulted; empty while it has not.
   virtual const std::string& fault() const = 0;
 };
