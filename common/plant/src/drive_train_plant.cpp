@@ -5,6 +5,8 @@
 #include <numbers>
 #include <sstream>
 
+#include "delta/mujoco_plant.hpp"
+
 namespace delta {
 
 namespace {
@@ -186,6 +188,37 @@ JointState DriveTrainPlant::state() const {
 
 const std::string& DriveTrainPlant::fault() const {
   return fault_.empty() ? arms_->fault() : fault_;
+}
+
+MultibodyRobot::MultibodyRobot(const RobotDescription& d, const Joint3& q0_rad,
+                               const MujocoSettings& settings) {
+  if (!has_drive_train_effects(d)) {
+    own_arms_ = std::make_unique<MujocoPlant>(d, q0_rad, settings);
+    arms_ = own_arms_.get();
+    return;
+  }
+  MujocoSettings arm_settings = settings;
+  if (std::any_of(d.joints.begin(), d.joints.end(),
+                  [](const JointDrive& j) { return j.elastic(); })) {
+    arm_settings.max_step_s = std::min(settings.max_step_s, DriveTrainPlant::kArmStepElastic_s);
+  }
+  auto arms = std::make_unique<MujocoPlant>(arms_only(d), q0_rad, arm_settings);
+  arms_ = arms.get();
+  drive_train_ = std::make_unique<DriveTrainPlant>(std::move(arms), d.joints);
+}
+
+MultibodyRobot::~MultibodyRobot() = default;
+
+Plant& MultibodyRobot::outer() {
+  return drive_train_ ? static_cast<Plant&>(*drive_train_) : *arms_;
+}
+const Plant& MultibodyRobot::outer() const {
+  return drive_train_ ? static_cast<const Plant&>(*drive_train_) : *arms_;
+}
+
+void MultibodyRobot::place(const JointState& s) {
+  arms_->place(s);
+  if (drive_train_) drive_train_->place_motors(s, arms_->inverse_dynamics(s));
 }
 
 double CurrentFilter::update(double now, double dt_s) {

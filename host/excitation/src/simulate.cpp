@@ -1,10 +1,12 @@
 #include "host_id/simulate.hpp"
 
+#include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "delta/atomic_file.hpp"
+#include "delta/drive_train_plant.hpp"
 #include "delta/input_error.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "delta/path_follower.hpp"
@@ -153,17 +155,35 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
   const std::size_t n = sample_count(o);
   DeltaLog log = empty_log(o, n);
   const double dt = 1.0 / o.sample_rate_hz;
-  delta::MujocoPlant plant(o.robot, path.at(0.0).q_rad);
+  delta::MultibodyRobot plant(o.robot, path.at(0.0).q_rad, delta::MujocoSettings{});
   plant.place(path.at(0.0));
   const delta::PathFollower follower(o.robot.geometry, delta::lumped_truth(o.robot));
+  // What each drive reports: the torque it commands (the nominal constant
+  // times its current), through its current filter.
+  std::array<delta::CurrentFilter, 3> reported;
+  for (unsigned j = 0; j < 3; ++j) {
+    reported[j] = delta::CurrentFilter(o.robot.joints[j].current_filter_time_constant_s);
+  }
+  // Behind an elastic gearbox the motor's own inertia is small: the drive
+  // closes its loop faster than the log's rate, as real drives do, or the
+  // follower's damping would make the light motor side unstable.
+  const int loop_steps =
+      plant.drive_train() != nullptr ? std::max(1, static_cast<int>(std::ceil(dt / 2.5e-4))) : 1;
+  const double h = dt / loop_steps;
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * dt;
     delta::JointState s = plant.state();
-    delta::Joint3 tau{};
-    if (follower.torque(path.at(t), s, tau) != delta::KinematicsStatus::kOk) no_kinematics_at(t);
-    if (plant.step(tau, dt) != delta::PlantStatus::kOk) throw delta::InputError(plant.fault());
-    s.qdd_rad_s2 = plant.state().qdd_rad_s2;
-    append_sample(log, k, t, s, tau);
+    delta::Joint3 logged{};
+    for (int i = 0; i < loop_steps; ++i) {
+      delta::Joint3 tau{};
+      if (follower.torque(path.at(t + i * h), plant.state(), tau) != delta::KinematicsStatus::kOk) {
+        no_kinematics_at(t + i * h);
+      }
+      if (plant.step(tau, h) != delta::PlantStatus::kOk) throw delta::InputError(plant.fault());
+      if (i == 0) s.qdd_rad_s2 = plant.state().qdd_rad_s2;
+      for (unsigned j = 0; j < 3; ++j) logged[j] = reported[j].update(tau[j], h);
+    }
+    append_sample(log, k, t, s, logged);
     report_progress(o, k, n);
   }
   return log;

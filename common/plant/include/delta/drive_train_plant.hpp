@@ -79,6 +79,37 @@ class DriveTrainPlant final : public Plant {
   std::string fault_;
 };
 
+class MujocoPlant;
+struct MujocoSettings;
+
+// A robot description's multibody robot as the drives see it: the MuJoCo
+// plant of its arms, with its drive train around it where it has one.
+class MultibodyRobot final : public Plant {
+ public:
+  MultibodyRobot(const RobotDescription& d, const Joint3& q0_rad, const MujocoSettings& settings);
+  ~MultibodyRobot() override;
+
+  PlantStatus step(const Joint3& tau_Nm, double dt_s) override {
+    return outer().step(tau_Nm, dt_s);
+  }
+  void stop() override { outer().stop(); }
+  JointState state() const override { return outer().state(); }
+  JointState arm_state() const override { return outer().arm_state(); }
+  const std::string& fault() const override { return outer().fault(); }
+
+  // The arms at state s, the motors where their springs carry the torques
+  // that move the arms so (the arms' inverse dynamics at s).
+  void place(const JointState& s);
+  const DriveTrainPlant* drive_train() const { return drive_train_.get(); }
+
+ private:
+  Plant& outer();
+  const Plant& outer() const;
+  MujocoPlant* arms_{nullptr};  // owned by drive_train_ or by own_arms_
+  std::unique_ptr<MujocoPlant> own_arms_;
+  std::unique_ptr<DriveTrainPlant> drive_train_;
+};
+
 // A first-order filter on a drive's current (its torque) measurement:
 // the reported value lags the true one with time constant tau_s (0: none).
 class CurrentFilter {
