@@ -276,17 +276,9 @@ bool RegisterBank::write(modbus_t* ctx, const std::uint8_t* request, std::uint16
   // before anything changes.
   Settings next = settings_;
   mb::Command command = mb::Command::kNone;
-  for (unsigned i = 0; i < count;) {
-    const unsigned a = first + i;
-    const mb::Register* r =
-        a <= 0xFFFF ? mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(a)) : nullptr;
-    const auto address = static_cast<std::uint16_t>(a);
-    // Not a register, or the second word of a 32-bit one alone.
-    if (r == nullptr) return refuse(ctx, request, mb::Rejection::kIllegalAddress, address);
-    const mb::Rejection why = take(next, command, *r, values + i, count - i);
-    if (why != mb::Rejection::kNone) return refuse(ctx, request, why, address);
-    i += mb::width(r->type);
-  }
+  std::uint16_t refused_at = 0;
+  const mb::Rejection why = take_all(next, command, first, values, count, refused_at);
+  if (why != mb::Rejection::kNone) return refuse(ctx, request, why, refused_at);
 
   // The trajectory's settings do not change while it runs, and a new
   // combination must pass the limits check.
@@ -318,6 +310,28 @@ bool RegisterBank::write(modbus_t* ctx, const std::uint8_t* request, std::uint16
   panel_.set_log_enabled(next.log_enable);
 
   if (command == mb::Command::kNone) return true;
+  return submit(ctx, request, command, status);
+}
+
+mb::Rejection RegisterBank::take_all(Settings& next, mb::Command& command, std::uint16_t first,
+                                     const std::uint16_t* values, unsigned count,
+                                     std::uint16_t& refused_at) const {
+  for (unsigned i = 0; i < count;) {
+    const unsigned a = first + i;
+    const mb::Register* r =
+        a <= 0xFFFF ? mb::find(mb::Table::kHolding, static_cast<std::uint16_t>(a)) : nullptr;
+    refused_at = static_cast<std::uint16_t>(a);
+    // Not a register, or the second word of a 32-bit one alone.
+    if (r == nullptr) return mb::Rejection::kIllegalAddress;
+    const mb::Rejection why = take(next, command, *r, values + i, count - i);
+    if (why != mb::Rejection::kNone) return why;
+    i += mb::width(r->type);
+  }
+  return mb::Rejection::kNone;
+}
+
+bool RegisterBank::submit(modbus_t* ctx, const std::uint8_t* request, mb::Command command,
+                          const PanelStatus& status) {
   if (command == mb::Command::kStart && (status.state != fw::State::kReady || moving(status))) {
     return refuse(ctx, request, mb::Rejection::kWrongState, mb::kCommand.address);
   }
