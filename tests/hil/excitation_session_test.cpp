@@ -111,70 +111,91 @@ TEST_F(ExcitationSession, TheProgramsFinishCleanly) {
   std::cout << s.fw_err << s.record_out << s.emu_err;
 }
 
-TEST_F(ExcitationSession, BringUpIsNmtSdoConfigurationThenCia402Enable) {
-  const auto& frames = g_session->frames;
-  // NMT: pre-operational for all, later start for all.
-  std::size_t preop = frames.size();
-  std::size_t start = frames.size();
+// The first NMT command of each kind to all nodes: enter pre-operational
+// and start (frames.size() where none came).
+struct NmtCommands {
+  std::size_t preop;
+  std::size_t start;
+};
+
+NmtCommands first_nmt_commands(const std::vector<Frame>& frames) {
+  NmtCommands nmt{frames.size(), frames.size()};
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const Frame& f = frames[i];
     if (f.id != 0 || f.dlc != 2) continue;
-    if (f.data[0] == p::kNmtEnterPreOperational && f.data[1] == 0 && preop == frames.size())
-      preop = i;
-    if (f.data[0] == p::kNmtStart && f.data[1] == 0 && start == frames.size()) start = i;
+    if (f.data[0] == p::kNmtEnterPreOperational && f.data[1] == 0 && nmt.preop == frames.size())
+      nmt.preop = i;
+    if (f.data[0] == p::kNmtStart && f.data[1] == 0 && nmt.start == frames.size()) nmt.start = i;
   }
-  ASSERT_LT(preop, start);
-  ASSERT_LT(start, frames.size());
+  return nmt;
+}
+
+// The SDO exchange with the node between the two NMT commands: every
+// object answered, none aborted. Nine objects, and the PDOs: 14 mapping
+// writes and TPDO2 off, as the generic profile's plan has it
+// (docs/protocol.md).
+void expect_sdo_configuration(const std::vector<Frame>& frames, const NmtCommands& nmt,
+                              std::uint8_t node) {
+  std::map<std::uint32_t, int> answered;  // index << 8 | sub
+  int requests = 0;
+  for (std::size_t i = nmt.preop; i < nmt.start; ++i) {
+    const Frame& f = frames[i];
+    if (f.id == p::cob_id(p::kSdoRx, node)) ++requests;
+    if (f.id != p::cob_id(p::kSdoTx, node)) continue;
+    const auto r = delta::can::sdo::parse_response(f.data);
+    EXPECT_NE(r.kind, delta::can::sdo::ResponseKind::kAborted) << std::hex << r.index;
+    ++answered[(std::uint32_t{r.index} << 8) | r.subindex];
+  }
+  EXPECT_EQ(requests, 9 + 15);
+  for (std::uint32_t key :
+       {0x100000u, 0x101801u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u, 0x100600u, 0x101700u,
+        0x101601u, 0x160001u, 0x160002u, 0x160003u, 0x1A0001u, 0x1A0002u, 0x1A0003u, 0x180101u}) {
+    EXPECT_EQ(answered[key], 1) << std::hex << key;
+  }
+  for (std::uint32_t key : {0x140001u, 0x180001u, 0x160000u, 0x1A0000u}) {
+    EXPECT_EQ(answered[key], 2) << std::hex << key;  // off and on; 0 and the count
+  }
+  EXPECT_EQ(answered[0x1A0101u], 0);  // no velocity PDO: its mapping is left alone
+}
+
+// CiA 402 after the start: shutdown, switch on, enable operation, in that
+// order, and the drive reports operation enabled; at the end it is
+// disabled again (controlword 0, switch on disabled).
+void expect_cia402_enable_then_disable(const std::vector<Frame>& frames, const NmtCommands& nmt,
+                                       std::uint8_t node) {
+  std::vector<std::uint16_t> controlwords;
+  bool enabled_seen = false;
+  cia::State last_state = cia::State::kNotReadyToSwitchOn;
+  std::uint16_t last_cw = 0xFFFF;
+  for (std::size_t i = nmt.start; i < frames.size(); ++i) {
+    const Frame& f = frames[i];
+    if (f.id == p::cob_id(p::kRpdo1, node)) {
+      last_cw = u16(f);
+      if (controlwords.empty() || controlwords.back() != last_cw) controlwords.push_back(last_cw);
+    }
+    if (f.id == p::cob_id(p::kTpdo1, node)) {
+      last_state = cia::decode_statusword(u16(f));
+      enabled_seen = enabled_seen || last_state == cia::State::kOperationEnabled;
+    }
+  }
+  const std::vector<std::uint16_t> expected{0x0000, cia::kShutdown, cia::kSwitchOn,
+                                            cia::kEnableOperation, 0x0000};
+  EXPECT_EQ(controlwords, expected);
+  EXPECT_TRUE(enabled_seen);
+  EXPECT_EQ(last_cw, 0x0000);
+  EXPECT_EQ(last_state, cia::State::kSwitchOnDisabled);
+}
+
+TEST_F(ExcitationSession, BringUpIsNmtSdoConfigurationThenCia402Enable) {
+  const auto& frames = g_session->frames;
+  // NMT: pre-operational for all, later start for all.
+  const NmtCommands nmt = first_nmt_commands(frames);
+  ASSERT_LT(nmt.preop, nmt.start);
+  ASSERT_LT(nmt.start, frames.size());
   for (std::uint8_t node = 1; node <= 3; ++node) {
     SCOPED_TRACE("node " + std::to_string(node));
-    // The SDO exchange between the two NMT commands: every object answered,
-    // none aborted.
-    std::map<std::uint32_t, int> answered;  // index << 8 | sub
-    int requests = 0;
-    for (std::size_t i = preop; i < start; ++i) {
-      const Frame& f = frames[i];
-      if (f.id == p::cob_id(p::kSdoRx, node)) ++requests;
-      if (f.id != p::cob_id(p::kSdoTx, node)) continue;
-      const auto r = delta::can::sdo::parse_response(f.data);
-      EXPECT_NE(r.kind, delta::can::sdo::ResponseKind::kAborted) << std::hex << r.index;
-      ++answered[(std::uint32_t{r.index} << 8) | r.subindex];
-    }
-    // Nine objects, and the PDOs: 14 mapping writes and TPDO2 off, as the
-    // generic profile's plan has it (docs/protocol.md).
-    EXPECT_EQ(requests, 9 + 15);
-    for (std::uint32_t key :
-         {0x100000u, 0x101801u, 0x607500u, 0x607600u, 0x608F01u, 0x606000u, 0x100600u, 0x101700u,
-          0x101601u, 0x160001u, 0x160002u, 0x160003u, 0x1A0001u, 0x1A0002u, 0x1A0003u, 0x180101u}) {
-      EXPECT_EQ(answered[key], 1) << std::hex << key;
-    }
-    for (std::uint32_t key : {0x140001u, 0x180001u, 0x160000u, 0x1A0000u}) {
-      EXPECT_EQ(answered[key], 2) << std::hex << key;  // off and on; 0 and the count
-    }
-    EXPECT_EQ(answered[0x1A0101u], 0);  // no velocity PDO: its mapping is left alone
-    // CiA 402 after the start: shutdown, switch on, enable operation, in that
-    // order, and the drive reports operation enabled; at the end it is
-    // disabled again (controlword 0, switch on disabled).
-    std::vector<std::uint16_t> controlwords;
-    bool enabled_seen = false;
-    cia::State last_state = cia::State::kNotReadyToSwitchOn;
-    std::uint16_t last_cw = 0xFFFF;
-    for (std::size_t i = start; i < frames.size(); ++i) {
-      const Frame& f = frames[i];
-      if (f.id == p::cob_id(p::kRpdo1, node)) {
-        last_cw = u16(f);
-        if (controlwords.empty() || controlwords.back() != last_cw) controlwords.push_back(last_cw);
-      }
-      if (f.id == p::cob_id(p::kTpdo1, node)) {
-        last_state = cia::decode_statusword(u16(f));
-        enabled_seen = enabled_seen || last_state == cia::State::kOperationEnabled;
-      }
-    }
-    const std::vector<std::uint16_t> expected{0x0000, cia::kShutdown, cia::kSwitchOn,
-                                              cia::kEnableOperation, 0x0000};
-    EXPECT_EQ(controlwords, expected);
-    EXPECT_TRUE(enabled_seen);
-    EXPECT_EQ(last_cw, 0x0000);
-    EXPECT_EQ(last_state, cia::State::kSwitchOnDisabled);
+    expect_sdo_configuration(frames, nmt, node);
+    expect_cia402_enable_then_disable(frames, nmt, node);
   }
 }
 

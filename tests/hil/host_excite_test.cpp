@@ -34,6 +34,60 @@ using hil::stopped_and_told;
 using hil::sum_of_numbers;
 using namespace std::chrono_literals;
 
+// The controller's tracking error of the run, in the log's metadata.
+void expect_tracking_in_the_metadata(const std::string& text) {
+  for (const char* key : {"# tracking_rms_rad_1 = ", "# tracking_max_rad_3 = "}) {
+    const std::size_t at = text.find(key);
+    ASSERT_NE(at, std::string::npos) << key;
+    const double v = std::strtod(text.c_str() + at + std::strlen(key), nullptr);
+    EXPECT_GT(v, 0.0) << key;
+    EXPECT_LT(v, 0.05) << key;
+  }
+}
+
+// The index of `name` in a CSV header line; -1 if it has none.
+int column_of(const std::string& header, const std::string& name) {
+  std::istringstream h(header);
+  std::string c;
+  for (int k = 0; std::getline(h, c, ','); ++k)
+    if (c == name) return k;
+  return -1;
+}
+
+// The drives' currents came with every one of the `recorded` samples: the
+// logged torque is the firmware's gear * k_t * efficiency * i =
+// 10 * 0.1 * 0.9 * i.
+void expect_currents_with_every_sample(const std::string& text, std::uint64_t recorded) {
+  std::istringstream rows(text);
+  std::string line;
+  while (std::getline(rows, line) && line[0] == '#') {
+  }
+  ASSERT_NE(line.find(",i1,i2,i3"), std::string::npos) << line;
+  const int tau1 = column_of(line, "tau1");
+  const int i1 = column_of(line, "i1");
+  double worst = 0;
+  std::size_t n = 0;
+  while (std::getline(rows, line)) {
+    std::vector<double> v;
+    std::istringstream r(line);
+    for (std::string f; std::getline(r, f, ',');) v.push_back(std::stod(f));
+    worst = std::max(worst, std::fabs(v[static_cast<std::size_t>(tau1)] -
+                                      0.9 * v[static_cast<std::size_t>(i1)]));
+    ++n;
+  }
+  EXPECT_EQ(n, recorded);
+  EXPECT_LT(worst, 2e-5) << "tau1 and i1 of the same sample";
+}
+
+// host_id status after path1's run: finished, and its tracking.
+void expect_status_after_the_run(const std::string& modbus) {
+  hil::Child after = hil::Child::spawn({kBin + "/host_id", "status", "--modbus", modbus});
+  ASSERT_EQ(after.wait(30s).value_or(-1), 0) << after.err();
+  EXPECT_NE(after.out().find("run        #1 finished, tick 7001 of 7001"), std::string::npos)
+      << after.out();
+  EXPECT_NE(after.out().find("  tracking   run #1, rms "), std::string::npos) << after.out();
+}
+
 TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   const testsupport::ScratchDirectory scratch("delta_hil");
   const std::string& dir = scratch.path();
@@ -61,50 +115,9 @@ TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("# trajectory = path1"), std::string::npos);
   EXPECT_NE(text.find("# sample_rate_hz = 500"), std::string::npos);
-  // The controller's tracking error of the run, in the metadata.
-  for (const char* key : {"# tracking_rms_rad_1 = ", "# tracking_max_rad_3 = "}) {
-    const std::size_t at = text.find(key);
-    ASSERT_NE(at, std::string::npos) << key;
-    const double v = std::strtod(text.c_str() + at + std::strlen(key), nullptr);
-    EXPECT_GT(v, 0.0) << key;
-    EXPECT_LT(v, 0.05) << key;
-  }
-  // The drives' currents came with every sample: the logged torque is the
-  // firmware's gear * k_t * efficiency * i = 10 * 0.1 * 0.9 * i.
-  {
-    std::istringstream rows(text);
-    std::string line;
-    while (std::getline(rows, line) && line[0] == '#') {
-    }
-    ASSERT_NE(line.find(",i1,i2,i3"), std::string::npos) << line;
-    const auto column = [&](const std::string& header, const std::string& name) {
-      std::istringstream h(header);
-      std::string c;
-      for (int k = 0; std::getline(h, c, ','); ++k)
-        if (c == name) return k;
-      return -1;
-    };
-    const int tau1 = column(line, "tau1");
-    const int i1 = column(line, "i1");
-    double worst = 0;
-    std::size_t n = 0;
-    while (std::getline(rows, line)) {
-      std::vector<double> v;
-      std::istringstream r(line);
-      for (std::string f; std::getline(r, f, ',');) v.push_back(std::stod(f));
-      worst = std::max(worst, std::fabs(v[static_cast<std::size_t>(tau1)] -
-                                        0.9 * v[static_cast<std::size_t>(i1)]));
-      ++n;
-    }
-    EXPECT_EQ(n, recorded);
-    EXPECT_LT(worst, 2e-5) << "tau1 and i1 of the same sample";
-  }
-
-  hil::Child after = hil::Child::spawn({kBin + "/host_id", "status", "--modbus", modbus});
-  ASSERT_EQ(after.wait(30s).value_or(-1), 0) << after.err();
-  EXPECT_NE(after.out().find("run        #1 finished, tick 7001 of 7001"), std::string::npos)
-      << after.out();
-  EXPECT_NE(after.out().find("  tracking   run #1, rms "), std::string::npos) << after.out();
+  ASSERT_NO_FATAL_FAILURE(expect_tracking_in_the_metadata(text));
+  ASSERT_NO_FATAL_FAILURE(expect_currents_with_every_sample(text, recorded));
+  ASSERT_NO_FATAL_FAILURE(expect_status_after_the_run(modbus));
 
   EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
   EXPECT_NE(fw.err().find("tracking path1: rms_rad="), std::string::npos) << fw.err();

@@ -121,24 +121,15 @@ TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap)
   EXPECT_EQ(second.err().find("lost"), std::string::npos) << second.err();
 }
 
-// The drives watch the controller (0x1016): when delta_fw dies mid-motion
-// (SIGKILL: no clean exit), every drive faults with EMCY 0x8130 (heartbeat
-// lost) within its consumer timeout plus the emulator's wall-clock grace
-// for a starved lock-step controller (docs/firmware.md), and drops its torque.
-TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
-  const testsupport::ScratchDirectory scratch("delta_hil");
-  const std::string& dir = scratch.path();
-  BusObserver bus;
-  hil::Child emu = start_emulator({"--plant", "lumped"});
-  hil::Child rec = start_recorder(dir + "/killed.csv");
-  hil::Child fw = start_path1_firmware();
-  ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
+// Waits until the drives are enabled and then for a controller heartbeat.
+// CiA 301: a consumer watches from the first heartbeat it receives after
+// 0x1016 was written; killed before one, the controller would leave the
+// drives unwatched (and the test would wait for nothing). A fatal failure
+// when the controller stops first.
+void wait_for_a_heartbeat_after_enabling(BusObserver& bus, hil::Child& fw) {
   while (!all_drives_enabled(bus.snapshot())) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 100ms));
   }
-  // CiA 301: a consumer watches from the first heartbeat it receives after
-  // 0x1016 was written; killed before one, the controller would leave the
-  // drives unwatched (and this test would wait for nothing).
   const std::size_t enabled_at = bus.snapshot().size();
   const auto heartbeat_since_enabled = [&] {
     const std::vector<Frame> frames = bus.snapshot();
@@ -150,30 +141,23 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
   while (!heartbeat_since_enabled()) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms));
   }
-  kill(fw.pid(), SIGKILL);
-  EXPECT_EQ(fw.wait(30s).value_or(-1), 128 + SIGKILL);
-  const auto heartbeat_lost = [&bus] {
-    int n = 0;
-    for (const Frame& f : bus.snapshot()) {
-      n += p::function_code(f.id) == p::kEmcy.base_id && f.id != p::kControllerEmcy.base_id &&
-           u16(f) == delta::can::od::kEmcyHeartbeat;
-    }
-    return n;
-  };
-  const auto deadline = std::chrono::steady_clock::now() + 30s;
-  while (heartbeat_lost() < 3 && std::chrono::steady_clock::now() < deadline) {
-    ASSERT_FALSE(emu.wait_for_output("delta_drive_emu: stopped", 50ms));
+}
+
+// The drives' EMCYs 0x8130 (heartbeat lost) on the bus so far.
+int heartbeat_lost_emcys(const std::vector<Frame>& frames) {
+  int n = 0;
+  for (const Frame& f : frames) {
+    n += p::function_code(f.id) == p::kEmcy.base_id && f.id != p::kControllerEmcy.base_id &&
+         u16(f) == delta::can::od::kEmcyHeartbeat;
   }
-  const std::vector<Frame> frames = bus.stop();
-  emu.terminate(30s);
-  // The log up to the kill: every record the controller sent.
-  EXPECT_EQ(rec.wait(60s).value_or(-1), 0) << rec.out() << rec.err();
-  const std::size_t rows = recorded_seqs(dir + "/killed.csv").size();
-  std::cout << "recorded " << rows << " rows up to the kill\n";
-  EXPECT_GT(rows, 0u);
-  expect_every_record_accounted_for(rec.out() + rec.err(), rows,
-                                    count_frames(frames, p::kLogA.base_id), true);
-  const auto& times = bus.kernel_times();
+  return n;
+}
+
+// Each drive's EMCY 0x8130 came within its consumer timeout plus the
+// emulator's grace after the controller's last heartbeat.
+void expect_each_drive_stopped_in_time(const std::vector<Frame>& frames,
+                                       const std::vector<std::chrono::nanoseconds>& times,
+                                       const std::string& emulator_said) {
   std::optional<std::chrono::nanoseconds> last_heartbeat;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     if (frames[i].id == p::kControllerHeartbeat.base_id) last_heartbeat = times[i];
@@ -188,7 +172,7 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
         emcy = times[i];
       }
     }
-    ASSERT_TRUE(emcy.has_value()) << "no EMCY 0x8130; the emulator said:\n" << emu.err();
+    ASSERT_TRUE(emcy.has_value()) << "no EMCY 0x8130; the emulator said:\n" << emulator_said;
     const auto after_ms =
         std::chrono::duration_cast<std::chrono::milliseconds>(*emcy - *last_heartbeat);
     std::cout << "node " << int{node} << ": EMCY 0x8130 " << after_ms.count()
@@ -198,6 +182,37 @@ TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
     EXPECT_LE(after_ms.count(), 150 + 5000 + 250);
     EXPECT_GE(after_ms.count(), 5000);
   }
+}
+
+// The drives watch the controller (0x1016): when delta_fw dies mid-motion
+// (SIGKILL: no clean exit), every drive faults with EMCY 0x8130 (heartbeat
+// lost) within its consumer timeout plus the emulator's wall-clock grace
+// for a starved lock-step controller (docs/firmware.md), and drops its torque.
+TEST(FirmwareKilled, TheDrivesStopThemselvesWithinTheirHeartbeatTimeout) {
+  const testsupport::ScratchDirectory scratch("delta_hil");
+  const std::string& dir = scratch.path();
+  BusObserver bus;
+  hil::Child emu = start_emulator({"--plant", "lumped"});
+  hil::Child rec = start_recorder(dir + "/killed.csv");
+  hil::Child fw = start_path1_firmware();
+  ASSERT_TRUE(fw.wait_for_output("delta_fw: running\n", 60s)) << fw.err();
+  ASSERT_NO_FATAL_FAILURE(wait_for_a_heartbeat_after_enabling(bus, fw));
+  kill(fw.pid(), SIGKILL);
+  EXPECT_EQ(fw.wait(30s).value_or(-1), 128 + SIGKILL);
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (heartbeat_lost_emcys(bus.snapshot()) < 3 && std::chrono::steady_clock::now() < deadline) {
+    ASSERT_FALSE(emu.wait_for_output("delta_drive_emu: stopped", 50ms));
+  }
+  const std::vector<Frame> frames = bus.stop();
+  emu.terminate(30s);
+  // The log up to the kill: every record the controller sent.
+  EXPECT_EQ(rec.wait(60s).value_or(-1), 0) << rec.out() << rec.err();
+  const std::size_t rows = recorded_seqs(dir + "/killed.csv").size();
+  std::cout << "recorded " << rows << " rows up to the kill\n";
+  EXPECT_GT(rows, 0u);
+  expect_every_record_accounted_for(rec.out() + rec.err(), rows,
+                                    count_frames(frames, p::kLogA.base_id), true);
+  expect_each_drive_stopped_in_time(frames, bus.kernel_times(), emu.err());
 }
 
 // The e-stop on a real kernel GPIO chip (gpio-sim, in hil/vcan-run's VM):
