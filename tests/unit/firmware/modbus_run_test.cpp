@@ -21,6 +21,7 @@ namespace fw_linux {
 namespace {
 
 namespace mb = delta::modbus;
+using modbus_test::Client;
 using modbus_test::Fixture;
 using modbus_test::modbus_config;
 using modbus_test::path1_as_custom;
@@ -308,32 +309,21 @@ TEST_F(Fixture, TheEStopFaultsAndAResetWaitsForItToClose) {
       << "the history keeps it";
 }
 
-// The custom trajectory (3): its block uploaded in one write multiple,
-// read back as written, checked by the controller when it is selected (or
-// rewritten while selected), refused with the reason, tick and joint.
-TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
-  // Nothing uploaded yet: selecting it is refused as an invalid trajectory.
-  EXPECT_EQ(client.write(mb::kTrajectory, 3), EMBXILVAL);
-  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
-  EXPECT_EQ(client.input("trajectory_check"),
-            static_cast<int>(fw::TrajectoryFault::kInvalidConfig));
-
-  const std::vector<std::uint16_t> good = delta::custom_trajectory_block(path1_as_custom(1.0));
-  ASSERT_EQ(good.size(), mb::kCustomCount);
-  ASSERT_EQ(client.write_many(mb::kCustomFirst, good), 0);
+// The custom trajectory's block as the server holds it equals `block`.
+void expect_custom_block(Client& client, const std::vector<std::uint16_t>& block) {
   std::vector<std::uint16_t> back(mb::kCustomCount);
   ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
             mb::kCustomCount);
-  EXPECT_EQ(back, good);
-  ASSERT_EQ(client.write(mb::kTrajectory, 3), 0);  // checked and accepted
-  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kTrajectory.address, 1, back.data()), 1);
-  EXPECT_EQ(back[0], 3);
-  // The controller's trajectory is the one uploaded: the same check as
-  // the core's on the same coefficients converted directly.
+  EXPECT_EQ(back, block);
+}
+
+// The controller's trajectory is the one uploaded: the same check as the
+// core's on the same coefficients converted directly.
+void expect_uploaded_as_converted_directly(const std::vector<std::uint16_t>& block,
+                                           const delta::BlendedFourierTrajectory& trajectory) {
   const PortConfig config = modbus_config();
-  const fw::FourierConfig uploaded = fw_linux::custom_trajectory(good.data(), config).fourier;
-  const fw::FourierConfig direct =
-      fw_linux::fourier_config(path1_as_custom(1.0), config.period_us).fourier;
+  const fw::FourierConfig uploaded = fw_linux::custom_trajectory(block.data(), config).fourier;
+  const fw::FourierConfig direct = fw_linux::fourier_config(trajectory, config.period_us).fourier;
   EXPECT_EQ(uploaded.base_frequency_mHz, direct.base_frequency_mHz);
   EXPECT_EQ(uploaded.harmonics, direct.harmonics);
   EXPECT_EQ(uploaded.periods, direct.periods);
@@ -349,10 +339,12 @@ TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
           1);
     }
   }
+}
 
-  // Five times the amplitude leaves the joint range (the check's first
-  // finding, before the velocity limit): the write is refused and the
-  // block keeps the good trajectory.
+// Five times the amplitude leaves the joint range (the check's first
+// finding, before the velocity limit): the write is refused and the block
+// keeps the good trajectory.
+void expect_too_large_refused(Client& client, const std::vector<std::uint16_t>& good) {
   const std::vector<std::uint16_t> fast = delta::custom_trajectory_block(path1_as_custom(5.0));
   EXPECT_EQ(client.write_many(mb::kCustomFirst, fast), EMBXILVAL);
   const auto r = client.inputs();
@@ -362,21 +354,42 @@ TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
             static_cast<int>(fw::TrajectoryFault::kJointLimit));
   EXPECT_GT(value(r.data(), "trajectory_check_tick"), 0);
   EXPECT_GE(value(r.data(), "trajectory_check_joint"), 1);
-  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
-            mb::kCustomCount);
-  EXPECT_EQ(back, good);
+  ASSERT_NO_FATAL_FAILURE(expect_custom_block(client, good));
+}
 
-  // 100 periods at 50 mHz last 2000 s, more ticks than the check walks
-  // (fw::kMaxTrajectoryTicks): refused as too long, the block unchanged.
+// 100 periods at 50 mHz last 2000 s, more ticks than the check walks
+// (fw::kMaxTrajectoryTicks): refused as too long, the block unchanged.
+void expect_too_long_refused(Client& client, const std::vector<std::uint16_t>& good) {
   delta::BlendedFourierTrajectory slow = path1_as_custom(1.0);
   slow.fourier.base_frequency_hz = 0.05;
   slow.periods = 100;
   EXPECT_EQ(client.write_many(mb::kCustomFirst, delta::custom_trajectory_block(slow)), EMBXILVAL);
   EXPECT_EQ(client.input("trajectory_check"), static_cast<int>(fw::TrajectoryFault::kTooLong));
   EXPECT_EQ(client.input("trajectory_check_tick"), static_cast<int>(fw::kMaxTrajectoryTicks) + 1);
-  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kCustomFirst, mb::kCustomCount, back.data()),
-            mb::kCustomCount);
-  EXPECT_EQ(back, good);
+  ASSERT_NO_FATAL_FAILURE(expect_custom_block(client, good));
+}
+
+// The custom trajectory (3): its block uploaded in one write multiple,
+// read back as written, checked by the controller when it is selected (or
+// rewritten while selected), refused with the reason, tick and joint.
+TEST_F(Fixture, ACustomTrajectoryIsUploadedCheckedAndRefusedByItsLimit) {
+  // Nothing uploaded yet: selecting it is refused as an invalid trajectory.
+  EXPECT_EQ(client.write(mb::kTrajectory, 3), EMBXILVAL);
+  EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kTrajectoryLimit));
+  EXPECT_EQ(client.input("trajectory_check"),
+            static_cast<int>(fw::TrajectoryFault::kInvalidConfig));
+
+  const std::vector<std::uint16_t> good = delta::custom_trajectory_block(path1_as_custom(1.0));
+  ASSERT_EQ(good.size(), mb::kCustomCount);
+  ASSERT_EQ(client.write_many(mb::kCustomFirst, good), 0);
+  ASSERT_NO_FATAL_FAILURE(expect_custom_block(client, good));
+  ASSERT_EQ(client.write(mb::kTrajectory, 3), 0);  // checked and accepted
+  std::uint16_t trajectory = 0;
+  ASSERT_EQ(modbus_read_registers(client.ctx(), mb::kTrajectory.address, 1, &trajectory), 1);
+  EXPECT_EQ(trajectory, 3);
+  expect_uploaded_as_converted_directly(good, path1_as_custom(1.0));
+  ASSERT_NO_FATAL_FAILURE(expect_too_large_refused(client, good));
+  ASSERT_NO_FATAL_FAILURE(expect_too_long_refused(client, good));
 
   // Registers out of range name themselves.
   EXPECT_EQ(client.write(mb::kCustomHarmonics, 7), EMBXILVAL);
