@@ -2,6 +2,7 @@
 // encoders' counts, and the plant advanced between SYNCs.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "delta/can/protocol.hpp"
 #include "emu/emulator.hpp"
@@ -14,20 +15,18 @@ namespace sdo = delta::can::sdo;
 namespace cia = delta::can::cia402;
 using delta::can::Frame;
 
-namespace {
-
-constexpr double kTwoPi = 6.283185307179586;
-
-}  // namespace
+namespace {}  // namespace
 
 std::int32_t Emulator::position_counts(const Drive& d, double q) const {
-  const double motor_revs = (q - d.model.joint_zero_rad) / kTwoPi * d.model.gear_ratio;
+  const double motor_revs =
+      (q - d.model.joint_zero_rad) / (2.0 * std::numbers::pi) * d.model.gear_ratio;
   const double counts = std::round(motor_revs * d.model.counts_per_rev);
   return static_cast<std::int32_t>(d.model.inverted ? -counts : counts);
 }
 
 std::int32_t Emulator::velocity_counts_s(const Drive& d, double qd) const {
-  const double counts_s = qd / kTwoPi * d.model.gear_ratio * d.model.counts_per_rev;
+  const double counts_s =
+      qd / (2.0 * std::numbers::pi) * d.model.gear_ratio * d.model.counts_per_rev;
   return static_cast<std::int32_t>((d.model.inverted ? -1 : 1) * std::llround(counts_s));
 }
 

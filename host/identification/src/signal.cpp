@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <cstddef>
+#include <numbers>
 #include <unsupported/Eigen/FFT>
 #include <vector>
 
@@ -12,7 +13,7 @@ namespace host_id {
 std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz) {
   // Analog prototype poles of a 4th-order Butterworth: quality factors
   // 1 / (2 cos(pi/8)) and 1 / (2 cos(3 pi/8)).
-  const double pi = 3.14159265358979323846;
+  using std::numbers::pi;
   const double k = std::tan(pi * cutoff_hz / sample_rate_hz);  // pre-warped
   std::array<Biquad, 2> sections{};
   const double qs[2] = {1.0 / (2.0 * std::cos(pi / 8.0)), 1.0 / (2.0 * std::cos(3.0 * pi / 8.0))};
@@ -109,8 +110,6 @@ std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<do
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // The Welch spectrum of the spans in windows of l samples, in arbitrary
 // units (only its shape matters), summed over every window of every span.
 // Each window is pre-whitened: the spectrum of its second differences,
@@ -122,7 +121,8 @@ std::vector<double> welch_spectrum(const std::vector<Span>& spans, std::size_t l
   std::vector<double> power(l / 2 + 1, 0.0);
   std::vector<double> hann(l), x(l);
   for (std::size_t i = 0; i < l; ++i) {
-    hann[i] = 0.5 - 0.5 * std::cos(2.0 * kPi * static_cast<double>(i) / static_cast<double>(l));
+    hann[i] = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * static_cast<double>(i) /
+                                   static_cast<double>(l));
   }
   Eigen::FFT<double> fft;
   std::vector<std::complex<double>> spectrum;
@@ -148,8 +148,8 @@ std::vector<double> welch_spectrum(const std::vector<Span>& spans, std::size_t l
     }
   }
   for (std::size_t k = 1; k < power.size(); ++k) {
-    const double g =
-        2.0 - 2.0 * std::cos(2.0 * kPi * static_cast<double>(k) / static_cast<double>(l));
+    const double g = 2.0 - 2.0 * std::cos(2.0 * std::numbers::pi * static_cast<double>(k) /
+                                          static_cast<double>(l));
     power[k] /= g * g;
   }
   return power;
@@ -195,7 +195,7 @@ WeightedSignal weighted_signal(const std::vector<double>& power, std::size_t l, 
                                std::size_t edge) {
   WeightedSignal s{std::vector<double>(power.size(), 0.0), std::vector<double>(power.size(), 0.0)};
   for (std::size_t k = 1; k < power.size(); ++k) {
-    const double w = 2.0 * kPi * static_cast<double>(k) / static_cast<double>(l);
+    const double w = 2.0 * std::numbers::pi * static_cast<double>(k) / static_cast<double>(l);
     const double d2 = -2.0 * std::cos(2.0 * w) + 32.0 * std::cos(w) - 30.0;  // x 1 / (12 h^2)
     s.weight[k] = d2 * d2;
     if (k < edge) s.signal[k] = std::max(0.0, power[k] - floor);
@@ -214,10 +214,10 @@ void choose_best_cutoff(const WeightedSignal& s, std::size_t l, double floor, do
   // in magnitude squared, so G is its square.
   std::vector<double> tan_half(s.signal.size());
   for (std::size_t k = 1; k < s.signal.size(); ++k) {
-    tan_half[k] = std::tan(kPi * static_cast<double>(k) / static_cast<double>(l));
+    tan_half[k] = std::tan(std::numbers::pi * static_cast<double>(k) / static_cast<double>(l));
   }
   for (double fc = lowest_hz; fc <= 0.2 * fs; fc *= 1.05) {
-    const double tan_c = std::tan(kPi * fc / fs);
+    const double tan_c = std::tan(std::numbers::pi * fc / fs);
     double error = 0.0;
     for (std::size_t k = 1; k < s.signal.size(); ++k) {
       const double r = tan_half[k] / tan_c, r2 = r * r, r4 = r2 * r2;

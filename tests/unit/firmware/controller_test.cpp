@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "delta/dynamics.hpp"
@@ -59,7 +60,7 @@ struct FakeHardware {
   std::vector<std::array<Q12_19, 3>> torque_behind_current;  // per record
   std::array<Q12_19, 3> torque_at_feedback{};
   SafetyOutputs outputs;
-  static constexpr double kEncoderStep = 6.283185307179586 / 131072.0;  // 17 bits
+  static constexpr double kEncoderStep = 2.0 * std::numbers::pi / 131072.0;  // 17 bits
 
   DriveConfigProgress configure_drives() {
     if (configure_fails) return DriveConfigProgress::kFailed;

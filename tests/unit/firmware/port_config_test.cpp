@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <numbers>
 #include <string>
 
 #include "delta/modbus/register_map.hpp"
@@ -332,7 +333,7 @@ TEST(PortConfigTest, ValuesThatCannotBeRepresentedAreRefusedWithTheirRange) {
 TEST(DriveUnitsTest, ConversionsAgreeWithTheDriveModel) {
   delta::DriveModel m;  // 10:1, 17 bits, 2 A, 0.2 N m
   const DriveUnits u(m, 2000, 200);
-  const double counts_per_rad = m.counts_per_rev * m.gear_ratio / (2 * M_PI);
+  const double counts_per_rad = m.counts_per_rev * m.gear_ratio / (2 * std::numbers::pi);
   for (double q : {-1.1, -0.3, 0.0, 0.45, 1.3}) {
     const auto counts = static_cast<std::int32_t>(std::lround(q * counts_per_rad));
     const double back = std::ldexp(u.joint_angle(counts).raw(), -28);

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -26,7 +27,6 @@ namespace {
 // approach_s, stop_s and blend_s: far beyond any real one, and well inside
 // the controller's 32-bit tick counter at the fastest rate (10 kHz).
 constexpr double kMaxSeconds = 3600.0;
-constexpr double kPi = 3.14159265358979323846;
 
 // A decimal number (an optional sign, digits, a point, an exponent): no
 // hexadecimal, no inf or nan, nothing after it.
@@ -329,7 +329,7 @@ void add_joint_keys(Setters& s, unsigned j) {
   add_joint_number(s, j, p + "gearbox_efficiency", &delta::DriveModel::gearbox_efficiency,
                    {0.0, 1.0, "", false});
   add_joint_number(s, j, p + "zero_rad", &delta::DriveModel::joint_zero_rad,
-                   {-kPi, kPi, " rad", true});
+                   {-std::numbers::pi, std::numbers::pi, " rad", true});
   s[p + "node"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
     c.joints[j].node = static_cast<std::uint8_t>(parse_unsigned(v, w, p + "node", 1, 127));
   };
