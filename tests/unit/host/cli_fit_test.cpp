@@ -148,10 +148,11 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
   ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls", "--json"}), 0)
       << err_.str();
   const auto j = nlohmann::json::parse(out_.str());
-  ASSERT_TRUE(j.contains("model_selection"));
-  EXPECT_EQ(j["model_selection"]["folds"], 5);
-  EXPECT_EQ(j["model_selection"]["variants"].size(), 4u);
-  EXPECT_EQ(j["model_selection"]["chosen"], "shared arms");  // the default robot's arms are equal
+  ASSERT_TRUE(j.contains("model_support"));
+  EXPECT_EQ(j["model_support"]["folds"], 5);
+  EXPECT_EQ(j["model_support"]["variants"].size(), 4u);
+  EXPECT_EQ(j["model_support"]["chosen"], "shared arms");  // the default robot's arms are equal
+  EXPECT_FALSE(j.contains("model_selection")) << "one key for the model's support";
   EXPECT_EQ(j["model"]["name"], "delta");
   EXPECT_EQ(j["model"]["per_joint"], false);
   ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls"}), 0) << err_.str();
@@ -202,11 +203,10 @@ TEST_F(CliTest, TheDefaultModelIsTheVariantTheLogSupports) {
   simulate_arms_that_differ("differ.csv");
   ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--json"}), 0) << err_.str();
   auto j = nlohmann::json::parse(out_.str());
-  EXPECT_EQ(j["model_selection"]["chosen"], "per-joint arms");
+  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
   EXPECT_EQ(j["model"]["name"], "delta");
   EXPECT_EQ(j["model"]["per_joint"], true);
   EXPECT_EQ(j["parameters"].size(), 18u);
-  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
   EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
   // Too short to judge: the shared arms, and it says so.
   ASSERT_EQ(run({"simulate", "-o", path("short.csv"), "--duration", "0.39"}), 0) << err_.str();

@@ -266,12 +266,12 @@ std::string text_selection(const ModelSelection& s) {
 }
 
 // The first result is the primary model's: --out and --plot save it, and
-// the JSON is its report, with the others under "other_models".
+// the JSON is its report, with the others under "other_models". --model
+// auto's choice is in its "model_support", as every fit's judgement is.
 void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
                    std::ostream& out) {
   const FitResult& r = results.front();
   nlohmann::json j = json_report(r);
-  if (a.selection) j["model_selection"] = json_model_selection(*a.selection);
   if (results.size() > 1) {
     j["other_models"] = nlohmann::json::array();
     for (std::size_t i = 1; i < results.size(); ++i) {
