@@ -140,35 +140,39 @@ bool same(const fu::BootRecord& a, const fu::BootRecord& b) {
   return x == y;
 }
 
-// One event; the slots' invariants after it.
-void apply_event(fu::Slots& slots, std::uint8_t event, std::uint8_t arg) {
-  const fu::BootRecord before = slots.record();
-  fu::Refusal refused = fu::Refusal::kNone;
-  bool booted = false;
+// What an event did: refused (kNone: taken), or booted, and how.
+struct EventOutcome {
+  fu::Refusal refused{fu::Refusal::kNone};
+  bool booted{false};
   fu::Launch launch{};
+};
+
+// Event `event % 8` on the slots, with its argument.
+EventOutcome do_event(fu::Slots& slots, std::uint8_t event, std::uint8_t arg) {
+  EventOutcome o;
   switch (event % 8) {
     case 0:
-      launch = slots.boot();
-      booted = true;
+      o.launch = slots.boot();
+      o.booted = true;
       break;
     case 1:
-      refused = slots.begin_download();
+      o.refused = slots.begin_download();
       break;
     case 2:
-      refused = slots.end_download(static_cast<up::Verdict>(arg % up::kVerdictCount), arg * 7919u,
-                                   {arg, 0, 1});
+      o.refused = slots.end_download(static_cast<up::Verdict>(arg % up::kVerdictCount), arg * 7919u,
+                                     {arg, 0, 1});
       break;
     case 3:
-      refused = slots.clear();
+      o.refused = slots.clear();
       break;
     case 4:
-      refused = slots.start_trial();
+      o.refused = slots.start_trial();
       break;
     case 5:
-      refused = slots.confirm();
+      o.refused = slots.confirm();
       break;
     case 6:
-      refused = slots.trial_failed(static_cast<fu::RevertReason>(1 + arg % 5));
+      o.refused = slots.trial_failed(static_cast<fu::RevertReason>(1 + arg % 5));
       break;
     case 7: {  // power loss: what was stored comes back, then the boot
       fu::RecordBytes stored{};
@@ -176,18 +180,25 @@ void apply_event(fu::Slots& slots, std::uint8_t event, std::uint8_t arg) {
       fu::BootRecord back;
       require(fu::decode(stored, back));
       slots = fu::Slots(back);
-      launch = slots.boot();
-      booted = true;
+      o.launch = slots.boot();
+      o.booted = true;
       break;
     }
   }
+  return o;
+}
+
+// The slots' invariants after an event: the record round-trips, a refusal
+// changed nothing, only a confirmation changes the active slot (to a
+// confirmed one), and a boot launches the spare only for a trial.
+void require_invariants(const fu::BootRecord& before, const fu::Slots& slots, bool confirmed,
+                        const EventOutcome& o) {
   const fu::BootRecord& after = slots.record();
   fu::RecordBytes bytes{};
   fu::encode(after, bytes);
   fu::BootRecord round;
   require(fu::decode(bytes, round) && same(round, after));
-  if (refused != fu::Refusal::kNone) require(same(before, after));
-  const bool confirmed = event % 8 == 5 && refused == fu::Refusal::kNone;
+  if (o.refused != fu::Refusal::kNone) require(same(before, after));
   if (confirmed) {
     require(after.active != before.active);
     require(after.slots[after.active].state == fu::SlotState::kConfirmed);
@@ -197,11 +208,19 @@ void apply_event(fu::Slots& slots, std::uint8_t event, std::uint8_t arg) {
     const fu::Slot& b = after.slots[after.active];
     require(a.state == b.state && a.crc32 == b.crc32 && a.version.major == b.version.major);
   }
-  if (booted) {
-    const bool trial_start = launch.trial;
-    require(launch.slot == (trial_start ? slots.spare() : slots.active()));
+  if (o.booted) {
+    const bool trial_start = o.launch.trial;
+    require(o.launch.slot == (trial_start ? slots.spare() : slots.active()));
     if (trial_start) require(slots.in_trial() && after.trial_started);
   }
+}
+
+// One event; the slots' invariants after it.
+void apply_event(fu::Slots& slots, std::uint8_t event, std::uint8_t arg) {
+  const fu::BootRecord before = slots.record();
+  const EventOutcome o = do_event(slots, event, arg);
+  const bool confirmed = event % 8 == 5 && o.refused == fu::Refusal::kNone;
+  require_invariants(before, slots, confirmed, o);
 }
 
 void run_slots(std::span<const std::uint8_t> rest) {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 #include "delta/input_error.hpp"
@@ -11,8 +12,6 @@ namespace delta {
 namespace mb = delta::modbus;
 
 namespace {
-
-constexpr double kTwoPi = 6.283185307179586;
 
 // Stores `value` (in the register's unit) into the block, rounded to its
 // resolution; InputError where it does not fit.
@@ -58,7 +57,7 @@ std::vector<std::uint16_t> custom_trajectory_block(const BlendedFourierTrajector
   put(block, mb::kCustomHarmonics, static_cast<double>(n), 1, mb::kCustomMaxHarmonics);
   put(block, mb::kCustomPeriods, t.periods, 1, mb::kMaxRepetitions);
   put(block, mb::kCustomBlend, t.blend_s, 1, mb::kCustomMaxBlend_ms);
-  const double w = kTwoPi * t.fourier.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * t.fourier.base_frequency_hz;
   for (unsigned j = 0; j < 3; ++j) {
     put(block, mb::custom_q0(j), t.fourier.q0_rad[j], -i32, i32);
     if (t.fourier.a_rad_s[j].size() != n || t.fourier.b_rad_s[j].size() != n) {
@@ -81,7 +80,7 @@ BlendedFourierTrajectory custom_trajectory_of(const std::uint16_t* block) {
   t.blend_s = get(block, mb::kCustomBlend);
   const auto n = static_cast<unsigned>(
       std::min<double>(get(block, mb::kCustomHarmonics), mb::kCustomMaxHarmonics));
-  const double w = kTwoPi * t.fourier.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * t.fourier.base_frequency_hz;
   for (unsigned j = 0; j < 3; ++j) {
     t.fourier.q0_rad[j] = get(block, mb::custom_q0(j));
     for (unsigned k = 0; k < n; ++k) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -219,9 +220,8 @@ std::array<double, 3> eigenvalues(const InertiaTensor& t) {
   const double det = ba * (bb * bc - bf * bf) - bd * (bd * bc - bf * be) + be * (bd * bf - bb * be);
   const double r = std::clamp(det / 2.0, -1.0, 1.0);
   const double phi = std::acos(r) / 3.0;
-  const double pi = 3.14159265358979323846;
   const double largest = mean + 2.0 * p * std::cos(phi);
-  const double smallest = mean + 2.0 * p * std::cos(phi + 2.0 * pi / 3.0);
+  const double smallest = mean + 2.0 * p * std::cos(phi + 2.0 * std::numbers::pi / 3.0);
   return {smallest, 3.0 * mean - largest - smallest, largest};
 }
 

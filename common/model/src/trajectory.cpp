@@ -2,19 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string_view>
 
 #include "delta/splitmix.hpp"
 
 namespace delta {
 
-namespace {
-constexpr double kTwoPi = 6.28318530717958647692;
-}
+namespace {}
 
 JointState FourierTrajectory::at(double t_s) const {
   JointState s;
-  const double w = kTwoPi * base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * base_frequency_hz;
   for (unsigned j = 0; j < 3; ++j) {
     double q = q0_rad[j], qd = 0.0, qdd = 0.0;
     for (std::size_t k = 0; k < a_rad_s[j].size(); ++k) {
@@ -73,7 +72,7 @@ bool make_fourier_excitation(const Geometry& g, const Vec3<double>& centre_m, un
   // SplitMix64 for coefficients in [-1, 1].
   SplitMix64 rng(seed);
   const auto uniform = [&rng]() { return rng.uniform() * 2.0 - 1.0; };
-  const double w = kTwoPi * base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * base_frequency_hz;
   FourierTrajectory base;
   base.base_frequency_hz = base_frequency_hz;
   base.q0_rad = ik.theta_rad;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "delta/input_error.hpp"
 #include "delta/json_text.hpp"
@@ -11,7 +12,6 @@ namespace delta {
 
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
 constexpr const char* kFormat = "delta-trajectory/1";
 constexpr unsigned kMaxHarmonics = 6;  // the controller's
 
@@ -103,7 +103,7 @@ BlendedFourierTrajectory parse_trajectory(const std::string& text, const std::st
     r.fail("sin_amplitude_rad",
            "must have 1 to 6 harmonics per joint (got " + std::to_string(n) + ")");
   }
-  const double w = kTwoPi * t.fourier.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * t.fourier.base_frequency_hz;
   for (unsigned jj = 0; jj < 3; ++jj) {
     if (a[jj].size() != n || b[jj].size() != n) {
       r.fail("cos_amplitude_rad", "every joint needs the same number of harmonics in both arrays");
@@ -130,7 +130,7 @@ std::string format_trajectory(const BlendedFourierTrajectory& t, const std::stri
   j["blend_s"] = t.blend_s;
   j["periods"] = t.periods;
   j["q0_rad"] = t.fourier.q0_rad;
-  const double w = kTwoPi * t.fourier.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * t.fourier.base_frequency_hz;
   json a = json::array(), b = json::array();
   for (unsigned jj = 0; jj < 3; ++jj) {
     json ra = json::array(), rb = json::array();

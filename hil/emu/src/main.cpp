@@ -82,65 +82,85 @@ const CLI::Validator kCurrentNoise(
     },
     ">= 0");
 
+// The command line's values that are not the configuration's own.
+struct EmulatorArguments {
+  std::string plant{"mujoco"};
+  std::string robot_path;
+  std::string truth_path;
+  CLI::Option* truth{nullptr};
+  std::vector<std::string> faults;
+  double initial_q{0.0};
+  CLI::Option* initial{nullptr};
+  std::string eds_path;
+  std::string torque_unit{"per_mille"};
+};
+
+void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
+                 EmulatorArguments& a) {
+  app.set_version_flag("--version", std::string("delta_drive_emu ") + DELTA_VERSION);
+  app.add_option("--can", iface, "the CAN interface (vcan0)")->required();
+  app.add_option("--plant", a.plant,
+                 "the robot: mujoco (the multibody robot of --robot) or lumped (the lumped "
+                 "model: exactly what `host_id fit --model lumped` estimates)")
+      ->check(CLI::IsMember({"mujoco", "lumped"}))
+      ->capture_default_str();
+  app.add_option("--robot", a.robot_path,
+                 "the robot description (docs/robot-description.md); default: the built-in "
+                 "robot of docs/examples/robot.json");
+  a.truth = app.add_option(
+      "--truth", a.truth_path,
+      "with --plant lumped: the lumped parameters, JSON as `host_id "
+      "simulate --params` reads (default: those of --robot, or the default robot's)");
+  app.add_option("--inject", a.faults,
+                 "KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC: "
+                 "heartbeat-drop:N, silent:N, error-frame, corrupt-pdo:N, delay-pdo:N:MS, "
+                 "overcurrent:N (repeatable)")
+      ->allow_extra_args(false);
+  a.initial_q = config.initial_q_rad[0];
+  a.initial = app.add_option("--initial-q", a.initial_q, "the three joints' angle at start, rad")
+                  ->check(kInitialAngle);
+  app.add_option("--current-noise", config.current_noise_A, "current noise, A (standard deviation)")
+      ->check(kCurrentNoise)
+      ->capture_default_str();
+  app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
+  app.add_option("--eds", a.eds_path,
+                 "the drives' EDS or DCF (CiA 306): the drives then behave as it describes, "
+                 "with exactly its objects, access types, sizes, defaults (transmission types "
+                 "and mappings included) and supported modes (0x6502); without it, the drive of "
+                 "docs/eds/delta_drive_emu.eds (docs/drives.md)");
+  app.add_option("--torque-unit", a.torque_unit,
+                 "the unit of target torque (0x6071) and torque actual value (0x6077), as the "
+                 "drive of --eds has it")
+      ->check(CLI::IsMember({"per_mille", "mA", "mNm"}))
+      ->capture_default_str();
+}
+
+// The parsed arguments into config and eds; throws on a file or a fault
+// spec that cannot be read.
+void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
+                     std::optional<delta::canopen::Eds>& eds) {
+  if (!a.eds_path.empty()) {
+    eds = delta::canopen::read_eds(a.eds_path);
+  }
+  if (a.initial->count()) config.initial_q_rad = {a.initial_q, a.initial_q, a.initial_q};
+  config.torque_unit = a.torque_unit == "mA"    ? emu::TorqueUnit::kMilliamp
+                       : a.torque_unit == "mNm" ? emu::TorqueUnit::kMilliNewtonMetre
+                                                : emu::TorqueUnit::kPerMille;
+  configure_plant(a.plant, a.robot_path, a.truth->count() ? a.truth_path : std::string(), config);
+  for (const std::string& f : a.faults) config.faults.push_back(emu::parse_fault(f));
+}
+
 // The command line into config, or the exit code when it asked for help or
 // was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
                                    emu::EmulatorConfig& config,
                                    std::optional<delta::canopen::Eds>& eds) {
   CLI::App app(kDescription, "delta_drive_emu");
-  app.set_version_flag("--version", std::string("delta_drive_emu ") + DELTA_VERSION);
-  app.add_option("--can", iface, "the CAN interface (vcan0)")->required();
-  std::string plant = "mujoco";
-  app.add_option("--plant", plant,
-                 "the robot: mujoco (the multibody robot of --robot) or lumped (the lumped "
-                 "model: exactly what `host_id fit --model lumped` estimates)")
-      ->check(CLI::IsMember({"mujoco", "lumped"}))
-      ->capture_default_str();
-  std::string robot_path;
-  app.add_option("--robot", robot_path,
-                 "the robot description (docs/robot-description.md); default: the built-in "
-                 "robot of docs/examples/robot.json");
-  std::string truth_path;
-  auto* truth = app.add_option(
-      "--truth", truth_path,
-      "with --plant lumped: the lumped parameters, JSON as `host_id "
-      "simulate --params` reads (default: those of --robot, or the default robot's)");
-  std::vector<std::string> faults;
-  app.add_option("--inject", faults,
-                 "KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC: "
-                 "heartbeat-drop:N, silent:N, error-frame, corrupt-pdo:N, delay-pdo:N:MS, "
-                 "overcurrent:N (repeatable)")
-      ->allow_extra_args(false);
-  double initial_q = config.initial_q_rad[0];
-  auto* initial = app.add_option("--initial-q", initial_q, "the three joints' angle at start, rad")
-                      ->check(kInitialAngle);
-  app.add_option("--current-noise", config.current_noise_A, "current noise, A (standard deviation)")
-      ->check(kCurrentNoise)
-      ->capture_default_str();
-  app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
-  std::string eds_path;
-  app.add_option("--eds", eds_path,
-                 "the drives' EDS or DCF (CiA 306): the drives then behave as it describes, "
-                 "with exactly its objects, access types, sizes, defaults (transmission types "
-                 "and mappings included) and supported modes (0x6502); without it, the drive of "
-                 "docs/eds/delta_drive_emu.eds (docs/drives.md)");
-  std::string torque_unit = "per_mille";
-  app.add_option("--torque-unit", torque_unit,
-                 "the unit of target torque (0x6071) and torque actual value (0x6077), as the "
-                 "drive of --eds has it")
-      ->check(CLI::IsMember({"per_mille", "mA", "mNm"}))
-      ->capture_default_str();
+  EmulatorArguments a;
+  add_options(app, iface, config, a);
   try {
     app.parse(argc, argv);
-    if (!eds_path.empty()) {
-      eds = delta::canopen::read_eds(eds_path);
-    }
-    if (initial->count()) config.initial_q_rad = {initial_q, initial_q, initial_q};
-    config.torque_unit = torque_unit == "mA"    ? emu::TorqueUnit::kMilliamp
-                         : torque_unit == "mNm" ? emu::TorqueUnit::kMilliNewtonMetre
-                                                : emu::TorqueUnit::kPerMille;
-    configure_plant(plant, robot_path, truth->count() ? truth_path : std::string(), config);
-    for (const std::string& f : faults) config.faults.push_back(emu::parse_fault(f));
+    apply_arguments(a, config, eds);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     std::cerr << "delta_drive_emu: " << e.what() << " (see delta_drive_emu --help)\n";

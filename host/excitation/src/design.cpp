@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <numbers>
 
 #include "delta/input_error.hpp"
 #include "delta/kinematics.hpp"
@@ -13,8 +14,6 @@
 namespace host_id {
 
 namespace {
-
-constexpr double kTwoPi = 6.283185307179586;
 
 // What sampling a trajectory found: the regressor's information matrix
 // (sum of row^T row) and how far the samples break the limits.
@@ -238,7 +237,7 @@ DesignResult design_excitation(const DesignOptions& options, const delta::RobotD
     throw delta::InputError("--centre lies outside the workspace of this robot");
   }
   const Evaluator ev(options, robot);
-  const double w = kTwoPi * options.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * options.base_frequency_hz;
   // Velocity amplitudes: harmonic k's position amplitude max_amplitude / k
   // is a velocity amplitude of k w max_amplitude / k = w max_amplitude.
   const auto n = static_cast<Eigen::Index>(6 * options.harmonics);

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <sstream>
 
 #include "delta/atomic_file.hpp"
@@ -203,7 +204,7 @@ void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
     log.metadata.emplace_back("torque_noise_fraction", format_number(o.torque_noise));
   }
   if (o.encoder_bits > 0) {
-    const double step = 6.28318530717958647692 / std::ldexp(1.0, static_cast<int>(o.encoder_bits));
+    const double step = 2.0 * std::numbers::pi / std::ldexp(1.0, static_cast<int>(o.encoder_bits));
     for (unsigned j = 0; j < 3; ++j) {
       for (double& v : log.q[j]) v = std::round(v / step) * step;
     }

@@ -325,11 +325,12 @@ double min_speed_for(const FitOptions& options) {
   return options.model.name == "paper14" ? 0.0 : kDefaultMinSpeedRadS;
 }
 
-FitResult fit_log(DeltaLog log, const FitOptions& given_options,
-                  const std::vector<const DeltaLog*>& validation, bool keep_predictions) {
-  const auto t0 = std::chrono::steady_clock::now();
-  FitResult r;
-  FitOptions options = given_options;
+namespace {
+
+// The options of the fit: the given ones, with the friction's shape fitted
+// first on the log where they ask for it (kept in r).
+FitOptions options_with_friction_shape(const DeltaLog& log, const FitOptions& given, FitResult& r) {
+  FitOptions options = given;
   if (options.fit_friction_shape) {
     r.friction_shape = fit_friction_shape(log, options);
     options.model.coulomb_smoothing_rad_s = r.friction_shape->coulomb_smoothing_rad_s;
@@ -337,6 +338,61 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
       options.model.stribeck_velocity_rad_s = r.friction_shape->stribeck_velocity_rad_s;
     }
   }
+  return options;
+}
+
+// What preprocessing did with the log, for the report.
+void note_preprocessing(const Preprocessed& pre, const DeltaLog& log, FitResult& r) {
+  r.samples_in_log = pre.report.samples_in_log;
+  r.derivatives = pre.report.derivatives;
+  r.state_cutoff_hz = pre.report.state_cutoff_hz;
+  r.gaps = log.gaps;
+  r.geometry = log.geometry;
+  r.segments_used = pre.report.segments_used;
+  r.segments_dropped = pre.report.segments_dropped;
+}
+
+// The fit's residuals on its own log: the PSO's cost (checked to be at its
+// optimum), the RMSE of the filtered and of the measured torques, and the
+// log's prediction where kept.
+void note_fit_residuals(const Regression& all_rows, const Equations& reg,
+                        const std::string& log_name, unsigned threads, bool keep_predictions,
+                        FitResult& r) {
+  r.fit.log = log_name;
+  r.fit.samples = all_rows.samples();
+  const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, threads);
+  if (r.pso) {
+    r.cost_Nm2 = squares.cost(r.joint_weights, reg.rows());
+    require_pso_at_optimum(r, log_name);
+  }
+  r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
+  r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
+  if (keep_predictions) {
+    r.predictions.push_back(prediction_of(all_rows, r.beta, log_name));
+    r.predictions.back().role = "fit";
+  }
+}
+
+// The fitted parameters' RMSE on each validation log, and their
+// predictions where kept.
+void validate_fit(const Model& model, const FitOptions& options,
+                  const std::vector<const DeltaLog*>& validation, bool keep_predictions,
+                  FitResult& r) {
+  for (const DeltaLog* v : validation) {
+    Prediction p = predict(model, r.beta, *v, options.prepare, options.threads);
+    r.validation.push_back(p.rmse());
+    p.role = "validation";
+    if (keep_predictions) r.predictions.push_back(std::move(p));
+  }
+}
+
+}  // namespace
+
+FitResult fit_log(DeltaLog log, const FitOptions& given_options,
+                  const std::vector<const DeltaLog*>& validation, bool keep_predictions) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult r;
+  const FitOptions options = options_with_friction_shape(log, given_options, r);
   r.options = options;
   const auto model = make_model(options.model);
   r.min_speed_rad_s = min_speed_for(options);
@@ -346,13 +402,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   // From here on the log is only its name and gaps.
   Preprocessed pre = preprocess_releasing(*model, log, prepare, options.threads);
   Regression& all_rows = pre.regression;
-  r.samples_in_log = pre.report.samples_in_log;
-  r.derivatives = pre.report.derivatives;
-  r.state_cutoff_hz = pre.report.state_cutoff_hz;
-  r.gaps = log.gaps;
-  r.geometry = log.geometry;
-  r.segments_used = pre.report.segments_used;
-  r.segments_dropped = pre.report.segments_dropped;
+  note_preprocessing(pre, log, r);
   const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name);
@@ -370,25 +420,8 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.correlation = ls.correlation;
   r.doubts = doubts_of(r);
-  r.fit.log = log.name;
-  r.fit.samples = all_rows.samples();
-  const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, options.threads);
-  if (r.pso) {
-    r.cost_Nm2 = squares.cost(r.joint_weights, reg.rows());
-    require_pso_at_optimum(r, log.name);
-  }
-  r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
-  r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
-  if (keep_predictions) {
-    r.predictions.push_back(prediction_of(all_rows, r.beta, log.name));
-    r.predictions.back().role = "fit";
-  }
-  for (const DeltaLog* v : validation) {
-    Prediction p = predict(*model, r.beta, *v, options.prepare, options.threads);
-    r.validation.push_back(p.rmse());
-    p.role = "validation";
-    if (keep_predictions) r.predictions.push_back(std::move(p));
-  }
+  note_fit_residuals(all_rows, reg, log.name, options.threads, keep_predictions, r);
+  validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;
 }

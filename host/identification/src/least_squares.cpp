@@ -112,6 +112,34 @@ std::vector<Eigen::Index> columns_of_joint(const Equations& r, unsigned j) {
   return all;
 }
 
+// The row of each joint at each of the n samples, [j n + sample] (-1: none).
+std::vector<std::int32_t> rows_by_joint_and_sample(const Equations& r, Eigen::Index n) {
+  std::vector<std::int32_t> row_at(3 * static_cast<std::size_t>(n), -1);
+  for (std::size_t row = 0; row < r.rows(); ++row) {
+    row_at[r.joint[row] * static_cast<std::size_t>(n) + r.sample[row]] =
+        static_cast<std::int32_t>(row);
+  }
+  return row_at;
+}
+
+// The chunks' sums (joint j's chunk c at [j chunks + c], over joint j's
+// columns) added in order into the upper triangle of a p x p matrix.
+Eigen::MatrixXd upper_triangle_of_chunks(const std::vector<Eigen::MatrixXd>& partial,
+                                         const std::array<std::vector<Eigen::Index>, 3>& columns,
+                                         std::size_t chunks, Eigen::Index p) {
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
+  for (std::size_t task = 0; task < partial.size(); ++task) {
+    const std::vector<Eigen::Index>& used = columns[task / chunks];
+    const Eigen::MatrixXd& part = partial[task];
+    for (Eigen::Index b = 0; b < part.cols(); ++b) {
+      for (Eigen::Index a = 0; a <= b; ++a) {  // the upper triangle
+        s(used[static_cast<std::size_t>(a)], used[static_cast<std::size_t>(b)]) += part(a, b);
+      }
+    }
+  }
+  return s;
+}
+
 // S of the covariance in the scaled coordinates (the columns of Psi divided
 // by col_norm), per joint: each joint's scores g_k = a e of its row at
 // sample k (zero where it has none), in sample order, through
@@ -131,12 +159,7 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
   const Eigen::VectorXd inverse_norm = col_norm.cwiseInverse();
   const std::array<std::vector<Eigen::Index>, 3> columns{
       columns_of_joint(r, 0), columns_of_joint(r, 1), columns_of_joint(r, 2)};
-  // The row of each joint at each sample (-1: none).
-  std::vector<std::int32_t> row_at(3 * static_cast<std::size_t>(n), -1);
-  for (std::size_t row = 0; row < r.rows(); ++row) {
-    row_at[r.joint[row] * static_cast<std::size_t>(n) + r.sample[row]] =
-        static_cast<std::int32_t>(row);
-  }
+  const std::vector<std::int32_t> row_at = rows_by_joint_and_sample(r, n);
   constexpr Eigen::Index kChunk = 16384;
   const Eigen::Index boxes = n + l;
   const Eigen::Index chunks = (boxes + kChunk - 1) / kChunk;
@@ -170,16 +193,8 @@ Eigen::MatrixXd lagged_score_covariance(const Equations& r, const RowScale& scal
   };
   run_tasks(partial.size(), workers_for(static_cast<std::size_t>(3 * n), threads, 30000),
             chunk_sum);
-  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(p, p);
-  for (std::size_t task = 0; task < partial.size(); ++task) {
-    const std::vector<Eigen::Index>& used = columns[task / static_cast<std::size_t>(chunks)];
-    const Eigen::MatrixXd& part = partial[task];
-    for (Eigen::Index b = 0; b < part.cols(); ++b) {
-      for (Eigen::Index a = 0; a <= b; ++a) {  // the upper triangle
-        s(used[static_cast<std::size_t>(a)], used[static_cast<std::size_t>(b)]) += part(a, b);
-      }
-    }
-  }
+  Eigen::MatrixXd s =
+      upper_triangle_of_chunks(partial, columns, static_cast<std::size_t>(chunks), p);
   s /= static_cast<double>(l + 1);
   return s.selfadjointView<Eigen::Upper>();
 }

@@ -105,6 +105,56 @@ ScaleRows scale_rows(const Model& model, const DeltaLog& log, double payload_mas
   return s;
 }
 
+// Both logs' rows in one regression; the loaded log's samples after the
+// unloaded one's.
+Regression both_logs(const ScaleRows& a, const ScaleRows& b) {
+  Regression all;
+  all.psi.resize(a.psi.rows() + b.psi.rows(), a.psi.cols());
+  all.psi << a.psi, b.psi;
+  all.tau.resize(a.rhs.size() + b.rhs.size());
+  all.tau << a.rhs, b.rhs;
+  all.joint = a.joint;
+  all.joint.insert(all.joint.end(), b.joint.begin(), b.joint.end());
+  all.sample = a.sample;
+  for (const std::size_t k : b.sample) all.sample.push_back(k + a.t_s.size());
+  all.t_s = a.t_s;
+  const double shift = a.t_s.empty() ? 0.0 : a.t_s.back() + 1.0;
+  for (const double t : b.t_s) all.t_s.push_back(t + shift);
+  return all;
+}
+
+// The scale problem's unknowns: each joint's inverse torque scale, then
+// the model's parameters, all unbounded.
+std::vector<ParameterInfo> scale_parameters(const Model& model) {
+  std::vector<ParameterInfo> info;
+  for (int j = 1; j <= 3; ++j) {
+    info.push_back({"inverse_torque_scale_" + std::to_string(j), "-", false,
+                    "true torque per logged torque of joint " + std::to_string(j)});
+  }
+  for (const ParameterInfo& p : model.parameters()) {
+    ParameterInfo free = p;
+    free.nonnegative = false;  // the scale's problem is solved unbounded
+    info.push_back(free);
+  }
+  return info;
+}
+
+// Each joint's torque scale (logged per true torque) and its standard
+// deviation, from the inverse scales the least squares found.
+void take_torque_scales(const LeastSquaresResult& ls, TorqueScaleResult& out) {
+  for (unsigned j = 0; j < 3; ++j) {
+    const double w = ls.beta(j);
+    if (!(w > 0.0)) {
+      throw delta::InputError(
+          "--calibrate-torque: joint " + std::to_string(j + 1) +
+          "'s torque scale came out negative or infinite: the logs cannot tell it (does the "
+          "payload move with the platform, and do both logs excite the joint?)");
+    }
+    out.scale[j] = 1.0 / w;
+    out.scale_std[j] = ls.std_dev(j) / (w * w);
+  }
+}
+
 }  // namespace
 
 TorqueScaleResult fit_torque_scale(const Model& model, const DeltaLog& unloaded,
@@ -121,45 +171,13 @@ TorqueScaleResult fit_torque_scale(const Model& model, const DeltaLog& unloaded,
   }
   const ScaleRows a = scale_rows(model, unloaded, 0.0, prepare, min_speed_rad_s, threads);
   const ScaleRows b = scale_rows(model, loaded, payload_mass_kg, prepare, min_speed_rad_s, threads);
-  // Both logs' rows in one regression; the loaded log's samples after the
-  // unloaded one's.
-  Regression all;
-  all.psi.resize(a.psi.rows() + b.psi.rows(), a.psi.cols());
-  all.psi << a.psi, b.psi;
-  all.tau.resize(a.rhs.size() + b.rhs.size());
-  all.tau << a.rhs, b.rhs;
-  all.joint = a.joint;
-  all.joint.insert(all.joint.end(), b.joint.begin(), b.joint.end());
-  all.sample = a.sample;
-  for (const std::size_t k : b.sample) all.sample.push_back(k + a.t_s.size());
-  all.t_s = a.t_s;
-  const double shift = a.t_s.empty() ? 0.0 : a.t_s.back() + 1.0;
-  for (const double t : b.t_s) all.t_s.push_back(t + shift);
-  std::vector<ParameterInfo> info;
-  for (int j = 1; j <= 3; ++j) {
-    info.push_back({"inverse_torque_scale_" + std::to_string(j), "-", false,
-                    "true torque per logged torque of joint " + std::to_string(j)});
-  }
-  for (const ParameterInfo& p : model.parameters()) {
-    ParameterInfo free = p;
-    free.nonnegative = false;  // the scale's problem is solved unbounded
-    info.push_back(free);
-  }
+  const Regression all = both_logs(a, b);
+  const std::vector<ParameterInfo> info = scale_parameters(model);
   const LeastSquaresResult ls = solve_least_squares(
       Equations(all), info, LsSolver::kQr, LsWeights::kNone, unloaded.name + " + " + loaded.name,
       correlation_lags_for(a.sample_rate_hz, prepare.cutoff_hz), threads);
   TorqueScaleResult out;
-  for (unsigned j = 0; j < 3; ++j) {
-    const double w = ls.beta(j);
-    if (!(w > 0.0)) {
-      throw delta::InputError(
-          "--calibrate-torque: joint " + std::to_string(j + 1) +
-          "'s torque scale came out negative or infinite: the logs cannot tell it (does the "
-          "payload move with the platform, and do both logs excite the joint?)");
-    }
-    out.scale[j] = 1.0 / w;
-    out.scale_std[j] = ls.std_dev(j) / (w * w);
-  }
+  take_torque_scales(ls, out);
   const Eigen::Index p = static_cast<Eigen::Index>(model.size());
   out.beta = ls.beta.tail(p);
   out.beta_std = ls.std_dev.tail(p);

@@ -387,151 +387,84 @@ nlohmann::json json_model_selection(const ModelSelection& s) {
           {"alike", s.alike},     {"reason", s.reason}};
 }
 
+namespace {
+
+nlohmann::json json_model_options(const ModelOptions& m) {
+  return {{"name", m.name},
+          {"per_joint", m.per_joint},
+          {"offsets", m.offsets},
+          {"coulomb_smoothing_rad_s", m.coulomb_smoothing_rad_s},
+          {"stribeck_velocity_rad_s", m.stribeck_velocity_rad_s}};
+}
+
+nlohmann::json json_geometry(const delta::Geometry& g) {
+  return {{"upper_arm_length_m", g.upper_arm_length_m},
+          {"forearm_length_m", g.forearm_length_m},
+          {"base_radius_m", g.base_radius_m},
+          {"platform_radius_m", g.platform_radius_m}};
+}
+
+nlohmann::json json_preprocessing(const FitResult& r) {
+  using nlohmann::json;
+  const PrepareOptions& o = r.options.prepare;
+  json gaps = json::array();
+  for (const auto& g : r.gaps) gaps.push_back({{"line", g.line}, {"what", g.what}});
+  return {{"cutoff_hz", o.cutoff_hz},
+          {"state_cutoff_hz", o.state_cutoff_hz ? json(*o.state_cutoff_hz) : json("auto")},
+          {"state_cutoff_hz_used", r.state_cutoff_hz},
+          {"trim_samples", o.trim_samples},
+          {"time_steps", o.time_steps == TimeSteps::kNominal    ? "nominal"
+                         : o.time_steps == TimeSteps::kAsLogged ? "as-logged"
+                                                                : "check"},
+          {"min_speed_rad_s", r.min_speed_rad_s},
+          {"equations_used", r.equations_used},
+          {"derivatives", r.derivatives},
+          {"samples_in_log", r.samples_in_log},
+          {"segments_used", r.segments_used},
+          {"segments_dropped", r.segments_dropped},
+          {"gaps", gaps}};
+}
+
+nlohmann::json json_least_squares(const FitResult& r) {
+  const auto& o = r.options;
+  return {{"cost_Nm2", r.ls_cost_Nm2},
+          {"solver", o.solver == LsSolver::kQr ? "qr" : "svd"},
+          {"weights", o.weights == LsWeights::kJoint ? "joint" : "none"},
+          {"joint_weights", r.joint_weights},
+          {"condition_number", r.condition_number},
+          {"std_dev_correlation_lags", r.std_dev_lags},
+          {"condition_number_scaled", r.condition_number_scaled},
+          {"active_bounds", r.active_bounds}};
+}
+
+}  // namespace
+
 nlohmann::json json_report(const FitResult& r) {
   using nlohmann::json;
-  const auto& o = r.options;
   json params, details;
   json_parameters(r, params, details);
   json fit = json_rmse(r.fit);
   fit["cost_Nm2"] = r.cost_Nm2;
   json validation = json::array();
   for (const auto& v : r.validation) validation.push_back(json_rmse(v));
-  json gaps = json::array();
-  for (const auto& g : r.gaps) gaps.push_back({{"line", g.line}, {"what", g.what}});
   return {
       {"format", "host_id-result/1"},
-      {"model",
-       {{"name", o.model.name},
-        {"per_joint", o.model.per_joint},
-        {"offsets", o.model.offsets},
-        {"coulomb_smoothing_rad_s", o.model.coulomb_smoothing_rad_s},
-        {"stribeck_velocity_rad_s", o.model.stribeck_velocity_rad_s}}},
-      {"method", o.method == Method::kPso ? "pso" : "ls"},
+      {"model", json_model_options(r.options.model)},
+      {"method", r.options.method == Method::kPso ? "pso" : "ls"},
       {"doubts", r.doubts},
-      {"model_support", r.support ? json_model_selection(*r.support) : nlohmann::json(nullptr)},
+      {"model_support", r.support ? json_model_selection(*r.support) : json(nullptr)},
       {"correlation", json_correlation(r)},
-      {"geometry",
-       {{"upper_arm_length_m", r.geometry.upper_arm_length_m},
-        {"forearm_length_m", r.geometry.forearm_length_m},
-        {"base_radius_m", r.geometry.base_radius_m},
-        {"platform_radius_m", r.geometry.platform_radius_m}}},
-      {"preprocessing",
-       {{"cutoff_hz", o.prepare.cutoff_hz},
-        {"state_cutoff_hz", o.prepare.state_cutoff_hz ? nlohmann::json(*o.prepare.state_cutoff_hz)
-                                                      : nlohmann::json("auto")},
-        {"state_cutoff_hz_used", r.state_cutoff_hz},
-        {"trim_samples", o.prepare.trim_samples},
-        {"time_steps", o.prepare.time_steps == TimeSteps::kNominal    ? "nominal"
-                       : o.prepare.time_steps == TimeSteps::kAsLogged ? "as-logged"
-                                                                      : "check"},
-        {"min_speed_rad_s", r.min_speed_rad_s},
-        {"equations_used", r.equations_used},
-        {"derivatives", r.derivatives},
-        {"samples_in_log", r.samples_in_log},
-        {"segments_used", r.segments_used},
-        {"segments_dropped", r.segments_dropped},
-        {"gaps", gaps}}},
+      {"geometry", json_geometry(r.geometry)},
+      {"preprocessing", json_preprocessing(r)},
       {"parameters", params},
       {"parameter_details", details},
       {"fit", fit},
-      {"least_squares",
-       {{"cost_Nm2", r.ls_cost_Nm2},
-        {"solver", o.solver == LsSolver::kQr ? "qr" : "svd"},
-        {"weights", o.weights == LsWeights::kJoint ? "joint" : "none"},
-        {"joint_weights", r.joint_weights},
-        {"condition_number", r.condition_number},
-        {"std_dev_correlation_lags", r.std_dev_lags},
-        {"condition_number_scaled", r.condition_number_scaled},
-        {"active_bounds", r.active_bounds}}},
+      {"least_squares", json_least_squares(r)},
       {"validation", validation},
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
       {"friction_shape", json_friction_shape(r)},
       {"pso", json_pso(r)},
   };
-}
-
-SavedResult read_saved_result(const std::string& path) {
-  using nlohmann::json;
-  const json j = delta::parse_json(delta::read_whole_file(path), path);
-  const auto need = [&](const json& parent, const char* key, const char* where) -> const json& {
-    if (!parent.is_object() || !parent.contains(key)) {
-      throw delta::InputError(path + ": missing key '" + std::string(where) + key + "'");
-    }
-    return parent[key];
-  };
-  if (!j.is_object() || need(j, "format", "") != "host_id-result/1") {
-    throw delta::InputError(path +
-                            ": not a host_id result (expected \"format\": \"host_id-result/1\")");
-  }
-  SavedResult s;
-  try {
-    const json& m = need(j, "model", "");
-    s.model.name = need(m, "name", "model.").get<std::string>();
-    s.model.per_joint = need(m, "per_joint", "model.").get<bool>();
-    s.model.offsets = need(m, "offsets", "model.").get<bool>();
-    s.model.coulomb_smoothing_rad_s = need(m, "coulomb_smoothing_rad_s", "model.").get<double>();
-    // Results saved before the Stribeck term have no key: no term.
-    s.model.stribeck_velocity_rad_s = m.value("stribeck_velocity_rad_s", 0.0);
-    if (j.contains("geometry")) {
-      const json& g = j["geometry"];
-      s.geometry = delta::Geometry{need(g, "upper_arm_length_m", "geometry.").get<double>(),
-                                   need(g, "forearm_length_m", "geometry.").get<double>(),
-                                   need(g, "base_radius_m", "geometry.").get<double>(),
-                                   need(g, "platform_radius_m", "geometry.").get<double>()};
-    }
-    const json& pre = need(j, "preprocessing", "");
-    s.prepare.cutoff_hz = need(pre, "cutoff_hz", "preprocessing.").get<double>();
-    // Results saved before the state filter had its own cut-off filtered q
-    // at cutoff_hz.
-    const json state = pre.value("state_cutoff_hz", json(s.prepare.cutoff_hz));
-    if (state.is_string()) {
-      if (state.get<std::string>() != "auto") {
-        throw delta::InputError(path + ": preprocessing.state_cutoff_hz is '" +
-                                state.get<std::string>() + "', not auto or a number of Hz");
-      }
-    } else {
-      s.prepare.state_cutoff_hz = state.get<double>();
-    }
-    s.prepare.trim_samples = need(pre, "trim_samples", "preprocessing.").get<long>();
-    if (const auto it = pre.find("time_steps"); it != pre.end()) {
-      const std::string steps = it->get<std::string>();
-      if (steps != "check" && steps != "nominal" && steps != "as-logged") {
-        throw delta::InputError(path + ": preprocessing.time_steps is '" + steps +
-                                "', not check, nominal or as-logged");
-      }
-      s.prepare.time_steps = steps == "nominal"     ? TimeSteps::kNominal
-                             : steps == "as-logged" ? TimeSteps::kAsLogged
-                                                    : TimeSteps::kCheck;
-    }
-  } catch (const json::type_error& e) {
-    throw delta::InputError(path +
-                            ": a model or preprocessing value has the wrong type: " + e.what());
-  }
-  std::unique_ptr<Model> model;
-  try {
-    model = make_model(s.model);
-  } catch (const delta::InputError& e) {
-    throw delta::InputError(path + ": model: " + e.what());
-  }
-  const json& params = need(j, "parameters", "");
-  if (s.model.name == "delta" && params.is_object() && params.contains("platform_mass")) {
-    throw delta::InputError(path +
-                            ": model.name is 'delta' but the parameters are the lumped model's "
-                            "(platform_mass): a result saved before 'delta' became the "
-                            "higher-fidelity model; set model.name to 'lumped'");
-  }
-  s.beta.resize(static_cast<Eigen::Index>(model->size()));
-  for (std::size_t i = 0; i < model->size(); ++i) {
-    const std::string& name = model->parameters()[i].name;
-    const json& v = need(params, name.c_str(), "parameters.");
-    // null: not identifiable on the fitted log, absorbed by the base
-    // parameters, so 0 predicts what the fit did.
-    if (!v.is_number() && !v.is_null()) {
-      throw delta::InputError(path + ": parameters." + name + " must be a number or null");
-    }
-    s.beta(static_cast<Eigen::Index>(i)) = v.is_null() ? 0.0 : v.get<double>();
-  }
-  return s;
 }
 
 }  // namespace host_id

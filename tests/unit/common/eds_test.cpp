@@ -67,8 +67,9 @@ std::string error_of(const std::string& text) {
   return "";
 }
 
-TEST(EdsTest, ReadsIdentityObjectsTypesAccessDefaultsAndMapping) {
-  const Eds eds = parse_eds(kHeader + R"(
+// TPDO1's communication object, target torque and the device name, each
+// with what a reader must take from it (types, access, defaults, mapping).
+const char* const kTpdoTorqueAndNameObjects = R"(
 [OptionalObjects]
 SupportedObjects=3
 1=0x1800
@@ -105,8 +106,10 @@ ParameterName=Device name
 DataType=0x0009
 AccessType=const
 DefaultValue=Example drive ; a comment
-)",
-                            "drive.eds");
+)";
+
+TEST(EdsTest, ReadsIdentityObjectsTypesAccessDefaultsAndMapping) {
+  const Eds eds = parse_eds(kHeader + kTpdoTorqueAndNameObjects, "drive.eds");
   EXPECT_EQ(eds.identity.vendor_id, 0xABu);
   EXPECT_EQ(eds.identity.product_code, 1234u);
   EXPECT_EQ(eds.identity.revision, 0x00020003u);
@@ -194,11 +197,9 @@ TEST(EdsTest, MalformedFilesAreRefusedWithFileLineAndWhat) {
   EXPECT_EQ(error_of(kHeader), "");
 }
 
-// What vendors ship: their own data types (a DEFTYPE of a basic type is
-// that type; a DEFSTRUCT or a code nothing defines is kept as opaque, with
-// a note, never refused) in objects a controller may not use.
-TEST(EdsTest, ManufacturerTypesAreResolvedOrKeptOpaqueWithANote) {
-  const Eds eds = parse_eds(kHeader + R"(
+// Objects of a vendor's own data types: a DEFTYPE of a basic type, a
+// DEFSTRUCT, and a code nothing defines.
+const char* const kVendorTypedObjects = R"(
 [0040]
 ParameterName=Vendor's 32-bit type
 ObjectType=0x5
@@ -237,8 +238,13 @@ ParameterName=Diagnostics
 DataType=0x0047
 AccessType=ro
 DefaultValue=not a number
-)",
-                            "drive.eds");
+)";
+
+// What vendors ship: their own data types (a DEFTYPE of a basic type is
+// that type; a DEFSTRUCT or a code nothing defines is kept as opaque, with
+// a note, never refused) in objects a controller may not use.
+TEST(EdsTest, ManufacturerTypesAreResolvedOrKeptOpaqueWithANote) {
+  const Eds eds = parse_eds(kHeader + kVendorTypedObjects, "drive.eds");
   const EdsVariable* counter = eds.find(0x2000, 0);
   ASSERT_NE(counter, nullptr);
   EXPECT_EQ(counter->data_type, data_type::kUnsigned32);
@@ -378,8 +384,7 @@ TEST(EdsTest, TheProductsOwnEdsFilesAreValid) {
 // A complete EDS by CiA 306: every [DeviceInfo] key, every object listed in
 // its list, TPDO1 with its mapping (the error register and a dummy byte).
 // A finding's line is that of its section's first key.
-std::string complete_eds(const std::string& device_info_extra = "NrOfTXPDO=1\n") {
-  return R"([DeviceInfo]
+const char* const kCompleteDeviceInfo = R"([DeviceInfo]
 VendorName=Example
 VendorNumber=0x000000AB
 ProductName=Example drive
@@ -401,8 +406,9 @@ DynamicChannelsSupported=0
 GroupMessaging=0
 NrOfRXPDO=0
 LSS_Supported=0
-)" + device_info_extra +
-         R"(
+)";
+
+const char* const kCompleteObjects = R"(
 [DummyUsage]
 Dummy0005=1
 
@@ -492,6 +498,9 @@ DataType=0x0007
 AccessType=rw
 DefaultValue=0x00050008
 )";
+
+std::string complete_eds(const std::string& device_info_extra = "NrOfTXPDO=1\n") {
+  return kCompleteDeviceInfo + device_info_extra + kCompleteObjects;
 }
 
 // The findings of the completeness check on `text`.

@@ -66,6 +66,56 @@ struct Worst {
   int states = 0;
 };
 
+double uniform(SplitMix64& rng, double lo, double hi) {
+  return lo + (hi - lo) * rng.uniform();
+}
+
+// The joint state at the angles of a workspace check, with speeds and
+// accelerations drawn up to the limits given: in Q (sq) and the same
+// values in double (sd).
+void random_joint_state(const WorkspaceCheck<double>& ws, SplitMix64& rng, double max_speed_rad_s,
+                        double max_acceleration_rad_s2, JointStateQ& sq, JointState& sd) {
+  for (unsigned k = 0; k < 3; ++k) {
+    sq.q_rad[k] = to_q_saturated<Q3_28>(ws.theta_rad[k]);
+    sq.qd_rad_s[k] = to_q_saturated<Q10_21>(uniform(rng, -max_speed_rad_s, max_speed_rad_s));
+    sq.qdd_rad_s2[k] =
+        to_q_saturated<Q14_17>(uniform(rng, -max_acceleration_rad_s2, max_acceleration_rad_s2));
+    sd.q_rad[k] = to_double(sq.q_rad[k]);
+    sd.qd_rad_s[k] = to_double(sq.qd_rad_s[k]);
+    sd.qdd_rad_s2[k] = to_double(sq.qdd_rad_s2[k]);
+  }
+}
+
+// The velocity kinematics alone at the state's pose, in Q against double
+// (their largest differences into w); and the state with the platform's
+// position and acceleration given, as a Cartesian trajectory gives them.
+JointStateQ state_with_platform_given(const Geometry& g, const GeometryQ& gq, const JointStateQ& sq,
+                                      const JointState& sd, Worst& w) {
+  const auto fk = forward_kinematics(g, sd.q_rad);
+  const auto vk = velocity_kinematics(g, sd.q_rad, sd.qd_rad_s, fk.position_m);
+  const Vec3Q pq{to_q_saturated<Q7_24>(fk.position_m.x), to_q_saturated<Q7_24>(fk.position_m.y),
+                 to_q_saturated<Q7_24>(fk.position_m.z)};
+  const VelocityKinematicsQ vq = velocity_kinematics(gq, sq.q_rad, sq.qd_rad_s, pq);
+  EXPECT_EQ(vq.status, KinematicsStatus::kOk);
+  const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
+  for (unsigned r = 0; r < 3; ++r) {
+    for (unsigned c = 0; c < 3; ++c) {
+      w.jacobian_m = std::max(w.jacobian_m,
+                              std::abs(to_double(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
+    }
+    w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(to_double(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
+  }
+  JointStateQ given = sq;
+  given.platform_known = true;
+  given.platform_m = pq;
+  for (unsigned r = 0; r < 3; ++r) {
+    double pdd = jdq[r];
+    for (unsigned c = 0; c < 3; ++c) pdd += vk.jacobian(r, c) * sd.qdd_rad_s2[c];
+    given.platform_acceleration_m_s2[r] = to_q_saturated<Q10_21>(pdd);
+  }
+  return given;
+}
+
 // Random states: a platform position inside the workspace, its joint
 // angles, and speeds and accelerations up to the limits given; states
 // whose torques exceed max_torque_Nm (what the controller's drives could
@@ -76,25 +126,16 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
   const ModelQ m = prepare_model(gq, parameters_q(h));
   const HighFidelityParameters held = as_held(m.parameters);
   SplitMix64 rng(42);
-  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * rng.uniform(); };
   Worst w;
   const double reach = g.upper_arm_length_m + g.forearm_length_m;
   for (int tries = 0; w.states < wanted && tries < 50 * wanted; ++tries) {
-    const Vec3<double> p{uniform(-0.6, 0.6) * reach, uniform(-0.6, 0.6) * reach,
-                         uniform(-1.0, -0.2) * reach};
+    const Vec3<double> p{uniform(rng, -0.6, 0.6) * reach, uniform(rng, -0.6, 0.6) * reach,
+                         uniform(rng, -1.0, -0.2) * reach};
     const auto ws = check_workspace(g, p, WorkspaceLimits<double>{});
     if (ws.status != WorkspaceStatus::kInside) continue;
     JointStateQ sq;
     JointState sd;
-    for (unsigned k = 0; k < 3; ++k) {
-      sq.q_rad[k] = to_q_saturated<Q3_28>(ws.theta_rad[k]);
-      sq.qd_rad_s[k] = to_q_saturated<Q10_21>(uniform(-max_speed_rad_s, max_speed_rad_s));
-      sq.qdd_rad_s2[k] =
-          to_q_saturated<Q14_17>(uniform(-max_acceleration_rad_s2, max_acceleration_rad_s2));
-      sd.q_rad[k] = to_double(sq.q_rad[k]);
-      sd.qd_rad_s[k] = to_double(sq.qd_rad_s[k]);
-      sd.qdd_rad_s2[k] = to_double(sq.qdd_rad_s2[k]);
-    }
+    random_joint_state(ws, rng, max_speed_rad_s, max_acceleration_rad_s2, sq, sd);
     Joint3Q12_19 tq{};
     Joint3 td{};
     if (inverse_dynamics(g, held, sd, td) != KinematicsStatus::kOk) continue;
@@ -104,29 +145,7 @@ Worst compare(const Geometry& g, const HighFidelityParameters& h, double max_spe
     for (unsigned k = 0; k < 3; ++k) {
       w.torque_Nm = std::max(w.torque_Nm, std::abs(to_double(tq[k]) - td[k]));
     }
-    // The velocity kinematics alone, at the same pose.
-    const auto fk = forward_kinematics(g, sd.q_rad);
-    const auto vk = velocity_kinematics(g, sd.q_rad, sd.qd_rad_s, fk.position_m);
-    const Vec3Q pq{to_q_saturated<Q7_24>(fk.position_m.x), to_q_saturated<Q7_24>(fk.position_m.y),
-                   to_q_saturated<Q7_24>(fk.position_m.z)};
-    const VelocityKinematicsQ vq = velocity_kinematics(gq, sq.q_rad, sq.qd_rad_s, pq);
-    EXPECT_EQ(vq.status, KinematicsStatus::kOk);
-    const double jdq[3] = {vk.jacobian_dot_qdot.x, vk.jacobian_dot_qdot.y, vk.jacobian_dot_qdot.z};
-    for (unsigned r = 0; r < 3; ++r) {
-      for (unsigned c = 0; c < 3; ++c) {
-        w.jacobian_m = std::max(
-            w.jacobian_m, std::abs(to_double(vq.jacobian_m_per_rad[r][c]) - vk.jacobian(r, c)));
-      }
-      w.jdq_m_s2 = std::max(w.jdq_m_s2, std::abs(to_double(vq.jacobian_dot_qdot_m_s2[r]) - jdq[r]));
-    }
-    JointStateQ given = sq;
-    given.platform_known = true;
-    given.platform_m = pq;
-    for (unsigned r = 0; r < 3; ++r) {
-      double pdd = jdq[r];
-      for (unsigned c = 0; c < 3; ++c) pdd += vk.jacobian(r, c) * sd.qdd_rad_s2[c];
-      given.platform_acceleration_m_s2[r] = to_q_saturated<Q10_21>(pdd);
-    }
+    const JointStateQ given = state_with_platform_given(g, gq, sq, sd, w);
     EXPECT_EQ(model_torque(m, given, tq), KinematicsStatus::kOk);
     for (unsigned k = 0; k < 3; ++k) {
       w.given_platform_Nm = std::max(w.given_platform_Nm, std::abs(to_double(tq[k]) - td[k]));

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include "delta/fixed/math.hpp"
 
@@ -62,14 +63,14 @@ TEST(FixedMathTest, Atan2WorstErrorOverAllDirectionsAndMagnitudes) {
   double worst = 0.0;
   int cases = 0;
   for (int k = 0; k < 200000; ++k) {
-    const double angle = -3.14159265358979 + 6.28318530717958 * (k + 0.37) / 200000.0;
+    const double angle = -std::numbers::pi + 2.0 * std::numbers::pi * (k + 0.37) / 200000.0;
     for (const double radius : {3.0, 1e4, 2.1e9}) {  // small to near-int32 magnitudes
       const auto x = static_cast<std::int64_t>(std::llround(radius * std::cos(angle)));
       const auto y = static_cast<std::int64_t>(std::llround(radius * std::sin(angle)));
       if (x == 0 && y == 0) continue;
       const double got = atan2_raw(y, x).raw() / kQ28;
       double err = std::abs(got - std::atan2(static_cast<double>(y), static_cast<double>(x)));
-      err = std::min(err, std::abs(err - 6.283185307179586));  // +pi vs -pi
+      err = std::min(err, std::abs(err - 2.0 * std::numbers::pi));  // +pi vs -pi
       worst = std::max(worst, err);
       ++cases;
     }

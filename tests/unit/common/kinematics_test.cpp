@@ -3,13 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 namespace delta {
 namespace {
 
 using V = Vec3<double>;
-constexpr double kPi = 3.14159265358979323846;
 
 // The workspace grid: a box under the default robot, 1 cm spacing, filtered
 // to poses that are inside the usable workspace.
@@ -59,7 +59,7 @@ TEST(KinematicsTest, SymmetricPoseAtThirtyDegreesWorkedByHand) {
   EXPECT_NEAR(z, -0.49352044356, 1e-10);
   const auto ik = inverse_kinematics(g, V{0.0, 0.0, z});
   ASSERT_EQ(ik.status, KinematicsStatus::kOk);
-  for (double t : ik.theta_rad) EXPECT_NEAR(t, kPi / 6.0, 1e-13);
+  for (double t : ik.theta_rad) EXPECT_NEAR(t, std::numbers::pi / 6.0, 1e-13);
 }
 
 TEST(KinematicsTest, ForwardOfInverseIsIdentityOverWorkspaceGrid) {

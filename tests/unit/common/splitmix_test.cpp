@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 namespace delta {
 namespace {
@@ -51,7 +52,7 @@ TEST(SplitMix64Test, NormalsAreBoxMullerOnTheNextTwoUniforms) {
   for (int k = 0; k < 3; ++k) {
     const double u1 = u.uniform() + 0x1.0p-54;
     const double u2 = u.uniform();
-    EXPECT_EQ(n.normal(), std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2));
+    EXPECT_EQ(n.normal(), std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2));
   }
   constexpr int kSamples = 200000;
   double sum = 0.0, sum_squares = 0.0;

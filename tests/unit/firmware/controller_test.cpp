@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "delta/dynamics.hpp"
@@ -59,7 +60,7 @@ struct FakeHardware {
   std::vector<std::array<Q12_19, 3>> torque_behind_current;  // per record
   std::array<Q12_19, 3> torque_at_feedback{};
   SafetyOutputs outputs;
-  static constexpr double kEncoderStep = 6.283185307179586 / 131072.0;  // 17 bits
+  static constexpr double kEncoderStep = 2.0 * std::numbers::pi / 131072.0;  // 17 bits
 
   DriveConfigProgress configure_drives() {
     if (configure_fails) return DriveConfigProgress::kFailed;
@@ -145,6 +146,17 @@ TrajectoryConfig excitation() {
   return c;
 }
 
+// A run to its end, its tracking error measured in double from the
+// plant: the worst over every cycle, and on the trajectory (after the
+// approach) the sums of squares and the largest, as the controller's own
+// integer statistics count them.
+struct TrackingInDouble {
+  double worst{0.0};
+  int cycles{0};
+  std::array<double, 3> sum_sq{}, largest{};
+  int trajectory_ticks{0};
+};
+
 class ControllerTest : public ::testing::Test {
  protected:
   ControllerConfig config = default_config();
@@ -177,7 +189,65 @@ class ControllerTest : public ::testing::Test {
     EXPECT_FALSE(hw.outputs.status_ok);
     for (const auto& t : hw.torque) EXPECT_EQ(t.raw(), 0);
   }
+
+  // A run to its end, its tracking error measured in double from the plant.
+  TrackingInDouble run_tracking_in_double() {
+    TrackingInDouble d;
+    while (ctl.state() == State::kRunning && d.cycles < 20000) {
+      const bool on_trajectory = ctl.run_tick() >= config.approach_ticks;
+      const std::array<double, 3> q_seen = hw.plant.q;  // what this tick's feedback carries
+      tick();
+      ++d.cycles;
+      for (unsigned j = 0; j < 3; ++j) {
+        const double e = to_double(ctl.reference().q_rad[j]) - q_seen[j];
+        d.worst = std::max(d.worst, std::abs(e));
+        if (on_trajectory && ctl.state() == State::kRunning) {
+          d.sum_sq[j] += e * e;
+          d.largest[j] = std::max(d.largest[j], std::abs(e));
+        }
+      }
+      d.trajectory_ticks += on_trajectory && ctl.state() == State::kRunning;
+    }
+    return d;
+  }
+
+  // One record per control cycle, numbered without gaps; the logged torque
+  // is the torque from the measured current, which the drive produced for
+  // the previous command: current and back agree to 2e-5.
+  void expect_every_cycle_logged_with_its_torque() {
+    ASSERT_GT(hw.log_records.size(), 13000u);
+    for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
+      EXPECT_EQ(hw.log_records[i].seq, i);
+      EXPECT_FALSE(hw.log_records[i].stale);
+    }
+    EXPECT_EQ(ctl.stale_log_records(), 0u);
+    double worst_tau = 0.0;
+    for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
+      for (unsigned j = 0; j < 3; ++j) {
+        worst_tau = std::max(worst_tau, std::abs(to_double(hw.log_records[i].tau_Nm[j]) -
+                                                 to_double(hw.torque_behind_current[i][j])));
+      }
+    }
+    EXPECT_LT(worst_tau, 2e-5);
+    EXPECT_GT(std::abs(to_double(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
+  }
 };
+
+// The controller's integer tracking statistics against the same measured
+// in double.
+void expect_tracking_stats_match(const fw::TrackingStats& t, const TrackingInDouble& d) {
+  EXPECT_NEAR(static_cast<int>(t.ticks), d.trajectory_ticks, 2);
+  for (unsigned j = 0; j < 3; ++j) {
+    const double rms = std::sqrt(std::ldexp(static_cast<double>(t.sum_sq_rad2_q40[j]), -40) /
+                                 static_cast<double>(t.ticks));
+    const double rms_double = std::sqrt(d.sum_sq[j] / d.trajectory_ticks);
+    std::printf("joint %u tracking: rms %.4g rad (double from the plant %.4g), max %.4g (%.4g)\n",
+                j, rms, rms_double, to_double(t.max_abs_rad[j]), d.largest[j]);
+    EXPECT_NEAR(rms, rms_double, 0.05 * rms_double + 2e-6) << j;  // encoder quantisation apart
+    EXPECT_NEAR(to_double(t.max_abs_rad[j]), d.largest[j], 0.1 * d.largest[j] + 1e-5) << j;
+    EXPECT_GT(rms, 1e-6) << "a run without any error is not this plant";
+  }
+}
 
 TEST_F(ControllerTest, BootsConfiguresAndWaitsReadyWithDrivesOffAndBraked) {
   tick(1);
@@ -193,65 +263,17 @@ TEST_F(ControllerTest, SoftwareInTheLoopExcitationTracksAndLogsEveryCycle) {
   to_running();
   EXPECT_TRUE(hw.outputs.drive_enable);
   EXPECT_TRUE(hw.outputs.brake_release);
-  double worst = 0.0;
-  int cycles = 0;
-  // The tracking error over the trajectory (after the approach), in double
-  // from the plant, against the controller's own integer statistics.
-  std::array<double, 3> sum_sq{}, largest{};
-  int trajectory_ticks = 0;
-  while (ctl.state() == State::kRunning && cycles < 20000) {
-    const bool on_trajectory = ctl.run_tick() >= config.approach_ticks;
-    const std::array<double, 3> q_seen = hw.plant.q;  // what this tick's feedback carries
-    tick();
-    ++cycles;
-    for (unsigned j = 0; j < 3; ++j) {
-      const double e = to_double(ctl.reference().q_rad[j]) - q_seen[j];
-      worst = std::max(worst, std::abs(e));
-      if (on_trajectory && ctl.state() == State::kRunning) {
-        sum_sq[j] += e * e;
-        largest[j] = std::max(largest[j], std::abs(e));
-      }
-    }
-    trajectory_ticks += on_trajectory && ctl.state() == State::kRunning;
-  }
-  const fw::TrackingStats& t = ctl.tracking();
-  EXPECT_NEAR(static_cast<int>(t.ticks), trajectory_ticks, 2);
-  for (unsigned j = 0; j < 3; ++j) {
-    const double rms = std::sqrt(std::ldexp(static_cast<double>(t.sum_sq_rad2_q40[j]), -40) /
-                                 static_cast<double>(t.ticks));
-    const double rms_double = std::sqrt(sum_sq[j] / trajectory_ticks);
-    std::printf("joint %u tracking: rms %.4g rad (double from the plant %.4g), max %.4g (%.4g)\n",
-                j, rms, rms_double, to_double(t.max_abs_rad[j]), largest[j]);
-    EXPECT_NEAR(rms, rms_double, 0.05 * rms_double + 2e-6) << j;  // encoder quantisation apart
-    EXPECT_NEAR(to_double(t.max_abs_rad[j]), largest[j], 0.1 * largest[j] + 1e-5) << j;
-    EXPECT_GT(rms, 1e-6) << "a run without any error is not this plant";
-  }
+  const TrackingInDouble d = run_tracking_in_double();
+  expect_tracking_stats_match(ctl.tracking(), d);
   // approach (1000) + blends (2000) + 2 periods of 5 s (10000), then stopping.
   EXPECT_EQ(ctl.state(), State::kStopping);
-  EXPECT_NEAR(cycles, 13001, 2);
-  std::printf("SIL tracking error: worst %.3g rad over %d cycles\n", worst, cycles);
-  EXPECT_LT(worst, 0.01);
+  EXPECT_NEAR(d.cycles, 13001, 2);
+  std::printf("SIL tracking error: worst %.3g rad over %d cycles\n", d.worst, d.cycles);
+  EXPECT_LT(d.worst, 0.01);
   tick(static_cast<int>(config.stop_ticks) + 1);
   EXPECT_EQ(ctl.state(), State::kReady);
   EXPECT_FALSE(hw.drives_enabled);
-  // One record per control cycle, numbered without gaps.
-  ASSERT_GT(hw.log_records.size(), 13000u);
-  for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
-    EXPECT_EQ(hw.log_records[i].seq, i);
-    EXPECT_FALSE(hw.log_records[i].stale);
-  }
-  EXPECT_EQ(ctl.stale_log_records(), 0u);
-  // The logged torque is the torque from the measured current, which the
-  // drive produced for the previous command: current and back agree to 2e-5.
-  double worst_tau = 0.0;
-  for (std::size_t i = 0; i < hw.log_records.size(); ++i) {
-    for (unsigned j = 0; j < 3; ++j) {
-      worst_tau = std::max(worst_tau, std::abs(to_double(hw.log_records[i].tau_Nm[j]) -
-                                               to_double(hw.torque_behind_current[i][j])));
-    }
-  }
-  EXPECT_LT(worst_tau, 2e-5);
-  EXPECT_GT(std::abs(to_double(hw.log_records[5000].tau_Nm[0])), 0.1);  // a real torque, not zero
+  expect_every_cycle_logged_with_its_torque();
 }
 
 // The tracking statistics' integer arithmetic: errors rounded to 2^-20 rad

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <initializer_list>
+#include <numbers>
 
 #include "delta/kinematics.hpp"
 #include "delta/q_conversion.hpp"
@@ -17,8 +18,6 @@ namespace {
 using delta::to_double;
 using delta::to_q_saturated;
 using delta::fx::Q7_24;
-
-constexpr double kTwoPi = 6.283185307179586;
 
 GeometryQ default_geometry() {
   const delta::Geometry g = delta::kDefaultGeometry;
@@ -84,7 +83,7 @@ TrajectoryConfig fourier_config() {
 // The same trajectory in double: window * Fourier series.
 void fourier_double(const TrajectoryConfig& c, double t, double length_s, double out[3][3]) {
   const auto& f = c.fourier;
-  const double w0 = kTwoPi * f.base_frequency_mHz / 1000.0;
+  const double w0 = 2.0 * std::numbers::pi * f.base_frequency_mHz / 1000.0;
   const double tb = c.blend_ticks * c.tick_period_us * 1e-6;
   double w = 1, dw = 0, ddw = 0;
   const auto win = [&](double s, double sign) {

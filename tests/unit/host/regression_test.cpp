@@ -23,6 +23,61 @@ namespace {
 
 using namespace test;
 
+// `cost` equals the direct sum of squares to 1e-12 at beta0 and at 40
+// points about it, beta0 scaled by 1 + sign scale sin/cos(f (trial k + i))
+// for relative steps from 1e-9 to 0.1.
+void expect_direct_cost_about(const QuadraticCost& cost, const Regression& reg,
+                              const Eigen::VectorXd& beta0, double f, int k, bool cosine) {
+  EXPECT_NEAR(cost(beta0), direct_cost(reg, beta0), 1e-12 * direct_cost(reg, beta0));
+  for (const double scale : {1e-9, 1e-6, 1e-3, 1e-1}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::VectorXd beta = beta0;
+      for (Eigen::Index i = 0; i < beta.size(); ++i) {
+        const double x = f * static_cast<double>(trial * k + i);
+        beta(i) *= cosine ? 1.0 - scale * std::cos(x) : 1.0 + scale * std::sin(x);
+      }
+      const double direct = direct_cost(reg, beta);
+      EXPECT_NEAR(cost(beta), direct, 1e-12 * direct) << "relative step " << scale;
+    }
+  }
+}
+
+// Over a box's normalised coordinates (what PSO evaluates), the same at
+// the point u that stands for beta.
+void expect_direct_cost_over_a_box(const QuadraticCost& from_moments, const Regression& reg,
+                                   const Eigen::VectorXd& beta0) {
+  const Eigen::VectorXd upper =
+      10.0 * beta0.cwiseAbs() + Eigen::VectorXd::Constant(beta0.size(), 1e-3);
+  const Eigen::VectorXd lower = -0.5 * upper;
+  const QuadraticCost in_box = from_moments.over_box(lower, upper);
+  for (const double scale : {0.0, 1e-9, 1e-6, 1e-3, 1e-1}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      Eigen::VectorXd beta = beta0;
+      for (Eigen::Index i = 0; i < beta.size(); ++i) {
+        beta(i) *= 1.0 + scale * std::sin(0.9 * static_cast<double>(trial * 11 + i));
+      }
+      const Eigen::VectorXd u = (beta - lower).cwiseQuotient(upper - lower);
+      const double direct = direct_cost(reg, lower + u.cwiseProduct(upper - lower));
+      EXPECT_NEAR(in_box.at(u.data()), direct, 1e-12 * direct) << "relative step " << scale;
+    }
+  }
+}
+
+// Far from the optimum too: `fast` (about the optimum) to 1e-12, and the
+// cost expanded about zero to 1e-10.
+void expect_direct_cost_far_away(const QuadraticCost& fast, const Regression& reg, Eigen::Index p) {
+  const QuadraticCost about_zero(reg, Eigen::VectorXd::Zero(p));
+  Eigen::VectorXd beta = Eigen::VectorXd::Zero(p);
+  for (int trial = 0; trial < 20; ++trial) {
+    for (Eigen::Index i = 0; i < beta.size(); ++i) {
+      beta(i) = 0.1 * std::sin(1.7 * static_cast<double>(trial * 13 + i)) + 0.05;
+    }
+    const double direct = direct_cost(reg, beta);
+    EXPECT_NEAR(fast(beta), direct, 1e-12 * direct);
+    EXPECT_NEAR(about_zero(beta), direct, 1e-10 * direct);
+  }
+}
+
 // PSO compares costs to 1e-12 (its stall tolerance), so the O(p^2) cost
 // must equal the direct sum of squares that well at and near the optimum,
 // where the expansion about zero lost about 5e-9 to cancellation.
@@ -33,60 +88,14 @@ TEST(RegressionTest, QuadraticCostEqualsTheDirectSumAtAndNearTheOptimum) {
   const LeastSquaresResult ls =
       solve_least_squares(reg, *model, LsSolver::kQr, LsWeights::kNone, log.name, 0);
   const QuadraticCost fast(reg, ls.beta);
-  EXPECT_NEAR(fast(ls.beta), direct_cost(reg, ls.beta), 1e-12 * direct_cost(reg, ls.beta));
-  for (const double scale : {1e-9, 1e-6, 1e-3, 1e-1}) {
-    for (int trial = 0; trial < 10; ++trial) {
-      Eigen::VectorXd beta = ls.beta;
-      for (Eigen::Index i = 0; i < beta.size(); ++i) {
-        beta(i) *= 1.0 + scale * std::sin(1.7 * static_cast<double>(trial * 13 + i));
-      }
-      const double direct = direct_cost(reg, beta);
-      EXPECT_NEAR(fast(beta), direct, 1e-12 * direct) << "relative step " << scale;
-    }
-  }
+  expect_direct_cost_about(fast, reg, ls.beta, 1.7, 13, false);
   // From the moments the solve formed (what the fit uses: no pass over the
   // rows), the same.
   const QuadraticCost from_moments(ls.psi_t_psi, ls.psi_t_tau, ls.beta,
                                    ls.cost * static_cast<double>(reg.rows()), reg.rows());
-  EXPECT_NEAR(from_moments(ls.beta), direct_cost(reg, ls.beta), 1e-12 * direct_cost(reg, ls.beta));
-  for (const double scale : {1e-9, 1e-6, 1e-3, 1e-1}) {
-    for (int trial = 0; trial < 10; ++trial) {
-      Eigen::VectorXd beta = ls.beta;
-      for (Eigen::Index i = 0; i < beta.size(); ++i) {
-        beta(i) *= 1.0 - scale * std::cos(2.3 * static_cast<double>(trial * 7 + i));
-      }
-      const double direct = direct_cost(reg, beta);
-      EXPECT_NEAR(from_moments(beta), direct, 1e-12 * direct) << "relative step " << scale;
-    }
-  }
-  // Over a box's normalised coordinates (what PSO evaluates), the same at
-  // the point u that stands for beta.
-  const Eigen::VectorXd upper =
-      10.0 * ls.beta.cwiseAbs() + Eigen::VectorXd::Constant(ls.beta.size(), 1e-3);
-  const Eigen::VectorXd lower = -0.5 * upper;
-  const QuadraticCost in_box = from_moments.over_box(lower, upper);
-  for (const double scale : {0.0, 1e-9, 1e-6, 1e-3, 1e-1}) {
-    for (int trial = 0; trial < 10; ++trial) {
-      Eigen::VectorXd beta = ls.beta;
-      for (Eigen::Index i = 0; i < beta.size(); ++i) {
-        beta(i) *= 1.0 + scale * std::sin(0.9 * static_cast<double>(trial * 11 + i));
-      }
-      const Eigen::VectorXd u = (beta - lower).cwiseQuotient(upper - lower);
-      const double direct = direct_cost(reg, lower + u.cwiseProduct(upper - lower));
-      EXPECT_NEAR(in_box.at(u.data()), direct, 1e-12 * direct) << "relative step " << scale;
-    }
-  }
-  // Far from it (and about any point) too.
-  const QuadraticCost about_zero(reg, Eigen::VectorXd::Zero(ls.beta.size()));
-  Eigen::VectorXd beta = Eigen::VectorXd::Zero(ls.beta.size());
-  for (int trial = 0; trial < 20; ++trial) {
-    for (Eigen::Index i = 0; i < beta.size(); ++i) {
-      beta(i) = 0.1 * std::sin(1.7 * static_cast<double>(trial * 13 + i)) + 0.05;
-    }
-    const double direct = direct_cost(reg, beta);
-    EXPECT_NEAR(fast(beta), direct, 1e-12 * direct);
-    EXPECT_NEAR(about_zero(beta), direct, 1e-10 * direct);
-  }
+  expect_direct_cost_about(from_moments, reg, ls.beta, 2.3, 7, true);
+  expect_direct_cost_over_a_box(from_moments, reg, ls.beta);
+  expect_direct_cost_far_away(fast, reg, ls.beta.size());
 }
 
 // The quadratic form is unrolled for the models' usual sizes and a loop

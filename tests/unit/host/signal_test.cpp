@@ -5,16 +5,15 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <numbers>
 #include <vector>
 
 namespace host_id {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // |H(e^{jw})| of the cascade.
 double gain(const std::array<Biquad, 2>& f, double freq_hz, double fs_hz) {
-  const std::complex<double> z = std::polar(1.0, 2.0 * kPi * freq_hz / fs_hz);
+  const std::complex<double> z = std::polar(1.0, 2.0 * std::numbers::pi * freq_hz / fs_hz);
   std::complex<double> h = 1.0;
   for (const auto& s : f) {
     h *= (s.b0 + s.b1 / z + s.b2 / (z * z)) / (1.0 + s.a1 / z + s.a2 / (z * z));
@@ -36,13 +35,14 @@ TEST(SignalTest, FiltfiltKeepsSlowSignalWithoutLagAndRemovesFastOne) {
   std::vector<double> x(4000);
   for (std::size_t i = 0; i < x.size(); ++i) {
     const double t = static_cast<double>(i) / fs;
-    x[i] = 0.3 + std::sin(2 * kPi * 1.0 * t) + 0.2 * std::sin(2 * kPi * 150.0 * t);
+    x[i] = 0.3 + std::sin(2 * std::numbers::pi * 1.0 * t) +
+           0.2 * std::sin(2 * std::numbers::pi * 150.0 * t);
   }
   const auto y = filtfilt(butterworth4_lowpass(20.0, fs), x, 150);
   double worst_inside = 0.0, worst_end = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) {
     const double t = static_cast<double>(i) / fs;
-    const double e = std::abs(y[i] - 0.3 - std::sin(2 * kPi * 1.0 * t));
+    const double e = std::abs(y[i] - 0.3 - std::sin(2 * std::numbers::pi * 1.0 * t));
     double& worst = (i < 150 || i + 150 >= x.size()) ? worst_end : worst_inside;
     worst = std::max(worst, e);
   }
@@ -90,9 +90,10 @@ TEST(SignalTest, FiltfiltLanesFiltersEachSeriesInItsPlace) {
   std::vector<double> data(n * stride, -7.0);
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) / 1000.0;
-    data[k * stride + 0] = std::sin(2.0 * kPi * 0.7 * t) + 0.01 * std::sin(2.0 * kPi * 230.0 * t);
+    data[k * stride + 0] = std::sin(2.0 * std::numbers::pi * 0.7 * t) +
+                           0.01 * std::sin(2.0 * std::numbers::pi * 230.0 * t);
     data[k * stride + 1] = 0.0;
-    data[k * stride + 2] = std::cos(2.0 * kPi * 1.9 * t) + 0.3 * t;
+    data[k * stride + 2] = std::cos(2.0 * std::numbers::pi * 1.9 * t) + 0.3 * t;
   }
   const std::vector<double> start = data;
   filtfilt_lanes(filter, n, lanes, pad, [&](std::size_t k) { return &data[k * stride]; });
@@ -110,7 +111,7 @@ TEST(SignalTest, FiltfiltLanesFiltersEachSeriesInItsPlace) {
 }
 
 TEST(SignalTest, FivePointDifferencesOfASineAreFourthOrderAccurate) {
-  const double h = 1e-3, w = 2 * kPi * 2.0;
+  const double h = 1e-3, w = 2 * std::numbers::pi * 2.0;
   std::vector<double> x(1000);
   for (std::size_t i = 0; i < x.size(); ++i) x[i] = std::sin(w * static_cast<double>(i) * h);
   double e1 = 0.0, e2 = 0.0;
@@ -160,7 +161,8 @@ TEST(SignalTest, TheButterworthsGainIsItsClosedForm) {
   for (const double fc : {10.0, 20.0, 47.0, 180.0}) {
     const auto f = butterworth4_lowpass(fc, 1000.0);
     for (double freq = 0.5; freq < 500.0; freq *= 1.3) {
-      const double r = std::tan(kPi * freq / 1000.0) / std::tan(kPi * fc / 1000.0);
+      const double r =
+          std::tan(std::numbers::pi * freq / 1000.0) / std::tan(std::numbers::pi * fc / 1000.0);
       EXPECT_NEAR(std::pow(gain(f, freq, 1000.0), 2), 1.0 / (1.0 + std::pow(r, 8)), 1e-12)
           << fc << " Hz, at " << freq << " Hz";
     }
@@ -174,7 +176,7 @@ struct Motion {
 };
 
 Motion quantised(const Motion& exact) {
-  const double lsb = 2.0 * kPi / 131072.0;
+  const double lsb = 2.0 * std::numbers::pi / 131072.0;
   Motion m = exact;
   for (double& v : m.q) v = lsb * std::round(v / lsb);
   return m;
@@ -203,7 +205,7 @@ Motion slow_fourier() {
     const double t = i / 1000.0;
     double q = 0.0, qdd = 0.0;
     for (int k = 1; k <= 5; ++k) {
-      const double w = 2.0 * kPi * 0.2 * k;
+      const double w = 2.0 * std::numbers::pi * 0.2 * k;
       q += 0.3 / k * std::sin(w * t + k);
       qdd -= 0.3 / k * w * w * std::sin(w * t + k);
     }
@@ -238,7 +240,7 @@ TEST(SignalTest, TheStateCutoffFromALogsSpectrumIsNearTheBestForItsMotion) {
     const Motion noisy = quantised(exact);
     const StateCutoff c = choose_state_cutoff({{noisy.q.data(), noisy.q.size()}}, 1000.0, 10.0);
     ASSERT_TRUE(c.from_content);
-    const double lsb = 2.0 * kPi / 131072.0;
+    const double lsb = 2.0 * std::numbers::pi / 131072.0;
     EXPECT_NEAR(c.noise_rms_rad, lsb / std::sqrt(12.0), 0.15 * lsb / std::sqrt(12.0));
     double best = 1e300, best_hz = 0.0;
     for (double fc = 10.0; fc < 200.0; fc *= 1.05) {

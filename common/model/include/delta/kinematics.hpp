@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cmath>
+#include <numbers>
 
 #include "delta/geometry.hpp"
 #include "delta/kinematics_status.hpp"
@@ -51,7 +52,7 @@ constexpr Vec3<T> unit_radial(int chain) {
 
 template <class T>
 constexpr T pi() {
-  return T(3.14159265358979323846);
+  return T(std::numbers::pi);
 }
 
 }  // namespace detail

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <numbers>
 
 namespace delta {
 
@@ -26,7 +27,7 @@ class SplitMix64 {
   double normal() {
     const double u1 = uniform() + 0x1.0p-54;
     const double u2 = uniform();
-    return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
   }
   // count pairs of uniforms of 32 bits, both from one output: the first of
   // each pair (its top half over 2^32) into first[k], the second (its bottom

@@ -268,6 +268,51 @@ void report(const CycleStats& stats, bool realtime, std::ostream& out) {
   out << "\n";
 }
 
+// What runs, where and how fast, and with which feed-forward.
+void announce(const PortConfig& config, const RunOptions& options,
+              const FeedForwardSlot& feed_forward, bool realtime, std::ostream& out) {
+  out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
+      << 1000000 / config.period_us << " Hz\n";
+  if (feed_forward.startup_note().empty()) {
+    out << "delta_fw: " << describe_feed_forward(config) << "\n";
+  } else {
+    out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
+  }
+}
+
+// The control step after the cycle's exchange: the controller's step, its
+// commands sent, the controller node and the run coordinator told.
+void step(Loop& l, CycleStats& stats) {
+  const std::uint64_t step_start = monotonic_us();
+  l.controller.step();
+  l.master.send_commands();
+  stats.step_max_us =
+      std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
+  l.node.after_step(step_report(l.controller.state(), l.controller.fault(), l.controller.cycles(),
+                                l.hw.last_outputs()),
+                    monotonic_us());
+  ++stats.cycles;
+  l.coordinator.after_step(l.controller, l.hw, l.master);
+}
+
+// Stopped by a signal: a fault stays a fault; unfinished runs are not done.
+int exit_code_when_stopped(const Loop& l) {
+  return l.controller.state() == fw::State::kFault ? kExitFault
+         : l.coordinator.unfinished()              ? kExitStopped
+                                                   : kExitDone;
+}
+
+// The loop's statistics once it ended.
+void finish_stats(const Loop& l, const PortConfig& config, std::uint64_t wall_start,
+                  const CycleTimer& timer, CycleStats& stats) {
+  stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
+  stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
+  stats.late_frames = l.master.late_frames();
+  stats.stale_log_records = l.controller.stale_log_records();
+  stats.send_failures = l.sink.failures();
+  timer.summarise(stats);
+}
+
 }  // namespace
 
 int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
@@ -288,13 +333,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
     set_realtime(options.rt_priority, out);
     if (!timer.start(config.period_us, out)) return kExitCanError;
   }
-  out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
-      << 1000000 / config.period_us << " Hz\n";
-  if (feed_forward.startup_note().empty()) {
-    out << "delta_fw: " << describe_feed_forward(config) << "\n";
-  } else {
-    out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
-  }
+  announce(config, options, feed_forward, realtime, out);
   CycleStats stats;
   const std::uint64_t wall_start = monotonic_us();
   int exit_code = -1;
@@ -306,34 +345,15 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
       window_end_us = *tick_us + window_us;
     }
     exchange(l, window_end_us, config.lockstep_timeout_ms * 1000ull);
-    const std::uint64_t step_start = monotonic_us();
-    l.controller.step();
-    l.master.send_commands();
-    stats.step_max_us =
-        std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
-    l.node.after_step(step_report(l.controller.state(), l.controller.fault(), l.controller.cycles(),
-                                  l.hw.last_outputs()),
-                      monotonic_us());
-    ++stats.cycles;
-    l.coordinator.after_step(l.controller, l.hw, l.master);
+    step(l, stats);
     if (const auto code = l.coordinator.exit_code()) exit_code = *code;
     if (options.max_cycles != 0 && stats.cycles >= options.max_cycles) {
       exit_code = l.controller.state() == fw::State::kFault ? kExitFault : kExitDone;
     }
   }
-  if (exit_code < 0) {
-    // Stopped by a signal: a fault stays a fault; unfinished runs are not done.
-    exit_code = l.controller.state() == fw::State::kFault ? kExitFault
-                : l.coordinator.unfinished()              ? kExitStopped
-                                                          : kExitDone;
-  }
+  if (exit_code < 0) exit_code = exit_code_when_stopped(l);
   shut_down(l, io);
-  stats.wall_s = static_cast<double>(monotonic_us() - wall_start) * 1e-6;
-  stats.simulated_s = static_cast<double>(stats.cycles) * config.period_us * 1e-6;
-  stats.late_frames = l.master.late_frames();
-  stats.stale_log_records = l.controller.stale_log_records();
-  stats.send_failures = l.sink.failures();
-  timer.summarise(stats);
+  finish_stats(l, config, wall_start, timer, stats);
   report(stats, realtime, out);
   if (stats_out != nullptr) *stats_out = stats;
   return exit_code;

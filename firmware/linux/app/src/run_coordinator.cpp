@@ -37,61 +37,18 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
                                 const CanopenMaster& master) {
   const fw::State state = c.state();
   last_estop_open_ = hw.last_estop_open();
-  if (state != last_state_) {
-    out_ << "delta_fw: " << fw::state_name(state);
-    if (state == fw::State::kFault) {
-      out_ << ", fault " << static_cast<int>(c.fault()) << " (" << fw::fault_name(c.fault()) << ")";
-      if (!master.last_problem().empty()) out_ << ": " << master.last_problem();
-      out_ << " at cycle " << c.cycles();
-      // Newest first; one record per entry into the fault state.
-      for (std::size_t i = history_.size() - 1; i > 0; --i) history_[i] = history_[i - 1];
-      history_[0] = FaultRecord{c.fault(), c.cycles()};
-      ++fault_count_;
-      if (next_run_ < runs_.size() || running_cli_) {
-        out_ << "; the remaining command-line runs are cancelled";
-        running_cli_ = false;
-        next_run_ = runs_.size();
-      }
-    }
-    out_ << "\n";
-  }
+  if (state != last_state_) report_state_change(c, master);
   track_run(c);
 
   // The command line's runs, one after the other, from ready.
   if (state == fw::State::kReady && !run_active_) {
     if (next_run_ < runs_.size() && exit_code_ == std::nullopt) {
-      const NamedRun& run = runs_[next_run_];
-      const fw::StartResult r = c.start(run.trajectory);
-      if (!r.accepted) {
-        out_ << "delta_fw: trajectory '" << run.name << "' rejected: "
-             << (run.trajectory.checked_against(c.bounds())
-                     ? describe_check(r.check)
-                     : std::string("it was checked at start against another feed-forward (a "
-                                   "model was loaded since); start delta_fw again to run it "
-                                   "with the model in use"))
-             << "\n";
-        exit_code_ = kExitRejected;
-        return;
-      }
-      out_ << "delta_fw: running " << run.name << "\n";
-      run_name_ = run.name;
-      ++next_run_;
-      running_cli_ = true;
-      ++run_id_;
-      run_result_ = mb::RunResult::kRunning;
-      run_active_ = true;
-      seen_moving_ = false;
-      stop_commanded_ = false;
+      if (!start_command_line_run(c)) return;
     } else if (exit_when_done_ && cycles_to_exit_ < 0) {
       cycles_to_exit_ = 2;  // the disabling RPDOs go out first
     }
   }
-  if (state == fw::State::kFault && exit_when_done_ && cycles_to_exit_ < 0) {
-    cycles_to_exit_ = 10;  // keep the drives disabled and the EMCY seen
-  }
-  if (cycles_to_exit_ >= 0 && cycles_to_exit_-- == 0 && !exit_code_) {
-    exit_code_ = state == fw::State::kFault ? kExitFault : kExitDone;
-  }
+  count_down_to_exit(state);
 
   if (panel_ != nullptr) {
     panel_->serve([&](const PanelCommand& command) { return handle(c, command); },
@@ -99,6 +56,61 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
     panel_->publish(status(c, hw));
   }
   last_state_ = state;
+}
+
+void RunCoordinator::report_state_change(const Controller& c, const CanopenMaster& master) {
+  const fw::State state = c.state();
+  out_ << "delta_fw: " << fw::state_name(state);
+  if (state == fw::State::kFault) {
+    out_ << ", fault " << static_cast<int>(c.fault()) << " (" << fw::fault_name(c.fault()) << ")";
+    if (!master.last_problem().empty()) out_ << ": " << master.last_problem();
+    out_ << " at cycle " << c.cycles();
+    // Newest first; one record per entry into the fault state.
+    for (std::size_t i = history_.size() - 1; i > 0; --i) history_[i] = history_[i - 1];
+    history_[0] = FaultRecord{c.fault(), c.cycles()};
+    ++fault_count_;
+    if (next_run_ < runs_.size() || running_cli_) {
+      out_ << "; the remaining command-line runs are cancelled";
+      running_cli_ = false;
+      next_run_ = runs_.size();
+    }
+  }
+  out_ << "\n";
+}
+
+bool RunCoordinator::start_command_line_run(Controller& c) {
+  const NamedRun& run = runs_[next_run_];
+  const fw::StartResult r = c.start(run.trajectory);
+  if (!r.accepted) {
+    out_ << "delta_fw: trajectory '" << run.name << "' rejected: "
+         << (run.trajectory.checked_against(c.bounds())
+                 ? describe_check(r.check)
+                 : std::string("it was checked at start against another feed-forward (a "
+                               "model was loaded since); start delta_fw again to run it "
+                               "with the model in use"))
+         << "\n";
+    exit_code_ = kExitRejected;
+    return false;
+  }
+  out_ << "delta_fw: running " << run.name << "\n";
+  run_name_ = run.name;
+  ++next_run_;
+  running_cli_ = true;
+  ++run_id_;
+  run_result_ = mb::RunResult::kRunning;
+  run_active_ = true;
+  seen_moving_ = false;
+  stop_commanded_ = false;
+  return true;
+}
+
+void RunCoordinator::count_down_to_exit(fw::State state) {
+  if (state == fw::State::kFault && exit_when_done_ && cycles_to_exit_ < 0) {
+    cycles_to_exit_ = 10;  // keep the drives disabled and the EMCY seen
+  }
+  if (cycles_to_exit_ >= 0 && cycles_to_exit_-- == 0 && !exit_code_) {
+    exit_code_ = state == fw::State::kFault ? kExitFault : kExitDone;
+  }
 }
 
 void RunCoordinator::track_run(const Controller& c) {

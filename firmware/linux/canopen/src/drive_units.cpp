@@ -1,6 +1,7 @@
 #include "fw_linux/drive_units.hpp"
 
 #include <cmath>
+#include <numbers>
 
 #include "delta/fixed/q.hpp"
 
@@ -33,7 +34,7 @@ std::int64_t mul_div_round(std::int64_t a, std::int64_t b, std::int64_t c) {
 DriveUnits::DriveUnits(const delta::DriveModel& model, std::uint32_t rated_current_mA,
                        std::uint32_t rated_torque_mNm, TorqueUnit torque_unit)
     : rad_per_count_q60_(std::llround(
-          std::ldexp(2.0 * 3.141592653589793238 / (model.counts_per_rev * model.gear_ratio), 60))),
+          std::ldexp(2.0 * std::numbers::pi / (model.counts_per_rev * model.gear_ratio), 60))),
       zero_q28_(std::llround(std::ldexp(model.joint_zero_rad, 28))),
       counts_per_joint_rev_(std::llround(model.counts_per_rev * model.gear_ratio)),
       inverted_(model.inverted),

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <iterator>
+#include <numbers>
 
 #include "delta/controller/vocabulary.hpp"
 #include "delta/custom_trajectory_block.hpp"
@@ -100,7 +101,7 @@ fw::TrajectoryConfig fourier_config(const delta::BlendedFourierTrajectory& t,
   c.fourier.harmonics = static_cast<std::uint8_t>(harmonics);
   c.fourier.periods = t.periods;
   const double scale = scale_permille / 1000.0;
-  const double w = 2.0 * 3.141592653589793 * f.base_frequency_hz;
+  const double w = 2.0 * std::numbers::pi * f.base_frequency_hz;
   for (unsigned j = 0; j < 3; ++j) {
     c.fourier.q0_rad[j] = to_q<Q3_28>(f.q0_rad[j], "q0");
     for (std::size_t k = 0; k < harmonics; ++k) {

@@ -266,12 +266,12 @@ std::string text_selection(const ModelSelection& s) {
 }
 
 // The first result is the primary model's: --out and --plot save it, and
-// the JSON is its report, with the others under "other_models".
+// the JSON is its report, with the others under "other_models". --model
+// auto's choice is in its "model_support", as every fit's judgement is.
 void write_outputs(const FitArguments& a, const std::vector<FitResult>& results,
                    std::ostream& out) {
   const FitResult& r = results.front();
   nlohmann::json j = json_report(r);
-  if (a.selection) j["model_selection"] = json_model_selection(*a.selection);
   if (results.size() > 1) {
     j["other_models"] = nlohmann::json::array();
     for (std::size_t i = 1; i < results.size(); ++i) {
@@ -410,34 +410,36 @@ int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err)
   return 0;
 }
 
-int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
-  // --model auto unless told: --per-joint, --offsets, a payload or a torque
-  // calibration name their model, delta.
+// --model auto unless told: --per-joint, --offsets, a payload or a torque
+// calibration name their model, delta.
+void name_the_model_where_implied(FitArguments& a) {
   if (a.model_given->count() == 0 && (a.fit.model.per_joint || a.fit.model.offsets ||
                                       !a.calibrate_path.empty() || !a.base_path.empty())) {
     a.models = {"delta"};
   }
-  if (!a.calibrate_path.empty()) {
-    if (a.models.size() > 1 || a.models.front() == "auto" || !a.validate.empty() ||
-        !a.plot_path.empty() || !a.truth_path.empty() || !a.base_path.empty()) {
-      throw UsageError(
-          "--calibrate-torque: one model (delta or lumped); not with --validate, --plot, "
-          "--truth or --base");
-    }
-    return run_calibration(a, out, err);
+}
+
+void check_calibration_arguments(const FitArguments& a) {
+  if (a.models.size() > 1 || a.models.front() == "auto" || !a.validate.empty() ||
+      !a.plot_path.empty() || !a.truth_path.empty() || !a.base_path.empty()) {
+    throw UsageError(
+        "--calibrate-torque: one model (delta or lumped); not with --validate, --plot, "
+        "--truth or --base");
   }
-  if (a.payload_mass_kg > 0.0) {
-    throw UsageError("--payload-mass goes with --calibrate-torque LOADED.csv");
+}
+
+void check_payload_arguments(const FitArguments& a) {
+  if (a.models.size() > 1 || a.models.front() != "delta" || !a.validate.empty() ||
+      !a.plot_path.empty() || !a.truth_path.empty()) {
+    throw UsageError(
+        "--base: the model is the base fit's; not with --model, --validate, "
+        "--plot or --truth");
   }
-  if (!a.base_path.empty()) {
-    if (a.models.size() > 1 || a.models.front() != "delta" || !a.validate.empty() ||
-        !a.plot_path.empty() || !a.truth_path.empty()) {
-      throw UsageError(
-          "--base: the model is the base fit's; not with --model, --validate, "
-          "--plot or --truth");
-    }
-    return run_payload(a, out, err);
-  }
+}
+
+// Whether --model auto was asked for (alone, and deciding --per-joint and
+// --offsets itself); its first fit is of the delta model's shared arms.
+bool take_model_auto(FitArguments& a) {
   const bool automatic = a.models.front() == "auto";
   if (automatic && a.models.size() > 1) {
     throw UsageError("--model auto: not with other --model values");
@@ -446,6 +448,97 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
     throw UsageError("--model auto decides --per-joint and --offsets itself");
   }
   if (automatic) a.models.front() = "delta";
+  return automatic;
+}
+
+// What a fit reads before doing any work, so a bad validation log fails
+// fast: the log, the validation logs and the --truth robot, their
+// geometries checked and their warnings printed.
+struct FitInputs {
+  DeltaLog log;
+  std::vector<DeltaLog> validation_logs;
+  std::optional<delta::RobotDescription> robot;
+};
+
+FitInputs read_fit_inputs(const FitArguments& a, const FitOptions& f, std::ostream& err) {
+  FitInputs in;
+  in.log = read_delta_log(a.log);
+  for (const auto& v : a.validate) in.validation_logs.push_back(read_delta_log(v));
+  warn_about_log(err, in.log, f.prepare.time_steps);
+  for (const DeltaLog& l : in.validation_logs) warn_about_log(err, l, f.prepare.time_steps);
+  if (!a.truth_path.empty()) in.robot = delta::read_robot_description(a.truth_path);
+  for (std::size_t i = 0; i < in.validation_logs.size(); ++i) {
+    check_geometry(a.validate[i], in.validation_logs[i].geometry, "the fitted " + a.log,
+                   in.log.geometry, a.allow_other_geometry, err);
+  }
+  if (in.robot) {
+    check_geometry(a.log, in.log.geometry, "the robot of --truth " + a.truth_path,
+                   in.robot->geometry, a.allow_other_geometry, err);
+  }
+  return in;
+}
+
+// --model auto: the shared arms' fit judges the variants on its own rows;
+// another variant the log supports is fitted from the file again.
+std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInputs& in,
+                                          std::ostream& err) {
+  std::vector<FitResult> results;
+  results.push_back(
+      fit_log(std::move(in.log), f, pointers(in.validation_logs), !a.plot_path.empty()));
+  a.selection = results.back().support;
+  if (!a.selection) {
+    err << a.log << ": warning: --model auto: " << results.back().fit.samples
+        << " samples are too few to judge the model's variants on " << kSupportFolds
+        << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
+  }
+  if (a.selection && a.selection->chosen != variant_index(f.model)) {
+    f.model = a.selection->variants[a.selection->chosen].model;
+    results.back() =
+        fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());
+  }
+  if (in.robot) results.back().truth = parameter_truth(f.model, *in.robot);
+  return results;
+}
+
+// Each --model given, fitted on the same log; the first is plotted.
+std::vector<FitResult> fit_each_model(const FitArguments& a, const FitOptions& f, FitInputs& in) {
+  std::vector<FitResult> results;
+  for (std::size_t i = 0; i < a.models.size(); ++i) {
+    const FitOptions fi = i == 0 ? f : options_for_model(f, a.models[i]);
+    const bool last = i + 1 == a.models.size();
+    // The last fit takes the log itself (a long log's memory); the others a copy.
+    results.push_back(fit_log(last ? std::move(in.log) : in.log, fi, pointers(in.validation_logs),
+                              i == 0 && !a.plot_path.empty()));
+    if (in.robot) results.back().truth = parameter_truth(fi.model, *in.robot);
+  }
+  return results;
+}
+
+// A doubtful result is written, and said so on stderr as well as in it.
+void warn_about_doubts(const FitArguments& a, const std::vector<FitResult>& results,
+                       std::ostream& err) {
+  for (const FitResult& r : results) {
+    for (const std::string& d : r.doubts) {
+      err << a.log << ": warning: the " << r.options.model.name << " fit is doubtful: " << d
+          << "\n";
+    }
+  }
+}
+
+int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  name_the_model_where_implied(a);
+  if (!a.calibrate_path.empty()) {
+    check_calibration_arguments(a);
+    return run_calibration(a, out, err);
+  }
+  if (a.payload_mass_kg > 0.0) {
+    throw UsageError("--payload-mass goes with --calibrate-torque LOADED.csv");
+  }
+  if (!a.base_path.empty()) {
+    check_payload_arguments(a);
+    return run_payload(a, out, err);
+  }
+  const bool automatic = take_model_auto(a);
   FitOptions f = fit_options(a);
   ProgressBar bar("pso", a.quiet || f.method != Method::kPso);
   f.pso.progress = [&bar](std::size_t it, std::size_t max, double c) {
@@ -454,58 +547,11 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
     bar.show(it, max, cost);
   };
   f.pso.progress_every = 200;
-
-  // Read every input before doing any work, so a bad validation log fails fast.
-  DeltaLog log = read_delta_log(a.log);
-  std::vector<DeltaLog> validation_logs;
-  for (const auto& v : a.validate) validation_logs.push_back(read_delta_log(v));
-  warn_about_log(err, log, f.prepare.time_steps);
-  for (const DeltaLog& l : validation_logs) warn_about_log(err, l, f.prepare.time_steps);
-  const std::optional<delta::RobotDescription> robot =
-      a.truth_path.empty() ? std::nullopt
-                           : std::optional(delta::read_robot_description(a.truth_path));
-  for (std::size_t i = 0; i < validation_logs.size(); ++i) {
-    check_geometry(a.validate[i], validation_logs[i].geometry, "the fitted " + a.log, log.geometry,
-                   a.allow_other_geometry, err);
-  }
-  if (robot) {
-    check_geometry(a.log, log.geometry, "the robot of --truth " + a.truth_path, robot->geometry,
-                   a.allow_other_geometry, err);
-  }
-  std::vector<FitResult> results;
-  if (automatic) {
-    // The shared arms' fit judges the variants on its own rows; another
-    // variant the log supports is fitted from the file again.
-    results.push_back(fit_log(std::move(log), f, pointers(validation_logs), !a.plot_path.empty()));
-    a.selection = results.back().support;
-    if (!a.selection) {
-      err << a.log << ": warning: --model auto: " << results.back().fit.samples
-          << " samples are too few to judge the model's variants on " << kSupportFolds
-          << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
-    }
-    if (a.selection && a.selection->chosen != variant_index(f.model)) {
-      f.model = a.selection->variants[a.selection->chosen].model;
-      results.back() =
-          fit_log(read_delta_log(a.log), f, pointers(validation_logs), !a.plot_path.empty());
-    }
-    if (robot) results.back().truth = parameter_truth(f.model, *robot);
-  }
-  for (std::size_t i = 0; i < a.models.size() && !automatic; ++i) {
-    const FitOptions fi = i == 0 ? f : options_for_model(f, a.models[i]);
-    const bool last = i + 1 == a.models.size();
-    // The last fit takes the log itself (a long log's memory); the others a copy.
-    results.push_back(fit_log(last ? std::move(log) : log, fi, pointers(validation_logs),
-                              i == 0 && !a.plot_path.empty()));
-    if (robot) results.back().truth = parameter_truth(fi.model, *robot);
-  }
+  FitInputs in = read_fit_inputs(a, f, err);
+  const std::vector<FitResult> results =
+      automatic ? fit_chosen_variant(a, f, in, err) : fit_each_model(a, f, in);
   bar.finish();
-  // A doubtful result is written, and said so on stderr as well as in it.
-  for (const FitResult& r : results) {
-    for (const std::string& d : r.doubts) {
-      err << a.log << ": warning: the " << r.options.model.name << " fit is doubtful: " << d
-          << "\n";
-    }
-  }
+  warn_about_doubts(a, results, err);
   write_outputs(a, results, out);
   return 0;
 }

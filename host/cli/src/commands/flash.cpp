@@ -13,6 +13,47 @@
 
 namespace host_id {
 
+namespace {
+
+// The flash's outcome: as JSON (--json) or one line.
+void print_flashed(const FlashOptions& o, const FlashReport& r, bool json, std::ostream& out) {
+  if (json) {
+    out << nlohmann::json{{"image", o.image},
+                          {"node", o.node},
+                          {"version", delta::update::version_text(r.flashed)},
+                          {"was", delta::update::version_text(r.running_before)},
+                          {"confirmed", true},
+                          {"bytes", r.bytes},
+                          {"seconds", r.seconds},
+                          {"frames_sent", r.frames_sent}}
+               .dump(2)
+        << "\n";
+    return;
+  }
+  char rate[64];
+  std::snprintf(rate, sizeof rate, "%.2f s, %.1f kB/s", r.seconds,
+                r.seconds > 0 ? static_cast<double>(r.bytes) / 1024.0 / r.seconds : 0.0);
+  out << "flashed " << o.image << ": node " << o.node << " runs version "
+      << delta::update::version_text(r.flashed) << " (was "
+      << delta::update::version_text(r.running_before) << "), confirmed; " << r.bytes
+      << " bytes in " << rate << ", " << r.frames_sent << " frames sent\n";
+}
+
+// The exit status: 0 flashed, else the failure's (the flash error's line
+// on stderr).
+int run_flash(const FlashOptions& o, bool json, CommandContext& context) {
+  try {
+    const FlashReport r = flash_image(o, context.err);
+    print_flashed(o, r, json, context.out);
+    return 0;
+  } catch (const FlashError& e) {
+    context.err << "host_id flash: error: " << e.message << "\n";
+    return e.exit_code;
+  }
+}
+
+}  // namespace
+
 void add_flash_command(CLI::App& command, CommandContext& context) {
   auto o = std::make_shared<FlashOptions>();
   CLI::App* c = &command;
@@ -46,36 +87,7 @@ void add_flash_command(CLI::App& command, CommandContext& context) {
   auto json = std::make_shared<bool>(false);
   c->add_flag("--quiet", o->quiet, "no progress and no step lines (warnings and errors stay)");
   c->add_flag("--json", *json, "the outcome as JSON on stdout");
-  c->callback([o, json, &context] {
-    try {
-      const FlashReport r = flash_image(*o, context.err);
-      if (*json) {
-        context.out << nlohmann::json{{"image", o->image},
-                                      {"node", o->node},
-                                      {"version", delta::update::version_text(r.flashed)},
-                                      {"was", delta::update::version_text(r.running_before)},
-                                      {"confirmed", true},
-                                      {"bytes", r.bytes},
-                                      {"seconds", r.seconds},
-                                      {"frames_sent", r.frames_sent}}
-                           .dump(2)
-                    << "\n";
-        context.exit_code = 0;
-        return;
-      }
-      char rate[64];
-      std::snprintf(rate, sizeof rate, "%.2f s, %.1f kB/s", r.seconds,
-                    r.seconds > 0 ? static_cast<double>(r.bytes) / 1024.0 / r.seconds : 0.0);
-      context.out << "flashed " << o->image << ": node " << o->node << " runs version "
-                  << delta::update::version_text(r.flashed) << " (was "
-                  << delta::update::version_text(r.running_before) << "), confirmed; " << r.bytes
-                  << " bytes in " << rate << ", " << r.frames_sent << " frames sent\n";
-      context.exit_code = 0;
-    } catch (const FlashError& e) {
-      context.err << "host_id flash: error: " << e.message << "\n";
-      context.exit_code = e.exit_code;
-    }
-  });
+  c->callback([o, json, &context] { context.exit_code = run_flash(*o, *json, context); });
 }
 
 }  // namespace host_id

@@ -45,22 +45,55 @@ auto as_usage(F f) {
   }
 }
 
+// What `sdo write` sends: the file's bytes, or the VALUE encoded as --type.
+std::vector<std::uint8_t> bytes_to_write(const SdoOptions& o) {
+  if (!o.file.empty() == !o.value.empty()) {
+    throw UsageError("sdo write: give a VALUE (with --type) or --file, one of them");
+  }
+  if (!o.file.empty()) {
+    std::ifstream in(o.file, std::ios::binary);
+    if (!in) throw delta::InputError("sdo write: " + o.file + ": cannot open");
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  }
+  if (o.type == "auto") throw UsageError("sdo write: --type is needed with a VALUE");
+  return as_usage([&] { return encode_value(o.type, o.value); });
+}
+
+// A transfer that succeeded: the value read (or, with --json, the
+// transfer as JSON) on stdout, and the transfer's size and speed on stderr
+// unless --quiet.
+void print_transfer(const SdoOptions& o, const Multiplexer& m, bool write,
+                    const std::vector<std::uint8_t>& bytes, const delta::can::SdoOutcome& outcome,
+                    CommandContext& context) {
+  const double seconds = static_cast<double>(outcome.elapsed_us) * 1e-6;
+  if (o.json) {
+    char object[16];
+    std::snprintf(object, sizeof object, "0x%04X:%02X", m.index, m.subindex);
+    nlohmann::json j{
+        {"node", o.node},     {"object", object},
+        {"written", write},   {"bytes", outcome.bytes},
+        {"seconds", seconds}, {"frames", outcome.frames_sent + outcome.frames_received}};
+    if (!write && o.file.empty()) j["value"] = decode_value(o.type, bytes);
+    if (!o.file.empty()) j["file"] = o.file;
+    context.out << j.dump(2) << "\n";
+    return;
+  }
+  if (!write && o.file.empty()) context.out << decode_value(o.type, bytes) << "\n";
+  if (o.quiet) return;
+  context.err << "host_id: " << outcome.bytes << " bytes " << (write ? "written" : "read") << " in "
+              << outcome.frames_sent + outcome.frames_received << " frames, " << seconds << " s";
+  if (outcome.bytes >= 1024 && seconds > 0) {
+    context.err << " (" << static_cast<double>(outcome.bytes) / seconds / 1024.0 << " kB/s)";
+  }
+  context.err << "\n";
+}
+
 void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
   const Multiplexer m = as_usage([&] { return parse_object(o.object); });
   if (o.node < 1 || o.node > 127) throw UsageError("sdo: --node must be from 1 to 127");
   std::vector<std::uint8_t> bytes;
   if (write) {
-    if (!o.file.empty() == !o.value.empty()) {
-      throw UsageError("sdo write: give a VALUE (with --type) or --file, one of them");
-    }
-    if (!o.file.empty()) {
-      std::ifstream in(o.file, std::ios::binary);
-      if (!in) throw delta::InputError("sdo write: " + o.file + ": cannot open");
-      bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    } else {
-      if (o.type == "auto") throw UsageError("sdo write: --type is needed with a VALUE");
-      bytes = as_usage([&] { return encode_value(o.type, o.value); });
-    }
+    bytes = bytes_to_write(o);
   } else if (o.type != "auto") {
     as_usage([&] {
       check_value_type(o.type);
@@ -80,34 +113,10 @@ void run_sdo(const SdoOptions& o, bool write, CommandContext& context) {
     context.exit_code = outcome.by_server ? kExitSdoAborted : kExitNoAnswer;
     return;
   }
-  const double seconds = static_cast<double>(outcome.elapsed_us) * 1e-6;
   if (!write && !o.file.empty()) {
     delta::write_file_atomically(o.file, std::string(bytes.begin(), bytes.end()));
   }
-  if (o.json) {
-    char object[16];
-    std::snprintf(object, sizeof object, "0x%04X:%02X", m.index, m.subindex);
-    nlohmann::json j{
-        {"node", o.node},     {"object", object},
-        {"written", write},   {"bytes", outcome.bytes},
-        {"seconds", seconds}, {"frames", outcome.frames_sent + outcome.frames_received}};
-    if (!write && o.file.empty()) j["value"] = decode_value(o.type, bytes);
-    if (!o.file.empty()) j["file"] = o.file;
-    context.out << j.dump(2) << "\n";
-    context.exit_code = 0;
-    return;
-  }
-  if (!write && o.file.empty()) context.out << decode_value(o.type, bytes) << "\n";
-  if (o.quiet) {
-    context.exit_code = 0;
-    return;
-  }
-  context.err << "host_id: " << outcome.bytes << " bytes " << (write ? "written" : "read") << " in "
-              << outcome.frames_sent + outcome.frames_received << " frames, " << seconds << " s";
-  if (outcome.bytes >= 1024 && seconds > 0) {
-    context.err << " (" << static_cast<double>(outcome.bytes) / seconds / 1024.0 << " kB/s)";
-  }
-  context.err << "\n";
+  print_transfer(o, m, write, bytes, outcome, context);
   context.exit_code = 0;
 }
 

@@ -88,6 +88,65 @@ void check_limits(const SimulateArguments& a, const delta::BlendedFourierTraject
   err << "host_id simulate: warning: " << what << "; simulated as --ignore-limits asks\n";
 }
 
+// The simulation the options ask for: a trajectory file, a robot, the
+// plant, --params; a file outside the controller's limits is refused
+// (check_limits).
+SimulateOptions simulate_options(const SimulateArguments& a, std::ostream& err) {
+  SimulateOptions s = a.simulate;
+  if (!a.trajectory_file.empty()) {
+    if (a.trajectory_given->count() > 0) {
+      throw UsageError("--trajectory-file: not with --trajectory");
+    }
+    s.trajectory_file = delta::read_trajectory_file(a.trajectory_file);
+    s.trajectory = "file";
+    if (s.name.empty()) s.name = a.trajectory_file;
+    if (a.duration_given->count() == 0) s.duration_s = s.trajectory_file->duration_s();
+  }
+  if (!a.robot_path.empty()) {
+    s.robot = delta::read_robot_description(a.robot_path);
+    s.geometry = s.robot.geometry;
+    s.parameters = delta::lumped_truth(s.robot);
+  }
+  if (a.plant == "mujoco") {
+    if (!a.params_path.empty()) throw UsageError("--params: only with --plant lumped");
+    s.plant = SimulatedPlant::kMujoco;
+  }
+  if (!a.params_path.empty()) s.parameters = delta::read_lumped_parameters(a.params_path);
+  if (s.trajectory_file) check_limits(a, *s.trajectory_file, s.robot, err);
+  return s;
+}
+
+// What was written: a JSON summary (--json) or one line.
+void print_simulated(const SimulateArguments& a, const SimulateOptions& s, const DeltaLog& log,
+                     std::ostream& out) {
+  if (a.json) {
+    out << nlohmann::json{{"out", a.out_path},
+                          {"samples", log.size()},
+                          {"trajectory", s.trajectory},
+                          {"plant", a.plant},
+                          {"duration_s", s.duration_s},
+                          {"sample_rate_hz", s.sample_rate_hz},
+                          {"torque_noise", s.torque_noise},
+                          {"encoder_bits", s.encoder_bits}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << "host_id simulate: wrote " << a.out_path << " (" << log.size() << " samples, "
+        << s.trajectory << ")\n";
+  }
+}
+
+int run_simulate(const SimulateArguments& a, CommandContext& context) {
+  SimulateOptions s = simulate_options(a, context.err);
+  ProgressBar bar("simulate", a.quiet || a.json);
+  s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
+  const DeltaLog log = simulate_log(s);
+  bar.finish();
+  write_delta_log_atomically(a.out_path, log);
+  print_simulated(a, s, log, context.out);
+  return 0;
+}
+
 }  // namespace
 
 void add_simulate_command(CLI::App& command, CommandContext& context) {
@@ -121,50 +180,7 @@ void add_simulate_command(CLI::App& command, CommandContext& context) {
   c->add_flag("--json", a->json, "print a JSON summary instead of text (no progress bar)");
   a->duration_given = c->get_option("--duration");
   a->trajectory_given = c->get_option("--trajectory");
-  c->callback([a, &context] {
-    SimulateOptions s = a->simulate;
-    if (!a->trajectory_file.empty()) {
-      if (a->trajectory_given->count() > 0) {
-        throw UsageError("--trajectory-file: not with --trajectory");
-      }
-      s.trajectory_file = delta::read_trajectory_file(a->trajectory_file);
-      s.trajectory = "file";
-      if (s.name.empty()) s.name = a->trajectory_file;
-      if (a->duration_given->count() == 0) s.duration_s = s.trajectory_file->duration_s();
-    }
-    if (!a->robot_path.empty()) {
-      s.robot = delta::read_robot_description(a->robot_path);
-      s.geometry = s.robot.geometry;
-      s.parameters = delta::lumped_truth(s.robot);
-    }
-    if (a->plant == "mujoco") {
-      if (!a->params_path.empty()) throw UsageError("--params: only with --plant lumped");
-      s.plant = SimulatedPlant::kMujoco;
-    }
-    if (!a->params_path.empty()) s.parameters = delta::read_lumped_parameters(a->params_path);
-    if (s.trajectory_file) check_limits(*a, *s.trajectory_file, s.robot, context.err);
-    ProgressBar bar("simulate", a->quiet || a->json);
-    s.progress = [&bar](std::size_t done, std::size_t total) { bar.show(done, total, "samples"); };
-    const DeltaLog log = simulate_log(s);
-    bar.finish();
-    write_delta_log_atomically(a->out_path, log);
-    if (a->json) {
-      context.out << nlohmann::json{{"out", a->out_path},
-                                    {"samples", log.size()},
-                                    {"trajectory", s.trajectory},
-                                    {"plant", a->plant},
-                                    {"duration_s", s.duration_s},
-                                    {"sample_rate_hz", s.sample_rate_hz},
-                                    {"torque_noise", s.torque_noise},
-                                    {"encoder_bits", s.encoder_bits}}
-                         .dump(2)
-                  << "\n";
-    } else {
-      context.out << "host_id simulate: wrote " << a->out_path << " (" << log.size() << " samples, "
-                  << s.trajectory << ")\n";
-    }
-    context.exit_code = 0;
-  });
+  c->callback([a, &context] { context.exit_code = run_simulate(*a, context); });
 }
 
 }  // namespace host_id

@@ -13,8 +13,10 @@ namespace host_id {
 
 std::string text_report(const FitResult& r);
 nlohmann::json json_report(const FitResult& r);
-// The variants' held-out errors and the choice (--model auto's selection,
-// and every fit's "model_support").
+// The variants' held-out errors and the choice: every fit's "model_support"
+// (--model auto chooses by it; results saved by an earlier host_id with
+// --model auto also have a copy under "model_selection", which no reader
+// needs).
 nlohmann::json json_model_selection(const ModelSelection& s);
 
 // A saved result, as read back by `host_id validate`.

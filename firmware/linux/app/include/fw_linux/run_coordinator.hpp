@@ -47,6 +47,15 @@ class RunCoordinator {
 
  private:
   CommandVerdict handle(Controller& controller, const PanelCommand& command);
+  // The state's line on out, and a fault's record in the history (which
+  // cancels the command line's remaining runs).
+  void report_state_change(const Controller& controller, const CanopenMaster& master);
+  // The next command-line run started; false (and the exit code set) when
+  // the controller refuses it.
+  bool start_command_line_run(Controller& controller);
+  // With exit_when_done: the exit code a few cycles after the last run
+  // ended or the controller faulted.
+  void count_down_to_exit(fw::State state);
   void track_run(const Controller& controller);
   void print_tracking(const fw::TrackingStats& tracking);
   PanelStatus status(const Controller& controller, const LinuxHardware& hw) const;

@@ -74,6 +74,14 @@ class RegisterBank {
   bool serve(_modbus* ctx, const std::uint8_t* request, int length, int header);
   bool write(_modbus* ctx, const std::uint8_t* request, std::uint16_t first,
              const std::uint16_t* values, unsigned count);
+  // Every register of a write taken into next, or the first rejection
+  // (its address in refused_at); nothing changes yet.
+  delta::modbus::Rejection take_all(Settings& next, delta::modbus::Command& command,
+                                    std::uint16_t first, const std::uint16_t* values,
+                                    unsigned count, std::uint16_t& refused_at) const;
+  // A written command handed to the control loop, and its verdict answered.
+  bool submit(_modbus* ctx, const std::uint8_t* request, delta::modbus::Command command,
+              const PanelStatus& status);
   bool refuse(_modbus* ctx, const std::uint8_t* request, delta::modbus::Rejection why,
               std::uint16_t address, const fw::TrajectoryCheck& check = {});
   // What a trajectory is checked against: the controller's bounds with the

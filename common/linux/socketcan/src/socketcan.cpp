@@ -24,14 +24,8 @@ std::string errno_text(int e) {
   return std::strerror(e);
 }
 
-}  // namespace
-
-Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters,
-                    int receive_buffer_bytes) {
-  if (iface.empty() || iface.size() >= IFNAMSIZ) {
-    throw CanError("CAN interface name '" + iface + "' is empty or longer than " +
-                   std::to_string(IFNAMSIZ - 1) + " characters");
-  }
+// A raw CAN socket, non-blocking; a kernel without CAN is told how to get it.
+int open_raw_socket() {
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd < 0) {
     const int e = errno;
@@ -41,7 +35,10 @@ Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters
     }
     throw CanError("cannot open a CAN socket: " + errno_text(e));
   }
-  Socket s(fd, iface);
+  return fd;
+}
+
+int interface_index(int fd, const std::string& iface) {
   ifreq ifr{};
   std::memcpy(ifr.ifr_name, iface.c_str(), iface.size() + 1);
   if (::ioctl(fd, SIOCGIFINDEX, &ifr) < 0) {
@@ -50,23 +47,33 @@ Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters
                        ? "CAN interface '" + iface + "' does not exist (ip link show " + iface + ")"
                        : "CAN interface '" + iface + "': " + errno_text(e));
   }
+  return ifr.ifr_ifindex;
+}
+
+// The frames to receive: every error frame, and those the filters pass
+// (all where there are none).
+void set_filters(int fd, const std::string& iface, const std::vector<Filter>& filters) {
   // Error frames: all classes.
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   ::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask);
-  if (!filters.empty()) {
-    std::vector<can_filter> kf;
-    for (const Filter& f : filters) {
-      can_filter k{};
-      k.can_id = f.extended ? (f.id | CAN_EFF_FLAG) : f.id;
-      k.can_mask = f.mask | CAN_EFF_FLAG | CAN_RTR_FLAG;
-      if (f.extended) k.can_mask = (f.mask & CAN_EFF_MASK) | CAN_EFF_FLAG;
-      kf.push_back(k);
-    }
-    if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, kf.data(),
-                     static_cast<socklen_t>(kf.size() * sizeof(can_filter))) < 0) {
-      throw CanError("CAN interface '" + iface + "': cannot set filters: " + errno_text(errno));
-    }
+  if (filters.empty()) return;
+  std::vector<can_filter> kf;
+  for (const Filter& f : filters) {
+    can_filter k{};
+    k.can_id = f.extended ? (f.id | CAN_EFF_FLAG) : f.id;
+    k.can_mask = f.mask | CAN_EFF_FLAG | CAN_RTR_FLAG;
+    if (f.extended) k.can_mask = (f.mask & CAN_EFF_MASK) | CAN_EFF_FLAG;
+    kf.push_back(k);
   }
+  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, kf.data(),
+                   static_cast<socklen_t>(kf.size() * sizeof(can_filter))) < 0) {
+    throw CanError("CAN interface '" + iface + "': cannot set filters: " + errno_text(errno));
+  }
+}
+
+// Kernel timestamps, the receive buffer's size where given, and the
+// kernel's drop counter.
+void set_receive_options(int fd, const std::string& iface, int receive_buffer_bytes) {
   const int on = 1;
   if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) {
     throw CanError("CAN interface '" + iface + "': no kernel timestamps: " + errno_text(errno));
@@ -79,9 +86,24 @@ Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters
   if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
     throw CanError("CAN interface '" + iface + "': no drop counter: " + errno_text(errno));
   }
+}
+
+}  // namespace
+
+Socket Socket::open(const std::string& iface, const std::vector<Filter>& filters,
+                    int receive_buffer_bytes) {
+  if (iface.empty() || iface.size() >= IFNAMSIZ) {
+    throw CanError("CAN interface name '" + iface + "' is empty or longer than " +
+                   std::to_string(IFNAMSIZ - 1) + " characters");
+  }
+  const int fd = open_raw_socket();
+  Socket s(fd, iface);  // closes the socket if what follows throws
+  const int index = interface_index(fd, iface);
+  set_filters(fd, iface, filters);
+  set_receive_options(fd, iface, receive_buffer_bytes);
   sockaddr_can addr{};
   addr.can_family = AF_CAN;
-  addr.can_ifindex = ifr.ifr_ifindex;
+  addr.can_ifindex = index;
   if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
     throw CanError("CAN interface '" + iface + "': bind failed: " + errno_text(errno));
   }

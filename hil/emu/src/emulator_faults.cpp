@@ -1,0 +1,120 @@
+// The emulator's fault injection: the --inject specs parsed, and each
+// fault triggered on the bus at its simulated time.
+#include <sstream>
+#include <stdexcept>
+
+#include "delta/can/emcy.hpp"
+#include "delta/can/protocol.hpp"
+#include "emu/emulator.hpp"
+
+namespace emu {
+
+namespace p = delta::can::protocol;
+namespace od = delta::can::od;
+namespace sdo = delta::can::sdo;
+namespace cia = delta::can::cia402;
+using delta::can::Frame;
+
+FaultInjection parse_fault(const std::string& spec) {
+  FaultInjection f;
+  std::string body = spec;
+  const auto at = spec.find('@');
+  if (at != std::string::npos) {
+    body = spec.substr(0, at);
+    const std::string t = spec.substr(at + 1);
+    char* end = nullptr;
+    f.at_s = std::strtod(t.c_str(), &end);
+    if (t.empty() || *end != '\0' || !(f.at_s >= 0)) {
+      throw std::invalid_argument("fault '" + spec + "': time after '@' must be seconds >= 0");
+    }
+  }
+  std::vector<std::string> parts;
+  std::stringstream ss(body);
+  for (std::string part; std::getline(ss, part, ':');) parts.push_back(part);
+  if (parts.empty()) throw std::invalid_argument("fault '" + spec + "': no kind");
+  const std::string& kind = parts[0];
+  const bool needs_node = kind != "error-frame";
+  if (kind == "heartbeat-drop") {
+    f.kind = FaultKind::kHeartbeatDrop;
+  } else if (kind == "silent") {
+    f.kind = FaultKind::kSilent;
+  } else if (kind == "error-frame") {
+    f.kind = FaultKind::kErrorFrame;
+  } else if (kind == "corrupt-pdo") {
+    f.kind = FaultKind::kCorruptPdo;
+  } else if (kind == "delay-pdo") {
+    f.kind = FaultKind::kDelayPdo;
+  } else if (kind == "overcurrent") {
+    f.kind = FaultKind::kOvercurrent;
+  } else {
+    throw std::invalid_argument("fault '" + spec +
+                                "': unknown kind (heartbeat-drop, silent, error-frame, "
+                                "corrupt-pdo, delay-pdo, overcurrent)");
+  }
+  const std::size_t expected = needs_node ? (f.kind == FaultKind::kDelayPdo ? 3u : 2u) : 1u;
+  if (parts.size() != expected) {
+    throw std::invalid_argument("fault '" + spec + "': expected " +
+                                (expected == 1   ? std::string("KIND@SECONDS")
+                                 : expected == 2 ? std::string("KIND:NODE@SECONDS")
+                                                 : std::string("KIND:NODE:MS@SECONDS")));
+  }
+  if (needs_node) {
+    const int node = std::atoi(parts[1].c_str());
+    if (node < 1 || node > 3 || parts[1] != std::to_string(node)) {
+      throw std::invalid_argument("fault '" + spec + "': the node must be 1, 2 or 3");
+    }
+    f.node = static_cast<std::uint8_t>(node);
+  }
+  if (f.kind == FaultKind::kDelayPdo) {
+    const long ms = std::atol(parts[2].c_str());
+    if (ms <= 0 || ms > 10000 || parts[2] != std::to_string(ms)) {
+      throw std::invalid_argument("fault '" + spec + "': the delay must be 1 to 10000 ms");
+    }
+    f.arg_ms = static_cast<std::uint32_t>(ms);
+  }
+  return f;
+}
+
+void Emulator::trigger_faults() {
+  for (FaultInjection& f : config_.faults) {
+    if (f.done || simulated_s() + 1e-9 < f.at_s) continue;
+    f.done = true;
+    Drive* d = f.node != 0 ? &drives_[f.node - p::kFirstDriveNode] : nullptr;
+    switch (f.kind) {
+      case FaultKind::kHeartbeatDrop:
+        d->heartbeat_dropped = true;
+        break;
+      case FaultKind::kSilent:
+        d->silent = true;
+        break;
+      case FaultKind::kCorruptPdo:
+        d->corrupt_next = true;
+        break;
+      case FaultKind::kDelayPdo:
+        d->delay_us = f.arg_ms * 1000;
+        break;
+      case FaultKind::kOvercurrent:
+        // The current loop sees a short: the drive trips as a real one would.
+        enter_fault(*d, od::kEmcyOvercurrent);
+        break;
+      case FaultKind::kErrorFrame: {
+        // linux/can/error.h: CAN_ERR_FLAG | CAN_ERR_CRTL, data[1] = CAN_ERR_CRTL_TX_PASSIVE;
+        // then CAN_ERR_BUSOFF.
+        Frame e;
+        e.error_frame = true;
+        e.id = 0x00000004u;
+        e.dlc = 8;
+        e.data[1] = 0x20;
+        out_(e, 0);
+        Frame off;
+        off.error_frame = true;
+        off.id = 0x00000040u;
+        off.dlc = 8;
+        out_(off, 0);
+        break;
+      }
+    }
+  }
+}
+
+}  // namespace emu

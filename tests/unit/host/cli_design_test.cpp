@@ -1,0 +1,149 @@
+// host_id design and trajectory files through the command line: a
+// designed file that simulate runs, one outside the limits, a file's
+// errors, and what design keeps or refuses.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cli_fixture.hpp"
+#include "delta/input_error.hpp"
+#include "delta/read_file.hpp"
+#include "delta/trajectory_file.hpp"
+#include "host_id/delta_log.hpp"
+
+namespace host_id {
+namespace {
+
+using cli_test::CliTest;
+
+// design writes a trajectory file that simulate runs from rest to rest;
+// the file reads back to the same trajectory.
+TEST_F(CliTest, DesignWritesATrajectoryFileThatSimulateRuns) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "40", "--json"}), 0) << err_.str();
+  const auto summary = nlohmann::json::parse(out_.str());
+  EXPECT_GT(summary["preset"]["condition_number_scaled"].get<double>(),
+            summary["designed"]["condition_number_scaled"].get<double>());
+  const delta::BlendedFourierTrajectory t = delta::read_trajectory_file(path("t.json"));
+  EXPECT_EQ(t.fourier.a_rad_s[0].size(), 5u);
+  EXPECT_DOUBLE_EQ(t.duration_s(), 12.0);
+  ASSERT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "-o", path("d.csv")}), 0)
+      << err_.str();
+  const DeltaLog log = read_delta_log(path("d.csv"));
+  ASSERT_EQ(log.size(), 12001u);  // 12 s at 1 kHz, both ends
+  for (unsigned j = 0; j < 3; ++j) {
+    // At rest at q0 at both ends.
+    EXPECT_NEAR(log.q[j].front(), t.fourier.q0_rad[j], 1e-12);
+    EXPECT_NEAR(log.q[j].back(), t.fourier.q0_rad[j], 1e-12);
+  }
+  EXPECT_EQ(log.metadata_value("trajectory"), std::optional<std::string>(path("t.json")));
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "--trajectory", "fourier", "-o",
+                 path("e.csv")}),
+            2);
+}
+
+// A trajectory file that breaks the controller's limits (here a designed
+// one run 4 times faster: 16 times its accelerations) is refused by
+// simulate, naming the limit, the time and the joint; --ignore-limits
+// simulates it with a warning.
+TEST_F(CliTest, SimulateRefusesATrajectoryFileOutsideTheLimits) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));
+  j["base_frequency_hz"] = 4.0 * j["base_frequency_hz"].get<double>();  // 16 x the accelerations
+  std::ofstream(path("wide.json")) << j.dump();
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("wide.json"), "-o", path("w.csv")}), 1);
+  EXPECT_NE(
+      err_.str().find(path("wide.json") + ": the trajectory breaks the controller's limits ("),
+      std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("give --ignore-limits to simulate it anyway"), std::string::npos);
+  EXPECT_FALSE(exists("w.csv"));
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("wide.json"), "--ignore-limits", "-o",
+                 path("w.csv")}),
+            0)
+      << err_.str();
+  EXPECT_NE(err_.str().find("host_id simulate: warning: "), std::string::npos) << err_.str();
+  EXPECT_TRUE(exists("w.csv"));
+}
+
+TEST_F(CliTest, TrajectoryFileErrorsNameTheFileAndTheKey) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--iterations", "5"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("t.json")));
+  const auto error_with = [&](const std::function<void(nlohmann::json&)>& change) {
+    auto k = j;
+    change(k);
+    std::ofstream(path("bad.json")) << k.dump();
+    try {
+      delta::read_trajectory_file(path("bad.json"));
+    } catch (const delta::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string f = path("bad.json") + ": ";
+  EXPECT_EQ(error_with([](auto& k) { k["format"] = "x"; }),
+            f + "format: must be \"delta-trajectory/1\" (got \"x\")");
+  EXPECT_EQ(error_with([](auto& k) { k["speed"] = 1; }), f + "speed: unknown key");
+  EXPECT_EQ(error_with([](auto& k) { k.erase("blend_s"); }), f + "blend_s: missing");
+  EXPECT_EQ(error_with([](auto& k) { k["periods"] = 1.5; }), f + "periods: must be a whole number");
+  EXPECT_EQ(error_with([](auto& k) { k["sin_amplitude_rad"][1][2] = "a"; }),
+            f + "sin_amplitude_rad[1][2]: must be a finite number");
+  EXPECT_EQ(error_with([](auto& k) { k["cos_amplitude_rad"][2].push_back(0.1); }),
+            f + "cos_amplitude_rad: every joint needs the same number of harmonics in both arrays");
+  EXPECT_EQ(error_with([](auto& k) {
+              for (std::size_t r = 0; r < 3; ++r) {
+                for (int n = 0; n < 2; ++n) {
+                  k["sin_amplitude_rad"][r].push_back(0.0);
+                  k["cos_amplitude_rad"][r].push_back(0.0);
+                }
+              }
+            }),
+            f + "sin_amplitude_rad: must have 1 to 6 harmonics per joint (got 7)");
+  EXPECT_EQ(run({"simulate", "--trajectory-file", path("bad.json"), "-o", path("x.csv")}), 1);
+  EXPECT_FALSE(exists("x.csv"));
+}
+
+// A joint range whose lower end is positive: the search's margin shrinks
+// the range about its middle (scaling the ends widened it, and the best
+// candidate then broke the real limit), and the design keeps it.
+TEST_F(CliTest, DesignKeepsAJointRangeAboveZero) {
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--min-rad", "0.1", "--iterations", "100"}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "--with-derivatives", "-o",
+                 path("d.csv")}),
+            0)
+      << err_.str();
+  const DeltaLog log = read_delta_log(path("d.csv"));
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_GE(*std::min_element(log.q[j].begin(), log.q[j].end()), 0.1) << "joint " << j + 1;
+  }
+}
+
+TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--base-hz", "0.2005"}), 2);
+  EXPECT_NE(err_.str().find("--base-hz: must be a whole number of mHz"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--harmonics", "7"}), 2);
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--min-rad", "1", "--max-rad", "0.5"}), 2);
+  EXPECT_NE(err_.str().find("--min-rad (1) must be below --max-rad (0.5)"), std::string::npos)
+      << err_.str();
+  // 100 periods of 0.1 Hz: 1002 s, more than the controller walks.
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--base-hz", "0.1", "--periods", "100"}), 2);
+  EXPECT_NE(err_.str().find("--base-hz 0.1 with --periods 100 and --blend 1 lasts 1002 s; the "
+                            "controller runs at most 600 s"),
+            std::string::npos)
+      << err_.str();
+  // No excitation keeps the torque below 0.01 N m against gravity.
+  EXPECT_EQ(run({"design", "-o", path("t.json"), "--max-torque", "0.01", "--iterations", "5"}), 1);
+  EXPECT_NE(err_.str().find("no excitation within the limits was found: the best breaks the "
+                            "torque limit at t = "),
+            std::string::npos)
+      << err_.str();
+  EXPECT_FALSE(exists("t.json"));
+}
+
+}  // namespace
+}  // namespace host_id

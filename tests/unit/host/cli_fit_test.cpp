@@ -1,0 +1,417 @@
+// host_id fit through the command line: its result JSON, the model's
+// variant (--model auto and the support of a plain fit), another robot's
+// log, torque calibration, a payload, --truth, several models.
+#include <gtest/gtest.h>
+
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "cli_fixture.hpp"
+#include "delta/atomic_file.hpp"
+#include "delta/read_file.hpp"
+#include "held_joint_log.hpp"
+#include "host_id/delta_log.hpp"
+#include "host_id/simulate.hpp"
+
+namespace host_id {
+namespace {
+
+using cli_test::CliTest;
+
+// A copy of `from` with its forearm length changed: another robot.
+void write_with_forearm(const std::string& from, const std::string& to, const char* forearm) {
+  std::ifstream in(from);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string key = "# forearm_length_m = 0.46";
+  text.replace(text.find(key), key.size(), std::string("# forearm_length_m = ") + forearm);
+  std::ofstream(to) << text;
+}
+
+// Parameters fitted on one robot are refused for another, unless asked:
+// the result records its geometry, and predict, validate and fit's
+// --validate and --truth compare it.
+TEST_F(CliTest, AnotherRobotsLogIsRefusedUnlessAllowed) {
+  simulate("a.csv");
+  write_with_forearm(path("a.csv"), path("other.csv"), "0.5");
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "-o", path("r.json")}), 0) << err_.str();
+  const std::string other =
+      "is of another robot (upper arm 0.2 m, forearm 0.5 m, base 0.1 m, platform 0.035 m) than ";
+  EXPECT_EQ(run({"predict", path("r.json"), path("other.csv"), "-o", path("p.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("other.csv") + " " + other + path("r.json") +
+                            " was fitted for (upper arm 0.2 m, forearm 0.46 m"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("(--allow-other-geometry to go on anyway)"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(path("p.csv")));
+  EXPECT_EQ(run({"predict", path("r.json"), path("other.csv"), "-o", path("p.csv"),
+                 "--allow-other-geometry"}),
+            0)
+      << err_.str();
+  EXPECT_NE(err_.str().find("warning: " + path("other.csv") + " " + other), std::string::npos);
+  EXPECT_EQ(run({"validate", path("r.json"), path("other.csv")}), 1);
+  EXPECT_NE(err_.str().find(other), std::string::npos) << err_.str();
+  EXPECT_EQ(run({"validate", path("r.json"), path("a.csv")}), 0) << err_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--validate", path("other.csv")}), 1);
+  EXPECT_NE(err_.str().find(other + "the fitted " + path("a.csv")), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(
+      run({"fit", path("other.csv"), "--method", "ls", "--truth", "docs/examples/robot.json"}), 1);
+  EXPECT_NE(err_.str().find(other + "the robot of --truth docs/examples/robot.json"),
+            std::string::npos)
+      << err_.str();
+}
+
+// fit --calibrate-torque: the empty and the loaded robot (the shipped
+// robot description, and the same with 0.5 kg on the platform) give each
+// joint's torque scale, 1 here; the usage errors name what is missing.
+TEST_F(CliTest, CalibratesTheTorqueScaleWithAKnownPayload) {
+  auto robot =
+      nlohmann::json::parse(delta::read_whole_file(DELTA_SOURCE_DIR "/docs/examples/robot.json"));
+  robot["payload"]["mass_kg"] = 0.5;
+  delta::write_file_atomically(path("loaded.json"), robot.dump());
+  for (const auto& [name, robot_path, seed] :
+       {std::tuple{"empty.csv", std::string(DELTA_SOURCE_DIR "/docs/examples/robot.json"), "1"},
+        std::tuple{"loaded.csv", path("loaded.json"), "2"}}) {
+    ASSERT_EQ(run({"simulate", "-o", path(name), "--duration", "12", "--robot", robot_path,
+                   "--seed", seed, "--torque-noise", "0.01"}),
+              0)
+        << err_.str();
+  }
+  ASSERT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
+                 "--payload-mass", "0.5", "--method", "ls", "--json", "-o", path("scale.json")}),
+            0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  for (unsigned k = 0; k < 3; ++k) {
+    EXPECT_NEAR(j["torque_scale"][k].get<double>(), 1.0, 0.01) << k;
+    EXPECT_GT(j["torque_scale_std"][k].get<double>(), 0.0);
+  }
+  EXPECT_TRUE(j["parameters_true_units"].contains("platform_weight_mass"));
+  EXPECT_EQ(nlohmann::json::parse(delta::read_whole_file(path("scale.json"))), j);
+  EXPECT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv")}), 2);
+  EXPECT_NE(err_.str().find("--calibrate-torque needs --payload-mass KG"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("empty.csv"), "--payload-mass", "0.5"}), 2);
+  EXPECT_NE(err_.str().find("--payload-mass goes with --calibrate-torque"), std::string::npos);
+}
+
+TEST_F(CliTest, FitSavesJsonThatValidateReproduces) {
+  simulate("p1.csv", {"--torque-noise", "0.01", "--seed", "1"});
+  simulate("p2.csv", {"--torque-noise", "0.01", "--seed", "2"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--validate", path("p2.csv"), "--out", path("r.json"),
+                 "--plot", path("p.svg"), "--quiet"}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("torque RMSE [N m]"), std::string::npos);
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_EQ(j["format"], "host_id-result/1");
+  EXPECT_EQ(j["parameters"].size(), 12u);
+  EXPECT_NEAR(j["parameters"]["platform_weight_mass"].get<double>(), 0.40, 0.02);
+  EXPECT_NEAR(j["parameters"]["platform_inertial_mass"].get<double>(), 0.40, 0.02);
+  ASSERT_EQ(j["fit"]["rmse_measured_Nm"].size(), 3u);
+  ASSERT_EQ(j["fit"]["rmse_filtered_Nm"].size(), 3u);
+  ASSERT_EQ(j["validation"].size(), 1u);
+  EXPECT_EQ(j["validation"][0]["log"], path("p2.csv"));
+  const std::string svg = delta::read_whole_file(path("p.svg"));
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("<polyline"), std::string::npos);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+
+  ASSERT_EQ(run({"validate", path("r.json"), path("p2.csv"), "--json"}), 0) << err_.str();
+  const auto v = nlohmann::json::parse(out_.str());
+  for (std::size_t k = 0; k < 3; ++k) {
+    for (const char* key : {"rmse_measured_Nm", "rmse_filtered_Nm"}) {
+      EXPECT_DOUBLE_EQ(v["validation"][0][key][k].get<double>(),
+                       j["validation"][0][key][k].get<double>());
+    }
+  }
+
+  // A result saved when 'delta' named the lumped model is refused with the fix.
+  auto old = j;
+  old["parameters"] = {{"arm_inertia", 7e-3}, {"arm_gravity_moment", 0.44}, {"platform_mass", 0.4}};
+  std::ofstream(path("old.json")) << old.dump();
+  EXPECT_EQ(run({"validate", path("old.json"), path("p2.csv")}), 1);
+  EXPECT_NE(err_.str().find(path("old.json") +
+                            ": model.name is 'delta' but the parameters are the lumped model's"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("set model.name to 'lumped'"), std::string::npos);
+}
+
+// --model auto: the variant the held-out error chooses, in the report and
+// the JSON; it decides --per-joint and --offsets itself.
+TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls", "--json"}), 0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  ASSERT_TRUE(j.contains("model_support"));
+  EXPECT_EQ(j["model_support"]["folds"], 5);
+  EXPECT_EQ(j["model_support"]["variants"].size(), 4u);
+  EXPECT_EQ(j["model_support"]["chosen"], "shared arms");  // the default robot's arms are equal
+  EXPECT_FALSE(j.contains("model_selection")) << "one key for the model's support";
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_EQ(j["model"]["per_joint"], false);
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("<- chosen"), std::string::npos) << out_.str();
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--per-joint"}), 2);
+  EXPECT_NE(err_.str().find("--model auto decides --per-joint and --offsets itself"),
+            std::string::npos)
+      << err_.str();
+}
+
+// Every fit of the delta or lumped model says which variant the log
+// supports, judged on its own rows; where another variant's held-out error
+// is 10 % or more below the fitted one's, the fit is doubtful and says how
+// to fit that variant.
+TEST_F(CliTest, APlainFitSaysWhichVariantTheLogSupports) {
+  simulate_arms_that_differ("differ.csv");
+  simulate("equal.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--json"}), 0)
+      << err_.str();
+  auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
+  ASSERT_EQ(j["doubts"].size(), 1u);
+  EXPECT_NE(j["doubts"][0].get<std::string>().find("the log supports per-joint arms"),
+            std::string::npos);
+  EXPECT_NE(j["doubts"][0].get<std::string>().find("fit with --model lumped --per-joint"),
+            std::string::npos)
+      << j["doubts"][0];
+  EXPECT_NE(err_.str().find("warning: the lumped fit is doubtful: the log supports per-joint"),
+            std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "delta", "--method", "ls"}), 0);
+  EXPECT_NE(err_.str().find("fit with --model auto (or --per-joint)"), std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--model", "lumped", "--method", "ls", "--per-joint"}),
+            0);
+  EXPECT_NE(out_.str().find("support   per-joint arms, as fitted"), std::string::npos)
+      << out_.str();
+  ASSERT_EQ(run({"fit", path("equal.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_support"]["chosen"], "shared arms");
+  EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
+}
+
+// Without --model the variant is the one the log supports (--model auto):
+// per-joint arms for arms that differ, fitted from the file again, and no
+// doubt left; --per-joint alone names the delta model.
+TEST_F(CliTest, TheDefaultModelIsTheVariantTheLogSupports) {
+  simulate_arms_that_differ("differ.csv");
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["model_support"]["chosen"], "per-joint arms");
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_EQ(j["model"]["per_joint"], true);
+  EXPECT_EQ(j["parameters"].size(), 18u);
+  EXPECT_TRUE(j["doubts"].empty()) << j["doubts"];
+  // Too short to judge: the shared arms, and it says so.
+  ASSERT_EQ(run({"simulate", "-o", path("short.csv"), "--duration", "0.39"}), 0) << err_.str();
+  ASSERT_EQ(run({"fit", path("short.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("warning: --model auto: 91 samples are too few to judge the model's "
+                            "variants on 5 time blocks (at least 100); the shared arms are fitted"),
+            std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("differ.csv"), "--method", "ls", "--offsets", "--json"}), 0);
+  j = nlohmann::json::parse(out_.str());
+  EXPECT_FALSE(j.contains("model_selection"));
+  EXPECT_EQ(j["model"]["per_joint"], false);
+  EXPECT_EQ(j["model"]["offsets"], true);
+}
+
+// fit LOADED.csv --base RESULT.json: the payload's mass alone, and with -o
+// the base result with the payload added, which predict then uses.
+TEST_F(CliTest, APayloadOnABaseFitIsItsMassAndSavesTheLoadedResult) {
+  SimulateOptions o;
+  o.torque_noise = 0.01;
+  o.encoder_bits = 17;
+  o.duration_s = 10.0;
+  o.seed = 3;
+  std::ofstream(path("empty.csv")) << format_delta_log(simulate_log(o));
+  o.parameters.platform_mass_kg += 0.3;
+  o.seed = 4;
+  std::ofstream(path("loaded.csv")) << format_delta_log(simulate_log(o));
+  ASSERT_EQ(run({"fit", path("empty.csv"), "--method", "ls", "-o", path("base.json")}), 0)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("loaded.csv"), "--base", path("base.json"), "--json", "-o",
+                 path("loaded.json")}),
+            0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_NEAR(j["payload_mass_kg"].get<double>(), 0.3, 0.005);
+  EXPECT_GT(j["payload_mass_std_kg"].get<double>(), 0.0);
+  const auto base = nlohmann::json::parse(delta::read_whole_file(path("base.json")));
+  const auto loaded = nlohmann::json::parse(delta::read_whole_file(path("loaded.json")));
+  EXPECT_NEAR(loaded["parameters"]["platform_weight_mass"].get<double>() -
+                  base["parameters"]["platform_weight_mass"].get<double>(),
+              j["payload_mass_kg"].get<double>(), 1e-12);
+  EXPECT_EQ(loaded["parameters"]["arm_inertia"], base["parameters"]["arm_inertia"]);
+  ASSERT_EQ(
+      run({"predict", path("loaded.json"), path("loaded.csv"), "-o", path("p.csv"), "--json"}), 0)
+      << err_.str();
+  const auto pred = nlohmann::json::parse(out_.str());
+  EXPECT_LT(pred["rmse_measured_Nm"][0].get<double>(), 0.05);
+  EXPECT_EQ(run({"fit", path("loaded.csv"), "--base", path("base.json"), "--model", "lumped"}), 2);
+}
+
+TEST_F(CliTest, JsonOutputHasTheDocumentedKeys) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--json", "--method", "ls", "--model", "paper14"}), 0)
+      << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["method"], "ls");
+  EXPECT_EQ(j["model"]["name"], "paper14");
+  EXPECT_EQ(j["parameters"].size(), 14u);
+  EXPECT_TRUE(j["parameters"].contains("beta1"));
+  EXPECT_TRUE(j["pso"].is_null());
+  EXPECT_TRUE(j["validation"].is_array());
+  EXPECT_GT(j["least_squares"]["condition_number"].get<double>(), 1.0);
+  EXPECT_TRUE(j["doubts"].is_array());
+  EXPECT_EQ(j["correlation"]["parameters"].size(), 14u);
+  EXPECT_EQ(j["correlation"]["matrix"].size(), 14u);
+  EXPECT_NEAR(j["correlation"]["matrix"][3][3].get<double>(), 1.0, 1e-12);
+  // 4 s at 1 kHz filtered at 20 Hz: residuals correlated over 2 * 1000 / 20 samples.
+  EXPECT_EQ(j["least_squares"]["std_dev_correlation_lags"], 100);
+  // paper14 fits every sample, as the paper does.
+  EXPECT_EQ(j["preprocessing"]["min_speed_rad_s"], 0.0);
+  const std::size_t samples = j["fit"]["samples"];
+  EXPECT_EQ(j["preprocessing"]["equations_used"], nlohmann::json({samples, samples, samples}));
+}
+
+TEST_F(CliTest, MinSpeedLeavesOutSlowEquationsAndSaysHowMany) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "0.3"}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("(left out: |qd| < 0.3 rad/s)"), std::string::npos) << out_.str();
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--json"}), 0) << err_.str();
+  const auto j = nlohmann::json::parse(out_.str());
+  EXPECT_EQ(j["preprocessing"]["min_speed_rad_s"], 0.05);
+  const std::size_t samples = j["fit"]["samples"];
+  for (const auto& used : j["preprocessing"]["equations_used"]) {
+    EXPECT_LT(used.get<std::size_t>(), samples);
+    EXPECT_GT(used.get<std::size_t>(), samples / 2);
+  }
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--min-speed", "-1"}), 2);
+  EXPECT_NE(err_.str().find("host_id fit: error: --min-speed: must be >= 0, got '-1'"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--method", "ls", "--min-speed", "100"}), 1);
+  EXPECT_NE(err_.str().find("p1.csv: joint 1 is never faster than the minimum speed of 100"),
+            std::string::npos)
+      << err_.str();
+}
+
+// --truth ROBOT.json: each estimate beside the truth derived from the
+// robot, in the text and the JSON; paper14's coefficients have none.
+TEST_F(CliTest, FitPrintsTheTruthOfARobotDescriptionBesideEachEstimate) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--truth", "docs/examples/robot.json",
+                 "--out", path("r.json")}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("rel std          truth     error   unit"), std::string::npos)
+      << out_.str();
+  // The higher-fidelity model's arm inertia, and the lumped model's.
+  EXPECT_NE(out_.str().find("0.00666849"), std::string::npos) << out_.str();
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  bool found = false;
+  for (const auto& d : j.at("parameter_details")) {
+    if (d.at("name") == "platform_inertial_mass") {
+      EXPECT_NEAR(d.at("truth").get<double>(), 0.36, 1e-4);
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found);
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "lumped", "--truth",
+                 "docs/examples/robot.json"}),
+            0);
+  EXPECT_NE(out_.str().find("0.0072017"), std::string::npos) << out_.str();
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--model", "paper14", "--truth",
+                 "docs/examples/robot.json"}),
+            0);
+  EXPECT_EQ(out_.str().find("truth"), std::string::npos) << out_.str();
+  EXPECT_EQ(run({"fit", path("a.csv"), "--truth", path("none.json")}), 1);
+  EXPECT_NE(err_.str().find(path("none.json") + ": cannot open"), std::string::npos) << err_.str();
+}
+
+// --model given more than once: each model fitted on the same logs, the
+// report's Table 2 over all of them, the first model saved (with the others
+// under other_models) and plotted, with the residual against velocity.
+TEST_F(CliTest, SeveralModelsShareOneTable2) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  simulate("b.csv", {"--torque-noise", "0.01", "--seed", "2", "--trajectory", "pick-and-place"});
+  ASSERT_EQ(run({"fit", path("a.csv"), "--validate", path("b.csv"), "--method", "ls", "--model",
+                 "delta", "--model", "lumped", "--model", "paper14", "--offsets", "--out",
+                 path("r.json"), "--plot", path("p.svg")}),
+            0)
+      << err_.str();
+  const std::string text = out_.str();
+  const auto table = text.find("Table 2: torque RMSE per joint [N m]");
+  ASSERT_NE(table, std::string::npos) << text;
+  for (const char* model : {"delta", "lumped", "paper14"}) {
+    for (const char* row : {" fit      a.csv", " validate b.csv"}) {
+      // Once against the measured torque, once against the filtered.
+      const std::string line = std::string("  ") + model;
+      std::size_t at =
+          text.find(line + std::string(8 - std::string(model).size(), ' ') + row, table);
+      ASSERT_NE(at, std::string::npos) << model << row << "\n" << text;
+      at = text.find(line + std::string(8 - std::string(model).size(), ' ') + row, at + 1);
+      EXPECT_NE(at, std::string::npos) << model << row;
+    }
+  }
+  // --offsets applies to the physical models; paper14 is fitted without.
+  EXPECT_NE(text.find("model     paper14 (the paper's regressor"), std::string::npos);
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_EQ(j["model"]["name"], "delta");
+  EXPECT_TRUE(j["model"]["offsets"].get<bool>());
+  ASSERT_EQ(j["other_models"].size(), 2u);
+  EXPECT_EQ(j["other_models"][0]["model"]["name"], "lumped");
+  EXPECT_EQ(j["other_models"][1]["model"]["name"], "paper14");
+  EXPECT_FALSE(j["other_models"][1]["model"]["offsets"].get<bool>());
+  const std::string svg = delta::read_whole_file(path("p.svg"));
+  EXPECT_NE(svg.find("residual against joint velocity"), std::string::npos);
+  EXPECT_NE(svg.find("joint 3: residual"), std::string::npos);
+  // validate reads the primary model's result.
+  ASSERT_EQ(run({"validate", path("r.json"), path("b.csv")}), 0) << err_.str();
+  EXPECT_NE(out_.str().find("(model delta)"), std::string::npos);
+}
+
+// A log that cannot separate every parameter: the report names what is not
+// identifiable and which combinations the values stand for; the saved
+// result has null for the former, and validate and predict use it.
+TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
+  const DeltaLog log =
+      testlogs::log_with_joint3_held(4.0, 0.35, delta::default_lumped_parameters());
+  delta::write_file_atomically(path("held.csv"), format_delta_log(log));
+  ASSERT_EQ(run({"fit", path("held.csv"), "--model", "lumped", "--per-joint", "--offsets",
+                 "--min-speed", "0", "--method", "ls", "--out", path("r.json")}),
+            0)
+      << err_.str();
+  const std::string text = out_.str();
+  const auto line = text.find("  arm_inertia_3 ");
+  ASSERT_NE(line, std::string::npos) << text;
+  EXPECT_EQ(text.substr(line, text.find('\n', line) - line).find("not identifiable on this log") !=
+                std::string::npos,
+            true)
+      << text;
+  EXPECT_NE(text.find("(estimates "), std::string::npos) << text;
+  EXPECT_NE(text.find("does not excite 'arm_inertia_3' 'viscous_friction_3' "
+                      "'coulomb_friction_3' at all"),
+            std::string::npos)
+      << text;
+  const auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_TRUE(j["parameters"]["arm_inertia_3"].is_null());
+  EXPECT_TRUE(j["parameters"]["arm_inertia_1"].is_number());
+  ASSERT_EQ(run({"validate", path("r.json"), path("held.csv"), "--json"}), 0) << err_.str();
+  const auto v = nlohmann::json::parse(out_.str());
+  for (unsigned k = 0; k < 3; ++k) {
+    EXPECT_LT(v["validation"][0]["rmse_filtered_Nm"][k].get<double>(), 1e-9);
+    // From moments: a floor near 1e-7 of the RMS torque.
+    EXPECT_LT(v["validation"][0]["rmse_measured_Nm"][k].get<double>(), 1e-6);
+  }
+}
+
+}  // namespace
+}  // namespace host_id
