@@ -80,14 +80,14 @@ TEST_P(DrivesUsersOwn, EachComesUpFromItsOwnFileAndRunsPath1ToTheEnd) {
     }
   }
   const auto start = std::chrono::steady_clock::now();
-  hil::Child fw = start_path1_firmware(sets);
+  hil::Child fw = start_path1_firmware(sets, 1);  // bring-up is the point: one period
   ASSERT_TRUE(fw.wait_for_output("delta_fw: ready", 60s)) << fw.err();
   const double ready_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(fw.wait(300s).value_or(-1), 0) << fw.err();
-  std::cout
-      << "[ vcan ] " << d.file << ": ready " << ready_s
-      << " s after delta_fw started (bring-up of three drives by SDO); path1 ran to the end\n";
+  std::cout << "[ vcan ] " << d.file << ": ready " << ready_s
+            << " s after delta_fw started (bring-up of three drives by SDO); path1 (one period) "
+               "ran to the end\n";
   emu.terminate(30s);
 }
 

@@ -88,41 +88,59 @@ void expect_status_after_the_run(const std::string& modbus) {
   EXPECT_NE(after.out().find("  tracking   run #1, rms "), std::string::npos) << after.out();
 }
 
-TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
-  const testsupport::ScratchDirectory scratch("delta_hil");
-  const std::string& dir = scratch.path();
-  hil::Child emu = start_emulator();
-  hil::Child fw = start_firmware_with_modbus(15021);
+// One rig on the multibody robot for the two tests that need path1 run on
+// it: the emulator, the controller with Modbus and a model store, and
+// path1 excited and recorded once (most of a minute in the VM). Made by
+// the first of the two tests that runs, kept until the process ends.
+struct MultibodySession {
+  const testsupport::ScratchDirectory scratch{"delta_hil"};
+  const std::string dir = scratch.path();
   const std::string modbus = "127.0.0.1:15021";
+  hil::Child emu = start_emulator();
+  hil::Child fw =
+      start_firmware_with_modbus(15021, {"--set", "feed_forward.store=" + dir + "/model.bin"});
+  std::string status_before;  // host_id status before the run
+  int excite_exit = -1;
+  std::string excite_said;  // host_id excite's stdout and stderr
 
-  hil::Child status = hil::Child::spawn({kBin + "/host_id", "status", "--modbus", modbus});
-  ASSERT_EQ(status.wait(30s).value_or(-1), 0) << status.err();
-  EXPECT_NE(status.out().find("state      ready"), std::string::npos) << status.out();
-  EXPECT_NE(status.out().find("run        none since start"), std::string::npos) << status.out();
+  MultibodySession() {
+    hil::Child status = hil::Child::spawn({kBin + "/host_id", "status", "--modbus", modbus});
+    if (status.wait(30s).value_or(-1) == 0) status_before = status.out();
+    hil::Child excite =
+        hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus, "--trajectory", "path1",
+                           "--can", kIface, "-o", dir + "/path1.csv"});
+    excite_exit = excite.wait(300s).value_or(-1);
+    excite_said = excite.out() + excite.err();
+    std::cout << excite.out();
+  }
+  std::string told() { return excite_said + stopped_and_told(fw, emu); }
+};
 
-  hil::Child excite =
-      hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus, "--trajectory", "path1",
-                         "--can", kIface, "-o", dir + "/excite.csv"});
-  ASSERT_EQ(excite.wait(300s).value_or(-1), 0)
-      << excite.out() << excite.err() << stopped_and_told(fw, emu);
-  std::cout << excite.out();
-  const std::string said = excite.out() + excite.err();
+MultibodySession& multibody_session() {
+  static MultibodySession session;
+  return session;
+}
+
+TEST(HostExcite, RunsPath1OnTheMultibodyRobotOverModbusRecordsItAndFitsIt) {
+  MultibodySession& s = multibody_session();
+  EXPECT_NE(s.status_before.find("state      ready"), std::string::npos) << s.status_before;
+  EXPECT_NE(s.status_before.find("run        none since start"), std::string::npos)
+      << s.status_before;
+  ASSERT_EQ(s.excite_exit, 0) << s.told();
+  const std::string& said = s.excite_said;
   const std::uint64_t recorded = sum_of_numbers(said, " recorded of", false);
   EXPECT_EQ(sum_of_numbers(said, "recorded of ", true), 7201u) << said;
   EXPECT_NE(said.find("sent, 0 lost, "), std::string::npos) << said;
   expect_every_record_accounted_for(said, recorded, 7201);
-  std::ifstream log(dir + "/excite.csv");
+  std::ifstream log(s.dir + "/path1.csv");
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("# trajectory = path1"), std::string::npos);
   EXPECT_NE(text.find("# sample_rate_hz = 500"), std::string::npos);
   ASSERT_NO_FATAL_FAILURE(expect_tracking_in_the_metadata(text));
   ASSERT_NO_FATAL_FAILURE(expect_currents_with_every_sample(text, recorded));
-  ASSERT_NO_FATAL_FAILURE(expect_status_after_the_run(modbus));
-
-  EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
-  EXPECT_NE(fw.err().find("tracking path1: rms_rad="), std::string::npos) << fw.err();
-  EXPECT_EQ(emu.terminate(30s).value_or(-1), 0) << emu.err();
-  expect_fit_stands_for_the_multibody_robot(dir + "/excite.csv", dir);
+  ASSERT_NO_FATAL_FAILURE(expect_status_after_the_run(s.modbus));
+  EXPECT_TRUE(s.fw.wait_for_output("tracking path1: rms_rad=", 10s)) << s.fw.err();
+  expect_fit_stands_for_the_multibody_robot(s.dir + "/path1.csv", s.dir);
 }
 
 // The controller's tracking error of a recorded run, from its log's
@@ -147,34 +165,30 @@ double worst_tracking_rms(const std::string& csv) {
 // multibody robot: fit path1 (PSO, the default), load the model into the
 // controller, and the pick-and-place tracks at least 5 times better (the
 // worst joint's RMS, the controller's own measurement) than with the
-// nominal feed-forward, at the same gains.
+// nominal feed-forward, at the same gains. The controller and the
+// emulator end cleanly.
 TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter) {
-  const testsupport::ScratchDirectory scratch("delta_hil");
-  const std::string& dir = scratch.path();
-  hil::Child emu = start_emulator();
-  hil::Child fw =
-      start_firmware_with_modbus(15024, {"--set", "feed_forward.store=" + dir + "/model.bin"});
-  const std::string modbus = "127.0.0.1:15024";
+  MultibodySession& s = multibody_session();
+  ASSERT_EQ(s.excite_exit, 0) << s.told();
   const auto excite = [&](const std::string& trajectory, const std::string& csv) {
-    hil::Child e = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus,
+    hil::Child e = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", s.modbus,
                                       "--trajectory", trajectory, "--can", kIface, "-o", csv});
     const int code = e.wait(300s).value_or(-1);
     EXPECT_EQ(code, 0) << e.out() << e.err();
     return code == 0;
   };
-  ASSERT_TRUE(excite("path1", dir + "/path1.csv")) << stopped_and_told(fw, emu);
   hil::Child fit = hil::Child::spawn(
-      {kBin + "/host_id", "fit", dir + "/path1.csv", "--out", dir + "/fit.json", "--quiet"});
+      {kBin + "/host_id", "fit", s.dir + "/path1.csv", "--out", s.dir + "/fit.json", "--quiet"});
   ASSERT_EQ(fit.wait(300s).value_or(-1), 0) << fit.err();
-  ASSERT_TRUE(excite("pick-and-place", dir + "/nominal.csv")) << stopped_and_told(fw, emu);
+  ASSERT_TRUE(excite("pick-and-place", s.dir + "/nominal.csv")) << s.told();
   hil::Child load =
-      hil::Child::spawn({kBin + "/host_id", "model", "load", dir + "/fit.json", "--can", kIface});
+      hil::Child::spawn({kBin + "/host_id", "model", "load", s.dir + "/fit.json", "--can", kIface});
   ASSERT_EQ(load.wait(60s).value_or(-1), 0) << load.err();
   // The last run as a script takes it: --json, nothing else on stdout.
-  hil::Child last = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", modbus,
+  hil::Child last = hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", s.modbus,
                                        "--trajectory", "pick-and-place", "--can", kIface, "-o",
-                                       dir + "/model.csv", "--json", "--quiet"});
-  ASSERT_EQ(last.wait(300s).value_or(-1), 0) << last.err() << stopped_and_told(fw, emu);
+                                       s.dir + "/model.csv", "--json", "--quiet"});
+  ASSERT_EQ(last.wait(300s).value_or(-1), 0) << last.err() << s.told();
   const std::string summary = last.out();
   EXPECT_EQ(summary.rfind("{", 0), 0u) << summary;
   for (const char* key : {"\"finished\": true", "\"lost\": 0",
@@ -182,14 +196,14 @@ TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter
     EXPECT_NE(summary.find(key), std::string::npos) << key << " in " << summary;
   }
   EXPECT_EQ(last.err().find("host_id excite: running"), std::string::npos) << last.err();
-  const double nominal = worst_tracking_rms(dir + "/nominal.csv");
-  const double model = worst_tracking_rms(dir + "/model.csv");
+  const double nominal = worst_tracking_rms(s.dir + "/nominal.csv");
+  const double model = worst_tracking_rms(s.dir + "/model.csv");
   std::cout << "pick-and-place, worst joint's RMS tracking error: nominal feed-forward " << nominal
             << " rad, identified model " << model << " rad (" << nominal / model << "x)\n";
   EXPECT_GE(nominal, 5.0 * model);
-  EXPECT_EQ(fw.terminate(30s).value_or(-1), 0) << fw.err();
-  EXPECT_NE(fw.err().find("tracking pick-and-place: rms_rad="), std::string::npos) << fw.err();
-  emu.terminate(30s);
+  EXPECT_EQ(s.fw.terminate(30s).value_or(-1), 0) << s.fw.err();
+  EXPECT_NE(s.fw.err().find("tracking pick-and-place: rms_rad="), std::string::npos) << s.fw.err();
+  EXPECT_EQ(s.emu.terminate(30s).value_or(-1), 0) << s.emu.err();
 }
 
 // The designed excitation end to end: host_id design writes a trajectory

@@ -78,7 +78,7 @@ TEST(RecorderKilled, NothingIsHalfWrittenAndTheNextRecorderTakesOverWithoutAGap)
   BusObserver bus;
   hil::Child emu = start_emulator({"--plant", "lumped"});
   hil::Child first = start_recorder(dir + "/first.csv");
-  hil::Child fw = start_path1_firmware();
+  hil::Child fw = start_path1_firmware({}, 1);  // 9.4 s: the kill comes after 2 s
   while (count_frames(bus.snapshot(), p::kLogA.base_id) < 1000) {
     ASSERT_FALSE(fw.wait_for_output("delta_fw: stopping", 20ms)) << "the run ended first";
   }

@@ -18,8 +18,9 @@ Child start_emulator(const std::vector<std::string>& extra) {
   return emu;
 }
 
-Child start_path1_firmware(const std::vector<std::string>& extra) {
-  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", "path1",
+Child start_path1_firmware(const std::vector<std::string>& extra, int periods) {
+  const std::string run = periods > 0 ? "path1:" + std::to_string(periods) : "path1";
+  std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface, "--lockstep", "--run", run,
                                 "--exit-when-done"};
   argv.insert(argv.end(), extra.begin(), extra.end());
   return Child::spawn(argv);

@@ -18,8 +18,9 @@ inline const std::string kSource = DELTA_SOURCE_DIR;
 Child start_emulator(const std::vector<std::string>& extra = {});
 
 // delta_fw in lock-step running path1 once and exiting when it is done;
-// `extra` are more of its options.
-Child start_path1_firmware(const std::vector<std::string>& extra = {});
+// `extra` are more of its options. `periods`: the Fourier periods, where a
+// test needs a whole run but not the preset's two (0: the preset's).
+Child start_path1_firmware(const std::vector<std::string>& extra = {}, int periods = 0);
 
 // host_id record on the bus, writing `csv` when the log frames stop for 3 s.
 Child start_recorder(const std::string& csv);

@@ -68,7 +68,8 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& a) {
   app.add_flag("--realtime", a.realtime, "a cycle every period_us (the default)")
       ->excludes(lockstep);
   app.add_option("--run", a.run.trajectories,
-                 "run a trajectory once ready: path1, path2, pick-and-place (repeatable)")
+                 "run a trajectory once ready: path1, path2, pick-and-place; "
+                 "NAME:N repeats it N times (Fourier periods, pick-and-place cycles); repeatable")
       ->allow_extra_args(false);
   app.add_flag("--exit-when-done", a.run.exit_when_done,
                "exit after the last --run (0), or on a fault (3)");

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <optional>
 #include <ostream>
@@ -100,8 +101,24 @@ namespace {
 std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerConfig& core,
                                 const RunOptions& options, std::vector<NamedRun>& runs,
                                 std::ostream& out) {
-  for (const std::string& name : options.trajectories) {
-    auto t = named_trajectory(name, config);
+  for (const std::string& given : options.trajectories) {
+    // NAME or NAME:REPETITIONS (Fourier periods or pick-and-place cycles),
+    // as the Modbus register `repetitions` gives them.
+    const std::size_t colon = given.find(':');
+    const std::string name = given.substr(0, colon);
+    TrajectoryParams params;
+    if (colon != std::string::npos) {
+      const std::string count = given.substr(colon + 1);
+      unsigned long n = 0;
+      const auto [end, ec] = std::from_chars(count.data(), count.data() + count.size(), n);
+      if (ec != std::errc{} || end != count.data() + count.size() || n < 1 || n > 65535) {
+        out << "delta_fw: --run " << given
+            << ": the repetitions after ':' must be a whole number from 1 to 65535\n";
+        return kExitUsage;
+      }
+      params.repetitions = static_cast<std::uint16_t>(n);
+    }
+    auto t = named_trajectory(name, config, params);
     if (!t) {
       out << "delta_fw: unknown trajectory '" << name << "' (known:";
       for (const auto& n : trajectory_names()) out << " " << n;
