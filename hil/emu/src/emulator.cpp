@@ -11,6 +11,7 @@
 
 #include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
+#include "delta/drive_train_plant.hpp"
 #include "delta/mujoco_plant.hpp"
 #include "drive_objects.hpp"
 #include "eds_objects.hpp"
@@ -49,7 +50,8 @@ const char* state_text(cia::State s) {
 
 std::unique_ptr<delta::Plant> make_plant(const EmulatorConfig& c) {
   if (c.plant == PlantKind::kMujoco) {
-    return std::make_unique<delta::MujocoPlant>(
+    // With the robot's drive train, where its description has one.
+    return std::make_unique<delta::MultibodyRobot>(
         c.robot, c.initial_q_rad,
         delta::MujocoSettings{delta::MujocoIntegrator::kEuler, delta::kMujocoCoarsestStep_s});
   }
@@ -64,6 +66,10 @@ Emulator::Emulator(const EmulatorConfig& config, Outbox out)
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];
     drives_[j].pdos = product_.pdos;
+    if (config.plant == PlantKind::kMujoco) {
+      drives_[j].reported_A =
+          delta::CurrentFilter(config.robot.joints[j].current_filter_time_constant_s);
+    }
     objects_[j] = std::make_unique<DriveTable>(DriveContext{*this, drives_[j]},
                                                DriveObjects::scalars(), DriveObjects::texts());
     sdo_servers_[j] = std::make_unique<sdo::Server>(*objects_[j]);

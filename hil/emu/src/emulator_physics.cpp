@@ -51,6 +51,7 @@ void Emulator::advance(double dt_s) {
       // mean torque over it.
       const double mean_A = target_A + (d.current_A - target_A) * mean_share;
       d.current_A = target_A + (d.current_A - target_A) * decay;
+      d.reported_A.update(d.current_A, h);
       const double sign = d.model.inverted ? -1.0 : 1.0;
       tau[j] = sign * d.model.gear_ratio * d.model.gearbox_efficiency *
                d.model.torque_constant_Nm_per_A() * mean_A;
@@ -69,7 +70,7 @@ void Emulator::advance(double dt_s) {
 // The current, with its noise, once per SYNC: 0x6078 per mille of the
 // rated current, 0x6077 in the torque unit.
 void Emulator::measure(Drive& d) {
-  const double measured_A = d.current_A + config_.current_noise_A * noise();
+  const double measured_A = d.reported_A.value() + config_.current_noise_A * noise();
   const auto i16 = [](double v) {
     const long r = std::lround(v);
     return static_cast<std::int16_t>(std::max(-32768L, std::min(32767L, r)));

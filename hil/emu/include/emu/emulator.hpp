@@ -26,6 +26,7 @@
 #include "delta/canopen/eds.hpp"
 #include "delta/canopen/object_table.hpp"
 #include "delta/drive_model.hpp"
+#include "delta/drive_train_plant.hpp"
 #include "delta/dynamics.hpp"
 #include "delta/plant.hpp"
 #include "delta/robot_description.hpp"
@@ -219,6 +220,9 @@ class Emulator {
     std::int16_t current_measured_pm{0};  // 0x6078, with the noise, per SYNC
     std::uint16_t max_current_pm{3000};
     double current_A{0.0};
+    // What the drive's current measurement reports: the current through
+    // the robot description's current filter (none: the current itself).
+    delta::CurrentFilter reported_A{};
     std::uint64_t next_heartbeat_sim_us{0};
     std::uint64_t last_heartbeat_wall_us{0};
     // The heartbeat consumer (0x1016:1): node << 16 | timeout ms. Armed by
