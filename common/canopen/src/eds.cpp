@@ -4,10 +4,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <string_view>
+#include <vector>
 
 namespace delta::canopen {
 
@@ -308,19 +311,44 @@ class Reader {
     const Value& count_value = required(*s, name, "SubNumber");
     const std::int64_t count = number(name, "SubNumber", count_value);
     int found = 0;
-    for (int sub = 0; sub <= 0xFE; ++sub) {
-      char sb[16];
-      std::snprintf(sb, sizeof sb, "%04xsub%x", index, static_cast<unsigned>(sub));
-      const Section* ss = section(sb);
-      if (ss == nullptr) continue;
-      eds.variables[{index, static_cast<std::uint8_t>(sub)}] =
-          variable(*ss, sb, index, static_cast<std::uint8_t>(sub));
+    for (const SubSection& ss : sub_sections(name)) {
+      eds.variables[{index, ss.sub}] = variable(*ss.section, std::string(ss.name), index, ss.sub);
       ++found;
     }
     if (found != count) {
       fail(count_value.line, "[" + name + "] SubNumber=" + std::to_string(count) + " but " +
                                  std::to_string(found) + " [" + name + "subN] sections");
     }
+  }
+
+  // The sections [XXXXsubN] of object XXXX (name), N from 0 to 0xFE in hex
+  // as "%x" writes it, in the order of N: those that sort from "XXXXsub" on
+  // and begin with it (not a look-up of all 255 names for every object).
+  struct SubSection {
+    std::uint8_t sub;
+    std::string_view name;
+    const Section* section;
+  };
+  std::vector<SubSection> sub_sections(const std::string& name) const {
+    std::vector<SubSection> out;
+    const std::string prefix = name + "sub";
+    for (auto it = sections_.lower_bound(prefix);
+         it != sections_.end() && it->first.compare(0, prefix.size(), prefix) == 0; ++it) {
+      const std::string_view digits = std::string_view(it->first).substr(prefix.size());
+      unsigned sub = 0;
+      const auto [end, error] =
+          std::from_chars(digits.data(), digits.data() + digits.size(), sub, 16);
+      char canonical[16];
+      std::snprintf(canonical, sizeof canonical, "%x", sub);
+      if (error != std::errc() || end != digits.data() + digits.size() || sub > 0xFE ||
+          digits != canonical) {
+        continue;
+      }
+      out.push_back({static_cast<std::uint8_t>(sub), it->first, &it->second});
+    }
+    std::sort(out.begin(), out.end(),
+              [](const SubSection& a, const SubSection& b) { return a.sub < b.sub; });
+    return out;
   }
 
   // CiA 306's compact storage of an ARRAY: CompactSubObj=n sub-indices of

@@ -4,6 +4,7 @@
 // checks. The protocol (lengths, segments, blocks, aborts) is the server's.
 #include "drive_objects.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -212,6 +213,7 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       for (const std::uint16_t index : kMappable)
         o.pdo_mappable = o.pdo_mappable || o.index == index;
     }
+    std::sort(all.begin(), all.end(), DriveTable::before);  // as the table wants them
     return all;
   }();
   return kObjects;
@@ -297,6 +299,7 @@ auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Sca
     std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
     const auto mapping = mapping_objects<4>(0x1A03, std::make_index_sequence<9>());
     all.insert(all.end(), mapping.begin(), mapping.end());
+    std::sort(all.begin(), all.end(), DriveTable::before);  // as the table wants them
     return all;
   }();
   return kObjects;

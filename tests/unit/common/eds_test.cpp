@@ -352,6 +352,44 @@ NrOfEntries=1
             "drive.eds:53: [1016] CompactSubObj must be 1 to 254");
 }
 
+// A RECORD's sub-indices are its sections [XXXXsubN], N in hex as CiA 306
+// writes it (any case, no leading zero) up to 0xFE; a problem names the
+// lowest sub-index that has one.
+TEST(EdsTest, AnObjectsSubIndicesAreItsSubNSections) {
+  const std::string record = kHeader + R"(
+[OptionalObjects]
+SupportedObjects=1
+1=0x2000
+
+[2000]
+ParameterName=Record
+ObjectType=0x9
+SubNumber=4
+)";
+  const auto sub = [](const std::string& n, const std::string& type) {
+    return "\n[2000sub" + n + "]\nParameterName=Entry " + n + "\nDataType=" + type +
+           "\nAccessType=rw\n";
+  };
+  // Sections that name no sub-index: a leading zero, beyond 0xFE, not hex.
+  const std::string others = sub("01", "0x0005") + sub("FF", "0x0005") + sub("1x", "0x0005") +
+                             sub("", "0x0005") + "\n[2001sub1]\nK=1\n";
+  const Eds eds = parse_eds(record + sub("10", "0x0007") + sub("0", "0x0005") + sub("A", "0x0006") +
+                                sub("2", "0x0005") + others,
+                            "drive.eds");
+  std::vector<unsigned> subs;
+  for (const auto& [key, v] : eds.variables) {
+    if (key.first == 0x2000) subs.push_back(key.second);
+  }
+  EXPECT_EQ(subs, (std::vector<unsigned>{0, 2, 0xA, 0x10}));
+  EXPECT_EQ(eds.find(0x2000, 0xA)->name, "Entry A");
+  EXPECT_EQ(eds.find(0x2000, 0x10)->size_bytes(), 4u);
+  EXPECT_EQ(error_of(record + sub("10", "0x10000") + sub("0", "0x0005") + sub("A", "0x10000") +
+                     sub("2", "0x0005") + others),
+            "drive.eds:65: [2000suba] DataType=0x10000: not a type");
+  EXPECT_EQ(error_of(record + sub("0", "0x0005") + sub("2", "0x0005") + others),
+            "drive.eds:51: [2000] SubNumber=4 but 2 [2000subN] sections");
+}
+
 // Identity numbers a file leaves out are unknown, not an error.
 TEST(EdsTest, IdentityNumbersAreOptional) {
   std::string text = kHeader;

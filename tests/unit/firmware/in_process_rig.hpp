@@ -4,6 +4,7 @@
 #pragma once
 
 #include <deque>
+#include <utility>
 #include <vector>
 
 #include "delta/can/protocol.hpp"
@@ -34,22 +35,23 @@ class InProcessBus : public FrameSink {
   // none): deliver(m, true) holds them back for the next deliver.
   void make_late(std::uint32_t id) { late_id_ = id; }
   void deliver(CanopenMaster& m, bool in_window = false) {
-    std::deque<delta::can::Frame> held;
+    held_.clear();  // kept between calls: a deque allocates when it is made
     while (!to_master_.empty()) {
       delta::can::Received r;
       r.frame = to_master_.front();
       to_master_.pop_front();
       if (in_window && r.frame.id == late_id_) {
-        held.push_back(r.frame);
+        held_.push_back(r.frame);
         continue;
       }
       if (r.frame.error_frame) r.error = delta::can::decode_error_frame(r.frame.id, r.frame.data);
       m.on_frame(r, 0);
     }
-    to_master_ = std::move(held);
+    std::swap(to_master_, held_);
   }
   emu::Emulator emulator_;
   std::deque<delta::can::Frame> to_master_;
+  std::deque<delta::can::Frame> held_;  // deliver()'s late answers
   std::vector<delta::can::Frame> sent_;
   std::uint32_t lost_id_{~0u};
   std::uint32_t late_id_{~0u};

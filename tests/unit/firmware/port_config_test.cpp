@@ -85,6 +85,34 @@ TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {
       << config_error("trajectory_file = " + file + "\n");
 }
 
+// A Fourier preset is its generator's excitation for the configured
+// geometry however often it is built (the excitation is made once and
+// kept), and another geometry gets its own.
+TEST(PortConfigTest, AFourierPresetIsItsGeneratorsExcitationForTheGeometry) {
+  const delta::FourierPreset* fp = delta::fourier_preset("path1");
+  ASSERT_NE(fp, nullptr);
+  PortConfig other;
+  other.geometry.forearm_length_m = 0.5;
+  for (const PortConfig& c : {PortConfig{}, other, PortConfig{}, other}) {
+    delta::BlendedFourierTrajectory t;
+    ASSERT_TRUE(delta::make_fourier_excitation(c.geometry, fp->centre_m, fp->harmonics,
+                                               fp->base_frequency_hz, fp->amplitude_rad, fp->seed,
+                                               t.fourier));
+    t.blend_s = c.blend_s;
+    t.periods = fp->periods;
+    const fw::TrajectoryConfig direct = fourier_config(t, c.period_us, 700);
+    const auto built = named_trajectory("path1", c, TrajectoryParams{700, 0});
+    ASSERT_TRUE(built.has_value());
+    EXPECT_EQ(built->fourier.q0_rad, direct.fourier.q0_rad);
+    EXPECT_EQ(built->fourier.sin_amplitude_rad, direct.fourier.sin_amplitude_rad);
+    EXPECT_EQ(built->fourier.cos_amplitude_rad, direct.fourier.cos_amplitude_rad);
+    EXPECT_EQ(built->fourier.periods, direct.fourier.periods);
+    EXPECT_EQ(built->blend_ticks, direct.blend_ticks);
+  }
+  EXPECT_NE(named_trajectory("path1", other)->fourier.q0_rad,
+            named_trajectory("path1", PortConfig{})->fourier.q0_rad);
+}
+
 // A saved fit as host_id writes it (the parts the controller reads).
 std::string result_json(const std::string& model, const std::string& geometry,
                         const std::string& parameters) {

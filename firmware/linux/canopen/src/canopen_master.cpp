@@ -203,34 +203,47 @@ void CanopenMaster::leave_network() {
   bus_.send(frame(p::cob_id(p::kNmt, 0), 2, nmt));
 }
 
+// "node 1, 0x6060:00 (modes of operation): ", the bring-up step's words
+// for its problems: built only for a problem (every step of every drive's
+// bring-up gets an answer).
+std::string CanopenMaster::step_text(const Drive& d) const {
+  return "node " + std::to_string(d.node) + ", " + object_text(d.plan->actions[d.sdo_step].object) +
+         ": ";
+}
+
+// "joint1.", the configuration's keys of the drive's joint.
+std::string CanopenMaster::joint_key(const Drive& d) const {
+  return "joint" + std::to_string(&d - drives_.data() + 1) + ".";
+}
+
 void CanopenMaster::handle_sdo_response(Drive& d, const Frame& f) {
   if (d.sdo.status() != sdo::ClientStatus::kBusy) return;  // a duplicate or stray answer
-  const od::Object o = d.plan->actions[d.sdo_step].object;
-  const std::string at = "node " + std::to_string(d.node) + ", " + object_text(o) + ": ";
-  if (f.dlc != 8) return fail(at + "SDO response with " + std::to_string(f.dlc) + " bytes");
+  if (f.dlc != 8) {
+    return fail(step_text(d) + "SDO response with " + std::to_string(f.dlc) + " bytes");
+  }
   d.sdo.on_frame(f.data, now_us_);
   pump_sdo(d);
   if (d.sdo.status() == sdo::ClientStatus::kBusy) return;
   if (d.sdo.status() == sdo::ClientStatus::kAborted) {
     const std::uint32_t code = d.sdo.abort_code();
     if (d.sdo.aborted_by_server()) {
-      return fail(at + "the drive aborted the transfer: " + hex(code, 8) + " (" +
+      return fail(step_text(d) + "the drive aborted the transfer: " + hex(code, 8) + " (" +
                   sdo::abort_meaning(code) + ")");
     }
-    return fail(at + "unexpected SDO response, command byte " + hex(f.data[0], 2) + " (" +
+    return fail(step_text(d) + "unexpected SDO response, command byte " + hex(f.data[0], 2) + " (" +
                 sdo::abort_meaning(code) + ")");
   }
   std::uint32_t value = 0;
   for (unsigned i = 0; i < d.sdo.uploaded_size() && i < 4; ++i) {
     value |= std::uint32_t{d.sdo_bytes[i]} << (8 * i);
   }
-  take_step_result(d, value, at);
+  take_step_result(d, value);
 }
 
 // A bring-up step's answer: what was read is checked and kept; then the
 // next step, or the drive's units once it was the last.
-void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::string& at) {
-  if (!checked(d, value, at)) return;
+void CanopenMaster::take_step_result(Drive& d, std::uint32_t value) {
+  if (!checked(d, value)) return;
   d.sdo_attempts = 0;
   ++d.sdo_step;
   if (!bring_up_done(d)) return send_sdo(d, now_us_);
@@ -242,19 +255,20 @@ void CanopenMaster::take_step_result(Drive& d, std::uint32_t value, const std::s
 
 // A rated value the drive reports (0x6075 mA, 0x6076 mN m): kept; it must
 // not be 0, and must be the configured one where the configuration sets it.
-bool CanopenMaster::rated_value(Drive& d, std::uint32_t value, const std::string& at,
-                                std::uint32_t& kept, bool set, double configured,
-                                const std::string& key) {
+bool CanopenMaster::rated_value(Drive& d, std::uint32_t value, std::uint32_t& kept, bool set,
+                                double configured, const char* key) {
   const SdoAction& a = d.plan->actions[d.sdo_step];
   const char* unit = a.check == SdoCheck::kRatedCurrent ? "mA" : "mN m";
   const auto expected = static_cast<std::uint32_t>(std::llround(configured * 1000.0));
   if (value == 0) {
-    fail(at + "the drive reports a " + a.what + " of 0 " + unit + ": set it in the drive");
+    fail(step_text(d) + "the drive reports a " + a.what + " of 0 " + unit +
+         ": set it in the drive");
     return false;
   }
   if (set && value != expected) {
-    fail(at + "the drive's " + a.what + " is " + std::to_string(value) + " " + unit + "; " + key +
-         " says " + std::to_string(expected) + " " + unit + ": which is the motor's?");
+    fail(step_text(d) + "the drive's " + a.what + " is " + std::to_string(value) + " " + unit +
+         "; " + joint_key(d) + key + " says " + std::to_string(expected) + " " + unit +
+         ": which is the motor's?");
     return false;
   }
   kept = value;
@@ -262,38 +276,38 @@ bool CanopenMaster::rated_value(Drive& d, std::uint32_t value, const std::string
 }
 
 // What a read says, against the plan and the configuration.
-bool CanopenMaster::checked(Drive& d, std::uint32_t value, const std::string& at) {
+bool CanopenMaster::checked(Drive& d, std::uint32_t value) {
   const SdoAction& a = d.plan->actions[d.sdo_step];
   const JointDrive& jd = joint(d);
-  const std::string key = "joint" + std::to_string(&d - drives_.data() + 1) + ".";
   switch (a.check) {
     case SdoCheck::kNone:
       return true;
     case SdoCheck::kDeviceType:
       if ((value & 0xFFFF) == (od::kDeviceTypeServo & 0xFFFF)) return true;
-      fail(at + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
+      fail(step_text(d) + "device type " + hex(value, 8) + " is not a CiA 402 drive (0x....0192)");
       return false;
     case SdoCheck::kVendorId:
     case SdoCheck::kProductCode:
     case SdoCheck::kRevision:
     case SdoCheck::kSerial:
-      return identity_matches(d, value, at);
+      return identity_matches(d, value);
     case SdoCheck::kRatedCurrent:
-      return rated_value(d, value, at, d.rated_current_mA, jd.rated_current_set,
-                         jd.model.rated_current_A, key + "rated_current_A");
+      return rated_value(d, value, d.rated_current_mA, jd.rated_current_set,
+                         jd.model.rated_current_A, "rated_current_A");
     case SdoCheck::kRatedTorque:
-      return rated_value(d, value, at, d.rated_torque_mNm, jd.rated_torque_set,
-                         jd.model.rated_torque_Nm, key + "rated_torque_Nm");
+      return rated_value(d, value, d.rated_torque_mNm, jd.rated_torque_set,
+                         jd.model.rated_torque_Nm, "rated_torque_Nm");
     case SdoCheck::kEncoderIncrements:
       if (value == jd.model.counts_per_rev) return true;
-      fail(at + "the encoder has " + std::to_string(value) +
+      fail(step_text(d) + "the encoder has " + std::to_string(value) +
            " counts per revolution; the configuration says " +
-           std::to_string(jd.model.counts_per_rev) + " (" + key + "counts_per_rev)");
+           std::to_string(jd.model.counts_per_rev) + " (" + joint_key(d) + "counts_per_rev)");
       return false;
     case SdoCheck::kModeDisplay:
       if (static_cast<std::int8_t>(value & 0xFF) == d.plan->mode) return true;
-      fail(at + "the drive shows mode " + std::to_string(static_cast<std::int8_t>(value & 0xFF)) +
-           " after mode " + std::to_string(d.plan->mode) +
+      fail(step_text(d) + "the drive shows mode " +
+           std::to_string(static_cast<std::int8_t>(value & 0xFF)) + " after mode " +
+           std::to_string(d.plan->mode) +
            " was written to 0x6060: it does not take it (docs/drives.md)");
       return false;
   }
@@ -303,7 +317,7 @@ bool CanopenMaster::checked(Drive& d, std::uint32_t value, const std::string& at
 // 0x1018 against the configuration: the vendor ID, product code and serial
 // number exactly, the revision by its major part (CiA 301: the minor part
 // changes without changing the CANopen behaviour).
-bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::string& at) {
+bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found) {
   const DriveIdentity& id = joint(d).identity;
   const SdoAction& a = d.plan->actions[d.sdo_step];
   const std::optional<std::uint32_t> expected[] = {id.vendor_id, id.product_code, id.revision,
@@ -314,8 +328,8 @@ bool CanopenMaster::identity_matches(Drive& d, std::uint32_t found, const std::s
   const bool revision = a.check == SdoCheck::kRevision;
   const bool same = revision ? (found >> 16) == (*want >> 16) : found == *want;
   if (same) return true;
-  fail(at + a.what + " " + hex(found, 8) + "; " + id.source + " expects " + hex(*want, 8) +
-       (revision ? " (major revision " + std::to_string(*want >> 16) + ")" : "") +
+  fail(step_text(d) + a.what + " " + hex(found, 8) + "; " + id.source + " expects " +
+       hex(*want, 8) + (revision ? " (major revision " + std::to_string(*want >> 16) + ")" : "") +
        ": is this the drive the configuration describes?");
   return false;
 }

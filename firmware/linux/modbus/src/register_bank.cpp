@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <string_view>
 
 #include "delta/controller/vocabulary.hpp"
 #include "fw_linux/modbus_server.hpp"
@@ -63,6 +64,13 @@ std::uint16_t be16(const std::uint8_t* p) {
   return static_cast<std::uint16_t>((p[0] << 8) | p[1]);
 }
 
+// A register by its name, found at compile time: refresh() runs on every
+// read, and named() at run time compares the name with every register's.
+// A name not in the map does not compile.
+consteval const mb::Register& reg(std::string_view name) {
+  return mb::named(name);
+}
+
 bool moving(const PanelStatus& s) {
   return s.state == fw::State::kRunning || s.state == fw::State::kStopping ||
          s.run_result == mb::RunResult::kRunning;
@@ -93,54 +101,65 @@ RegisterBank::~RegisterBank() {
 void RegisterBank::refresh() {
   const PanelStatus s = panel_.status();
   std::uint16_t* in = mapping_->tab_input_registers;
-  auto set = [in](const char* name, std::int64_t v) { mb::encode(mb::named(name), v, in); };
-  set("firmware_version_major", program_.version.major);
-  set("firmware_version_minor", program_.version.minor);
-  set("firmware_version_patch", program_.version.patch);
-  set("update_rollback", static_cast<int>(program_.rolled_back));
-  set("tracking_run_id", s.tracking_run_id);
-  set("tracking_ticks", s.tracking_ticks);
+  auto set = [in](const mb::Register& r, std::int64_t v) { mb::encode(r, v, in); };
+  set(reg("firmware_version_major"), program_.version.major);
+  set(reg("firmware_version_minor"), program_.version.minor);
+  set(reg("firmware_version_patch"), program_.version.patch);
+  set(reg("update_rollback"), static_cast<int>(program_.rolled_back));
+  set(reg("tracking_run_id"), s.tracking_run_id);
+  set(reg("tracking_ticks"), s.tracking_ticks);
+  static constexpr const mb::Register* kRms[] = {&reg("tracking_rms_1"), &reg("tracking_rms_2"),
+                                                 &reg("tracking_rms_3")};
+  static constexpr const mb::Register* kMax[] = {&reg("tracking_max_1"), &reg("tracking_max_2"),
+                                                 &reg("tracking_max_3")};
   for (unsigned j = 0; j < 3; ++j) {
-    const std::string n = std::to_string(j + 1);
-    mb::encode(mb::named(("tracking_rms_" + n).c_str()), s.tracking_rms_nrad[j], in);
-    mb::encode(mb::named(("tracking_max_" + n).c_str()), s.tracking_max_nrad[j], in);
+    set(*kRms[j], s.tracking_rms_nrad[j]);
+    set(*kMax[j], s.tracking_max_nrad[j]);
   }
-  set("feed_forward_mode", static_cast<int>(s.feed_forward.mode));
-  set("model_fit_id", s.model_fit_id);
-  set("protocol_version", mb::kMapVersion);
-  set("state", static_cast<int>(s.state));
-  set("fault_code", static_cast<int>(s.fault));
-  set("cycle_counter", s.cycle);
-  set("period_us", config_.period_us);
-  set("io", s.io_bits);
-  set("run_id", s.run_id);
-  set("run_result", static_cast<int>(s.run_result));
-  set("run_tick", s.run_tick);
-  set("run_length", s.run_length);
-  set("log_records", s.log_records);
-  set("stale_log_records", s.stale_log_records);
-  set("fault_count", s.fault_count);
+  set(reg("feed_forward_mode"), static_cast<int>(s.feed_forward.mode));
+  set(reg("model_fit_id"), s.model_fit_id);
+  set(reg("protocol_version"), mb::kMapVersion);
+  set(reg("state"), static_cast<int>(s.state));
+  set(reg("fault_code"), static_cast<int>(s.fault));
+  set(reg("cycle_counter"), s.cycle);
+  set(reg("period_us"), config_.period_us);
+  set(reg("io"), s.io_bits);
+  set(reg("run_id"), s.run_id);
+  set(reg("run_result"), static_cast<int>(s.run_result));
+  set(reg("run_tick"), s.run_tick);
+  set(reg("run_length"), s.run_length);
+  set(reg("log_records"), s.log_records);
+  set(reg("stale_log_records"), s.stale_log_records);
+  set(reg("fault_count"), s.fault_count);
+  static constexpr auto kHistory = [] {
+    std::array<std::array<const mb::Register*, 2>, mb::kFaultHistoryLength> h{};
+    for (unsigned k = 0; k < h.size(); ++k) {
+      h[k] = {&mb::fault_history_code(k), &mb::fault_history_cycle(k)};
+    }
+    return h;
+  }();
   for (unsigned k = 0; k < mb::kFaultHistoryLength; ++k) {
-    mb::encode(mb::fault_history_code(k), static_cast<int>(s.fault_history[k].fault), in);
-    mb::encode(mb::fault_history_cycle(k), s.fault_history[k].cycle, in);
+    set(*kHistory[k][0], static_cast<int>(s.fault_history[k].fault));
+    set(*kHistory[k][1], s.fault_history[k].cycle);
   }
-  set("last_rejection", static_cast<int>(last_rejection_));
-  set("last_rejection_register", last_rejection_register_);
-  set("trajectory_check", static_cast<int>(last_check_.fault));
-  set("trajectory_check_tick", last_check_.tick);
-  set("trajectory_check_joint", last_check_.joint + 1);
+  set(reg("last_rejection"), static_cast<int>(last_rejection_));
+  set(reg("last_rejection_register"), last_rejection_register_);
+  set(reg("trajectory_check"), static_cast<int>(last_check_.fault));
+  set(reg("trajectory_check_tick"), last_check_.tick);
+  set(reg("trajectory_check_joint"), last_check_.joint + 1);
   auto um = [](double m) { return static_cast<std::int64_t>(m * 1e6 + 0.5); };
-  set("upper_arm_length", um(config_.geometry.upper_arm_length_m));
-  set("forearm_length", um(config_.geometry.forearm_length_m));
-  set("base_radius", um(config_.geometry.base_radius_m));
-  set("platform_radius", um(config_.geometry.platform_radius_m));
-  const char* q[] = {"q1", "q2", "q3"};
-  const char* tau[] = {"tau1", "tau2", "tau3"};
+  set(reg("upper_arm_length"), um(config_.geometry.upper_arm_length_m));
+  set(reg("forearm_length"), um(config_.geometry.forearm_length_m));
+  set(reg("base_radius"), um(config_.geometry.base_radius_m));
+  set(reg("platform_radius"), um(config_.geometry.platform_radius_m));
+  static constexpr const mb::Register* kQ[] = {&reg("q1"), &reg("q2"), &reg("q3")};
+  static constexpr const mb::Register* kTau[] = {&reg("tau1"), &reg("tau2"), &reg("tau3")};
   for (unsigned j = 0; j < 3; ++j) {
-    set(q[j], s.q_urad[j]);
-    set(tau[j], s.tau_uNm[j]);
+    set(*kQ[j], s.q_urad[j]);
+    set(*kTau[j], s.tau_uNm[j]);
   }
-  set("trajectory_count", static_cast<std::int64_t>(trajectory_names().size()));
+  set(reg("trajectory_count"),
+      static_cast<std::int64_t>(delta::controller::kTrajectoryNames.size()));
   std::uint16_t* hold = mapping_->tab_registers;
   mb::encode(mb::kTrajectory, settings_.trajectory, hold);
   mb::encode(mb::kAmplitudeScale, settings_.scale_permille, hold);

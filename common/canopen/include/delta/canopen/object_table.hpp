@@ -6,10 +6,12 @@
 // table checks that the node's EDS describes it.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <span>
+#include <stdexcept>
 #include <string>
 
 #include "delta/can/sdo.hpp"
@@ -48,12 +50,32 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     std::span<const std::uint8_t> (*contents)(const Context&){nullptr};
   };
 
+  // The scalars in the order of index, then sub-index, each once: they are
+  // looked up by binary search (every SDO transfer and every PDO entry of
+  // every SYNC looks one up). Throws std::invalid_argument where they are not.
   ObjectTable(Context context, std::span<const Scalar> scalars, std::span<const Text> texts,
               std::span<const Domain> domains = {})
-      : context_(context), scalars_(scalars), texts_(texts), domains_(domains) {}
+      : context_(context), scalars_(scalars), texts_(texts), domains_(domains) {
+    const auto out_of_order = [](const Scalar& a, const Scalar& b) { return !before(a, b); };
+    if (std::adjacent_find(scalars.begin(), scalars.end(), out_of_order) != scalars.end()) {
+      throw std::invalid_argument("ObjectTable: the scalars are not in index order, each once");
+    }
+  }
 
+  // The order of the scalars.
+  static bool before(const Scalar& a, const Scalar& b) {
+    return key(a.index, a.subindex) < key(b.index, b.subindex);
+  }
+
+  // Each looks among the scalars first, which are most of the objects and
+  // all of those a PDO carries (an object is one of the three kinds).
   can::sdo::AbortCode find(std::uint16_t index, std::uint8_t subindex,
                            can::sdo::ObjectInfo& info) override {
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    if (const Scalar* s = scalar(index, subindex, code)) {
+      info = {s->size, s->size, true, s->set != nullptr, false};
+      return can::sdo::kNoAbort;
+    }
     if (const Text* t = text(index, subindex)) {
       info = {static_cast<std::uint32_t>(t->get(context_).size()), 0, true, false, true};
       return can::sdo::kNoAbort;
@@ -63,15 +85,19 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       info = {size, d->capacity(context_), d->contents != nullptr, true, true};
       return can::sdo::kNoAbort;
     }
-    can::sdo::AbortCode code = can::sdo::kNoAbort;
-    const Scalar* s = scalar(index, subindex, code);
-    if (s == nullptr) return code;
-    info = {s->size, s->size, true, s->set != nullptr, false};
-    return can::sdo::kNoAbort;
+    return code;
   }
 
   can::sdo::AbortCode read(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
                            std::span<std::uint8_t> out) override {
+    can::sdo::AbortCode code = can::sdo::kNoAbort;
+    if (const Scalar* s = scalar(index, subindex, code)) {
+      const std::uint32_t v = s->get(context_);
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        out[i] = static_cast<std::uint8_t>(v >> (8 * (offset + i)));
+      }
+      return can::sdo::kNoAbort;
+    }
     if (const Text* t = text(index, subindex)) {
       const std::string value = t->get(context_);
       if (offset + out.size() > value.size()) return can::sdo::kAbortNoData;  // it changed
@@ -85,22 +111,17 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
       if (!out.empty()) std::memcpy(out.data(), value.data() + offset, out.size());
       return can::sdo::kNoAbort;
     }
-    can::sdo::AbortCode code = can::sdo::kNoAbort;
-    const Scalar* s = scalar(index, subindex, code);
-    if (s == nullptr) return code;
-    const std::uint32_t v = s->get(context_);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      out[i] = static_cast<std::uint8_t>(v >> (8 * (offset + i)));
-    }
-    return can::sdo::kNoAbort;
+    return code;
   }
 
   can::sdo::AbortCode write(std::uint16_t index, std::uint8_t subindex, std::uint32_t offset,
                             std::span<const std::uint8_t> data, bool last) override {
-    if (const Domain* d = domain(index, subindex)) return d->write(context_, offset, data, last);
     can::sdo::AbortCode code = can::sdo::kNoAbort;
     const Scalar* s = scalar(index, subindex, code);
-    if (s == nullptr) return text(index, subindex) ? can::sdo::kAbortReadOnly : code;
+    if (s == nullptr) {
+      if (const Domain* d = domain(index, subindex)) return d->write(context_, offset, data, last);
+      return text(index, subindex) ? can::sdo::kAbortReadOnly : code;
+    }
     if (s->set == nullptr) return can::sdo::kAbortReadOnly;
     if (offset == 0) staged_ = 0;
     for (std::size_t i = 0; i < data.size(); ++i) {
@@ -171,15 +192,33 @@ class ObjectTable final : public can::sdo::ObjectDictionary {
     }
     return nullptr;
   }
+  static std::uint32_t key(std::uint16_t index, std::uint8_t subindex) {
+    return std::uint32_t{index} << 8 | subindex;
+  }
   const Scalar* scalar(std::uint16_t index, std::uint8_t subindex,
                        can::sdo::AbortCode& code) const {
     code = can::sdo::kAbortObjectDoesNotExist;
-    for (const Scalar& s : scalars_) {
-      if (s.index != index) continue;
-      if (s.subindex == subindex) {
-        code = can::sdo::kNoAbort;
-        return &s;
+    // The member read once: the sanitizers' build checks this object's type
+    // on every access to a member.
+    const std::span<const Scalar> all = scalars_;
+    // The first scalar not before index:subindex.
+    const std::uint32_t wanted = key(index, subindex);
+    std::size_t first = 0, end = all.size();
+    while (first < end) {
+      const std::size_t mid = first + (end - first) / 2;
+      if (key(all[mid].index, all[mid].subindex) < wanted) {
+        first = mid + 1;
+      } else {
+        end = mid;
       }
+    }
+    if (first < all.size() && all[first].index == index && all[first].subindex == subindex) {
+      code = can::sdo::kNoAbort;
+      return &all[first];
+    }
+    // Another sub-index of the object sorts next to where this one would.
+    if ((first < all.size() && all[first].index == index) ||
+        (first > 0 && all[first - 1].index == index)) {
       code = can::sdo::kAbortSubindexDoesNotExist;
     }
     for (const Text& t : texts_) {

@@ -119,11 +119,14 @@ class CanopenMaster {
   static bool bring_up_done(const Drive& d) { return d.sdo_step >= d.plan->actions.size(); }
   void send_sdo(Drive& d, std::uint64_t now_us);
   void pump_sdo(Drive& d);
-  void take_step_result(Drive& d, std::uint32_t value, const std::string& at);
-  bool identity_matches(Drive& d, std::uint32_t found, const std::string& at);
-  bool checked(Drive& d, std::uint32_t value, const std::string& at);
-  bool rated_value(Drive& d, std::uint32_t value, const std::string& at, std::uint32_t& kept,
-                   bool set, double configured, const std::string& key);
+  std::string step_text(const Drive& d) const;
+  std::string joint_key(const Drive& d) const;
+  void take_step_result(Drive& d, std::uint32_t value);
+  bool identity_matches(Drive& d, std::uint32_t found);
+  bool checked(Drive& d, std::uint32_t value);
+  // key: the configuration's key under the joint's ("rated_current_A").
+  bool rated_value(Drive& d, std::uint32_t value, std::uint32_t& kept, bool set, double configured,
+                   const char* key);
   void handle_sdo_response(Drive& d, const delta::can::Frame& f);
   bool counted() const { return config_.sync_counter_overflow != 0; }
   void handle_tpdo(Drive& d, const delta::can::Frame& f, const PlannedPdo& pdo);
