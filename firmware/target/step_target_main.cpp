@@ -58,17 +58,10 @@ void print_number(const char* label, std::uint32_t v) {
   semihosting::write(buf);
 }
 
-}  // namespace
-
-extern "C" int firmware_main() {
-  // Calibration: 2 instructions per iteration (subs, bne) x 1,000,000.
-  mark_begin();
-  std::uint32_t count = 1000000;
-  asm volatile("1: subs %0, %0, #1\n bne 1b" : "+r"(count) : : "cc");
-  mark_end();
-  const std::uint32_t calib_ticks = begin_ticks - end_ticks;
+// Instructions per control step of each path; false if one did not run
+// all its steps.
+bool count_steps(std::uint32_t calib_ticks) {
   const std::uint32_t steps = 200;
-  print_number("calibration_ticks_per_2e6_instructions ", calib_ticks);
   bool all_done = true;
   for (const auto& path : fw::bench::kStepPaths) {
     const std::uint32_t done =
@@ -83,37 +76,46 @@ extern "C" int firmware_main() {
     print_number(" instructions_per_step ", per_step);
     all_done = all_done && done == steps;
   }
-  // The primitives, 1000 calls each, for where the step's instructions go.
-  const auto per_call = [&](const char* label, auto&& body) {
-    mark_begin();
-    for (std::uint32_t i = 0; i < 1000; ++i) body(i);
-    mark_end();
-    print_number(label,
-                 static_cast<std::uint32_t>(
-                     (std::uint64_t{begin_ticks - end_ticks} * 2000000u / calib_ticks) / 1000));
-  };
-  volatile std::int32_t sink = 0;
-  per_call("instructions_per_atan2 ", [&](std::uint32_t i) {
+  return all_done;
+}
+
+// The instructions of 1000 calls of body, divided by 1000.
+template <class Body>
+void per_call(std::uint32_t calib_ticks, const char* label, Body&& body) {
+  mark_begin();
+  for (std::uint32_t i = 0; i < 1000; ++i) body(i);
+  mark_end();
+  print_number(label,
+               static_cast<std::uint32_t>(
+                   (std::uint64_t{begin_ticks - end_ticks} * 2000000u / calib_ticks) / 1000));
+}
+
+volatile std::int32_t sink = 0;
+
+// The primitives, 1000 calls each, for where the step's instructions go.
+void count_primitives(std::uint32_t calib_ticks) {
+  per_call(calib_ticks, "instructions_per_atan2 ", [](std::uint32_t i) {
     sink = delta::fx::atan2_raw(std::int64_t{123456789} + i * 7919,
                                 std::int64_t{987654321} - i * 104729)
                .raw();
   });
-  per_call("instructions_per_isqrt ", [&](std::uint32_t i) {
+  per_call(calib_ticks, "instructions_per_isqrt ", [](std::uint32_t i) {
     sink = static_cast<std::int32_t>(
         delta::fx::isqrt_round((std::uint64_t{1} << 60) + i * 1234567891u));
   });
-  per_call("instructions_per_sincos ", [&](std::uint32_t i) {
+  per_call(calib_ticks, "instructions_per_sincos ", [](std::uint32_t i) {
     sink = delta::fx::sincos(delta::fx::Q3_28::from_raw(static_cast<std::int32_t>(i * 2654435u)))
                .cos.raw();
   });
-  const delta::fx::GeometryQ g{delta::fx::Q7_24::from(0.2), delta::fx::Q7_24::from(0.46),
-                               delta::fx::Q7_24::from(0.1), delta::fx::Q7_24::from(0.035)};
-  per_call("instructions_per_ik ", [&](std::uint32_t i) {
+  static constexpr delta::fx::GeometryQ g{delta::fx::Q7_24::from(0.2), delta::fx::Q7_24::from(0.46),
+                                          delta::fx::Q7_24::from(0.1),
+                                          delta::fx::Q7_24::from(0.035)};
+  per_call(calib_ticks, "instructions_per_ik ", [](std::uint32_t i) {
     const delta::fx::Vec3Q p{delta::fx::Q7_24::from_raw(static_cast<std::int32_t>(i * 1000)),
                              delta::fx::Q7_24::from(0.01), delta::fx::Q7_24::from(-0.45)};
     sink = delta::fx::inverse_kinematics(g, p).theta_rad[0].raw();
   });
-  per_call("instructions_per_model ", [&](std::uint32_t i) {
+  per_call(calib_ticks, "instructions_per_model ", [](std::uint32_t i) {
     delta::fx::ModelParametersQ m;
     m.kind = delta::fx::ModelKind::kDelta;
     m.platform_inertial_mass_kg = delta::fx::Q7_24::from(0.4);
@@ -129,5 +131,19 @@ extern "C" int firmware_main() {
     delta::fx::model_torque(delta::fx::prepare_model(g, m), s, tau);
     sink = tau[0].raw();
   });
+}
+
+}  // namespace
+
+extern "C" int firmware_main() {
+  // Calibration: 2 instructions per iteration (subs, bne) x 1,000,000.
+  mark_begin();
+  std::uint32_t count = 1000000;
+  asm volatile("1: subs %0, %0, #1\n bne 1b" : "+r"(count) : : "cc");
+  mark_end();
+  const std::uint32_t calib_ticks = begin_ticks - end_ticks;
+  print_number("calibration_ticks_per_2e6_instructions ", calib_ticks);
+  const bool all_done = count_steps(calib_ticks);
+  count_primitives(calib_ticks);
   return all_done ? 0 : 1;
 }

@@ -157,6 +157,38 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
 // The firmware update's integer code: CRC-32 and SHA-256 of a fixed byte
 // pattern in uneven pieces, a header's CRC, ImageCheck's verdicts, and the
 // slot machine through a download, a trial, a power loss and a confirmation.
+// The slot machine through a download, a trial, a power loss and a
+// confirmation, and its record's CRC.
+void slot_lines(Line& l, std::uint32_t& lines) {
+  namespace u = delta::update;
+  fw::update::BootRecord r;
+  r.slots[0] = {fw::update::SlotState::kConfirmed, 0x11111111u, {1, 0, 0}};
+  fw::update::Slots s(r);
+  // Braced lists evaluate left to right: download, trial launched, a power
+  // loss (the second boot reverts), then download, trial and confirm.
+  const int steps[] = {static_cast<int>(s.begin_download()),
+                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x22222222u, {1, 1, 0})),
+                       static_cast<int>(s.start_trial()),
+                       s.boot().slot,
+                       s.boot().slot,
+                       static_cast<int>(s.record().last_revert),
+                       static_cast<int>(s.confirm()),
+                       static_cast<int>(s.begin_download()),
+                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x33333333u, {1, 2, 0})),
+                       static_cast<int>(s.start_trial()),
+                       s.boot().slot,
+                       static_cast<int>(s.confirm()),
+                       s.active()};
+  l.word("slots");
+  for (const int v : steps) l.num(v);
+  l.end(lines);
+  fw::update::RecordBytes rec;
+  fw::update::encode(s.record(), rec);
+  l.word("boot-record-crc")
+      .num(rec[32] | (rec[33] << 8) | (rec[34] << 16) | (std::int64_t{rec[35]} << 24))
+      .end(lines);
+}
+
 void update_lines(Line& l, std::uint32_t& lines) {
   namespace u = delta::update;
   std::uint8_t data[300];
@@ -199,32 +231,7 @@ void update_lines(Line& l, std::uint32_t& lines) {
     l.word("image-check").num(flip).num(static_cast<int>(check.finish())).end(lines);
     if (flip < sizeof image) image[flip] ^= 1;
   }
-  fw::update::BootRecord r;
-  r.slots[0] = {fw::update::SlotState::kConfirmed, 0x11111111u, {1, 0, 0}};
-  fw::update::Slots s(r);
-  // Braced lists evaluate left to right: download, trial launched, a power
-  // loss (the second boot reverts), then download, trial and confirm.
-  const int steps[] = {static_cast<int>(s.begin_download()),
-                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x22222222u, {1, 1, 0})),
-                       static_cast<int>(s.start_trial()),
-                       s.boot().slot,
-                       s.boot().slot,
-                       static_cast<int>(s.record().last_revert),
-                       static_cast<int>(s.confirm()),
-                       static_cast<int>(s.begin_download()),
-                       static_cast<int>(s.end_download(u::Verdict::kOk, 0x33333333u, {1, 2, 0})),
-                       static_cast<int>(s.start_trial()),
-                       s.boot().slot,
-                       static_cast<int>(s.confirm()),
-                       s.active()};
-  l.word("slots");
-  for (const int v : steps) l.num(v);
-  l.end(lines);
-  fw::update::RecordBytes rec;
-  fw::update::encode(s.record(), rec);
-  l.word("boot-record-crc")
-      .num(rec[32] | (rec[33] << 8) | (rec[34] << 16) | (std::int64_t{rec[35]} << 24))
-      .end(lines);
+  slot_lines(l, lines);
 }
 
 namespace {

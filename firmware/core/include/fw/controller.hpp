@@ -282,23 +282,7 @@ class Controller {
     }
     JointAnglesQ q{};
     std::array<Q10_21, 3> qd{};
-    for (unsigned j = 0; j < 3; ++j) {
-      q[j] = feedback_[j].position_rad;
-      qd[j] = feedback_[j].velocity_rad_s;
-      if (q[j] < config_.limits.min_rad || q[j] > config_.limits.max_rad) {
-        enter_fault(Fault::kJointLimit);
-        return;
-      }
-      if (delta::fx::abs(qd[j]) > config_.limits.max_velocity_rad_s) {
-        enter_fault(Fault::kVelocityLimit);
-        return;
-      }
-      if (delta::fx::abs(reference_.q_rad[j] - q[j]) > config_.max_tracking_error_rad) {
-        enter_fault(Fault::kTrackingError);
-        return;
-      }
-      measured_torque_[j] = torque_from_current_[j](feedback_[j].current_A);
-    }
+    if (!read_joints(q, qd)) return;
     if (state_ == State::kRunning && run_tick_ >= config_.approach_ticks) {
       tracking_.add(reference_.q_rad, q);
     }
@@ -311,6 +295,36 @@ class Controller {
     std::array<bool, 3> saturated{};
     command_ = joint_.update(reference_, q, qd, feed_forward, saturated);
     hw_.command_torque(command_);
+    if (!log_tick(q)) return;
+    advance_run();
+  }
+
+  // The joints' angles and velocities from the feedback, checked against
+  // the limits and the tracking error, and their measured torques; false
+  // after entering the fault a check gives.
+  bool read_joints(JointAnglesQ& q, std::array<Q10_21, 3>& qd) {
+    for (unsigned j = 0; j < 3; ++j) {
+      q[j] = feedback_[j].position_rad;
+      qd[j] = feedback_[j].velocity_rad_s;
+      if (q[j] < config_.limits.min_rad || q[j] > config_.limits.max_rad) {
+        enter_fault(Fault::kJointLimit);
+        return false;
+      }
+      if (delta::fx::abs(qd[j]) > config_.limits.max_velocity_rad_s) {
+        enter_fault(Fault::kVelocityLimit);
+        return false;
+      }
+      if (delta::fx::abs(reference_.q_rad[j] - q[j]) > config_.max_tracking_error_rad) {
+        enter_fault(Fault::kTrackingError);
+        return false;
+      }
+      measured_torque_[j] = torque_from_current_[j](feedback_[j].current_A);
+    }
+    return true;
+  }
+
+  // This tick's log record; false after a log overflow fault.
+  bool log_tick(const JointAnglesQ& q) {
     LogRecord rec;
     rec.seq = log_seq_++;
     rec.q_rad = q;
@@ -319,8 +333,13 @@ class Controller {
     if (rec.stale) ++stale_log_records_;
     if (!hw_.log(rec)) {
       enter_fault(Fault::kLogOverflow);
-      return;
+      return false;
     }
+    return true;
+  }
+
+  // The run's next tick: stopping after its last, ready after the stop.
+  void advance_run() {
     if (state_ == State::kRunning) {
       ++run_tick_;
       if (run_tick_ > config_.approach_ticks + trajectory_.length_ticks()) {

@@ -99,6 +99,11 @@ RegisterBank::~RegisterBank() {
 }
 
 void RegisterBank::refresh() {
+  refresh_inputs();
+  refresh_holding();
+}
+
+void RegisterBank::refresh_inputs() {
   const PanelStatus s = panel_.status();
   std::uint16_t* in = mapping_->tab_input_registers;
   auto set = [in](const mb::Register& r, std::int64_t v) { mb::encode(r, v, in); };
@@ -131,6 +136,25 @@ void RegisterBank::refresh() {
   set(reg("log_records"), s.log_records);
   set(reg("stale_log_records"), s.stale_log_records);
   set(reg("fault_count"), s.fault_count);
+  refresh_history_and_checks(s);
+  auto um = [](double m) { return static_cast<std::int64_t>(m * 1e6 + 0.5); };
+  set(reg("upper_arm_length"), um(config_.geometry.upper_arm_length_m));
+  set(reg("forearm_length"), um(config_.geometry.forearm_length_m));
+  set(reg("base_radius"), um(config_.geometry.base_radius_m));
+  set(reg("platform_radius"), um(config_.geometry.platform_radius_m));
+  static constexpr const mb::Register* kQ[] = {&reg("q1"), &reg("q2"), &reg("q3")};
+  static constexpr const mb::Register* kTau[] = {&reg("tau1"), &reg("tau2"), &reg("tau3")};
+  for (unsigned j = 0; j < 3; ++j) {
+    set(*kQ[j], s.q_urad[j]);
+    set(*kTau[j], s.tau_uNm[j]);
+  }
+  set(reg("trajectory_count"),
+      static_cast<std::int64_t>(delta::controller::kTrajectoryNames.size()));
+}
+
+void RegisterBank::refresh_history_and_checks(const PanelStatus& s) {
+  std::uint16_t* in = mapping_->tab_input_registers;
+  auto set = [in](const mb::Register& r, std::int64_t v) { mb::encode(r, v, in); };
   static constexpr auto kHistory = [] {
     std::array<std::array<const mb::Register*, 2>, mb::kFaultHistoryLength> h{};
     for (unsigned k = 0; k < h.size(); ++k) {
@@ -147,19 +171,9 @@ void RegisterBank::refresh() {
   set(reg("trajectory_check"), static_cast<int>(last_check_.fault));
   set(reg("trajectory_check_tick"), last_check_.tick);
   set(reg("trajectory_check_joint"), last_check_.joint + 1);
-  auto um = [](double m) { return static_cast<std::int64_t>(m * 1e6 + 0.5); };
-  set(reg("upper_arm_length"), um(config_.geometry.upper_arm_length_m));
-  set(reg("forearm_length"), um(config_.geometry.forearm_length_m));
-  set(reg("base_radius"), um(config_.geometry.base_radius_m));
-  set(reg("platform_radius"), um(config_.geometry.platform_radius_m));
-  static constexpr const mb::Register* kQ[] = {&reg("q1"), &reg("q2"), &reg("q3")};
-  static constexpr const mb::Register* kTau[] = {&reg("tau1"), &reg("tau2"), &reg("tau3")};
-  for (unsigned j = 0; j < 3; ++j) {
-    set(*kQ[j], s.q_urad[j]);
-    set(*kTau[j], s.tau_uNm[j]);
-  }
-  set(reg("trajectory_count"),
-      static_cast<std::int64_t>(delta::controller::kTrajectoryNames.size()));
+}
+
+void RegisterBank::refresh_holding() {
   std::uint16_t* hold = mapping_->tab_registers;
   mb::encode(mb::kTrajectory, settings_.trajectory, hold);
   mb::encode(mb::kAmplitudeScale, settings_.scale_permille, hold);

@@ -89,7 +89,13 @@ class RegisterBank {
   fw::TrajectoryBounds bounds(const PanelStatus& status) const;
   std::optional<fw::CheckedTrajectory> build(const Settings& s, const PanelStatus& status,
                                              fw::TrajectoryCheck& check) const;
+  // The registers from the status and the settings, before each reply: the
+  // input registers (state, run, faults, tracking, geometry, the last
+  // refusal) and the holding ones (the settings as taken).
   void refresh();
+  void refresh_inputs();
+  void refresh_history_and_checks(const PanelStatus& s);
+  void refresh_holding();
 
   const PortConfig config_;
   const ProgramFacts program_;
