@@ -86,8 +86,7 @@ TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {
 }
 
 // A Fourier preset is its generator's excitation for the configured
-// geometry however often it is built (the excitation is made once and
-// kept), and another geometry gets its own.
+// geometry however often it is built, and another geometry gets its own.
 TEST(PortConfigTest, AFourierPresetIsItsGeneratorsExcitationForTheGeometry) {
   const delta::FourierPreset* fp = delta::fourier_preset("path1");
   ASSERT_NE(fp, nullptr);

@@ -1,9 +1,7 @@
 #include "fw_linux/trajectories.hpp"
 
 #include <cmath>
-#include <deque>
 #include <iterator>
-#include <mutex>
 #include <numbers>
 
 #include "delta/controller/vocabulary.hpp"
@@ -37,49 +35,17 @@ constexpr Preset kCatalogue[] = {
 static_assert(std::size(kCatalogue) == delta::controller::kTrajectoryNames.size(),
               "one catalogue entry per trajectory id");
 
-// A Fourier preset's excitation for geometry g, or nullopt where none fits
-// its workspace. make_fourier_excitation() searches for the scale over
-// thousands of samples and depends on the preset and the geometry alone,
-// while the Modbus server builds the trajectory again on every write of its
-// settings: the excitations made are kept (a few, for any thread).
-std::optional<delta::FourierTrajectory> excitation(const delta::FourierPreset& fp,
-                                                   const delta::Geometry& g) {
-  struct Kept {
-    const delta::FourierPreset* preset;
-    delta::Geometry geometry;
-    std::optional<delta::FourierTrajectory> excitation;
-  };
-  static constexpr std::size_t kMaxKept = 8;
-  static std::mutex mutex;
-  static std::deque<Kept> kept;
-  const auto same = [&g](const delta::Geometry& k) {
-    return k.upper_arm_length_m == g.upper_arm_length_m &&
-           k.forearm_length_m == g.forearm_length_m && k.base_radius_m == g.base_radius_m &&
-           k.platform_radius_m == g.platform_radius_m;
-  };
-  std::lock_guard lock(mutex);
-  for (const Kept& k : kept) {
-    if (k.preset == &fp && same(k.geometry)) return k.excitation;
-  }
-  std::optional<delta::FourierTrajectory> made(std::in_place);
-  if (!delta::make_fourier_excitation(g, fp.centre_m, fp.harmonics, fp.base_frequency_hz,
-                                      fp.amplitude_rad, fp.seed, *made)) {
-    made.reset();
-  }
-  if (kept.size() == kMaxKept) kept.pop_front();
-  kept.push_back({&fp, g, made});
-  return made;
-}
-
 fw::TrajectoryConfig fourier(const Preset& preset, const PortConfig& c,
                              const TrajectoryParams& params) {
   const std::string name(delta::controller::trajectory_name(preset.id));
   const delta::FourierPreset* fp = delta::fourier_preset(name.c_str());
   if (fp == nullptr) throw ConfigError(name + ": not a Fourier preset");
   delta::BlendedFourierTrajectory t;
-  const std::optional<delta::FourierTrajectory> made = excitation(*fp, c.geometry);
-  if (!made) throw ConfigError(name + ": no Fourier excitation fits this geometry's workspace");
-  t.fourier = *made;
+  if (!delta::make_fourier_excitation(c.geometry, fp->centre_m, fp->harmonics,
+                                      fp->base_frequency_hz, fp->amplitude_rad, fp->seed,
+                                      t.fourier)) {
+    throw ConfigError(name + ": no Fourier excitation fits this geometry's workspace");
+  }
   t.blend_s = c.blend_s;
   t.periods = params.repetitions != 0 ? params.repetitions : fp->periods;
   return fourier_config(t, c.period_us, params.scale_permille);
