@@ -57,12 +57,6 @@ class Section {
   double number_or(const std::string& key, double fallback) {
     return has(key) ? number(key) : (used_.insert(key), fallback);
   }
-  bool boolean_or(const std::string& key, bool fallback) {
-    if (!has(key)) return fallback;
-    const nlohmann::json& v = at(key);
-    if (!v.is_boolean()) fail(key_path(key), "must be true or false");
-    return v.get<bool>();
-  }
   Vec3<double> vec3(const std::string& key) {
     const nlohmann::json& v = at(key);
     if (!v.is_array() || v.size() != 3 ||
@@ -142,7 +136,6 @@ JointDrive read_joint(Section s) {
   j.stribeck_velocity_rad_s = s.number_or("stribeck_velocity_rad_s", j.stribeck_velocity_rad_s);
   j.gearbox_stiffness_Nm_per_rad = s.number_or("gearbox_stiffness_Nm_per_rad", 0.0);
   j.gearbox_damping_Nm_s_per_rad = s.number_or("gearbox_damping_Nm_s_per_rad", 0.0);
-  j.arm_encoder = s.boolean_or("arm_encoder", false);
   j.torque_constant_ratio = s.number_or("torque_constant_ratio", 1.0);
   j.current_filter_time_constant_s = s.number_or("current_filter_time_constant_s", 0.0);
   j.load_friction_coefficient = s.number_or("load_friction_coefficient", 0.0);
@@ -263,9 +256,9 @@ void validate_joint(const std::string& where, const std::string& key, const Join
                        j.gearbox_stiffness_Nm_per_rad);
   require_non_negative(where, key + ".gearbox_damping_Nm_s_per_rad",
                        j.gearbox_damping_Nm_s_per_rad);
-  if (!j.elastic() && (j.gearbox_damping_Nm_s_per_rad > 0.0 || j.arm_encoder)) {
+  if (!j.elastic() && j.gearbox_damping_Nm_s_per_rad > 0.0) {
     throw InputError(where + ": " + key +
-                     ": gearbox_damping_Nm_s_per_rad and arm_encoder need an elastic gearbox "
+                     ".gearbox_damping_Nm_s_per_rad: needs an elastic gearbox "
                      "(gearbox_stiffness_Nm_per_rad above 0)");
   }
   if (j.elastic() && !(j.rotor_inertia_kg_m2 > 0.0)) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <sstream>
 
 #include "delta/mujoco_plant.hpp"
 
@@ -11,9 +10,9 @@ namespace delta {
 
 namespace {
 
+// The current filter is the drive's (CurrentFilter), not the plant's.
 bool ideal(const JointDrive& j) {
-  return !j.elastic() && j.torque_constant_ratio == 1.0 &&
-         j.current_filter_time_constant_s == 0.0 && j.load_friction_coefficient == 0.0 &&
+  return !j.elastic() && j.torque_constant_ratio == 1.0 && j.load_friction_coefficient == 0.0 &&
          j.cogging_amplitude_Nm == 0.0;
 }
 
@@ -61,13 +60,13 @@ DriveTrainPlant::DriveTrainPlant(std::unique_ptr<Plant> arms,
     const double omega = std::sqrt(j.gearbox_stiffness_Nm_per_rad / j.armature_kg_m2());
     motor_step_s_ = std::min(motor_step_s_, 0.05 * 2.0 * std::numbers::pi / omega);
   }
-  place_motors(arms_->state(), {});
+  if (elastic_) place_motors(arms_->state(), {});
 }
 
 void DriveTrainPlant::place_motors(const JointState& arm, const Joint3& gear_Nm) {
+  if (!elastic_) return;  // the motors are the arms
   for (unsigned j = 0; j < 3; ++j) {
-    const double deflection = elastic_ ? gear_Nm[j] / joints_[j].gearbox_stiffness_Nm_per_rad : 0.0;
-    motor_q_rad_[j] = arm.q_rad[j] + deflection;
+    motor_q_rad_[j] = arm.q_rad[j] + gear_Nm[j] / joints_[j].gearbox_stiffness_Nm_per_rad;
     motor_qd_rad_s_[j] = arm.qd_rad_s[j];
     motor_qdd_rad_s2_[j] = arm.qdd_rad_s2[j];
   }
@@ -111,9 +110,7 @@ PlantStatus DriveTrainPlant::step_rigid(const Joint3& tau_Nm, double dt_s) {
                  d.load_friction_coefficient * std::abs(motor) *
                      std::tanh(a.qd_rad_s[j] / d.friction_smoothing_rad_s);
   }
-  const PlantStatus s = arms_->step(applied, dt_s);
-  place_motors(arms_->state(), {});
-  return s;
+  return arms_->step(applied, dt_s);
 }
 
 double DriveTrainPlant::advance_motor(unsigned j, double tau_applied_Nm, double qa_rad,
@@ -178,7 +175,7 @@ PlantStatus DriveTrainPlant::step_elastic(const Joint3& tau_Nm, double dt_s) {
 
 void DriveTrainPlant::stop() {
   arms_->stop();
-  motor_qd_rad_s_ = {};
+  motor_qd_rad_s_ = {};  // the brake holds the motor
 }
 
 JointState DriveTrainPlant::state() const {

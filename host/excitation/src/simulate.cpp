@@ -168,8 +168,9 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
   // Behind an elastic gearbox the motor's own inertia is small: the drive
   // closes its loop faster than the log's rate, as real drives do, or the
   // follower's damping would make the light motor side unstable.
-  const int loop_steps =
-      plant.drive_train() != nullptr ? std::max(1, static_cast<int>(std::ceil(dt / 2.5e-4))) : 1;
+  const int loop_steps = plant.drive_train() != nullptr && plant.drive_train()->elastic()
+                             ? std::max(1, static_cast<int>(std::ceil(dt / 2.5e-4)))
+                             : 1;
   const double h = dt / loop_steps;
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * dt;

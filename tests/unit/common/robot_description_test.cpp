@@ -144,11 +144,9 @@ TEST(RobotDescriptionTest, TheDriveTrainKeysAreReadAndChecked) {
             }),
             "robot.json: joints: gearbox_stiffness_Nm_per_rad: give all three joints an elastic "
             "gearbox or none (a robot's gearboxes are of one kind)");
-  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["arm_encoder"] = true; }),
-            "robot.json: joints[0]: gearbox_damping_Nm_s_per_rad and arm_encoder need an elastic "
-            "gearbox (gearbox_stiffness_Nm_per_rad above 0)");
-  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["arm_encoder"] = 1; }),
-            "robot.json: joints[0].arm_encoder: must be true or false");
+  EXPECT_EQ(error_with([](auto& j) { j["joints"][0]["gearbox_damping_Nm_s_per_rad"] = 0.3; }),
+            "robot.json: joints[0].gearbox_damping_Nm_s_per_rad: needs an elastic gearbox "
+            "(gearbox_stiffness_Nm_per_rad above 0)");
   EXPECT_EQ(error_with([](auto& j) { j["joints"][2]["torque_constant_ratio"] = 0; }),
             "robot.json: joints[2].torque_constant_ratio: must be positive (got 0)");
   EXPECT_EQ(error_with([](auto& j) { j["joints"][1]["load_friction_coefficient"] = 1.2; }),

@@ -69,7 +69,6 @@ struct JointDrive {
   // and the friction above act there) and the arm; 0: rigid.
   double gearbox_stiffness_Nm_per_rad{0.0};
   double gearbox_damping_Nm_s_per_rad{0.0};
-  bool arm_encoder{false};  // a second encoder on the arm side (logged as qa)
   // The motor's actual torque constant over the nominal one the drive
   // converts with: the torque applied and the torque reported are both
   // nominal constant * current, the arm gets this ratio times it.

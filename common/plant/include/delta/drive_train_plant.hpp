@@ -48,10 +48,12 @@ class DriveTrainPlant final : public Plant {
   const std::string& fault() const override;
 
   // Puts the motors where the arms at state `arm` (which the arm plant is
-  // already in) hold the gear torques `gear_Nm` through their springs.
+  // already in) hold the gear torques `gear_Nm` through their springs
+  // (rigid gearboxes: nothing to place).
   void place_motors(const JointState& arm, const Joint3& gear_Nm);
   // The torque each gearbox passes to its arm at the current state.
   Joint3 gear_torque_Nm() const;
+  bool elastic() const { return elastic_; }
 
   // The largest motor sub-step for an elastic joint: a fraction of its
   // period against the spring (rotor inertia and stiffness).
