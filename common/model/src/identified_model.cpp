@@ -87,6 +87,10 @@ IdentifiedModel read_identified_model(const std::string& path) {
     const double smoothing =
         member(model, "coulomb_smoothing_rad_s", path + ": model").get<double>();
     const double stribeck = model.value("stribeck_velocity_rad_s", 0.0);
+    const bool gains = model.value("torque_gains", false);
+    const bool load = model.value("load_friction", false);
+    m.terms_not_run = std::string(gains ? "torque gains" : "") + (gains && load ? " and " : "") +
+                      (load ? "load friction" : "");
     m.geometry = geometry_of(j, path);
     const auto& params = member(j, "parameters", path);
     if (m.kind != "delta" && m.kind != "lumped") {
@@ -113,6 +117,14 @@ IdentifiedModel read_identified_model(const std::string& path) {
     throw InputError(path + ": " + what);
   }
   return m;
+}
+
+std::string terms_not_run_warning(const IdentifiedModel& m) {
+  if (m.terms_not_run.empty()) return "";
+  return "the fit has the drive train's " + m.terms_not_run +
+         ", which the controller's model does not run: its feed-forward leaves them out (each "
+         "joint's torque off by its gain's gap and its load friction, a few %); fit with --model "
+         "delta --per-joint for a model the controller runs whole";
 }
 
 }  // namespace delta

@@ -91,7 +91,8 @@ class Evaluator {
       breach(e, 1.0, "outside the workspace (near a singularity or unreachable)", time, -1);
       return;
     }
-    if (model_->rows(geometry_, gravity_, s, rows_.data()) != delta::KinematicsStatus::kOk) {
+    if (model_->rows(geometry_, gravity_, s, delta::Joint3{}, rows_.data()) !=
+        delta::KinematicsStatus::kOk) {
       breach(e, 10.0, "a singular pose", time, -1);
       return;
     }

@@ -292,13 +292,30 @@ std::vector<ParameterEstimate> parameter_estimates(const Model& model, const Lea
   return out;
 }
 
+// The model's torque in each row of a preprocessed log. The drive train's
+// terms (Model::torque_columns) are written with the measured torque: the
+// prediction takes them out and solves for the model's own torque instead.
+Eigen::VectorXd predicted_torque(const Model& model, const Regression& reg,
+                                 const Eigen::VectorXd& beta) {
+  const std::vector<std::size_t> torque_terms = model.torque_columns();
+  if (torque_terms.empty()) return reg.psi * beta;
+  Eigen::VectorXd rigid = beta;
+  for (const std::size_t c : torque_terms) rigid(static_cast<Eigen::Index>(c)) = 0.0;
+  Eigen::VectorXd yhat = reg.psi * rigid;
+  for (std::size_t row = 0; row < reg.rows(); ++row) {
+    const auto i = static_cast<Eigen::Index>(row);
+    yhat(i) = model.solve_torque(reg.joint[row], yhat(i), reg.velocity_rad_s[row], beta);
+  }
+  return yhat;
+}
+
 // Measured and predicted torques of a preprocessed log.
-Prediction prediction_of(const Regression& reg, const Eigen::VectorXd& beta,
+Prediction prediction_of(const Model& model, const Regression& reg, const Eigen::VectorXd& beta,
                          const std::string& log_name) {
   Prediction out;
   out.log = log_name;
   out.t_s.assign(reg.t_s.begin(), reg.t_s.end());
-  const Eigen::VectorXd yhat = reg.psi * beta;
+  const Eigen::VectorXd yhat = predicted_torque(model, reg, beta);
   const std::size_t n = reg.samples();
   for (unsigned j = 0; j < 3; ++j) {
     out.measured_Nm[j].resize(n);
@@ -355,7 +372,7 @@ void note_preprocessing(const Preprocessed& pre, const DeltaLog& log, FitResult&
 // The fit's residuals on its own log: the PSO's cost (checked to be at its
 // optimum), the RMSE of the filtered and of the measured torques, and the
 // log's prediction where kept.
-void note_fit_residuals(const Regression& all_rows, const Equations& reg,
+void note_fit_residuals(const Model& model, const Regression& all_rows, const Equations& reg,
                         const std::string& log_name, unsigned threads, bool keep_predictions,
                         FitResult& r) {
   r.fit.log = log_name;
@@ -368,7 +385,7 @@ void note_fit_residuals(const Regression& all_rows, const Equations& reg,
   r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
   r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
   if (keep_predictions) {
-    r.predictions.push_back(prediction_of(all_rows, r.beta, log_name));
+    r.predictions.push_back(prediction_of(model, all_rows, r.beta, log_name));
     r.predictions.back().role = "fit";
   }
 }
@@ -420,7 +437,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.correlation = ls.correlation;
   r.doubts = doubts_of(r);
-  note_fit_residuals(all_rows, reg, log.name, options.threads, keep_predictions, r);
+  note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
   validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;
@@ -460,7 +477,7 @@ std::vector<std::string> doubts_of(const FitResult& r) {
   }
   if (r.support) {
     const ModelSelection& s = *r.support;
-    const VariantScore& fitted = s.variants[variant_index(r.options.model)];
+    const VariantScore& fitted = s.variants[variant_index(s, r.options.model)];
     const VariantScore& best = s.variants[s.chosen];
     if (best.held_out_rmse_Nm <= (1.0 - kSupportDoubt) * fitted.held_out_rmse_Nm) {
       m.str("");
@@ -468,7 +485,9 @@ std::vector<std::string> doubts_of(const FitResult& r) {
         << " N m against " << fitted.held_out_rmse_Nm << " N m for the " << fitted.name
         << " fitted (" << s.folds << " time blocks); fit with ";
       const std::string flags = std::string(best.model.per_joint ? " --per-joint" : "") +
-                                (best.model.offsets ? " --offsets" : "");
+                                (best.model.offsets ? " --offsets" : "") +
+                                (best.model.torque_gains ? " --torque-gains" : "") +
+                                (best.model.load_friction ? " --load-friction" : "");
       // --model auto chooses among the delta model's variants.
       if (r.options.model.name == "delta") {
         m << "--model auto (or" << flags << ")";
@@ -496,7 +515,7 @@ void require_pso_at_optimum(const FitResult& r, const std::string& log_name) {
 Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                    const PrepareOptions& prepare, unsigned threads) {
   const Preprocessed pre = preprocess(model, log, prepare, threads);
-  return prediction_of(pre.regression, beta, log.name);
+  return prediction_of(model, pre.regression, beta, log.name);
 }
 
 }  // namespace host_id

@@ -29,17 +29,48 @@ class PhysicalModel final : public Model {
             {delta::term_parameter_name(t, per_joint, j), t.unit, t.nonnegative, t.meaning + all});
       }
     }
+    add_drive_train_terms();
     plan_rows();
   }
 
   delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
-                               const delta::JointState& s, double* out) const override {
+                               const delta::JointState& s, const delta::Joint3& tau_Nm,
+                               double* out) const override {
     delta::DynamicsBasis b;
     const auto status = delta::dynamics_basis(g, s, gravity_m_s2, options_.coulomb_smoothing_rad_s,
                                               b, options_.stribeck_velocity_rad_s);
     if (status != delta::KinematicsStatus::kOk) return status;
     rows_of(b, out);
+    const std::size_t p = size();
+    for (unsigned j = 0; j < 3; ++j) {
+      if (load_first_ != kNone) {
+        out[j * p + load_first_ + j] = std::abs(tau_Nm[j]) * load_shape(s.qd_rad_s[j]);
+      }
+      if (gain_first_ != kNone && j > 0) out[j * p + gain_first_ + j - 1] = tau_Nm[j];
+    }
     return delta::KinematicsStatus::kOk;
+  }
+
+  std::vector<std::size_t> torque_columns() const override {
+    std::vector<std::size_t> out;
+    for (std::size_t j = 0; j < 3 && load_first_ != kNone; ++j) out.push_back(load_first_ + j);
+    for (std::size_t j = 0; j < 2 && gain_first_ != kNone; ++j) out.push_back(gain_first_ + j);
+    return out;
+  }
+
+  // tau (1 - delta_j) - mu_j s |tau| = y, s = tanh(qd / w): tau has y's sign
+  // wherever 1 - delta_j - mu_j |s| > 0, as any physical drive train has.
+  double solve_torque(unsigned joint, double y_Nm, double qd_rad_s,
+                      const Eigen::VectorXd& beta) const override {
+    double gain = 1.0;
+    if (gain_first_ != kNone && joint > 0) {
+      gain -= beta(static_cast<Eigen::Index>(gain_first_ + joint - 1));
+    }
+    if (load_first_ != kNone) {
+      const double mu = beta(static_cast<Eigen::Index>(load_first_ + joint));
+      gain -= mu * load_shape(qd_rad_s) * (y_Nm < 0.0 ? -1.0 : 1.0);
+    }
+    return gain > kSmallestGain ? y_Nm / gain : y_Nm / kSmallestGain;
   }
 
   std::size_t shape_terms(unsigned joint, double qd_rad_s, std::size_t* columns,
@@ -56,6 +87,7 @@ class PhysicalModel final : public Model {
     return n;
   }
 
+  // A drive train's terms are 0 in the rigid, ideal robot that h describes.
   std::vector<double> parameter_vector(const delta::HighFidelityParameters& h) const override {
     std::vector<double> v;
     for (const Column& c : columns_) {
@@ -70,6 +102,7 @@ class PhysicalModel final : public Model {
         v.push_back((joint[0] + joint[1] + joint[2]) / 3.0);
       }
     }
+    v.resize(size(), 0.0);
     return v;
   }
 
@@ -105,9 +138,38 @@ class PhysicalModel final : public Model {
       }
     }
   }
+  // The drive train's columns, after the basis's: load friction per joint,
+  // then joints 2 and 3's torque gains.
+  void add_drive_train_terms() {
+    if (options_.load_friction) {
+      load_first_ = parameters_.size();
+      for (int j = 1; j <= 3; ++j) {
+        parameters_.push_back(
+            {"load_friction_" + std::to_string(j), "-", true,
+             "gear friction per N m of torque the gear carries: mu |tau| tanh(qd/w), joint " +
+                 std::to_string(j)});
+      }
+    }
+    if (options_.torque_gains) {
+      gain_first_ = parameters_.size();
+      for (int j = 2; j <= 3; ++j) {
+        parameters_.push_back({"torque_gain_gap_" + std::to_string(j), "-", false,
+                               "1 - joint " + std::to_string(j) +
+                                   "'s torque constant over joint 1's (delta tau in its row)"});
+      }
+    }
+  }
+  double load_shape(double qd_rad_s) const {
+    return std::tanh(qd_rad_s / options_.coulomb_smoothing_rad_s);
+  }
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  // Below this, a drive train's gain (1 - delta - mu) is not physical: the
+  // solved torque is held finite.
+  static constexpr double kSmallestGain = 0.05;
   std::vector<Column> columns_;
   std::vector<Entry> entries_;
   std::vector<std::size_t> ones_;
+  std::size_t load_first_{kNone}, gain_first_{kNone};
 };
 
 // The paper's regressor (its eq. 1.2), in this project's conventions:
@@ -129,7 +191,8 @@ class Paper14Model final : public Model {
   }
 
   delta::KinematicsStatus rows(const delta::Geometry& g, double /*gravity_m_s2*/,
-                               const delta::JointState& s, double* out) const override {
+                               const delta::JointState& s, const delta::Joint3& /*tau_Nm*/,
+                               double* out) const override {
     const auto fk = delta::forward_kinematics(g, s.q_rad);
     if (fk.status != delta::KinematicsStatus::kOk) return fk.status;
     const auto& p = fk.position_m;
@@ -176,6 +239,10 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
     }
     if (options.stribeck_velocity_rad_s > 0.0) {
       throw delta::InputError("--stribeck-velocity applies to --model delta and lumped only");
+    }
+    if (options.load_friction || options.torque_gains) {
+      throw delta::InputError(
+          "--load-friction and --torque-gains apply to --model delta and lumped only");
     }
     return std::make_unique<Paper14Model>(options);
   }

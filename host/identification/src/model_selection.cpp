@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -101,13 +102,71 @@ double held_out_sse(const std::vector<FoldMoments>& folds, const Eigen::MatrixXd
 
 std::string variant_name(const ModelOptions& m) {
   return std::string(m.per_joint ? "per-joint arms" : "shared arms") +
-         (m.offsets ? ", torque offsets" : "");
+         (m.offsets ? ", torque offsets" : "") + (m.torque_gains ? ", torque gains" : "") +
+         (m.load_friction ? ", load friction" : "");
+}
+
+// One variant's held-out error from the superset's fold moments.
+VariantScore score_variant(const std::vector<FoldMoments>& moments, const Model& superset,
+                           const ModelOptions& m, std::size_t rows) {
+  const auto variant = make_model(m);
+  std::vector<bool> nonnegative;
+  for (const ParameterInfo& p : variant->parameters()) nonnegative.push_back(p.nonnegative);
+  const double sse = held_out_sse(moments, column_map(superset, *variant), nonnegative);
+  return {variant_name(m), m, variant->size(), std::sqrt(sse / static_cast<double>(rows))};
+}
+
+// The arms and offsets: per-joint arms first (physics the shared model
+// lacks), then torque offsets on top of the arms chosen; the first four
+// variants.
+void choose_arms_and_offsets(ModelSelection& out,
+                             const std::function<bool(std::size_t, std::size_t)>& better) {
+  const std::size_t arms = better(1, 0) ? 1 : 0;
+  const std::size_t with_offsets = arms == 1 ? 3 : 2;
+  out.chosen = better(with_offsets, arms) ? with_offsets : arms;
+  // With offsets in, per-joint arms must still pay their way.
+  if (out.chosen == 3 && !better(3, 2)) out.chosen = 2;
+  // Per-joint arms and offsets alone can explain a log alike (over a small
+  // joint range, a per-joint gravity moment is nearly a constant).
+  const std::size_t other = out.chosen == 1 ? 2 : out.chosen == 2 ? 1 : 0;
+  if (other != 0 && !better(out.chosen, other) && !better(other, out.chosen)) {
+    out.alike = out.variants[other].name;
+  }
+}
+
+// The drive train's terms on top of the arms and offsets chosen: torque
+// gains, load friction, both; each taken where it lowers the held-out
+// error by kDriveTrainMargin against the arms and offsets chosen (both:
+// that, and the usual margin against either alone).
+void choose_drive_train(ModelSelection& out, const std::vector<FoldMoments>& moments,
+                        const Model& superset, std::size_t rows,
+                        const std::function<bool(std::size_t, std::size_t)>& better) {
+  const ModelOptions arms = out.variants[out.chosen].model;
+  for (const auto& [gains, load] : {std::pair{true, false}, {false, true}, {true, true}}) {
+    ModelOptions m = arms;
+    m.torque_gains = gains;
+    m.load_friction = load;
+    out.variants.push_back(score_variant(moments, superset, m, rows));
+  }
+  const auto clearly_better = [&](std::size_t x, std::size_t y) {
+    return out.variants[x].held_out_rmse_Nm <
+           out.variants[y].held_out_rmse_Nm * (1.0 - kDriveTrainMargin);
+  };
+  const std::size_t first = out.variants.size() - 3;
+  const std::size_t base = out.chosen;
+  for (std::size_t v = first; v < first + 2; ++v) {
+    if (clearly_better(v, base) && (out.chosen == base || better(v, out.chosen))) out.chosen = v;
+  }
+  // Both terms: against the arms and offsets as each alone, and each must
+  // still pay its way on top of the other.
+  const std::size_t both = first + 2;
+  if (clearly_better(both, base) && better(both, first) && better(both, first + 1)) {
+    out.chosen = both;
+  }
 }
 
 // The variants' held-out errors from the superset's fold moments, and the
-// choice among them: per-joint arms first (physics the shared model lacks),
-// then torque offsets on top of the arms chosen; each must lower the
-// held-out error by more than the margin.
+// choice among them (choose_arms_and_offsets, then choose_drive_train).
 ModelSelection choose_variant(const std::vector<FoldMoments>& moments, const Model& superset,
                               const ModelOptions& base, unsigned folds) {
   ModelSelection out;
@@ -120,35 +179,24 @@ ModelSelection choose_variant(const std::vector<FoldMoments>& moments, const Mod
       ModelOptions m = base;
       m.per_joint = per_joint;
       m.offsets = offsets;
-      const auto variant = make_model(m);
-      std::vector<bool> nonnegative;
-      for (const ParameterInfo& p : variant->parameters()) nonnegative.push_back(p.nonnegative);
-      const double sse = held_out_sse(moments, column_map(superset, *variant), nonnegative);
-      out.variants.push_back(
-          {variant_name(m), m, variant->size(), std::sqrt(sse / static_cast<double>(rows))});
+      m.load_friction = false;
+      m.torque_gains = false;
+      out.variants.push_back(score_variant(moments, superset, m, rows));
     }
   }
   const auto better = [&](std::size_t x, std::size_t y) {
     return out.variants[x].held_out_rmse_Nm <
            out.variants[y].held_out_rmse_Nm * (1.0 - kSelectionMargin);
   };
-  const std::size_t arms = better(1, 0) ? 1 : 0;
-  const std::size_t with_offsets = arms == 1 ? 3 : 2;
-  out.chosen = better(with_offsets, arms) ? with_offsets : arms;
-  // With offsets in, per-joint arms must still pay their way.
-  if (out.chosen == 3 && !better(3, 2)) out.chosen = 2;
-  // Per-joint arms and offsets alone can explain a log alike (over a small
-  // joint range, a per-joint gravity moment is nearly a constant).
-  const std::size_t other = out.chosen == 1 ? 2 : out.chosen == 2 ? 1 : 0;
-  if (other != 0 && !better(out.chosen, other) && !better(other, out.chosen)) {
-    out.alike = out.variants[other].name;
-  }
+  choose_arms_and_offsets(out, better);
+  choose_drive_train(out, moments, superset, rows, better);
   std::ostringstream why;
   why << out.variants[out.chosen].name << ": held-out torque error "
       << out.variants[out.chosen].held_out_rmse_Nm << " N m RMS over " << folds
-      << " time blocks of the log; per-joint arms, then torque offsets, are taken only where they "
-         "lower it by more than "
-      << 100.0 * kSelectionMargin << " %";
+      << " time blocks of the log; per-joint arms, then torque offsets, then the drive train's "
+         "torque gains and load friction, are taken only where they lower it by more than "
+      << 100.0 * kSelectionMargin << " % (the drive train's: " << 100.0 * kDriveTrainMargin
+      << " %)";
   if (!out.alike.empty()) {
     why << "; " << out.alike << " explain the log as well: a log with wider joint swings tells "
         << "them apart";
@@ -157,8 +205,12 @@ ModelSelection choose_variant(const std::vector<FoldMoments>& moments, const Mod
   return out;
 }
 
-// Each fold's and joint's moments of a fit's rows z = (psi, 1) and tau,
-// gathered a chunk of rows at a time (no copy of the regression).
+// Each fold's and joint's moments of a fit's rows z = (psi, 1, load, tau)
+// and tau, gathered a chunk of rows at a time (no copy of the regression).
+// The constant stands for a torque offset, tau for a torque gain, and load
+// = |tau| tanh(qd / w) for load friction, all in the filtered torque: a
+// variant the fit lacks is judged from them (the fit that takes it then
+// writes its columns from the measured torque, before filtering).
 struct BlockMoments {
   Eigen::MatrixXd zz;
   Eigen::VectorXd z_tau;
@@ -166,8 +218,11 @@ struct BlockMoments {
   std::size_t rows{0};
 };
 
+// Where the extra columns of z sit after psi's p columns.
+constexpr Eigen::Index kConstantAfter = 0, kLoadAfter = 1, kTauAfter = 2, kExtraColumns = 3;
+
 // Each joint's own columns (the others are zero in its rows), then the
-// constant and tau.
+// constant, load and tau.
 std::array<std::vector<Eigen::Index>, 3> own_columns(const Regression& r) {
   const Eigen::Index p = r.psi.cols();
   std::array<std::vector<Eigen::Index>, 3> own;
@@ -177,8 +232,7 @@ std::array<std::vector<Eigen::Index>, 3> own_columns(const Regression& r) {
     } else {
       for (Eigen::Index c = 0; c < p; ++c) own[j].push_back(c);
     }
-    own[j].push_back(p);      // the constant
-    own[j].push_back(p + 1);  // tau
+    for (Eigen::Index e = 0; e < kExtraColumns; ++e) own[j].push_back(p + e);
   }
   return own;
 }
@@ -188,10 +242,10 @@ std::array<std::vector<Eigen::Index>, 3> own_columns(const Regression& r) {
 // and each joint's rows are gathered from its copy.
 void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
                         const std::array<std::vector<Eigen::Index>, 3>& own,
-                        BlockMoments* joint_blocks) {
-  const Eigen::Index p = r.psi.cols(), q = p + 1;
+                        double load_smoothing_rad_s, BlockMoments* joint_blocks) {
+  const Eigen::Index p = r.psi.cols(), q = p + kExtraColumns;
   constexpr Eigen::Index kChunk = 1024;
-  Eigen::MatrixXd chunk(kChunk, q + 1), joint_rows(kChunk, q + 1);
+  Eigen::MatrixXd chunk(kChunk, q), joint_rows(kChunk, q);
   std::array<Eigen::MatrixXd, 3> sums;  // over each joint's own columns
   for (unsigned j = 0; j < 3; ++j) {
     const auto k = static_cast<Eigen::Index>(own[j].size());
@@ -203,8 +257,13 @@ void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
     const auto n = static_cast<Eigen::Index>(to - from);
     const auto at = static_cast<Eigen::Index>(from);
     chunk.topLeftCorner(n, p) = r.psi.middleRows(at, n);
-    chunk.col(p).head(n).setOnes();
-    chunk.col(q).head(n) = r.tau.segment(at, n);
+    chunk.col(p + kConstantAfter).head(n).setOnes();
+    chunk.col(p + kTauAfter).head(n) = r.tau.segment(at, n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      chunk(i, p + kLoadAfter) =
+          std::abs(r.tau(at + i)) *
+          std::tanh(r.velocity_rad_s[static_cast<std::size_t>(at + i)] / load_smoothing_rad_s);
+    }
     for (unsigned j = 0; j < 3; ++j) {
       members.clear();
       for (std::size_t i = from; i < to; ++i) {
@@ -226,9 +285,9 @@ void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
     b.z_tau = Eigen::VectorXd::Zero(q);
     const auto k = static_cast<Eigen::Index>(own[j].size());
     const Eigen::MatrixXd full = sums[j].selfadjointView<Eigen::Lower>();
-    for (Eigen::Index x = 0; x + 1 < k; ++x) {
+    for (Eigen::Index x = 0; x < k; ++x) {
       const Eigen::Index cx = own[j][static_cast<std::size_t>(x)];
-      for (Eigen::Index y = 0; y + 1 < k; ++y) {
+      for (Eigen::Index y = 0; y < k; ++y) {
         b.zz(cx, own[j][static_cast<std::size_t>(y)]) = full(x, y);
       }
       b.z_tau(cx) = full(x, k - 1);
@@ -238,7 +297,7 @@ void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
 }
 
 std::vector<BlockMoments> block_moments(const Regression& r, std::size_t rows, unsigned folds,
-                                        unsigned threads) {
+                                        double load_smoothing_rad_s, unsigned threads) {
   // The folds' row ranges: the fast rows are in time order.
   const std::size_t samples = r.samples();
   std::vector<std::size_t> bounds(folds + 1, rows);
@@ -249,14 +308,14 @@ std::vector<BlockMoments> block_moments(const Regression& r, std::size_t rows, u
   const auto own = own_columns(r);
   std::vector<BlockMoments> blocks(3 * folds);
   run_tasks(folds, workers_for(rows, threads, 60000), [&](std::size_t, std::size_t f) {
-    fold_block_moments(r, bounds[f], bounds[f + 1], own, &blocks[3 * f]);
+    fold_block_moments(r, bounds[f], bounds[f + 1], own, load_smoothing_rad_s, &blocks[3 * f]);
   });
   return blocks;
 }
 
 // Where each of the superset's parameters comes from in a fitted model's
-// rows: a column (the constant 1 for a torque offset the fit lacks) and the
-// joints whose rows it is taken in.
+// rows: a column of z (the constant, load or tau for a term the fit lacks)
+// and the joints whose rows it is taken in.
 struct Source {
   Eigen::Index column;
   std::array<bool, 3> joints;
@@ -284,7 +343,10 @@ std::vector<Source> sources(const Model& superset, const Model& fitted) {
     if (j < 0 || j > 2) throw std::logic_error("model support: no column for " + n);
     const std::string base = n.substr(0, n.size() - 2);
     Eigen::Index c = find(base);
-    if (c < 0 && base == "torque_offset") c = static_cast<Eigen::Index>(own.size());
+    const auto psi_columns = static_cast<Eigen::Index>(own.size());
+    if (c < 0 && base == "torque_offset") c = psi_columns + kConstantAfter;
+    if (c < 0 && base == "load_friction") c = psi_columns + kLoadAfter;
+    if (c < 0 && base == "torque_gain_gap") c = psi_columns + kTauAfter;
     if (c < 0) throw std::logic_error("model support: no column for " + n);
     std::array<bool, 3> joints{};
     joints[static_cast<std::size_t>(j)] = true;
@@ -332,6 +394,8 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
   ModelOptions largest = options.model;
   largest.per_joint = true;
   largest.offsets = true;
+  largest.load_friction = true;
+  largest.torque_gains = true;
   const auto superset = make_model(largest);
   PrepareOptions prepare = options.prepare;
   prepare.slow_rows_last_below_rad_s = min_speed_for(options);
@@ -357,14 +421,25 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
   ModelOptions largest = fitted_options;
   largest.per_joint = true;
   largest.offsets = true;
+  largest.load_friction = true;
+  largest.torque_gains = true;
   const auto superset = make_model(largest);
   const std::vector<Source> src = sources(*superset, fitted);
-  const std::vector<FoldMoments> moments =
-      moments_from_blocks(block_moments(r, rows, folds, threads), src, folds);
+  const std::vector<FoldMoments> moments = moments_from_blocks(
+      block_moments(r, rows, folds, fitted_options.coulomb_smoothing_rad_s, threads), src, folds);
   ModelOptions base = fitted_options;
   base.per_joint = false;
   base.offsets = false;
-  return choose_variant(moments, *superset, base, folds);
+  base.load_friction = false;
+  base.torque_gains = false;
+  ModelSelection out = choose_variant(moments, *superset, base, folds);
+  // The variant fitted is scored too where the choice did not try it.
+  if (variant_index(out, fitted_options) == out.variants.size()) {
+    std::size_t rows_in_folds = 0;
+    for (const FoldMoments& f : moments) rows_in_folds += f.rows;
+    out.variants.push_back(score_variant(moments, *superset, fitted_options, rows_in_folds));
+  }
+  return out;
 }
 
 double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
@@ -376,8 +451,8 @@ double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, 
   const auto p = static_cast<Eigen::Index>(model.size());
   std::vector<Source> own;  // every column as it is
   for (Eigen::Index c = 0; c < p; ++c) own.push_back({c, {true, true, true}});
-  const std::vector<FoldMoments> moments =
-      moments_from_blocks(block_moments(r, rows, folds, threads), own, folds);
+  const std::vector<FoldMoments> moments = moments_from_blocks(
+      block_moments(r, rows, folds, model.options().coulomb_smoothing_rad_s, threads), own, folds);
   std::size_t all_rows = 0;
   for (const FoldMoments& m : moments) all_rows += m.rows;
   std::vector<bool> nonnegative;

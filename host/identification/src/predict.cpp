@@ -55,17 +55,18 @@ PredictedLog predict_log(const Model& model, const Eigen::VectorXd& beta, const 
   for (std::size_t i = 0; i < prepared.states.size(); ++i) {
     const std::size_t k = prepared.log_index[i];
     const delta::JointState& s = prepared.states[i];
-    if (model.rows(log.geometry, log.gravity_m_s2, s, rows.data()) !=
+    // The drive train's terms are in the torque the model solves for, not
+    // in the measured one: the rows are written with a zero torque.
+    if (model.rows(log.geometry, log.gravity_m_s2, s, delta::Joint3{}, rows.data()) !=
         delta::KinematicsStatus::kOk) {
       no_kinematics(log, k);
     }
     o.t.push_back(log.t[k]);
     if (!log.seq.empty()) o.seq.push_back(log.seq[k]);
     for (unsigned j = 0; j < 3; ++j) {
-      double tau_model = 0.0;
-      for (std::size_t c = 0; c < p; ++c) {
-        tau_model += rows[j * p + c] * beta(static_cast<Eigen::Index>(c));
-      }
+      double y = 0.0;
+      for (std::size_t c = 0; c < p; ++c) y += rows[j * p + c] * beta(static_cast<Eigen::Index>(c));
+      const double tau_model = model.solve_torque(j, y, s.qd_rad_s[j], beta);
       o.q[j].push_back(s.q_rad[j]);
       o.qd[j].push_back(s.qd_rad_s[j]);
       o.qdd[j].push_back(s.qdd_rad_s2[j]);

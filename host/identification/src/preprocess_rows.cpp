@@ -108,7 +108,7 @@ struct RowFill {
     std::size_t kept_b = e, kept_e = e;
     for (std::size_t k = b; k < e; ++k) {
       double* rows = &chunk.rows[3 * (k - b) * p];
-      if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], rows) !=
+      if (model.rows(log.geometry, log.gravity_m_s2, s.states[k], s.tau_Nm[k], rows) !=
           delta::KinematicsStatus::kOk) {
         return k;
       }

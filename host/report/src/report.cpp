@@ -31,6 +31,8 @@ std::string model_summary(const ModelOptions& m, std::size_t p) {
     if (m.stribeck_velocity_rad_s > 0.0) {
       s << ", Stribeck velocity " << m.stribeck_velocity_rad_s << " rad/s";
     }
+    if (m.load_friction) s << ", load friction";
+    if (m.torque_gains) s << ", torque gains";
     s << ")";
   } else {
     s << " (the paper's regressor, constant lambda)";
@@ -170,7 +172,7 @@ void text_samples(const FitResult& r, std::ostream& s) {
   s << "  model     " << model_summary(r.options.model, r.parameters.size()) << "\n";
   if (r.support) {
     const ModelSelection& m = *r.support;
-    const VariantScore& fitted = m.variants[variant_index(r.options.model)];
+    const VariantScore& fitted = m.variants[variant_index(m, r.options.model)];
     const VariantScore& best = m.variants[m.chosen];
     s << "  support   ";
     if (&best == &fitted) {
@@ -379,6 +381,8 @@ nlohmann::json json_model_selection(const ModelSelection& s) {
     variants.push_back({{"variant", v.name},
                         {"per_joint", v.model.per_joint},
                         {"offsets", v.model.offsets},
+                        {"load_friction", v.model.load_friction},
+                        {"torque_gains", v.model.torque_gains},
                         {"parameters", v.parameters},
                         {"held_out_rmse_Nm", v.held_out_rmse_Nm}});
   }
@@ -393,6 +397,8 @@ nlohmann::json json_model_options(const ModelOptions& m) {
   return {{"name", m.name},
           {"per_joint", m.per_joint},
           {"offsets", m.offsets},
+          {"load_friction", m.load_friction},
+          {"torque_gains", m.torque_gains},
           {"coulomb_smoothing_rad_s", m.coulomb_smoothing_rad_s},
           {"stribeck_velocity_rad_s", m.stribeck_velocity_rad_s}};
 }

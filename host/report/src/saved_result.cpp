@@ -35,6 +35,9 @@ ModelOptions read_model_options(const ResultFile& f, const json& j) {
   model.coulomb_smoothing_rad_s = f.need(m, "coulomb_smoothing_rad_s", "model.").get<double>();
   // Results saved before the Stribeck term have no key: no term.
   model.stribeck_velocity_rad_s = m.value("stribeck_velocity_rad_s", 0.0);
+  // Results saved before the drive train's terms have no keys: none.
+  model.load_friction = m.value("load_friction", false);
+  model.torque_gains = m.value("torque_gains", false);
   return model;
 }
 

@@ -11,6 +11,7 @@
 
 #include "cli_fixture.hpp"
 #include "delta/atomic_file.hpp"
+#include "delta/identified_model.hpp"
 #include "delta/read_file.hpp"
 #include "held_joint_log.hpp"
 #include "host_id/delta_log.hpp"
@@ -150,7 +151,7 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
   const auto j = nlohmann::json::parse(out_.str());
   ASSERT_TRUE(j.contains("model_support"));
   EXPECT_EQ(j["model_support"]["folds"], 5);
-  EXPECT_EQ(j["model_support"]["variants"].size(), 4u);
+  EXPECT_EQ(j["model_support"]["variants"].size(), 7u);
   EXPECT_EQ(j["model_support"]["chosen"], "shared arms");  // the default robot's arms are equal
   EXPECT_FALSE(j.contains("model_selection")) << "one key for the model's support";
   EXPECT_EQ(j["model"]["name"], "delta");
@@ -158,7 +159,8 @@ TEST_F(CliTest, ModelAutoSaysWhichVariantItChoseAndWhy) {
   ASSERT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--method", "ls"}), 0) << err_.str();
   EXPECT_NE(out_.str().find("<- chosen"), std::string::npos) << out_.str();
   EXPECT_EQ(run({"fit", path("p1.csv"), "--model", "auto", "--per-joint"}), 2);
-  EXPECT_NE(err_.str().find("--model auto decides --per-joint and --offsets itself"),
+  EXPECT_NE(err_.str().find("--model auto decides --per-joint, --offsets, --torque-gains and "
+                            "--load-friction itself"),
             std::string::npos)
       << err_.str();
 }
@@ -411,6 +413,39 @@ TEST_F(CliTest, UnidentifiableParametersAreNamedNotPrinted) {
     // From moments: a floor near 1e-7 of the RMS torque.
     EXPECT_LT(v["validation"][0]["rmse_measured_Nm"][k].get<double>(), 1e-6);
   }
+}
+
+}  // namespace
+}  // namespace host_id
+
+namespace host_id {
+namespace {
+
+// The drive train's terms, asked for by name: in the report's model line,
+// the saved result and the JSON; a controller reading the result is told
+// that its feed-forward leaves them out.
+TEST_F(CliTest, TheDriveTrainsTermsAreFittedSavedAndNamedToTheController) {
+  simulate("p1.csv", {"--torque-noise", "0.01"});
+  ASSERT_EQ(run({"fit", path("p1.csv"), "--torque-gains", "--load-friction", "--method", "ls", "-o",
+                 path("r.json")}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("load friction, torque gains"), std::string::npos) << out_.str();
+  for (const char* name : {"load_friction_1", "load_friction_3", "torque_gain_gap_2"}) {
+    EXPECT_NE(out_.str().find(name), std::string::npos) << name;
+  }
+  const auto saved = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  EXPECT_EQ(saved["model"]["torque_gains"], true);
+  EXPECT_EQ(saved["model"]["load_friction"], true);
+  const delta::IdentifiedModel m = delta::read_identified_model(path("r.json"));
+  EXPECT_EQ(m.terms_not_run, "torque gains and load friction");
+  EXPECT_NE(delta::terms_not_run_warning(m).find("feed-forward leaves them out"),
+            std::string::npos);
+  ASSERT_EQ(run({"predict", path("r.json"), path("p1.csv"), "-o", path("pred.csv")}), 0)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("p1.csv"), "--torque-gains", "--model", "paper14"}), 1);
+  EXPECT_NE(err_.str().find("apply to --model delta and lumped only"), std::string::npos)
+      << err_.str();
 }
 
 }  // namespace

@@ -23,7 +23,15 @@ struct IdentifiedModel {
   std::optional<Geometry> geometry;
   HighFidelityParameters parameters{};
   std::uint32_t fit_id{0};  // CRC-32 of the file's bytes: which fit this is
+  // The fit's drive-train terms that the controller's model does not run
+  // ("torque gains", "load friction"; docs/model.md, "The drive train"),
+  // joined by " and "; empty: none. Its feed-forward leaves them out.
+  std::string terms_not_run;
 };
+
+// What a controller says at start or on loading a model with terms it does
+// not run; empty for a model without them.
+std::string terms_not_run_warning(const IdentifiedModel& m);
 
 // Reads a saved result. Throws InputError naming the file and the key (and
 // what to do) for anything else: not a result, paper14, a missing or

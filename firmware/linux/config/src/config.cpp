@@ -287,8 +287,15 @@ std::string describe_feed_forward(const PortConfig& c) {
   }
   char id[16];
   std::snprintf(id, sizeof id, "0x%08X", c.feed_forward_model ? c.feed_forward_model->fit_id : 0u);
-  return "feed-forward: model (" + (c.feed_forward_model ? c.feed_forward_model->kind : "none") +
-         ", fit " + id + ", " + c.feed_forward_model_file + ")";
+  std::string line = "feed-forward: model (" +
+                     (c.feed_forward_model ? c.feed_forward_model->kind : "none") + ", fit " + id +
+                     ", " + c.feed_forward_model_file + ")";
+  if (c.feed_forward_model) {
+    if (const std::string w = delta::terms_not_run_warning(*c.feed_forward_model); !w.empty()) {
+      line += "; warning: " + w;
+    }
+  }
+  return line;
 }
 
 void validate(const PortConfig& c) {

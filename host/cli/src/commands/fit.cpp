@@ -86,6 +86,14 @@ void add_model_options(CLI::App& c, FitArguments& a) {
       ->group("model");
   c.add_flag("--offsets", a.fit.model.offsets, "delta, lumped: a torque offset per joint")
       ->group("model");
+  c.add_flag("--load-friction", a.fit.model.load_friction,
+             "delta, lumped: gear friction that grows with the torque the gear carries, "
+             "mu |tau| tanh(qd/W), one coefficient per joint (docs/model.md, 'The drive train')")
+      ->group("model");
+  c.add_flag("--torque-gains", a.fit.model.torque_gains,
+             "delta, lumped: joints 2 and 3's torque constants relative to joint 1's, for "
+             "motors whose constants differ (docs/model.md, 'The drive train')")
+      ->group("model");
   c.add_option("--coulomb-smoothing", a.fit.model.coulomb_smoothing_rad_s,
                "Coulomb sign smoothed as tanh(qd/W), rad/s")
       ->check(kPositive)
@@ -244,6 +252,8 @@ FitOptions options_for_model(FitOptions f, const std::string& name) {
   if (name == "paper14") {
     f.model.per_joint = false;
     f.model.offsets = false;
+    f.model.load_friction = false;
+    f.model.torque_gains = false;
     f.model.stribeck_velocity_rad_s = 0.0;
     f.fit_friction_shape = false;
   }
@@ -413,8 +423,9 @@ int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err)
 // --model auto unless told: --per-joint, --offsets, a payload or a torque
 // calibration name their model, delta.
 void name_the_model_where_implied(FitArguments& a) {
-  if (a.model_given->count() == 0 && (a.fit.model.per_joint || a.fit.model.offsets ||
-                                      !a.calibrate_path.empty() || !a.base_path.empty())) {
+  if (a.model_given->count() == 0 &&
+      (a.fit.model.per_joint || a.fit.model.offsets || a.fit.model.load_friction ||
+       a.fit.model.torque_gains || !a.calibrate_path.empty() || !a.base_path.empty())) {
     a.models = {"delta"};
   }
 }
@@ -444,8 +455,10 @@ bool take_model_auto(FitArguments& a) {
   if (automatic && a.models.size() > 1) {
     throw UsageError("--model auto: not with other --model values");
   }
-  if (automatic && (a.fit.model.per_joint || a.fit.model.offsets)) {
-    throw UsageError("--model auto decides --per-joint and --offsets itself");
+  if (automatic && (a.fit.model.per_joint || a.fit.model.offsets || a.fit.model.load_friction ||
+                    a.fit.model.torque_gains)) {
+    throw UsageError(
+        "--model auto decides --per-joint, --offsets, --torque-gains and --load-friction itself");
   }
   if (automatic) a.models.front() = "delta";
   return automatic;
@@ -491,7 +504,7 @@ std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInpu
         << " samples are too few to judge the model's variants on " << kSupportFolds
         << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
   }
-  if (a.selection && a.selection->chosen != variant_index(f.model)) {
+  if (a.selection && a.selection->chosen != variant_index(*a.selection, f.model)) {
     f.model = a.selection->variants[a.selection->chosen].model;
     results.back() =
         fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "commands/command.hpp"
+#include "delta/identified_model.hpp"
 #include "host_id/model_transfer.hpp"
 
 namespace host_id {
@@ -28,6 +29,9 @@ void add_link_options(CLI::App* c, ModelLink& link) {
 
 void run_load(const ModelCommandOptions& o, CommandContext& context) {
   const delta::IdentifiedModel m = delta::read_identified_model(o.result);
+  if (const std::string w = delta::terms_not_run_warning(m); !w.empty()) {
+    context.err << "host_id model: warning: " << o.result << ": " << w << "\n";
+  }
   try {
     load_model(o.link, m);
   } catch (const ModelTransferError& e) {

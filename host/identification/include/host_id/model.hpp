@@ -7,6 +7,7 @@
 //   paper14 - the paper's 14-coefficient regressor with constant lambda.
 #pragma once
 
+#include <Eigen/Dense>
 #include <memory>
 #include <string>
 #include <vector>
@@ -30,6 +31,16 @@ struct ModelOptions {
   // delta, lumped: > 0 adds a Stribeck term per joint,
   // exp(-(qd / stribeck_velocity)^2) tanh(qd / w); 0: none.
   double stribeck_velocity_rad_s{0.0};
+  // The drive train's terms (delta, lumped), in the logged torque tau_j
+  // itself (docs/model.md, "The drive train"):
+  //   load_friction: gear friction that grows with the torque the gear
+  //     carries, mu_j |tau_j| tanh(qd_j / w), one coefficient per joint;
+  //   torque_gains: joints 2 and 3's torque constants relative to joint 1's,
+  //     as delta_j tau_j (delta_j = 1 - k_j / k_1).
+  // With either, the model's torque solves tau = Psi(q) beta + those terms
+  // (Model::solve_torque).
+  bool load_friction{false};
+  bool torque_gains{false};
 };
 
 // The names --model takes, in the order the help lists them.
@@ -46,8 +57,21 @@ class Model {
   std::size_t size() const { return parameters_.size(); }
   // Writes the three regressor rows of one sample (row-major, 3 x size()).
   // Returns kOk, or why the pose has no kinematics.
+  // tau_Nm: the logged torque at the sample, which the drive train's terms
+  // (ModelOptions::load_friction, torque_gains) are written with; zeros
+  // leave those terms 0 (a prediction, then solve_torque).
   virtual delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
-                                       const delta::JointState& s, double* out) const = 0;
+                                       const delta::JointState& s, const delta::Joint3& tau_Nm,
+                                       double* out) const = 0;
+  // The columns of rows()'s terms in the logged torque (none: empty).
+  virtual std::vector<std::size_t> torque_columns() const { return {}; }
+  // The model's torque at joint j, given y = the joint's row written with a
+  // zero torque, times beta: tau solves tau = y + (the torque terms at tau).
+  // y itself for a model without such terms.
+  virtual double solve_torque(unsigned /*joint*/, double y_Nm, double /*qd_rad_s*/,
+                              const Eigen::VectorXd& /*beta*/) const {
+    return y_Nm;
+  }
   // The parameter vector, in the order of parameters(), of a robot with
   // known physical parameters (a lumped robot is the special case with no
   // sin term, no coupling and equal platform masses). Throws

@@ -1,0 +1,156 @@
+// The drive train's terms in the fit (docs/model.md, "The drive train"):
+// on multibody robots whose drive trains have the effect (torque constants
+// that differ, gear friction that grows with load) --model auto takes the
+// term, estimates it, and predicts a held-out pick-and-place better; on a
+// robot with ideal drives it takes neither.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+
+#include "fit_fixtures.hpp"
+#include "host_id/model_selection.hpp"
+#include "host_id/predict.hpp"
+#include "host_id/simulate.hpp"
+
+namespace host_id {
+namespace {
+
+// The default robot, heavier (twice the arm mass, a 0.5 kg payload), so
+// that its torques are those of a working delta.
+delta::RobotDescription heavy_robot() {
+  delta::RobotDescription r = delta::default_robot_description();
+  r.upper_arm.mass_kg *= 2.0;
+  r.upper_arm.inertia.xx_kg_m2 *= 2.0;
+  r.upper_arm.inertia.yy_kg_m2 *= 2.0;
+  r.upper_arm.inertia.zz_kg_m2 *= 2.0;
+  r.payload.mass_kg = 0.5;
+  return r;
+}
+
+// A pick-and-place of the robot without torque noise: the torque the drive
+// reports, which the model is to predict.
+DeltaLog clean_pick_and_place(const delta::RobotDescription& robot) {
+  SimulateOptions o;
+  o.plant = SimulatedPlant::kMujoco;
+  o.robot = robot;
+  o.duration_s = 10.0;
+  o.trajectory = "pick-and-place";
+  return simulate_log(o);
+}
+
+// The worst joint's RMS prediction error, % of its RMS torque.
+double worst_percent(const FitResult& fit, const DeltaLog& log) {
+  const auto model = make_model(fit.options.model);
+  Eigen::VectorXd beta = fit.beta;
+  const PredictedLog p = predict_log(*model, beta, log, fit.options.prepare, "fit");
+  double worst = 0;
+  for (unsigned j = 0; j < 3; ++j) {
+    const Series& tau = p.log.tau[j];
+    const Series& model_tau = p.log.extra_columns[j].second;
+    double e = 0, t = 0;
+    for (std::size_t k = 0; k < tau.size(); ++k) {
+      e += (tau[k] - model_tau[k]) * (tau[k] - model_tau[k]);
+      t += tau[k] * tau[k];
+    }
+    worst = std::max(worst, 100.0 * std::sqrt(e / t));
+  }
+  return worst;
+}
+
+struct Judged {
+  ModelOptions chosen;
+  double worst_percent_chosen{0};
+  double worst_percent_arms_only{0};  // the same arms and offsets, no drive-train term
+  FitResult fit;
+};
+
+Judged judge(const delta::RobotDescription& robot) {
+  const DeltaLog log = test::multibody_log(robot, 0.4);
+  const FitOptions ls = test::least_squares();
+  const ModelSelection s = select_model(log, ls);
+  for (const VariantScore& v : s.variants) {
+    std::cout << "  " << v.name << ": " << v.held_out_rmse_Nm << " N m\n";
+  }
+  Judged out;
+  out.chosen = s.variants[s.chosen].model;
+  FitOptions chosen = ls;
+  chosen.model = out.chosen;
+  FitOptions arms = chosen;
+  arms.model.load_friction = false;
+  arms.model.torque_gains = false;
+  const DeltaLog pnp = clean_pick_and_place(robot);
+  out.fit = fit_log(log, chosen);
+  out.worst_percent_chosen = worst_percent(out.fit, pnp);
+  out.worst_percent_arms_only = worst_percent(fit_log(log, arms), pnp);
+  std::cout << "  pick-and-place, worst joint: " << out.worst_percent_chosen << " % chosen, "
+            << out.worst_percent_arms_only << " % without the drive train's terms\n";
+  return out;
+}
+
+TEST(DriveTrainFitTest, IdealDrivesTakeNeitherTerm) {
+  const Judged j = judge(heavy_robot());
+  EXPECT_FALSE(j.chosen.torque_gains);
+  EXPECT_FALSE(j.chosen.load_friction);
+}
+
+// Torque constants 8 % and 7 % off joint 1's: the gains are taken and
+// estimated within 0.015 of 1 - k_j / k_1 (the per-joint arms take part of
+// each joint's scale: the gains rest on the shared platform and coupling).
+TEST(DriveTrainFitTest, TorqueConstantsThatDifferTakeTheTorqueGains) {
+  delta::RobotDescription robot = heavy_robot();
+  robot.joints[0].torque_constant_ratio = 1.0;
+  robot.joints[1].torque_constant_ratio = 0.92;
+  robot.joints[2].torque_constant_ratio = 1.07;
+  const Judged j = judge(robot);
+  EXPECT_TRUE(j.chosen.torque_gains);
+  EXPECT_FALSE(j.chosen.load_friction);
+  EXPECT_NEAR(test::estimate(j.fit, "torque_gain_gap_2"), 1.0 - 0.92, 0.015);
+  EXPECT_NEAR(test::estimate(j.fit, "torque_gain_gap_3"), 1.0 - 1.07, 0.015);
+  EXPECT_LT(j.worst_percent_chosen, 0.5 * j.worst_percent_arms_only);
+  EXPECT_LT(j.worst_percent_chosen, 1.5);
+}
+
+// Gear friction of 5 % of the gear's torque: the load friction is taken
+// and estimated within 20 %.
+TEST(DriveTrainFitTest, GearFrictionThatGrowsWithLoadTakesTheLoadFriction) {
+  delta::RobotDescription robot = heavy_robot();
+  for (auto& joint : robot.joints) joint.load_friction_coefficient = 0.05;
+  const Judged j = judge(robot);
+  EXPECT_TRUE(j.chosen.load_friction);
+  for (const char* name : {"load_friction_1", "load_friction_2", "load_friction_3"}) {
+    EXPECT_NEAR(test::estimate(j.fit, name), 0.05, 0.01) << name;
+  }
+  EXPECT_LT(j.worst_percent_chosen, 0.5 * j.worst_percent_arms_only);
+  EXPECT_LT(j.worst_percent_chosen, 1.5);
+}
+
+// The model's torque solves tau = y + delta_j tau + mu_j |tau| tanh(qd/w),
+// on either sign and at either direction of motion.
+TEST(DriveTrainFitTest, ThePredictionSolvesForTheModelsOwnTorque) {
+  ModelOptions o;
+  o.load_friction = true;
+  o.torque_gains = true;
+  const auto model = make_model(o);
+  Eigen::VectorXd beta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(model->size()));
+  const std::vector<std::size_t> terms = model->torque_columns();
+  ASSERT_EQ(terms.size(), 5u);  // mu_1..3, delta_2, delta_3
+  const double mu[3] = {0.04, 0.06, 0.08}, gap[2] = {0.07, -0.05};
+  for (unsigned j = 0; j < 3; ++j) beta(static_cast<Eigen::Index>(terms[j])) = mu[j];
+  for (unsigned j = 0; j < 2; ++j) beta(static_cast<Eigen::Index>(terms[3 + j])) = gap[j];
+  const double w = o.coulomb_smoothing_rad_s;
+  for (unsigned j = 0; j < 3; ++j) {
+    for (const double y : {-3.0, -0.2, 0.5, 4.0}) {
+      for (const double qd : {-1.0, -0.004, 0.0, 0.02, 2.0}) {
+        const double tau = model->solve_torque(j, y, qd, beta);
+        const double d = j == 0 ? 0.0 : gap[j - 1];
+        EXPECT_NEAR(tau, y + d * tau + mu[j] * std::abs(tau) * std::tanh(qd / w), 1e-12)
+            << "joint " << j + 1 << " y " << y << " qd " << qd;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace host_id
