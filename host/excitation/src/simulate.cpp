@@ -30,6 +30,9 @@ void check_options(const SimulateOptions& o) {
     throw delta::InputError("--torque-noise is a fraction of the RMS torque, between 0 and 1");
   }
   if (o.encoder_bits > 32) throw delta::InputError("--encoder-bits must be between 0 (off) and 32");
+  if (o.arm_encoders && o.plant != SimulatedPlant::kMujoco) {
+    throw delta::InputError("--arm-encoders goes with --plant mujoco: the lumped plant is rigid");
+  }
 }
 
 // The joint states of the chosen path at time t.
@@ -95,6 +98,7 @@ DeltaLog empty_log(const SimulateOptions& o, std::size_t n) {
   for (unsigned j = 0; j < 3; ++j) {
     log.q[j].reserve(n);
     log.tau[j].reserve(n);
+    if (o.arm_encoders) log.extra_columns.emplace_back("qa" + std::to_string(j + 1), Series{});
   }
   return log;
 }
@@ -175,6 +179,7 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * dt;
     delta::JointState s = plant.state();
+    const delta::JointState arm = plant.arm_state();
     delta::Joint3 logged{};
     for (int i = 0; i < loop_steps; ++i) {
       delta::Joint3 tau{};
@@ -186,6 +191,9 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
       for (unsigned j = 0; j < 3; ++j) logged[j] = reported[j].update(tau[j], h);
     }
     append_sample(log, k, t, s, logged);
+    if (o.arm_encoders) {
+      for (unsigned j = 0; j < 3; ++j) log.extra_columns[j].second.push_back(arm.q_rad[j]);
+    }
     report_progress(o, k, n);
   }
   return log;
@@ -208,6 +216,9 @@ void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
     const double step = 2.0 * std::numbers::pi / std::ldexp(1.0, static_cast<int>(o.encoder_bits));
     for (unsigned j = 0; j < 3; ++j) {
       for (double& v : log.q[j]) v = std::round(v / step) * step;
+    }
+    for (auto& column : log.extra_columns) {
+      for (double& v : column.second) v = std::round(v / step) * step;
     }
     log.metadata.emplace_back("encoder_bits", std::to_string(o.encoder_bits));
   }

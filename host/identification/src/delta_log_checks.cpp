@@ -79,11 +79,13 @@ void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
         << given << " are not used: q is filtered and differentiated (give both, or "
         << "neither; docs/log-format.md)\n";
   }
-  // Columns the format documents as kept, not used (the recorder's motor
-  // currents i1..i3), are no news.
+  // Columns the format documents are no news: the recorder's motor
+  // currents i1..i3 (kept, not used) and the arm side's encoders qa1..qa3
+  // (fit --elastic and an elastic model's predictions read them).
   std::string names;
   for (const auto& [name, series] : log.extra_columns) {
     if (name == "i1" || name == "i2" || name == "i3") continue;
+    if (name == "qa1" || name == "qa2" || name == "qa3") continue;
     names += (names.empty() ? "" : ", ") + name;
   }
   if (!names.empty()) {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "delta/input_error.hpp"
+#include "host_id/elasticity.hpp"
 #include "host_id/friction_shape.hpp"
 #include "host_id/model_selection.hpp"
 #include "host_id/regression.hpp"
@@ -344,6 +345,33 @@ double min_speed_for(const FitOptions& options) {
 
 namespace {
 
+// The options with the gearbox's compliance where the fit asks for it and
+// the log supports it (kept in r).
+FitOptions options_with_elasticity(const DeltaLog& log, FitOptions options, FitResult& r) {
+  if (!options.fit_elasticity) return options;
+  r.elasticity = fit_elasticity(log, options);
+  if (r.elasticity->supported) {
+    options.model.gearbox_compliance_rad_per_Nm = r.elasticity->compliance_rad_per_Nm;
+  }
+  return options;
+}
+
+// The log at the arm's angles for an elastic model (elasticity.hpp): the
+// deflection is the model's own torque, with the rigid least squares'
+// parameters, over the stiffness.
+void move_to_arm_side(DeltaLog& log, const FitOptions& options) {
+  if (!options.model.elastic()) return;
+  ModelOptions rigid_options = options.model;
+  rigid_options.gearbox_compliance_rad_per_Nm = {};
+  const auto rigid = make_model(rigid_options);
+  PrepareOptions prepare = options.prepare;
+  prepare.slow_rows_last_below_rad_s = min_speed_for(options);
+  const Preprocessed pre = preprocess(*rigid, log, prepare, options.threads);
+  const Equations fast(pre.regression, pre.fast_rows);
+  const Eigen::VectorXd beta = fast.psi.colPivHouseholderQr().solve(fast.tau);
+  log = arm_side_for_prediction(*make_model(options.model), beta, log, options.prepare);
+}
+
 // The options of the fit: the given ones, with the friction's shape fitted
 // first on the log where they ask for it (kept in r).
 FitOptions options_with_friction_shape(const DeltaLog& log, const FitOptions& given, FitResult& r) {
@@ -409,7 +437,9 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
                   const std::vector<const DeltaLog*>& validation, bool keep_predictions) {
   const auto t0 = std::chrono::steady_clock::now();
   FitResult r;
-  const FitOptions options = options_with_friction_shape(log, given_options, r);
+  const FitOptions options =
+      options_with_elasticity(log, options_with_friction_shape(log, given_options, r), r);
+  move_to_arm_side(log, options);
   r.options = options;
   const auto model = make_model(options.model);
   r.min_speed_rad_s = min_speed_for(options);
@@ -514,6 +544,11 @@ void require_pso_at_optimum(const FitResult& r, const std::string& log_name) {
 
 Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                    const PrepareOptions& prepare, unsigned threads) {
+  if (model.options().elastic()) {
+    const DeltaLog arm = arm_side_for_prediction(model, beta, log, prepare);
+    return prediction_of(model, preprocess(model, arm, prepare, threads).regression, beta,
+                         log.name);
+  }
   const Preprocessed pre = preprocess(model, log, prepare, threads);
   return prediction_of(model, pre.regression, beta, log.name);
 }

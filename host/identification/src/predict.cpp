@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "delta/input_error.hpp"
+#include "host_id/elasticity.hpp"
 
 namespace host_id {
 
@@ -44,9 +45,17 @@ DeltaLog empty_like(const DeltaLog& log, const Model& model, const std::string& 
 
 PredictedLog predict_log(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                          const PrepareOptions& prepare, const std::string& result_name) {
+  if (!model.options().elastic()) return predict_log_as_is(model, beta, log, prepare, result_name);
+  return predict_log_as_is(model, beta, arm_side_for_prediction(model, beta, log, prepare), prepare,
+                           result_name);
+}
+
+PredictedLog predict_log_as_is(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
+                               const PrepareOptions& prepare, const std::string& result_name) {
   const PreparedStates prepared = prepare_states(log, prepare);
   PredictedLog out;
   out.report = prepared.report;
+  out.log_index = prepared.log_index;
   out.log = empty_like(log, model, result_name);
   DeltaLog& o = out.log;
   const std::size_t p = model.size();

@@ -20,6 +20,38 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// The gearboxes' stiffness found (fit --elastic), with the costs and the
+// held-out errors rigid and elastic.
+void text_elasticity(const ElasticityResult& e, std::ostream& s) {
+  s << "  elastic   gearbox stiffness K = 1 / c ";
+  s << (e.from_arm_encoders ? "from the arm's encoders (qa1..qa3)"
+                            : "by PSO (variable projection, " + std::to_string(e.evaluations) +
+                                  " evaluations, " + fmt("%.1f", e.seconds) + " s)");
+  s << ":";
+  for (unsigned j = 0; j < 3; ++j) {
+    const double c = e.compliance_rad_per_Nm[j];
+    s << (j == 0 ? " " : ", ");
+    if (c > 0.0) {
+      s << fmt("%.0f", 1.0 / c) << " +- " << fmt("%.2g", e.compliance_std[j] / (c * c));
+    } else {
+      s << "rigid (c 0 +- " << fmt("%.2g", e.compliance_std[j]) << ")";
+    }
+  }
+  s << " N m/rad\n";
+  if (!e.from_arm_encoders) {
+    s << "            cost " << fmt("%.6e", e.cost_rigid_Nm2) << " rigid, "
+      << fmt("%.6e", e.cost_elastic_Nm2) << " elastic (least squares, unbounded)\n";
+  }
+  if (e.held_out_rigid_Nm > 0.0) {
+    s << "            held-out torque error " << fmt("%.4g", e.held_out_elastic_Nm)
+      << " N m elastic, " << fmt("%.4g", e.held_out_rigid_Nm) << " N m rigid (" << kSupportFolds
+      << " time blocks): "
+      << (e.supported ? "the log supports the elastic model, fitted below"
+                      : "the rigid model explains the log as well, fitted below")
+      << "\n";
+  }
+}
+
 std::string model_summary(const ModelOptions& m, std::size_t p) {
   std::ostringstream s;
   s << m.name;
@@ -33,6 +65,14 @@ std::string model_summary(const ModelOptions& m, std::size_t p) {
     }
     if (m.load_friction) s << ", load friction";
     if (m.torque_gains) s << ", torque gains";
+    if (m.elastic()) {
+      s << ", elastic gearboxes K";
+      for (unsigned j = 0; j < 3; ++j) {
+        const double c = m.gearbox_compliance_rad_per_Nm[j];
+        s << (j == 0 ? " " : ", ") << (c > 0.0 ? fmt("%.0f", 1.0 / c) : std::string("rigid"));
+      }
+      s << " N m/rad";
+    }
     s << ")";
   } else {
     s << " (the paper's regressor, constant lambda)";
@@ -230,6 +270,7 @@ void text_method(const FitResult& r, std::ostream& s) {
         << "\n";
     }
   }
+  if (r.elasticity) text_elasticity(*r.elasticity, s);
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
 }
@@ -324,6 +365,21 @@ void json_parameters(const FitResult& r, nlohmann::json& values, nlohmann::json&
   }
 }
 
+nlohmann::json json_elasticity(const FitResult& r) {
+  if (!r.elasticity) return nullptr;
+  const ElasticityResult& e = *r.elasticity;
+  return {{"compliance_rad_per_Nm", e.compliance_rad_per_Nm},
+          {"compliance_std_rad_per_Nm", e.compliance_std},
+          {"from_arm_encoders", e.from_arm_encoders},
+          {"cost_rigid_Nm2", e.cost_rigid_Nm2},
+          {"cost_elastic_Nm2", e.cost_elastic_Nm2},
+          {"held_out_rigid_Nm", e.held_out_rigid_Nm},
+          {"held_out_elastic_Nm", e.held_out_elastic_Nm},
+          {"supported", e.supported},
+          {"evaluations", e.evaluations},
+          {"seconds", e.seconds}};
+}
+
 nlohmann::json json_friction_shape(const FitResult& r) {
   if (!r.friction_shape) return nullptr;
   const FrictionShapeResult& f = *r.friction_shape;
@@ -399,6 +455,7 @@ nlohmann::json json_model_options(const ModelOptions& m) {
           {"offsets", m.offsets},
           {"load_friction", m.load_friction},
           {"torque_gains", m.torque_gains},
+          {"gearbox_compliance_rad_per_Nm", m.gearbox_compliance_rad_per_Nm},
           {"coulomb_smoothing_rad_s", m.coulomb_smoothing_rad_s},
           {"stribeck_velocity_rad_s", m.stribeck_velocity_rad_s}};
 }
@@ -469,6 +526,7 @@ nlohmann::json json_report(const FitResult& r) {
       {"validation", validation},
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
       {"friction_shape", json_friction_shape(r)},
+      {"elasticity", json_elasticity(r)},
       {"pso", json_pso(r)},
   };
 }

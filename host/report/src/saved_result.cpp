@@ -1,5 +1,7 @@
 // A result saved by host_id fit (host_id-result/1, docs/report.md), read
 // back for validate, predict, simulate --params and a payload's base fit.
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -38,6 +40,18 @@ ModelOptions read_model_options(const ResultFile& f, const json& j) {
   // Results saved before the drive train's terms have no keys: none.
   model.load_friction = m.value("load_friction", false);
   model.torque_gains = m.value("torque_gains", false);
+  if (m.contains("gearbox_compliance_rad_per_Nm")) {
+    const json& c = m["gearbox_compliance_rad_per_Nm"];
+    const auto bad = [](const json& v) {
+      return !v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0;
+    };
+    if (!c.is_array() || c.size() != 3 || std::any_of(c.begin(), c.end(), bad)) {
+      throw delta::InputError(f.path +
+                              ": model.gearbox_compliance_rad_per_Nm must be three compliances "
+                              ">= 0 in rad/(N m), one per joint (0: rigid)");
+    }
+    for (unsigned k = 0; k < 3; ++k) model.gearbox_compliance_rad_per_Nm[k] = c[k].get<double>();
+  }
   return model;
 }
 

@@ -500,3 +500,45 @@ TEST_F(CliTest, TheTorqueScaleHoldsOnADriveTrainWithLoadFriction) {
 
 }  // namespace
 }  // namespace host_id
+
+namespace host_id {
+namespace {
+
+// fit --elastic on a log with the arm's encoders (simulate --arm-encoders):
+// the stiffness in the report and the JSON, the elastic model saved where
+// the log supports it, and predict reading it back; the lumped plant has no
+// arm side to encode.
+TEST_F(CliTest, ElasticGearboxesAreFittedFromTheArmsEncoders) {
+  auto robot =
+      nlohmann::json::parse(delta::read_whole_file(DELTA_SOURCE_DIR "/docs/examples/robot.json"));
+  for (auto& joint : robot["joints"]) {
+    joint["rotor_inertia_kg_m2"] = 3e-5;
+    joint["gearbox_stiffness_Nm_per_rad"] = 1500.0;
+  }
+  delta::write_file_atomically(path("elastic.json"), robot.dump());
+  ASSERT_EQ(
+      run({"simulate", "--plant", "mujoco", "--robot", path("elastic.json"), "-o", path("e.csv"),
+           "--duration", "8", "--base-hz", "0.4", "--arm-encoders", "--quiet"}),
+      0)
+      << err_.str();
+  EXPECT_NE(delta::read_whole_file(path("e.csv")).find("qa1,qa2,qa3"), std::string::npos);
+  ASSERT_EQ(run({"fit", path("e.csv"), "--elastic", "--method", "ls", "-o", path("r.json")}), 0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("gearbox stiffness K = 1 / c from the arm's encoders"),
+            std::string::npos)
+      << out_.str();
+  EXPECT_EQ(err_.str().find("qa1"), std::string::npos) << "qa1..qa3 are read: " << err_.str();
+  const auto saved = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  ASSERT_TRUE(saved["elasticity"].is_object());
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_NEAR(1.0 / saved["elasticity"]["compliance_rad_per_Nm"][j].get<double>(), 1500.0, 150.0);
+  }
+  EXPECT_EQ(saved["model"]["gearbox_compliance_rad_per_Nm"].size(), 3u);
+  ASSERT_EQ(run({"predict", path("r.json"), path("e.csv"), "-o", path("p.csv")}), 0) << err_.str();
+  EXPECT_EQ(run({"simulate", "-o", path("l.csv"), "--arm-encoders"}), 1);
+  EXPECT_NE(err_.str().find("--arm-encoders goes with --plant mujoco"), std::string::npos)
+      << err_.str();
+}
+
+}  // namespace
+}  // namespace host_id

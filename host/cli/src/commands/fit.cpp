@@ -99,6 +99,12 @@ void add_model_options(CLI::App& c, FitArguments& a) {
       ->check(kPositive)
       ->capture_default_str()
       ->group("model");
+  c.add_flag("--elastic", a.fit.fit_elasticity,
+             "delta, lumped: search each joint's gearbox stiffness (encoders on the motor) by "
+             "PSO, the other parameters solved exactly for each candidate, and take it where the "
+             "held-out error says so; where the log has qa1..qa3 (arm-side encoders), those "
+             "(docs/model.md, 'Elastic gearboxes')")
+      ->group("model");
   c.add_flag("--fit-friction-shape", a.fit.fit_friction_shape,
              "search the Coulomb smoothing (and, with --stribeck-velocity, the Stribeck "
              "velocity) by PSO, the other parameters solved exactly for each candidate; the "
@@ -254,6 +260,8 @@ FitOptions options_for_model(FitOptions f, const std::string& name) {
     f.model.offsets = false;
     f.model.load_friction = false;
     f.model.torque_gains = false;
+    f.model.gearbox_compliance_rad_per_Nm = {};
+    f.fit_elasticity = false;
     f.model.stribeck_velocity_rad_s = 0.0;
     f.fit_friction_shape = false;
   }

@@ -68,6 +68,9 @@ void add_measurement_options(CLI::App& c, SimulateOptions& s) {
       ->check(CLI::Range(0, 32))
       ->capture_default_str();
   c.add_flag("--with-derivatives", s.with_derivatives, "also write exact qd and qdd columns");
+  c.add_flag("--arm-encoders", s.arm_encoders,
+             "--plant mujoco: also write the arm side's encoders, columns qa1..qa3 (the arm's "
+             "angle behind an elastic gearbox), quantised as q");
   c.add_option("--name", s.name, "the log's trajectory name");
 }
 

@@ -39,7 +39,10 @@ struct SimulateOptions {
   double torque_noise{0.0};        // Gaussian, as a fraction of each joint's RMS torque
   unsigned encoder_bits{0};        // quantise q to 2 pi / 2^bits; 0: off
   bool with_derivatives{false};    // write the plant's own qd, qdd columns
-  std::string name;                // the log's `trajectory` metadata
+  // --plant mujoco: also write the arm side's encoders, qa1..qa3 (the arm's
+  // angle behind an elastic gearbox; docs/log-format.md), quantised as q.
+  bool arm_encoders{false};
+  std::string name;  // the log's `trajectory` metadata
   // The lumped plant's robot:
   delta::Geometry geometry{delta::kDefaultGeometry};
   delta::LumpedParameters parameters{delta::default_lumped_parameters()};

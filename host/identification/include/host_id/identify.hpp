@@ -48,6 +48,24 @@ struct FitOptions {
   // velocity where the model has a Stribeck term) by PSO, the linear
   // parameters solved exactly for each candidate (friction_shape.hpp).
   bool fit_friction_shape{false};
+  // Search each joint's gearbox compliance (elasticity.hpp) and take it
+  // where the held-out error says so.
+  bool fit_elasticity{false};
+};
+
+// What fit_elasticity found: each joint's compliance c = 1 / K with its
+// standard deviation (Gauss-Newton, as the friction shape's), the cost and
+// the held-out error rigid and elastic, and whether the log supports the
+// elastic model (its held-out error lower by more than kSelectionMargin).
+struct ElasticityResult {
+  delta::Joint3 compliance_rad_per_Nm{};
+  delta::Joint3 compliance_std{};
+  bool from_arm_encoders{false};  // the log's qa1..qa3, not a search
+  double cost_rigid_Nm2{0}, cost_elastic_Nm2{0};
+  double held_out_rigid_Nm{0}, held_out_elastic_Nm{0};
+  bool supported{false};
+  std::size_t evaluations{0};
+  double seconds{0};
 };
 
 // The friction shape found by fit_friction_shape, each value with its
@@ -156,6 +174,7 @@ struct FitResult {
   // Parameter name -> its truth, where the caller knows it (fit --truth).
   std::map<std::string, double> truth;
   std::optional<FrictionShapeResult> friction_shape;
+  std::optional<ElasticityResult> elasticity;
   // Which variant the log supports, judged on the fit's own rows (delta and
   // lumped, long enough logs): model_selection.hpp's judge_support().
   std::optional<ModelSelection> support;

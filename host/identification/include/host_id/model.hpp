@@ -41,6 +41,14 @@ struct ModelOptions {
   // (Model::solve_torque).
   bool load_friction{false};
   bool torque_gains{false};
+  // delta, lumped: each gearbox's compliance 1 / K, rad/(N m); all 0: rigid.
+  // With it the model is the arm's at q - c tau (elasticity.hpp): the fit
+  // and a prediction move the log's angles there first.
+  delta::Joint3 gearbox_compliance_rad_per_Nm{};
+  bool elastic() const {
+    return gearbox_compliance_rad_per_Nm[0] != 0.0 || gearbox_compliance_rad_per_Nm[1] != 0.0 ||
+           gearbox_compliance_rad_per_Nm[2] != 0.0;
+  }
 };
 
 // The names --model takes, in the order the help lists them.

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <string>
+#include <vector>
 
 #include "host_id/delta_log.hpp"
 #include "host_id/model.hpp"
@@ -19,11 +20,18 @@ struct PredictedLog {
   DeltaLog log;
   std::array<double, 3> rmse_measured_Nm{};  // tau against tau_model, per joint
   PreprocessReport report;
+  std::vector<std::size_t> log_index;  // of each kept sample in the input log
 };
 
 // Samples a trim drops are left out, not invented. Throws delta::InputError
 // naming the log and the sample's time where a pose has no kinematics.
+// An elastic model (ModelOptions::gearbox_compliance_rad_per_Nm) predicts
+// at the arm's angles (elasticity.hpp, arm_side_for_prediction): the states
+// written are those.
 PredictedLog predict_log(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                          const PrepareOptions& prepare, const std::string& result_name);
+// The same at the log's angles as they are, elastic model or not.
+PredictedLog predict_log_as_is(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
+                               const PrepareOptions& prepare, const std::string& result_name);
 
 }  // namespace host_id
