@@ -106,6 +106,11 @@ std::string variant_name(const ModelOptions& m) {
          (m.load_friction ? ", load friction" : "");
 }
 
+// Whether variant x's held-out error is below y's by more than the margin.
+bool lowers_by(const ModelSelection& s, std::size_t x, std::size_t y, double margin) {
+  return s.variants[x].held_out_rmse_Nm < s.variants[y].held_out_rmse_Nm * (1.0 - margin);
+}
+
 // One variant's held-out error from the superset's fold moments.
 VariantScore score_variant(const std::vector<FoldMoments>& moments, const Model& superset,
                            const ModelOptions& m, std::size_t rows) {
@@ -149,8 +154,7 @@ void choose_drive_train(ModelSelection& out, const std::vector<FoldMoments>& mom
     out.variants.push_back(score_variant(moments, superset, m, rows));
   }
   const auto clearly_better = [&](std::size_t x, std::size_t y) {
-    return out.variants[x].held_out_rmse_Nm <
-           out.variants[y].held_out_rmse_Nm * (1.0 - kDriveTrainMargin);
+    return lowers_by(out, x, y, kDriveTrainMargin);
   };
   const std::size_t first = out.variants.size() - 3;
   const std::size_t base = out.chosen;
@@ -185,8 +189,7 @@ ModelSelection choose_variant(const std::vector<FoldMoments>& moments, const Mod
     }
   }
   const auto better = [&](std::size_t x, std::size_t y) {
-    return out.variants[x].held_out_rmse_Nm <
-           out.variants[y].held_out_rmse_Nm * (1.0 - kSelectionMargin);
+    return lowers_by(out, x, y, kSelectionMargin);
   };
   choose_arms_and_offsets(out, better);
   choose_drive_train(out, moments, superset, rows, better);
