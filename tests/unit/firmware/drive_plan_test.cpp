@@ -207,6 +207,80 @@ TEST(DrivePlanTest, WithoutAnEdsThePlanIsTheGenericProfiles) {
   EXPECT_EQ(plan.actions.size(), 24u);
 }
 
+// A drive at node 16, the controller's own: its TPDO1, EMCY, heartbeat and
+// SDO COB-IDs are the controller's log, emergency, heartbeat and SDO
+// server's. One problem names each collision and what to do.
+TEST(DrivePlanTest, ADriveAtTheControllersNodeIsRefusedNamingEachCollision) {
+  const auto p = problems_of("joint2.node = 16\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  for (const char* expected :
+       {"joint2.node = 16: COB-IDs collide on the bus: ",
+        "joint2's EMCY 0x090 is also the controller's CONTROLLER_EMCY",
+        "joint2's SDO response 0x590 is also the controller's SDO server (response)",
+        "joint2's heartbeat 0x710 is also the controller's CONTROLLER_HEARTBEAT",
+        "joint2's TPDO1 0x190 is also the controller's LOG_A",
+        "node 16 is the controller's own: give the drive another node"}) {
+    EXPECT_NE(p[0].find(expected), std::string::npos) << expected << "\n" << p[0];
+  }
+  EXPECT_TRUE(problems_of("joint2.node = 17\n").empty());
+}
+
+// A mistyped key names the key it most likely is (case or two edits
+// apart); one far from every key just says it is unknown.
+TEST(DrivePlanTest, AMistypedKeySuggestsTheKeyItMeant) {
+  const auto p = problems_of("joint1.rated_torque_nm = 0.2\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_NE(p[0].find("unknown key 'joint1.rated_torque_nm' (did you mean "
+                      "'joint1.rated_torque_Nm'?)"),
+            std::string::npos)
+      << p[0];
+  const auto far = problems_of("wobble = 1\n");
+  ASSERT_EQ(far.size(), 1u) << joined(far);
+  EXPECT_EQ(far[0].find("did you mean"), std::string::npos) << far[0];
+}
+
+// counts_per_rev against the EDS's 0x608F:01 (ipos.eds: 8000): agreeing is
+// sound, contradicting is refused, as a contradicting rated value is.
+TEST(DrivePlanTest, AnEncoderResolutionTheEdsContradictsIsNamed) {
+  const std::string base = "joint1.eds = " + drive("ipos.eds") +
+                           "\njoint1.rated_current_A = 2\njoint1.rated_torque_Nm = 0.2\n";
+  EXPECT_TRUE(problems_of(base + "joint1.counts_per_rev = 8000\n").empty());
+  const auto p = problems_of(base + "joint1.counts_per_rev = 4096\n");
+  ASSERT_EQ(p.size(), 1u) << joined(p);
+  EXPECT_NE(p[0].find("0x608F:01 (position encoder resolution) is 8000 in the EDS, but "
+                      "joint1.counts_per_rev = 4096: which is the encoder's?"),
+            std::string::npos)
+      << p[0];
+}
+
+// A drive with 0x6071 and no 0x6076 (ipos.eds, tmcm_bldc.eds) gets a
+// warning about its torque unit until the configuration names the unit.
+TEST(DrivePlanTest, ATargetTorqueWithoutRatedTorqueAsksForTheUnit) {
+  const std::string base = "joint1.eds = " + drive("ipos.eds") +
+                           "\njoint1.rated_current_A = 2\njoint1.rated_torque_Nm = 0.2\n";
+  const auto warned = plan_drives(config(base)).drives[0].warnings;
+  EXPECT_NE(joined(warned).find("has 0x6071 (target torque) but no 0x6076 (motor rated torque)"),
+            std::string::npos)
+      << joined(warned);
+  EXPECT_NE(joined(warned).find("set joint1.torque_unit"), std::string::npos);
+  const auto quiet =
+      plan_drives(config(base + "joint1.torque_unit = per_mille\n")).drives[0].warnings;
+  EXPECT_EQ(joined(quiet).find("0x6076"), std::string::npos) << joined(quiet);
+}
+
+// gains.max_torque_Nm beyond what 0x6072 holds in per mille of the rated
+// torque: written capped, with a warning giving the joint torque it caps at.
+TEST(DrivePlanTest, AMaxTorqueThe6072CannotHoldIsCappedWithAWarning) {
+  const std::string base = "joint1.eds = " + drive("fixed_mapping.eds") + "\n";
+  const DrivePlan fits = plan_drives(config(base)).drives[0];
+  EXPECT_EQ(joined(fits.warnings).find("capped"), std::string::npos) << joined(fits.warnings);
+  const DrivePlan capped = plan_drives(config(base + "gains.max_torque_Nm = 400\n")).drives[0];
+  EXPECT_TRUE(writes(capped, 0x6072, 0, 32767));
+  EXPECT_NE(joined(capped.warnings).find("gains.max_torque_Nm = 400"), std::string::npos)
+      << joined(capped.warnings);
+  EXPECT_NE(joined(capped.warnings).find("capped at 32767 per mille"), std::string::npos);
+}
+
 // delta_fw --check-config: the plans and exit 0, or every problem and 2.
 struct CommandRun {
   int status;

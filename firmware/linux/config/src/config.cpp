@@ -1,5 +1,7 @@
 #include "fw_linux/config.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -10,6 +12,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include "config_keys.hpp"
 #include "delta/can/protocol.hpp"
@@ -79,11 +82,49 @@ template delta::fx::Q14_17 to_q<delta::fx::Q14_17>(double, const char*);
 template delta::fx::Q16_15 to_q<delta::fx::Q16_15>(double, const char*);
 template delta::fx::Q1_30 to_q<delta::fx::Q1_30>(double, const char*);
 
+namespace {
+
+// Edits (insert, delete, replace a character, case aside) from a to b.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const bool same = std::tolower(static_cast<unsigned char>(a[i - 1])) ==
+                        std::tolower(static_cast<unsigned char>(b[j - 1]));
+      const std::size_t next = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (same ? 0 : 1)});
+      diagonal = row[j];
+      row[j] = next;
+    }
+  }
+  return row[b.size()];
+}
+
+// The known key nearest a mistyped one, where one is near (at most two
+// edits, case aside): " (did you mean 'KEY'?)", else "".
+std::string did_you_mean(const std::string& key) {
+  std::string best;
+  std::size_t best_distance = 3;
+  for (const auto& [known, setter] : setters()) {
+    const std::size_t d = edit_distance(key, known);
+    if (d < best_distance) {
+      best_distance = d;
+      best = known;
+    }
+  }
+  return best.empty() ? "" : " (did you mean '" + best + "'?)";
+}
+
+}  // namespace
+
 void set_config_value(PortConfig& c, const std::string& key, const std::string& value,
                       const std::string& where) {
   const auto it = setters().find(key);
   if (it == setters().end()) {
-    throw ConfigError(where + ": unknown key '" + key + "' (docs/firmware.md lists the keys)");
+    throw ConfigError(where + ": unknown key '" + key + "'" + did_you_mean(key) +
+                      " (docs/firmware.md lists the keys)");
   }
   it->second(c, value, where);
 }

@@ -344,6 +344,7 @@ void add_joint_keys(Setters& s, unsigned j) {
   };
   s[p + "torque_unit"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
     c.joints[j].torque_unit = parse_torque_unit(v, w, p);
+    c.joints[j].torque_unit_set = true;
   };
   s[p + "serial"] = [=](PortConfig& c, const std::string& v, const std::string& w) {
     c.joints[j].identity.serial = parse_unsigned(v, w, p + "serial", 0, 0xFFFFFFFFu);

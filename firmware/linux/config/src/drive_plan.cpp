@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "bus_ids.hpp"
 #include "drive_planner.hpp"
 
 namespace fw_linux {
@@ -106,6 +107,7 @@ std::string object_text(od::Object o) {
 DrivePlans plan_drives(const PortConfig& c) {
   DrivePlans plans;
   for (unsigned j = 0; j < 3; ++j) planning::Planner(c, j, plans.drives[j], plans.problems).run();
+  planning::check_bus_ids(plans, plans.problems);
   return plans;
 }
 

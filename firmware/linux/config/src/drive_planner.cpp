@@ -72,8 +72,15 @@ void Planner::scaling() {
     rated_value(od::kMotorRatedTorque, SdoCheck::kRatedTorque, "motor rated torque",
                 "rated_torque_Nm", jd_.rated_torque_set, m.rated_torque_Nm, 1000.0);
   }
+  torque_unit_hint();
   if (readable(od::kEncoderIncrements)) {
     const auto v = value(od::kEncoderIncrements);
+    if (jd_.counts_per_rev_set && v && *v != 0 && *v != m.counts_per_rev) {
+      problems_.push_back(where(od::kEncoderIncrements) + ": 0x608F:01 (position encoder " +
+                          "resolution) is " + std::to_string(*v) + " in the EDS, but " + key_ +
+                          "counts_per_rev = " + std::to_string(m.counts_per_rev) +
+                          ": which is the encoder's? (docs/drives.md)");
+    }
     if (!jd_.counts_per_rev_set && (!v || *v == 0)) {
       problems_.push_back(key_ + "counts_per_rev is not set, and " + where(od::kEncoderIncrements) +
                           " gives 0x608F:01 (position encoder resolution) no value: set it to "
@@ -86,6 +93,23 @@ void Planner::scaling() {
                         "counts_per_rev is not set: set it to the counts per motor revolution "
                         "of 0x6064 (docs/drives.md)");
   }
+}
+
+// CiA 402's torque is per mille of 0x6076 (motor rated torque). A drive
+// that takes a target torque (0x6071) but has no 0x6076 most often takes
+// it in a unit of its own (Trinamic's TMCM drives: mA), which per mille
+// would scale by a factor of ten or more: said where the configuration
+// keeps per mille without saying so.
+void Planner::torque_unit_hint() {
+  if (jd_.torque_unit_set || !has(kTargetTorque) || has(od::kMotorRatedTorque)) return;
+  plan_.warnings.push_back(where(kTargetTorque) +
+                           " has 0x6071 (target torque) but no 0x6076 (motor rated torque), "
+                           "which CiA 402's per mille needs: such a drive most often takes torque "
+                           "in a unit of its own (mA on Trinamic TMCM drives); check its manual "
+                           "and set " +
+                           key_ +
+                           "torque_unit (mA, mNm, or per_mille where the manual says so; "
+                           "docs/drives.md)");
 }
 
 // A rated value (0x6075 mA, 0x6076 mN m): the configuration's, or the
@@ -247,6 +271,15 @@ void Planner::limits() {
   const double motor_Nm = c_.max_torque_Nm / (m.gear_ratio * m.gearbox_efficiency);
   const double per_mille = std::ceil(motor_Nm / m.rated_torque_Nm * 1000.0);
   const auto limit = static_cast<std::uint32_t>(std::min(std::max(per_mille, 1.0), 32767.0));
+  if (per_mille > 32767.0) {
+    plan_.warnings.push_back(
+        "gains.max_torque_Nm = " + std::to_string(c_.max_torque_Nm) + " N m is " +
+        std::to_string(static_cast<long long>(per_mille)) + " per mille of " + key_ +
+        "rated_torque_Nm at the motor, more than 0x6072 (max torque) holds: the drive's own "
+        "limit is capped at 32767 per mille (" +
+        std::to_string(32.767 * m.rated_torque_Nm * m.gear_ratio * m.gearbox_efficiency) +
+        " N m at the joint); check both values");
+  }
   write(kMaxTorque, 2, limit, "max torque",
         std::to_string(limit) + " per mille (gains.max_torque_Nm at the motor)");
 }

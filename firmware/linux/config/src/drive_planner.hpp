@@ -165,6 +165,7 @@ class Planner {
   void decide_feedback();
   void identity();
   void scaling();
+  void torque_unit_hint();
   void rated_value(od::Object o, SdoCheck check, const std::string& name, const std::string& key,
                    bool set, double configured, double to_drive);
   void mode();

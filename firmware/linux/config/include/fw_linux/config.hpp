@@ -60,6 +60,7 @@ struct JointDrive {
   bool rated_current_set{false};
   bool rated_torque_set{false};
   bool counts_per_rev_set{false};
+  bool torque_unit_set{false};
 };
 
 inline JointDrive joint_on_node(std::uint8_t node) {
