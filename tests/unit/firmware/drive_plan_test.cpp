@@ -239,6 +239,24 @@ TEST(DrivePlanTest, AMistypedKeySuggestsTheKeyItMeant) {
   EXPECT_EQ(far[0].find("did you mean"), std::string::npos) << far[0];
 }
 
+// Problems in the order a user fixes them, each once: the same file on
+// three joints gives one line naming the joints, and what keeps a drive
+// from serving (no torque mode) comes before the values to set.
+TEST(DrivePlanTest, ProblemsComeFatalFirstAndOnceForJointsThatShareThem) {
+  const std::string epos2 = drive("epos2.eds"), epos4 = drive("epos4.eds");
+  const auto shared = problems_of("joint1.eds = " + epos2 + "\njoint2.eds = " + epos2 +
+                                  "\njoint3.eds = " + epos2 + "\n");
+  ASSERT_FALSE(shared.empty());
+  EXPECT_EQ(
+      shared[0].rfind("joints 1, 2 and 3: jointN.eds (" + epos2 + "): no object 0x6071:00", 0), 0u)
+      << joined(shared);
+  for (const std::string& p : shared) EXPECT_EQ(p.find("joint1.eds"), std::string::npos) << p;
+  const auto mixed = problems_of("joint1.eds = " + epos4 + "\njoint2.eds = " + epos2 + "\n");
+  ASSERT_GE(mixed.size(), 3u) << joined(mixed);
+  EXPECT_NE(mixed[0].find("no object 0x6071:00"), std::string::npos) << joined(mixed);
+  EXPECT_NE(mixed.back().find("is not set"), std::string::npos) << joined(mixed);
+}
+
 // counts_per_rev against the EDS's 0x608F:01 (ipos.eds: 8000): agreeing is
 // sound, contradicting is refused, as a contradicting rated value is.
 TEST(DrivePlanTest, AnEncoderResolutionTheEdsContradictsIsNamed) {

@@ -295,6 +295,67 @@ void validate_io(const PortConfig& c, std::vector<std::string>& problems) {
 
 }  // namespace
 
+namespace {
+
+// The problem with its joint's number written N ("joint2." -> "jointN."),
+// and that joint (1 to 3); joint 0 where it names no joint or several.
+std::pair<std::string, int> joint_free(const std::string& problem) {
+  std::string text = problem;
+  int joint = 0;
+  for (std::size_t at = text.find("joint"); at != std::string::npos;
+       at = text.find("joint", at + 5)) {
+    if (at + 5 >= text.size() || text[at + 5] < '1' || text[at + 5] > '3') continue;
+    const int j = text[at + 5] - '0';
+    if (joint != 0 && joint != j) return {problem, 0};
+    joint = j;
+    text[at + 5] = 'N';
+  }
+  return {text, joint};
+}
+
+// The problems in the order a user fixes them: what keeps a drive or the
+// controller from serving first, then the values to set ("... is not
+// set"); a problem that several joints share (the same file on each) once,
+// naming the joints.
+std::vector<std::string> grouped_problems(const std::vector<std::string>& problems) {
+  struct Group {
+    std::string joint_free;  // the text with jointN; empty: not shared
+    std::string first;       // the first problem as it is
+    std::vector<int> joints;
+  };
+  std::vector<Group> groups;  // in first-seen order
+  for (const std::string& p : problems) {
+    const auto [text, joint] = joint_free(p);
+    const auto same = std::find_if(groups.begin(), groups.end(), [&](const Group& g) {
+      return joint != 0 && g.joint_free == text;
+    });
+    if (same != groups.end()) {
+      same->joints.push_back(joint);
+    } else {
+      groups.push_back({joint != 0 ? text : std::string(), p, {joint}});
+    }
+  }
+  std::vector<std::string> fatal, to_set;
+  for (const Group& g : groups) {
+    std::string line = g.first;
+    if (g.joints.size() > 1) {
+      std::string names;
+      for (std::size_t i = 0; i < g.joints.size(); ++i) {
+        names += (i == 0                     ? ""
+                  : i + 1 == g.joints.size() ? " and "
+                                             : ", ") +
+                 std::to_string(g.joints[i]);
+      }
+      line = "joints " + names + ": " + g.joint_free;
+    }
+    (line.find(" is not set") != std::string::npos ? to_set : fatal).push_back(line);
+  }
+  fatal.insert(fatal.end(), to_set.begin(), to_set.end());
+  return fatal;
+}
+
+}  // namespace
+
 std::vector<std::string> configuration_problems(const PortConfig& c) {
   std::vector<std::string> problems;
   validate_control(c, problems);
@@ -307,7 +368,7 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
     problems.emplace_back(e.what());
   }
   for (std::string& p : plan_drives(c).problems) problems.push_back(std::move(p));
-  return problems;
+  return grouped_problems(problems);
 }
 
 std::string describe_feed_forward(const PortConfig& c) {
