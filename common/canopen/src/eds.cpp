@@ -120,6 +120,11 @@ int on_key(void* user, const char* section, const char* name, const char* value)
   return 1;
 }
 
+// CiA 301's manufacturer-specific profile area.
+constexpr bool manufacturer_object(std::uint16_t index) {
+  return index >= 0x2000 && index <= 0x5FFF;
+}
+
 class Reader {
  public:
   Reader(const std::string& name, std::map<std::string, Section> sections)
@@ -634,7 +639,21 @@ Eds parse_eds(std::string_view raw, const std::string& name) {
   reader.commissioning(eds);
   for (const char* list : {"MandatoryObjects", "OptionalObjects", "ManufacturerObjects"}) {
     for (const auto& [index, line] : reader.listed(list)) {
-      reader.object(eds, index, line);
+      if (!manufacturer_object(index)) {
+        reader.object(eds, index, line);
+      } else {
+        // The bring-up uses no manufacturer object: a malformed one is
+        // left out with a note, so that the drive's real problems show.
+        try {
+          reader.object(eds, index, line);
+        } catch (const EdsError& e) {
+          std::erase_if(eds.variables, [&](const auto& v) { return v.first.first == index; });
+          eds.notes.push_back(std::string(e.what()) +
+                              ": a manufacturer object (0x2000-0x5FFF), which the bring-up does "
+                              "not use: left out");
+          continue;
+        }
+      }
       eds.listed.push_back({index, list, line});
     }
   }

@@ -265,6 +265,29 @@ TEST(EdsTest, ManufacturerTypesAreResolvedOrKeptOpaqueWithANote) {
             "this file: kept as opaque (its size is not known)");
 }
 
+// A malformed manufacturer object (0x2000-0x5FFF, which the bring-up never
+// uses; a vendor's [20A0] with SubNumber=8 but one sub-section) is left out
+// with a note naming its line, so that the drive's real problems show; the
+// same in a standard object is still refused.
+TEST(EdsTest, AMalformedManufacturerObjectIsLeftOutWithANote) {
+  std::string text = kHeader + kVendorTypedObjects;
+  text.replace(text.find("SupportedObjects=3\n1=0x2000"), 27,
+               "SupportedObjects=4\n4=0x20A0\n1=0x2000");
+  text +=
+      "\n[20A0]\nParameterName=Vendor record\nObjectType=0x9\nSubNumber=8\n\n"
+      "[20A0sub0]\nParameterName=Count\nDataType=0x0005\nAccessType=const\n"
+      "DefaultValue=7\n";
+  const Eds eds = parse_eds(text, "drive.eds");
+  EXPECT_EQ(eds.find(0x20A0, 0), nullptr);
+  ASSERT_NE(eds.find(0x2000, 0), nullptr);
+  ASSERT_EQ(eds.notes.size(), 3u);
+  EXPECT_NE(eds.notes[0].find("[20a0] SubNumber=8 but 1 [20a0subN] sections: a manufacturer "
+                              "object (0x2000-0x5FFF), which the bring-up does not use: left out"),
+            std::string::npos)
+      << eds.notes[0];
+  EXPECT_EQ(eds.notes[0].rfind("drive.eds:", 0), 0u) << eds.notes[0];
+}
+
 // Latin-1 text (a vendor's umlaut in a name) is read as such, and said.
 TEST(EdsTest, Latin1TextIsReadAsLatin1) {
   std::string text = kHeader;
@@ -359,35 +382,35 @@ TEST(EdsTest, AnObjectsSubIndicesAreItsSubNSections) {
   const std::string record = kHeader + R"(
 [OptionalObjects]
 SupportedObjects=1
-1=0x2000
+1=0x6010
 
-[2000]
+[6010]
 ParameterName=Record
 ObjectType=0x9
 SubNumber=4
 )";
   const auto sub = [](const std::string& n, const std::string& type) {
-    return "\n[2000sub" + n + "]\nParameterName=Entry " + n + "\nDataType=" + type +
+    return "\n[6010sub" + n + "]\nParameterName=Entry " + n + "\nDataType=" + type +
            "\nAccessType=rw\n";
   };
   // Sections that name no sub-index: a leading zero, beyond 0xFE, not hex.
   const std::string others = sub("01", "0x0005") + sub("FF", "0x0005") + sub("1x", "0x0005") +
-                             sub("", "0x0005") + "\n[2001sub1]\nK=1\n";
+                             sub("", "0x0005") + "\n[6011sub1]\nK=1\n";
   const Eds eds = parse_eds(record + sub("10", "0x0007") + sub("0", "0x0005") + sub("A", "0x0006") +
                                 sub("2", "0x0005") + others,
                             "drive.eds");
   std::vector<unsigned> subs;
   for (const auto& [key, v] : eds.variables) {
-    if (key.first == 0x2000) subs.push_back(key.second);
+    if (key.first == 0x6010) subs.push_back(key.second);
   }
   EXPECT_EQ(subs, (std::vector<unsigned>{0, 2, 0xA, 0x10}));
-  EXPECT_EQ(eds.find(0x2000, 0xA)->name, "Entry A");
-  EXPECT_EQ(eds.find(0x2000, 0x10)->size_bytes(), 4u);
+  EXPECT_EQ(eds.find(0x6010, 0xA)->name, "Entry A");
+  EXPECT_EQ(eds.find(0x6010, 0x10)->size_bytes(), 4u);
   EXPECT_EQ(error_of(record + sub("10", "0x10000") + sub("0", "0x0005") + sub("A", "0x10000") +
                      sub("2", "0x0005") + others),
-            "drive.eds:65: [2000suba] DataType=0x10000: not a type");
+            "drive.eds:65: [6010suba] DataType=0x10000: not a type");
   EXPECT_EQ(error_of(record + sub("0", "0x0005") + sub("2", "0x0005") + others),
-            "drive.eds:51: [2000] SubNumber=4 but 2 [2000subN] sections");
+            "drive.eds:51: [6010] SubNumber=4 but 2 [6010subN] sections");
 }
 
 // Identity numbers a file leaves out are unknown, not an error.

@@ -87,6 +87,10 @@ class Planner {
                           std::to_string(*eds_->node_id) + ", but " + key_ +
                           "node = " + std::to_string(jd_.node) + ": which node is the drive?");
     }
+    // What the file's reader let pass (a malformed manufacturer object
+    // left out, Latin-1 text) is the plan's warning.
+    if (eds_ != nullptr)
+      plan_.warnings.insert(plan_.warnings.end(), eds_->notes.begin(), eds_->notes.end());
     decide_feedback();
     identity();
     scaling();
