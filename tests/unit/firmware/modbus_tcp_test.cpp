@@ -1,6 +1,7 @@
 // The Modbus TCP server against clients that misbehave (raw sockets: what
 // libmodbus would never send), many clients at once, pymodbus, and its
 // start-up errors.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <modbus/modbus.h>
 #include <netinet/in.h>
@@ -12,6 +13,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <latch>
 #include <thread>
@@ -320,6 +322,88 @@ TEST_F(Fixture, PymodbusReadsAndWritesTheMapAndGetsItsExceptions) {
   EXPECT_EQ(amplitude, 1500);
   EXPECT_EQ(client.input("last_rejection"), static_cast<int>(mb::Rejection::kIllegalFunction));
   std::cout << out;
+}
+
+// A libmodbus client whose connection comes from `source` (a loopback
+// address other than 127.0.0.1 stands for another machine).
+modbus_t* client_from(const char* source, int port) {
+  const int s = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in from{};
+  from.sin_family = AF_INET;
+  inet_pton(AF_INET, source, &from.sin_addr);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (bind(s, reinterpret_cast<sockaddr*>(&from), sizeof from) != 0 ||
+      connect(s, reinterpret_cast<sockaddr*>(&to), sizeof to) != 0) {
+    close(s);
+    return nullptr;
+  }
+  modbus_t* ctx = modbus_new_tcp("127.0.0.1", port);
+  modbus_set_socket(ctx, s);
+  modbus_set_response_timeout(ctx, 5, 0);
+  return ctx;
+}
+
+// modbus.allow (default: 127.0.0.1 and ::1): a client from 127.0.0.2 reads
+// the registers but its writes get exception 1, counted and logged; the
+// client from 127.0.0.1 still writes.
+TEST_F(Fixture, WritesFromOutsideTheAllowListAreRefusedAndReadsAreServed) {
+  modbus_t* other = client_from("127.0.0.2", server.tcp_port());
+  ASSERT_NE(other, nullptr) << std::strerror(errno);
+  std::vector<std::uint16_t> inputs(mb::kInputCount);
+  EXPECT_EQ(modbus_read_input_registers(other, 0, mb::kInputCount, inputs.data()), mb::kInputCount)
+      << modbus_strerror(errno);
+  EXPECT_EQ(modbus_write_register(other, mb::kTrajectory.address, 2), -1);
+  EXPECT_EQ(errno, EMBXILFUN) << modbus_strerror(errno);
+  const std::uint16_t two[2] = {1, 1};
+  EXPECT_EQ(modbus_write_registers(other, mb::kTrajectory.address, 1, two), -1);
+  EXPECT_EQ(errno, EMBXILFUN);
+  EXPECT_EQ(server.stats().writes_refused, 2u);
+  EXPECT_EQ(client.write(mb::kTrajectory, 2), 0) << modbus_strerror(errno);
+  modbus_close(other);
+  modbus_free(other);
+}
+
+// The allow list's networks: IPv4 and IPv6 prefixes, an IPv4 client on an
+// IPv6 socket, nobody for an empty list; a bad entry is named.
+TEST(ModbusAllowListTest, NetworksAdmitTheirAddressesOnly) {
+  const auto peer = [](const char* text) {
+    sockaddr_storage s{};
+    auto* v4 = reinterpret_cast<sockaddr_in*>(&s);
+    auto* v6 = reinterpret_cast<sockaddr_in6*>(&s);
+    if (inet_pton(AF_INET, text, &v4->sin_addr) == 1) {
+      v4->sin_family = AF_INET;
+    } else {
+      EXPECT_EQ(inet_pton(AF_INET6, text, &v6->sin6_addr), 1) << text;
+      v6->sin6_family = AF_INET6;
+    }
+    return s;
+  };
+  const auto list = parse_allow_list("192.168.10.0/24, 10.1.2.3, 2001:db8::/32", "test");
+  EXPECT_TRUE(allowed(list, peer("192.168.10.77")));
+  EXPECT_FALSE(allowed(list, peer("192.168.11.1")));
+  EXPECT_TRUE(allowed(list, peer("10.1.2.3")));
+  EXPECT_FALSE(allowed(list, peer("10.1.2.4")));
+  EXPECT_TRUE(allowed(list, peer("2001:db8:5::1")));
+  EXPECT_FALSE(allowed(list, peer("2001:db9::1")));
+  EXPECT_TRUE(allowed(list, peer("::ffff:192.168.10.5")));
+  const auto standard = parse_allow_list(kDefaultModbusAllow, "test");
+  EXPECT_TRUE(allowed(standard, peer("127.0.0.1")));
+  EXPECT_FALSE(allowed(standard, peer("127.0.0.2")));
+  EXPECT_TRUE(allowed(standard, peer("::1")));
+  EXPECT_FALSE(allowed(standard, peer("192.168.10.77")));
+  EXPECT_FALSE(allowed(parse_allow_list("", "test"), peer("127.0.0.1")));
+  for (const char* bad : {"192.168.10.0/33", "host.example", "10.0.0.0/x", "::1/129"}) {
+    try {
+      (void)parse_allow_list(bad, "delta.conf:3:1");
+      ADD_FAILURE() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("delta.conf:3:1: modbus.allow: '"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(ModbusServerTest, StartUpErrorsNameTheAddressOrDevice) {

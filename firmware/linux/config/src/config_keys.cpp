@@ -286,6 +286,10 @@ void add_modbus_keys(Setters& s) {
     if (!v.empty()) (void)split_host_port(v, w + ": modbus.tcp");
     c.modbus.tcp = v;
   };
+  s["modbus.allow"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    (void)parse_allow_list(v, w);
+    c.modbus.allow = v;
+  };
   s["modbus.rtu_device"] = [](PortConfig& c, const std::string& v, const std::string&) {
     c.modbus.rtu_device = v;
   };

@@ -23,7 +23,9 @@ namespace fw_linux {
 
 ModbusServer::ModbusServer(const PortConfig& config, ControlPanel& panel,
                            const ProgramFacts& program)
-    : config_(config.modbus), bank_(config, panel, program) {
+    : config_(config.modbus),
+      allow_(parse_allow_list(config.modbus.allow, "modbus.allow")),
+      bank_(config, panel, program) {
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) throw ModbusError(std::string("Modbus: eventfd: ") + std::strerror(errno));
   auto fail = [this](const std::string& message) {
@@ -118,6 +120,9 @@ struct ModbusServer::TcpClient {
   MbapFramer framer;
   std::uint64_t last_byte_ms{0};
   std::uint64_t last_request_ms{0};
+  std::string peer;       // its address
+  bool may_write{false};  // its address is in modbus.allow
+  bool refusal_logged{false};
 };
 
 void ModbusServer::serve_tcp() {
@@ -186,12 +191,38 @@ bool ModbusServer::read_tcp_client(TcpClient& c) {
       return false;
     }
     modbus_set_socket(tcp_, c.fd);
-    const auto outcome = bank_.answer(tcp_, c.framer.data(), static_cast<int>(length));
+    count(&ModbusStats::requests);
+    if (!refuse_write(c, c.framer.data(), length)) {
+      const auto outcome = bank_.answer(tcp_, c.framer.data(), static_cast<int>(length));
+      if (outcome == RegisterBank::Outcome::kException) count(&ModbusStats::exceptions);
+    }
     c.framer.consume(length);
     c.last_request_ms = now;
-    count(&ModbusStats::requests);
-    if (outcome == RegisterBank::Outcome::kException) count(&ModbusStats::exceptions);
   }
+}
+
+// A write from a client outside modbus.allow: answered with exception 1
+// (illegal function: Modbus has no code for "not allowed"), counted, and
+// logged once per connection. Reads are served to anyone.
+bool ModbusServer::refuse_write(TcpClient& c, const std::uint8_t* request, std::size_t length) {
+  constexpr std::size_t kFunctionAt = 7;  // after the MBAP header
+  if (c.may_write || length <= kFunctionAt) return false;
+  const std::uint8_t function = request[kFunctionAt];
+  const bool write = function == 0x05 || function == 0x06 || function == 0x0F || function == 0x10 ||
+                     function == 0x16 || function == 0x17;
+  if (!write) return false;
+  // Counted before the answer, which a client may act on at once.
+  count(&ModbusStats::writes_refused);
+  count(&ModbusStats::exceptions);
+  modbus_reply_exception(tcp_, request, MODBUS_EXCEPTION_ILLEGAL_FUNCTION);
+  if (!c.refusal_logged) {
+    std::cerr << "delta_fw: Modbus TCP: refused a write (function 0x" << std::hex
+              << static_cast<int>(function) << std::dec << ") from " << c.peer
+              << ": not in modbus.allow = " << config_.allow
+              << " (further writes on this connection are refused without a message)\n";
+    c.refusal_logged = true;
+  }
+  return true;
 }
 
 // A request whose bytes stopped for byte_timeout_ms is dropped with its
@@ -214,7 +245,10 @@ void ModbusServer::close_timed_out_clients(std::vector<TcpClient>& clients) {
 // connections cannot lock everybody out, and a client that is talking is
 // never cut off); otherwise the new connection is closed.
 void ModbusServer::accept_tcp_client(std::vector<TcpClient>& clients) {
-  const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+  sockaddr_storage peer{};
+  socklen_t peer_length = sizeof peer;
+  const int fd =
+      accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &peer_length, SOCK_CLOEXEC);
   if (fd < 0) return;
   const std::uint64_t now = steady_ms();
   if (clients.size() >= config_.max_clients) {
@@ -238,6 +272,8 @@ void ModbusServer::accept_tcp_client(std::vector<TcpClient>& clients) {
   TcpClient c;
   c.fd = fd;
   c.last_byte_ms = c.last_request_ms = now;
+  c.peer = address_text(peer);
+  c.may_write = allowed(allow_, peer);
   clients.push_back(std::move(c));
   count(&ModbusStats::clients_accepted);
 }

@@ -18,6 +18,7 @@
 #include "delta/geometry.hpp"
 #include "delta/identified_model.hpp"
 #include "fw/controller.hpp"
+#include "fw_linux/allow_list.hpp"
 
 namespace fw_linux {
 
@@ -76,6 +77,9 @@ struct ModbusConfig {
   std::uint32_t rtu_baud{115200};
   char rtu_parity{'N'};  // N, E or O
   std::uint32_t rtu_unit_id{1};
+  // TCP: the networks whose clients may write (fw_linux/allow_list.hpp);
+  // any client may read.
+  std::string allow{kDefaultModbusAllow};
   std::uint32_t max_clients{8};            // TCP connections served at once; more are closed
   std::uint32_t byte_timeout_ms{200};      // a request that stops mid-way is dropped after this
   std::uint32_t idle_timeout_ms{30000};    // TCP: a connection without a request is closed

@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "fw_linux/allow_list.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
 #include "fw_linux/program_facts.hpp"
@@ -39,6 +40,7 @@ struct ModbusStats {
   std::uint64_t clients_refused{0};      // over modbus.max_clients
   std::uint64_t clients_dropped{0};      // closed on a receive error, a hang-up or idleness
   std::uint64_t clients_idle_closed{0};  // idle too long, or displaced when full
+  std::uint64_t writes_refused{0};       // from a client outside modbus.allow
 };
 
 // The registers: settings, the status snapshot and the validation of
@@ -135,6 +137,7 @@ class ModbusServer {
   bool read_tcp_client(TcpClient& c);
   void close_timed_out_clients(std::vector<TcpClient>& clients);
   void accept_tcp_client(std::vector<TcpClient>& clients);
+  bool refuse_write(TcpClient& c, const std::uint8_t* request, std::size_t length);
   void serve_rtu();
   bool read_rtu_bytes(int fd, RtuFramer& framer);
   void answer_rtu_frame(const std::uint8_t* frame, std::size_t length);
@@ -142,6 +145,7 @@ class ModbusServer {
   void close_all();  // what the constructor opened
 
   const ModbusConfig config_;
+  const std::vector<AllowedNetwork> allow_;  // who may write over TCP
   RegisterBank bank_;
   int wake_fd_{-1};  // eventfd: the destructor wakes the threads with it
   _modbus* tcp_{nullptr};
