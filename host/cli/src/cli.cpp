@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <new>
 #include <ostream>
@@ -150,6 +151,20 @@ CLI::Validator number_where(std::function<bool(double)> ok, const std::string& d
 }
 
 }  // namespace
+
+void refuse_writing_over_input(const std::string& out, const char* option,
+                               const std::vector<std::string>& inputs) {
+  if (out.empty()) return;
+  std::error_code ec;
+  for (const std::string& in : inputs) {
+    const bool same =
+        std::filesystem::exists(out, ec) ? std::filesystem::equivalent(out, in, ec) : false;
+    if (same) {
+      throw UsageError(std::string(option) + " " + out + " is the input " + in +
+                       ": it would be overwritten by what is made from it; write to another file");
+    }
+  }
+}
 
 const CLI::Validator kFinite = number_where([](double) { return true; }, "finite");
 const CLI::Validator kPositive = number_where([](double v) { return v > 0; }, "> 0");

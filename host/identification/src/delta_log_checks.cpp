@@ -68,6 +68,15 @@ std::string check_time_steps(const DeltaLog& log, TimeSteps mode) {
   throw delta::InputError(log.name + ": " + text.str());
 }
 
+std::string milliseconds_hint(double median_step_s, std::optional<double> declared_rate_hz) {
+  const bool thousandfold =
+      declared_rate_hz && std::abs(median_step_s * *declared_rate_hz / 1000.0 - 1.0) < 0.05;
+  const bool undeclared_slow = !declared_rate_hz && median_step_s >= 0.5 && median_step_s <= 20.0;
+  if (!thousandfold && !undeclared_slow) return "";
+  return "t looks like milliseconds (the median step is " + format_number(median_step_s) +
+         "): the format's t is in seconds (docs/log-format.md), so divide the t column by 1000";
+}
+
 void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
   if (const std::string w = check_time_steps(log, mode); !w.empty()) {
     err << log.name << ": warning: " << w << "\n";

@@ -500,7 +500,9 @@ class LogParser {
     m << "sample_rate_hz = " << *log_.sample_rate_hz << " declares a step of " << nominal_dt_
       << " s, but " << time_gaps_ << " of the " << steps
       << " time steps are longer than 1.5 of it (the median step is " << median << " s, "
-      << 1.0 / median << " Hz): correct sample_rate_hz or remove it";
+      << 1.0 / median << " Hz): ";
+    const std::string ms = milliseconds_hint(median, log_.sample_rate_hz);
+    m << (ms.empty() ? "correct sample_rate_hz or remove it" : ms);
     cur_.line = key_line_["sample_rate_hz"];
     cur_.fail(1, m.str());
   }

@@ -38,4 +38,16 @@ void check_geometry(const std::string& what, const delta::Geometry& found, const
                           "(--allow-other-geometry to go on anyway)");
 }
 
+void check_result_geometry(const std::string& log_path, const delta::Geometry& log_geometry,
+                           const std::string& result, const std::optional<delta::Geometry>& fitted,
+                           bool allowed, std::ostream& err) {
+  if (fitted) {
+    check_geometry(log_path, log_geometry, result + " was fitted for", *fitted, allowed, err);
+    return;
+  }
+  err << result << ": warning: the result has no geometry (saved by an older host_id): " << log_path
+      << "'s robot (" << geometry_text(log_geometry)
+      << ") cannot be checked against the one it was fitted for; fit again to record it\n";
+}
+
 }  // namespace host_id

@@ -22,10 +22,32 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-void require_equations_per_joint(const FitResult& r, const std::string& log_name) {
+// Each joint's angle span over the log, rad.
+std::array<double, 3> angle_spans(const DeltaLog& log) {
+  std::array<double, 3> span{};
+  for (unsigned j = 0; j < 3; ++j) {
+    if (log.q[j].empty()) continue;
+    const auto [lo, hi] = std::minmax_element(log.q[j].begin(), log.q[j].end());
+    span[j] = *hi - *lo;
+  }
+  return span;
+}
+
+// A joint whose angle spans less than this did not move (a disabled drive,
+// a trajectory that leaves it out): its parameters are not in the log.
+constexpr double kStillSpanRad = 0.01;
+
+void require_equations_per_joint(const FitResult& r, const std::string& log_name,
+                                 const std::array<double, 3>& spans) {
   for (unsigned j = 0; j < 3; ++j) {
     if (r.equations_used[j] != 0) continue;
     std::ostringstream s;
+    if (spans[j] < kStillSpanRad) {
+      s << log_name << ": joint " << j + 1 << " did not move: its angle spans " << spans[j]
+        << " rad over the whole log, so the log holds nothing of its dynamics; was its drive "
+           "enabled, and does the excitation move it?";
+      throw delta::InputError(s.str());
+    }
     s << log_name << ": joint " << j + 1 << " is never faster than the minimum speed of "
       << r.min_speed_rad_s
       << " rad/s, so none of its equations is left to fit; lower --min-speed (0 uses every "
@@ -446,13 +468,14 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   // The slow equations after the others: the estimate takes the others.
   PrepareOptions prepare = options.prepare;
   prepare.slow_rows_last_below_rad_s = r.min_speed_rad_s;
+  const std::array<double, 3> spans = angle_spans(log);
   // From here on the log is only its name and gaps.
   Preprocessed pre = preprocess_releasing(*model, log, prepare, options.threads);
   Regression& all_rows = pre.regression;
   note_preprocessing(pre, log, r);
   const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
-  require_equations_per_joint(r, log.name);
+  require_equations_per_joint(r, log.name, spans);
   if (options.model.name != "paper14" && all_rows.samples() >= 20 * kSupportFolds) {
     r.support = judge_support(*model, options.model, all_rows, pre.fast_rows, kSupportFolds,
                               options.threads);

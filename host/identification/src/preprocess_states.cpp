@@ -64,7 +64,11 @@ FilterDesign design_filter(const DeltaLog& log, const PrepareOptions& options) {
   if (!(options.cutoff_hz > 0.0) || !(options.cutoff_hz < 0.5 * fs)) {
     std::ostringstream s;
     s << log.name << ": the filter cut-off " << options.cutoff_hz
-      << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log";
+      << " Hz must lie between 0 and the Nyquist frequency " << 0.5 * fs << " Hz of this log"
+      << [&] {
+           const std::string ms = milliseconds_hint(h_median, log.sample_rate_hz);
+           return ms.empty() ? ms : "; " + ms;
+         }();
     throw delta::InputError(s.str());
   }
   d.state = state_cutoff(log, options, fs);

@@ -3,8 +3,11 @@
 // log, torque calibration, a payload, --truth, several models.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <functional>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -538,6 +541,77 @@ TEST_F(CliTest, ElasticGearboxesAreFittedFromTheArmsEncoders) {
   EXPECT_EQ(run({"simulate", "-o", path("l.csv"), "--arm-encoders"}), 1);
   EXPECT_NE(err_.str().find("--arm-encoders goes with --plant mujoco"), std::string::npos)
       << err_.str();
+}
+
+}  // namespace
+}  // namespace host_id
+
+namespace host_id {
+namespace {
+
+// A simulated log's text with each data row passed through `edit` (its
+// fields: seq, t, q1, q2, q3, tau1, tau2, tau3), and metadata lines
+// containing `drop` left out.
+std::string edited_log(const std::string& text,
+                       const std::function<void(std::vector<std::string>&)>& edit,
+                       const std::string& drop = "\x01") {
+  std::istringstream in(text);
+  std::string line, out;
+  bool header = false;
+  while (std::getline(in, line)) {
+    if (line.rfind('#', 0) == 0) {
+      if (line.find(drop) == std::string::npos) {
+        out += line;
+        out += '\n';
+      }
+      continue;
+    }
+    if (!header) {
+      header = true;
+      out += line;
+      out += '\n';
+      continue;
+    }
+    std::vector<std::string> f;
+    std::istringstream fields(line);
+    for (std::string v; std::getline(fields, v, ',');) f.push_back(v);
+    edit(f);
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (i != 0) out += ',';
+      out += f[i];
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+// Mistakes a user makes, each named for what it is: t written in
+// milliseconds (with the rate declared, and without), and a joint that
+// never moved (its drive disabled for the whole run).
+TEST_F(CliTest, MillisecondsAndAStillJointAreNamed) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  const std::string text = delta::read_whole_file(path("a.csv"));
+  const auto in_ms = [](std::vector<std::string>& f) {
+    f[1] = std::to_string(std::stod(f[1]) * 1000.0);
+  };
+  std::ofstream(path("ms.csv")) << edited_log(text, in_ms);
+  EXPECT_EQ(run({"fit", path("ms.csv"), "--method", "ls"}), 1);
+  EXPECT_NE(err_.str().find("t looks like milliseconds"), std::string::npos) << err_.str();
+  std::ofstream(path("ms2.csv")) << edited_log(text, in_ms, "sample_rate_hz");
+  EXPECT_EQ(run({"fit", path("ms2.csv"), "--method", "ls"}), 1);
+  EXPECT_NE(err_.str().find("t looks like milliseconds (the median step is 1)"), std::string::npos)
+      << err_.str();
+  std::ofstream(path("still.csv")) << edited_log(text, [](std::vector<std::string>& f) {
+    // q2 held, and no torque: the drive is off (to_string, not a literal:
+    // GCC 12's -Wrestrict misreads a short literal's copy, bug 105329).
+    f[3] = std::to_string(0.1);
+    f[6] = std::to_string(0);
+  });
+  EXPECT_EQ(run({"fit", path("still.csv"), "--method", "ls"}), 1);
+  EXPECT_NE(err_.str().find("joint 2 did not move: its angle spans 0 rad over the whole log"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(err_.str().find("lower --min-speed"), std::string::npos) << err_.str();
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -131,6 +132,44 @@ TEST_F(CliTest, PredictNamesWhatIsWrongAndWritesNothing) {
   EXPECT_NE(err_.str().find(path("bad.csv") + ":"), std::string::npos) << err_.str();
   EXPECT_EQ(run({"predict", path("r.json"), path("a.csv")}), 2);  // -o is required
   EXPECT_FALSE(exists("p.csv"));
+}
+
+// -o onto an input is refused before any work, and the input stays as it
+// was: predict's log and result, fit's log (also as --plot).
+TEST_F(CliTest, AnOutputOntoAnInputIsRefused) {
+  simulate("a.csv");
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0);
+  const std::string log = delta::read_whole_file(path("a.csv"));
+  const std::string result = delta::read_whole_file(path("r.json"));
+  EXPECT_EQ(run({"predict", path("r.json"), path("a.csv"), "-o", path("a.csv")}), 2);
+  EXPECT_NE(err_.str().find("-o " + path("a.csv") + " is the input " + path("a.csv") +
+                            ": it would be overwritten"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"predict", path("r.json"), path("a.csv"), "-o", path("r.json")}), 2);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--method", "ls", "-o", path("a.csv")}), 2);
+  EXPECT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--validate", path("r.json"), "-o",
+                 path("r.json")}),
+            2);
+  EXPECT_EQ(delta::read_whole_file(path("a.csv")), log);
+  EXPECT_EQ(delta::read_whole_file(path("r.json")), result);
+}
+
+// A result an older host_id saved without the geometry: predict goes on,
+// with a warning that the log's robot cannot be checked.
+TEST_F(CliTest, AResultWithoutTheGeometryIsSaidToBeUnchecked) {
+  simulate("a.csv");
+  ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls", "--out", path("r.json"), "--quiet"}), 0);
+  auto j = nlohmann::json::parse(delta::read_whole_file(path("r.json")));
+  j.erase("geometry");
+  std::ofstream(path("old.json")) << j.dump();
+  ASSERT_EQ(run({"predict", path("old.json"), path("a.csv"), "-o", path("p.csv")}), 0)
+      << err_.str();
+  EXPECT_NE(err_.str().find(path("old.json") +
+                            ": warning: the result has no geometry (saved by an older host_id)"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("cannot be checked"), std::string::npos);
 }
 
 }  // namespace

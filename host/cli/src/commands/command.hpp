@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <string>
+#include <vector>
 
 #include "delta/hex.hpp"
 #include "delta/input_error.hpp"
@@ -41,6 +42,12 @@ extern const CLI::Validator kSvgPath;
 // A file the command will write: its folder exists and is writable
 // (delta::output_path_problem), checked before any work.
 extern const CLI::Validator kOutputPath;
+
+// Throws UsageError where `out` (given as `option`) names the same file as
+// one of the command's inputs: the input would be overwritten by what is
+// made from it.
+void refuse_writing_over_input(const std::string& out, const char* option,
+                               const std::vector<std::string>& inputs);
 
 // --time-steps nominal|as-logged (docs/preprocessing.md, "Timestamps"):
 // how the samples' times are taken where q is differentiated; `given`

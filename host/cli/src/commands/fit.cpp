@@ -324,10 +324,8 @@ int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
   const SavedResult saved = read_saved_result(a.base_path);
   const auto model = make_model(saved.model);
   const DeltaLog log = read_delta_log(a.log);
-  if (saved.geometry) {
-    check_geometry(a.log, log.geometry, a.base_path + " was fitted for", *saved.geometry,
-                   a.allow_other_geometry, err);
-  }
+  check_result_geometry(a.log, log.geometry, a.base_path, saved.geometry, a.allow_other_geometry,
+                        err);
   FitOptions f = fit_options(a);
   f.model = saved.model;
   warn_about_log(err, log, saved.prepare.time_steps);
@@ -557,6 +555,10 @@ void warn_about_doubts(const FitArguments& a, const std::vector<FitResult>& resu
 }
 
 int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> inputs{a.log, a.calibrate_path, a.base_path, a.truth_path};
+  inputs.insert(inputs.end(), a.validate.begin(), a.validate.end());
+  refuse_writing_over_input(a.out_path, "-o", inputs);
+  refuse_writing_over_input(a.plot_path, "--plot", inputs);
   name_the_model_where_implied(a);
   if (!a.calibrate_path.empty()) {
     check_calibration_arguments(a);

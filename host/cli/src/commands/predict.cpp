@@ -26,14 +26,13 @@ struct PredictArguments {
 };
 
 int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err) {
+  refuse_writing_over_input(a.out_path, "-o", {a.log_path, a.result_path});
   SavedResult saved = read_saved_result(a.result_path);
   if (!a.time_steps.empty()) saved.prepare.time_steps = time_steps_named(a.time_steps);
   const auto model = make_model(saved.model);
   const DeltaLog log = read_delta_log(a.log_path);
-  if (saved.geometry) {
-    check_geometry(a.log_path, log.geometry, a.result_path + " was fitted for", *saved.geometry,
-                   a.allow_other_geometry, err);
-  }
+  check_result_geometry(a.log_path, log.geometry, a.result_path, saved.geometry,
+                        a.allow_other_geometry, err);
   warn_about_log(err, log, saved.prepare.time_steps);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
   write_delta_log_atomically(a.out_path, p.log);

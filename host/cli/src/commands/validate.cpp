@@ -31,10 +31,8 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
   std::vector<DeltaLog> logs;
   for (const auto& path : a.logs) {
     logs.push_back(read_delta_log(path));
-    if (saved.geometry) {
-      check_geometry(path, logs.back().geometry, a.result_path + " was fitted for", *saved.geometry,
-                     a.allow_other_geometry, err);
-    }
+    check_result_geometry(path, logs.back().geometry, a.result_path, saved.geometry,
+                          a.allow_other_geometry, err);
   }
   std::vector<LogRmse> rows;
   std::vector<Prediction> predictions;

@@ -115,6 +115,12 @@ std::string check_time_steps(const DeltaLog& log, TimeSteps mode);
 
 void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode = TimeSteps::kCheck);
 
+// Where the time column looks like milliseconds (its median step a
+// thousand times the declared one, or, undeclared, 0.5 to 20 s: a robot is
+// not logged at 0.05-2 Hz): "t looks like milliseconds: ...", the advice
+// an error about the rate gives; else "".
+std::string milliseconds_hint(double median_step_s, std::optional<double> declared_rate_hz);
+
 // Shortest round-trip decimal form of a double.
 std::string format_number(double v);
 

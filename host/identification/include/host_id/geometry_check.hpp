@@ -3,6 +3,7 @@
 #pragma once
 
 #include <iosfwd>
+#include <optional>
 #include <string>
 
 #include "delta/geometry.hpp"
@@ -23,5 +24,12 @@ bool same_geometry(const delta::Geometry& a, const delta::Geometry& b);
 // allows it.
 void check_geometry(const std::string& what, const delta::Geometry& found, const std::string& whose,
                     const delta::Geometry& expected, bool allowed, std::ostream& err);
+
+// The same for a log against a saved result (`result`), whose geometry an
+// older host_id did not record: then a warning on err that the log's robot
+// cannot be checked against the fitted one.
+void check_result_geometry(const std::string& log_path, const delta::Geometry& log_geometry,
+                           const std::string& result, const std::optional<delta::Geometry>& fitted,
+                           bool allowed, std::ostream& err);
 
 }  // namespace host_id
