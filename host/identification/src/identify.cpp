@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -496,8 +497,40 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   return r;
 }
 
+namespace {
+
+// Masses no delta of this geometry has: the platform's (with its payload)
+// over kImplausibleMassKg, or an arm's inertia over that mass at the arm's
+// length. Logged torques a thousand times too large (mN m for N m) give
+// such values; "" where none is.
+std::string implausible_masses(const FitResult& r) {
+  constexpr double kImplausibleMassKg = 100.0;
+  const double arm_limit =
+      kImplausibleMassKg * r.geometry.upper_arm_length_m * r.geometry.upper_arm_length_m;
+  std::string found;
+  for (const ParameterEstimate& e : r.parameters) {
+    const std::string& n = e.info.name;
+    const bool mass = n.rfind("platform", 0) == 0 && e.info.unit == "kg";
+    const bool inertia = n.rfind("arm_inertia", 0) == 0;
+    if ((mass && e.value > kImplausibleMassKg) || (inertia && e.value > arm_limit)) {
+      std::ostringstream v;
+      v << (found.empty() ? "" : ", ") << n << " = " << std::setprecision(4) << e.value << " "
+        << e.info.unit;
+      found += v.str();
+    }
+  }
+  if (found.empty()) return "";
+  return "the masses are implausible for this robot (" + found + ", with " +
+         format_number(r.geometry.upper_arm_length_m) +
+         " m arms): a torque logged in mN m instead of N m gives a thousand times the true "
+         "values; check the log's torque unit (docs/log-format.md)";
+}
+
+}  // namespace
+
 std::vector<std::string> doubts_of(const FitResult& r) {
   std::vector<std::string> doubts;
+  if (const std::string masses = implausible_masses(r); !masses.empty()) doubts.push_back(masses);
   std::ostringstream m;
   if (r.condition_number_scaled > kConditionDoubt) {
     m << "the log excites the parameters poorly: the scaled condition number is "
