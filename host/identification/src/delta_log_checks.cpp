@@ -1,10 +1,13 @@
 // What a delta-log's reader tells its user beyond errors: the time steps'
 // spread (refused where it would bias the fit) and the log's warnings.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <ostream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "delta/input_error.hpp"
 #include "host_id/delta_log.hpp"
@@ -77,7 +80,35 @@ std::string milliseconds_hint(double median_step_s, std::optional<double> declar
          "): the format's t is in seconds (docs/log-format.md), so divide the t column by 1000";
 }
 
+std::vector<std::pair<double, double>> torque_stalls(const DeltaLog& log) {
+  std::array<double, 3> floor{};
+  for (unsigned j = 0; j < 3; ++j) {
+    double ss = 0;
+    for (const double v : log.tau[j]) ss += v * v;
+    floor[j] = kStallTorqueFraction * std::sqrt(ss / static_cast<double>(log.size()));
+  }
+  std::vector<std::pair<double, double>> out;
+  std::size_t start = 0;
+  bool in_stall = false;
+  for (std::size_t k = 0; k <= log.size(); ++k) {
+    const bool still = k < log.size() && std::abs(log.tau[0][k]) <= floor[0] &&
+                       std::abs(log.tau[1][k]) <= floor[1] && std::abs(log.tau[2][k]) <= floor[2];
+    if (still && !in_stall) start = k;
+    if (!still && in_stall && log.t[k - 1] - log.t[start] >= kStallMinSeconds) {
+      out.emplace_back(log.t[start], log.t[k - 1]);
+    }
+    in_stall = still;
+  }
+  return out;
+}
+
 void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode) {
+  for (const auto& [from, to] : torque_stalls(log)) {
+    err << log.name << ": warning: from t = " << from << " s to " << to
+        << " s every joint's torque is 0: a delta's arms always carry its weight, so the drives "
+           "gave no torque there (disabled, or faulted, mid-run?); its samples bias the fit: cut "
+           "the span out of the log (docs/log-format.md, 'Gaps')\n";
+  }
   if (const std::string w = check_time_steps(log, mode); !w.empty()) {
     err << log.name << ": warning: " << w << "\n";
   }

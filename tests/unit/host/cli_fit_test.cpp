@@ -587,7 +587,8 @@ std::string edited_log(const std::string& text,
 
 // Mistakes a user makes, each named for what it is: t written in
 // milliseconds (with the rate declared, and without), a joint that never
-// moved (its drive disabled for the whole run), torques in mN m.
+// moved (its drive disabled for the whole run), torques in mN m, a stall
+// (every drive off for a while mid-run).
 TEST_F(CliTest, MillisecondsAndAStillJointAreNamed) {
   simulate("a.csv", {"--torque-noise", "0.01"});
   const std::string text = delta::read_whole_file(path("a.csv"));
@@ -621,8 +622,20 @@ TEST_F(CliTest, MillisecondsAndAStillJointAreNamed) {
   EXPECT_NE(err_.str().find("the masses are implausible for this robot"), std::string::npos)
       << err_.str();
   EXPECT_NE(err_.str().find("torque logged in mN m instead of N m"), std::string::npos);
+  // A stall: the drives off from 2 s to 3.5 s, every torque 0.
+  std::ofstream(path("stall.csv")) << edited_log(text, [](std::vector<std::string>& f) {
+    const double t = std::stod(f[1]);
+    if (t >= 2.0 && t <= 3.5) {
+      for (std::size_t i = 5; i < 8; ++i) f[i] = std::to_string(0);
+    }
+  });
+  ASSERT_EQ(run({"fit", path("stall.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("warning: from t = 2 s to 3.5 s every joint's torque is 0"),
+            std::string::npos)
+      << err_.str();
   ASSERT_EQ(run({"fit", path("a.csv"), "--method", "ls"}), 0) << err_.str();
   EXPECT_EQ(err_.str().find("implausible"), std::string::npos) << err_.str();
+  EXPECT_EQ(err_.str().find("every joint's torque is 0"), std::string::npos) << err_.str();
 }
 
 }  // namespace

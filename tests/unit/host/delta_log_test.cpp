@@ -168,7 +168,7 @@ std::string rows(std::size_t n, double step, const std::vector<std::size_t>& dro
   for (std::size_t k = 0; k < n; ++k) {
     if (std::find(dropped.begin(), dropped.end(), k) != dropped.end()) continue;
     out +=
-        std::to_string(k) + "," + format_number(step * static_cast<double>(k)) + ",0,0,0,0,0,0\n";
+        std::to_string(k) + "," + format_number(step * static_cast<double>(k)) + ",0,0,0,1,1,1\n";
   }
   return out;
 }

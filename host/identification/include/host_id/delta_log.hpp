@@ -115,6 +115,14 @@ std::string check_time_steps(const DeltaLog& log, TimeSteps mode);
 
 void warn_about_log(std::ostream& err, const DeltaLog& log, TimeSteps mode = TimeSteps::kCheck);
 
+// Spans (first and last sample's t) of at least kStallMinSeconds in which
+// every joint's torque stays within kStallTorqueFraction of its RMS: the
+// arms of a delta always carry its weight, so there the drives gave no
+// torque (disabled or faulted mid-run). warn_about_log names each.
+inline constexpr double kStallTorqueFraction = 0.005;
+inline constexpr double kStallMinSeconds = 0.1;
+std::vector<std::pair<double, double>> torque_stalls(const DeltaLog& log);
+
 // Where the time column looks like milliseconds (its median step a
 // thousand times the declared one, or, undeclared, 0.5 to 20 s: a robot is
 // not logged at 0.05-2 Hz): "t looks like milliseconds: ...", the advice
