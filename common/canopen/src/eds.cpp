@@ -647,7 +647,8 @@ Eds parse_eds(std::string_view raw, const std::string& name) {
         try {
           reader.object(eds, index, line);
         } catch (const EdsError& e) {
-          std::erase_if(eds.variables, [&](const auto& v) { return v.first.first == index; });
+          const std::uint16_t dropped = index;  // a lambda cannot capture a binding (C++20)
+          std::erase_if(eds.variables, [&](const auto& v) { return v.first.first == dropped; });
           eds.notes.push_back(std::string(e.what()) +
                               ": a manufacturer object (0x2000-0x5FFF), which the bring-up does "
                               "not use: left out");

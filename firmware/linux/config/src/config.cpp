@@ -325,7 +325,10 @@ std::vector<std::string> grouped_problems(const std::vector<std::string>& proble
   };
   std::vector<Group> groups;  // in first-seen order
   for (const std::string& p : problems) {
-    const auto [text, joint] = joint_free(p);
+    // Not a structured binding: C++20 lambdas cannot capture one.
+    const std::pair<std::string, int> free = joint_free(p);
+    const std::string& text = free.first;
+    const int joint = free.second;
     const auto same = std::find_if(groups.begin(), groups.end(), [&](const Group& g) {
       return joint != 0 && g.joint_free == text;
     });
