@@ -495,6 +495,11 @@ TEST_F(CliTest, TheTorqueScaleHoldsOnADriveTrainWithLoadFriction) {
     EXPECT_NEAR(j["torque_scale"][k].get<double>() * ratio[k], 1.0, 0.005) << "joint " << k + 1;
   }
   EXPECT_EQ(j["model_terms"], "per-joint arms, load friction");
+  ASSERT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
+                 "--payload-mass", "0.5"}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("std dev   the noise's alone"), std::string::npos) << out_.str();
   EXPECT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
                  "--payload-mass", "0.5", "--torque-gains"}),
             2);

@@ -372,6 +372,50 @@ int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
   return 0;
 }
 
+// The calibration's JSON: the scales, their standard deviations and the
+// robot's parameters in true units.
+nlohmann::json calibration_json(const FitArguments& a, const Model& model,
+                                const TorqueScaleResult& s) {
+  nlohmann::json params = nlohmann::json::object();
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    params[model.parameters()[c].name] = s.beta(static_cast<Eigen::Index>(c));
+  }
+  return {{"unloaded", a.log},
+          {"loaded", a.calibrate_path},
+          {"payload_mass_kg", a.payload_mass_kg},
+          {"model", model.options().name},
+          {"model_terms", "per-joint arms, load friction"},
+          {"torque_scale", s.scale},
+          {"torque_scale_std", s.scale_std},
+          {"parameters_true_units", params},
+          {"equations", s.equations},
+          {"rmse_Nm", s.rmse_Nm}};
+}
+
+// The calibration's report: each joint's scale and what to do with it.
+void print_calibration(const FitArguments& a, const Model& model, const TorqueScaleResult& s,
+                       std::ostream& out) {
+  char line[200];
+  out << "host_id fit: torque scale from " << a.log << " (no payload) and " << a.calibrate_path
+      << " (" << a.payload_mass_kg << " kg), model " << model.options().name << "; " << s.equations
+      << " equations\n";
+  out << "  joint  logged torque per true torque   what to do\n";
+  for (unsigned k = 0; k < 3; ++k) {
+    std::snprintf(line, sizeof line,
+                  "  %u      %.4f, std dev %.2g (%.2g %%)      divide joint%u's torque scale "
+                  "(gear_ratio x rated_torque / rated_current x gearbox_efficiency) by %.4f\n",
+                  k + 1, s.scale[k], s.scale_std[k], 100.0 * s.scale_std[k] / s.scale[k], k + 1,
+                  s.scale[k]);
+    out << line;
+  }
+  out << "  std dev   the noise's alone: effects no model term holds (cogging) bias the scales "
+         "beyond it (docs/payload.md)\n";
+  std::snprintf(line, sizeof line, "  torque RMSE [N m, true units] %.5f %.5f %.5f\n", s.rmse_Nm[0],
+                s.rmse_Nm[1], s.rmse_Nm[2]);
+  out << line;
+  if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
+}
+
 // fit LOG.csv --calibrate-torque LOADED.csv --payload-mass KG: each joint's
 // torque scale, and the robot's parameters in true units.
 int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err) {
@@ -397,42 +441,13 @@ int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err)
   warn_about_log(err, loaded, f.prepare.time_steps);
   const TorqueScaleResult s = fit_torque_scale(*model, unloaded, loaded, a.payload_mass_kg,
                                                f.prepare, min_speed_for(f), f.threads);
-  nlohmann::json params = nlohmann::json::object();
-  for (std::size_t c = 0; c < model->size(); ++c) {
-    params[model->parameters()[c].name] = s.beta(static_cast<Eigen::Index>(c));
-  }
-  const nlohmann::json j{{"unloaded", a.log},
-                         {"loaded", a.calibrate_path},
-                         {"payload_mass_kg", a.payload_mass_kg},
-                         {"model", f.model.name},
-                         {"model_terms", "per-joint arms, load friction"},
-                         {"torque_scale", s.scale},
-                         {"torque_scale_std", s.scale_std},
-                         {"parameters_true_units", params},
-                         {"equations", s.equations},
-                         {"rmse_Nm", s.rmse_Nm}};
+  const nlohmann::json j = calibration_json(a, *model, s);
   if (!a.out_path.empty()) delta::write_file_atomically(a.out_path, j.dump(2) + "\n");
   if (a.json) {
     out << j.dump(2) << "\n";
     return 0;
   }
-  char line[200];
-  out << "host_id fit: torque scale from " << a.log << " (no payload) and " << a.calibrate_path
-      << " (" << a.payload_mass_kg << " kg), model " << f.model.name << "; " << s.equations
-      << " equations\n";
-  out << "  joint  logged torque per true torque   what to do\n";
-  for (unsigned k = 0; k < 3; ++k) {
-    std::snprintf(line, sizeof line,
-                  "  %u      %.4f, std dev %.2g (%.2g %%)      divide joint%u's torque scale "
-                  "(gear_ratio x rated_torque / rated_current x gearbox_efficiency) by %.4f\n",
-                  k + 1, s.scale[k], s.scale_std[k], 100.0 * s.scale_std[k] / s.scale[k], k + 1,
-                  s.scale[k]);
-    out << line;
-  }
-  std::snprintf(line, sizeof line, "  torque RMSE [N m, true units] %.5f %.5f %.5f\n", s.rmse_Nm[0],
-                s.rmse_Nm[1], s.rmse_Nm[2]);
-  out << line;
-  if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
+  print_calibration(a, *model, s, out);
   return 0;
 }
 
