@@ -13,6 +13,7 @@
 #include "host_id/elasticity.hpp"
 #include "host_id/friction_shape.hpp"
 #include "host_id/model_selection.hpp"
+#include "host_id/motion_spread.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -180,9 +181,10 @@ LeastSquaresResult estimate_on(const Equations& reg, const std::vector<Parameter
                                const FitOptions& options, std::size_t lags,
                                const std::string& log_name, FitResult& r, Box& box) {
   const bool pso = options.method == Method::kPso;
-  const LeastSquaresResult ls = solve_least_squares(
-      reg, parameters, options.solver, options.weights, log_name, lags, options.threads);
+  LeastSquaresResult ls = solve_least_squares(reg, parameters, options.solver, options.weights,
+                                              log_name, lags, options.threads);
   check_torque_sign(ls, parameters, reg.rows(), log_name);
+  add_model_error(reg, lags, ls);
   if (pso) run_swarm(reg, ls, parameters, options, r, box);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
@@ -249,6 +251,7 @@ LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitO
     ls.beta = spread(ls.beta, id, p, 0.0);
     ls.unconstrained_beta = spread(ls.unconstrained_beta, id, p, 0.0);
     ls.std_dev = spread(ls.std_dev, id, p, std::numeric_limits<double>::quiet_NaN());
+    ls.honest_std_dev = spread(ls.honest_std_dev, id, p, std::numeric_limits<double>::quiet_NaN());
     Eigen::MatrixXd correlation =
         Eigen::MatrixXd::Constant(p, p, std::numeric_limits<double>::quiet_NaN());
     for (std::size_t a = 0; a < id.independent.size(); ++a) {
@@ -298,11 +301,12 @@ std::vector<ParameterEstimate> parameter_estimates(const Model& model, const Lea
     e.value = beta(c);
     e.ls_value = ls.beta(c);
     e.unconstrained_value = ls.unconstrained_beta(c);
-    e.std_dev = ls.std_dev(c);
-    e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * ls.std_dev(c) / std::abs(ls.beta(c))
+    e.std_dev = ls.honest_std_dev(c);
+    e.ls_std_dev = ls.std_dev(c);
+    e.rel_std_percent = ls.beta(c) != 0.0 ? 100.0 * e.std_dev / std::abs(ls.beta(c))
                                           : std::numeric_limits<double>::infinity();
     if (ls.psi_t_psi.rows() == beta.size() && ls.tau_t_tau > 0.0) {
-      e.std_torque_share = ls.std_dev(c) * std::sqrt(ls.psi_t_psi(c, c) / ls.tau_t_tau);
+      e.std_torque_share = e.std_dev * std::sqrt(ls.psi_t_psi(c, c) / ls.tau_t_tau);
     }
     e.lower = box.lower(c);
     e.upper = box.upper(c);

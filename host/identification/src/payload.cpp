@@ -4,6 +4,7 @@
 
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
+#include "host_id/motion_spread.hpp"
 
 namespace host_id {
 
@@ -57,12 +58,15 @@ PayloadResult fit_payload(const Model& model, const Eigen::VectorXd& beta, const
   payload.joint.assign(all.joint.begin(), all.joint.end());
   payload.sample.assign(all.sample.begin(), all.sample.end());
   const std::vector<ParameterInfo> info{{"payload_mass", "kg", false, "the payload's mass"}};
-  const LeastSquaresResult ls = solve_least_squares(
-      Equations(payload), info, LsSolver::kQr, LsWeights::kNone, log.name,
-      correlation_lags_for(pre.report.sample_rate_hz, prepare.cutoff_hz), threads);
+  const std::size_t lags = correlation_lags_for(pre.report.sample_rate_hz, prepare.cutoff_hz);
+  const Equations rows(payload);
+  LeastSquaresResult ls =
+      solve_least_squares(rows, info, LsSolver::kQr, LsWeights::kNone, log.name, lags, threads);
+  add_model_error(rows, lags, ls);
   PayloadResult out;
   out.mass_kg = ls.beta(0);
-  out.std_dev_kg = ls.std_dev(0);
+  out.std_dev_kg = ls.honest_std_dev(0);
+  out.ls_std_dev_kg = ls.std_dev(0);
   out.equations = static_cast<std::size_t>(payload.tau.size());
   out.rmse_base_Nm = rmse(all, base_residual);
   out.rmse_payload_Nm = rmse(all, base_residual - payload.psi * ls.beta);
@@ -151,7 +155,8 @@ void take_torque_scales(const LeastSquaresResult& ls, TorqueScaleResult& out) {
           "payload move with the platform, and do both logs excite the joint?)");
     }
     out.scale[j] = 1.0 / w;
-    out.scale_std[j] = ls.std_dev(j) / (w * w);
+    out.scale_std[j] = ls.honest_std_dev(j) / (w * w);
+    out.scale_ls_std[j] = ls.std_dev(j) / (w * w);
   }
 }
 
@@ -173,14 +178,15 @@ TorqueScaleResult fit_torque_scale(const Model& model, const DeltaLog& unloaded,
   const ScaleRows b = scale_rows(model, loaded, payload_mass_kg, prepare, min_speed_rad_s, threads);
   const Regression all = both_logs(a, b);
   const std::vector<ParameterInfo> info = scale_parameters(model);
-  const LeastSquaresResult ls = solve_least_squares(
-      Equations(all), info, LsSolver::kQr, LsWeights::kNone, unloaded.name + " + " + loaded.name,
-      correlation_lags_for(a.sample_rate_hz, prepare.cutoff_hz), threads);
+  const std::size_t lags = correlation_lags_for(a.sample_rate_hz, prepare.cutoff_hz);
+  LeastSquaresResult ls = solve_least_squares(Equations(all), info, LsSolver::kQr, LsWeights::kNone,
+                                              unloaded.name + " + " + loaded.name, lags, threads);
+  add_model_error(Equations(all), lags, ls);
   TorqueScaleResult out;
   take_torque_scales(ls, out);
   const Eigen::Index p = static_cast<Eigen::Index>(model.size());
   out.beta = ls.beta.tail(p);
-  out.beta_std = ls.std_dev.tail(p);
+  out.beta_std = ls.honest_std_dev.tail(p);
   out.equations = all.rows();
   const Eigen::VectorXd residual = all.tau - all.psi * ls.beta;
   out.rmse_Nm = rmse(Equations(all), residual);

@@ -323,8 +323,9 @@ std::string text_report(const FitResult& r) {
   text_samples(r, s);
   text_method(r, s);
   s << parameter_table(r);
-  s << "  (std dev from the least-squares covariance, allowing for residuals correlated over "
-    << r.std_dev_lags << " samples)\n";
+  s << "  (std dev with model error: the larger of the estimate's spread over the log's motions "
+       "and least squares' own, which allows for residuals correlated over "
+    << r.std_dev_lags << " samples; docs/trust.md)\n";
   text_cost(r, s);
   text_strongest_correlation(r, s);
   for (const std::string& d : r.doubts) s << "  DOUBTFUL  " << d << "\n";
@@ -355,6 +356,7 @@ void json_parameters(const FitResult& r, nlohmann::json& values, nlohmann::json&
          {"base_combination",
           e.combination.empty() || !e.identifiable() ? json(nullptr) : json(e.combination)},
          {"std_dev", e.std_dev},
+         {"ls_std_dev", e.ls_std_dev},
          {"rel_std_percent", e.rel_std_percent},
          {"lower_bound", e.lower},
          {"upper_bound", e.upper},

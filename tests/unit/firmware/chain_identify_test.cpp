@@ -178,10 +178,12 @@ TEST(ChainIdentify, ViscousFrictionUnbiasedWithoutTheSlowEquations) {
 
 // With the emulator's current noise the viscous estimate scatters by about
 // 2 % from run to run (measured over 14 seeds: 1.9, 0.9 and 2.3 %), and the
-// standard deviation the fit prints says so: it allows for the filtered
-// residuals' correlation (it said 0.6, 0.3 and 0.6 % when it assumed them
-// white). Here: each parameter lies within four of its printed standard
-// deviations, which a white-noise deviation would break.
+// standard deviation the fit prints says so (it said 0.6, 0.3 and 0.6 % when
+// it assumed white residuals). Here: each parameter lies within two of its
+// printed standard deviations (docs/trust.md: the larger of least squares'
+// and the spread over the log's motions), which least squares' own breaks
+// (viscous_friction_2: 2.8 of them), and none is so wide as to be useless
+// (below 20 % of its value; measured 0.5-15 %).
 TEST(ChainIdentify, PrintedStandardDeviationCoversTheErrors) {
   emu::EmulatorConfig ec;
   ec.seed = 14;  // with white-noise deviations four parameters fail, one by 7 of them
@@ -201,8 +203,8 @@ TEST(ChainIdentify, PrintedStandardDeviationCoversTheErrors) {
       else
         continue;
       SCOPED_TRACE(p.info.name);
-      EXPECT_LT(std::abs(p.value - t), 4.0 * p.std_dev);
-      EXPECT_LT(p.rel_std_percent, 5.0);
+      EXPECT_LT(std::abs(p.value - t), 2.0 * p.std_dev);
+      EXPECT_LT(p.rel_std_percent, 20.0);
     }
   }
 }

@@ -492,14 +492,19 @@ TEST_F(CliTest, TheTorqueScaleHoldsOnADriveTrainWithLoadFriction) {
       << err_.str();
   const auto j = nlohmann::json::parse(out_.str());
   for (unsigned k = 0; k < 3; ++k) {
-    EXPECT_NEAR(j["torque_scale"][k].get<double>() * ratio[k], 1.0, 0.005) << "joint " << k + 1;
+    const double scale = j["torque_scale"][k].get<double>();
+    EXPECT_NEAR(scale * ratio[k], 1.0, 0.005) << "joint " << k + 1;
+    // Honest: the truth within 2 sigma, sigma at least least squares' own.
+    const double sigma = j["torque_scale_std"][k].get<double>();
+    EXPECT_LE(std::abs(scale - 1.0 / ratio[k]), 2.0 * sigma) << "joint " << k + 1;
+    EXPECT_GE(sigma, j["torque_scale_ls_std"][k].get<double>()) << "joint " << k + 1;
   }
   EXPECT_EQ(j["model_terms"], "per-joint arms, load friction");
   ASSERT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
                  "--payload-mass", "0.5"}),
             0)
       << err_.str();
-  EXPECT_NE(out_.str().find("std dev   the noise's alone"), std::string::npos) << out_.str();
+  EXPECT_NE(out_.str().find("std dev   with model error"), std::string::npos) << out_.str();
   EXPECT_EQ(run({"fit", path("empty.csv"), "--calibrate-torque", path("loaded.csv"),
                  "--payload-mass", "0.5", "--torque-gains"}),
             2);

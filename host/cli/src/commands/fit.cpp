@@ -335,6 +335,7 @@ int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
                          {"log", a.log},
                          {"payload_mass_kg", p.mass_kg},
                          {"payload_mass_std_kg", p.std_dev_kg},
+                         {"payload_mass_ls_std_kg", p.ls_std_dev_kg},
                          {"equations", p.equations},
                          {"rmse_base_Nm", p.rmse_base_Nm},
                          {"rmse_with_payload_Nm", p.rmse_payload_Nm}};
@@ -358,7 +359,9 @@ int run_payload(const FitArguments& a, std::ostream& out, std::ostream& err) {
   out << "host_id fit: " << a.log << ", a payload on " << a.base_path << " (model "
       << saved.model.name << ", every other parameter held)\n";
   out << "            " << p.derivatives << "; " << p.equations << " equations\n";
-  std::snprintf(line, sizeof line, "  payload_mass   %.6g kg, std dev %.3g kg (%.3g %%)\n",
+  std::snprintf(line, sizeof line,
+                "  payload_mass   %.6g kg, std dev %.3g kg (%.3g %%; with model error, "
+                "docs/trust.md)\n",
                 p.mass_kg, p.std_dev_kg,
                 p.mass_kg != 0 ? 100.0 * p.std_dev_kg / std::abs(p.mass_kg) : 0.0);
   out << line;
@@ -387,6 +390,7 @@ nlohmann::json calibration_json(const FitArguments& a, const Model& model,
           {"model_terms", "per-joint arms, load friction"},
           {"torque_scale", s.scale},
           {"torque_scale_std", s.scale_std},
+          {"torque_scale_ls_std", s.scale_ls_std},
           {"parameters_true_units", params},
           {"equations", s.equations},
           {"rmse_Nm", s.rmse_Nm}};
@@ -408,8 +412,8 @@ void print_calibration(const FitArguments& a, const Model& model, const TorqueSc
                   s.scale[k]);
     out << line;
   }
-  out << "  std dev   the noise's alone: effects no model term holds (cogging) bias the scales "
-         "beyond it (docs/payload.md)\n";
+  out << "  std dev   with model error: the scales' spread over the logs' motions, at least the "
+         "noise's (docs/trust.md)\n";
   std::snprintf(line, sizeof line, "  torque RMSE [N m, true units] %.5f %.5f %.5f\n", s.rmse_Nm[0],
                 s.rmse_Nm[1], s.rmse_Nm[2]);
   out << line;

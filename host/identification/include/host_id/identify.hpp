@@ -94,7 +94,8 @@ struct ParameterEstimate {
   double value{0};                // the chosen method's estimate
   double ls_value{0};             // the bounded least-squares optimum
   double unconstrained_value{0};  // the least-squares optimum without bounds
-  double std_dev{0};              // from the least-squares covariance
+  double std_dev{0};              // with model error (motion_spread.hpp)
+  double ls_std_dev{0};           // from the least-squares covariance: noise alone
   double rel_std_percent{0};
   // One standard deviation of the parameter times its regressor column's
   // RMS, over the torque's RMS: how much of the torque its uncertainty

@@ -50,12 +50,14 @@ struct LeastSquaresResult {
   Eigen::VectorXd unconstrained_beta;
   std::vector<std::size_t> active_bounds;  // parameters held at 0 by their bound
   Eigen::VectorXd std_dev;                 // sqrt of the covariance's diagonal
-  Eigen::MatrixXd correlation;             // the covariance as correlations (unit diagonal)
-  std::size_t correlation_lags{0};         // of the covariance estimate (0: white residuals)
-  double cost{0};                          // mean squared error of the (weighted) rows at beta
-  double unconstrained_cost{0};            // ... at unconstrained_beta
-  double condition_number{0};              // of Psi, raw units
-  double condition_number_scaled{0};       // of Psi with unit-norm columns
+  // With model error (motion_spread.hpp): set by the fit, empty here.
+  Eigen::VectorXd honest_std_dev;
+  Eigen::MatrixXd correlation;        // the covariance as correlations (unit diagonal)
+  std::size_t correlation_lags{0};    // of the covariance estimate (0: white residuals)
+  double cost{0};                     // mean squared error of the (weighted) rows at beta
+  double unconstrained_cost{0};       // ... at unconstrained_beta
+  double condition_number{0};         // of Psi, raw units
+  double condition_number_scaled{0};  // of Psi with unit-norm columns
   std::array<double, 3> joint_weights{1, 1, 1};
   // The moments of the (weighted) rows solved, for a cost in O(p^2)
   // (QuadraticCost) without another pass over them.

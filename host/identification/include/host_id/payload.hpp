@@ -18,7 +18,8 @@ namespace host_id {
 
 struct PayloadResult {
   double mass_kg{0};
-  double std_dev_kg{0};
+  double std_dev_kg{0};     // with model error (motion_spread.hpp)
+  double ls_std_dev_kg{0};  // least squares' own: noise alone
   std::size_t equations{0};
   std::array<double, 3> rmse_base_Nm{};     // the base model alone, on the loaded log
   std::array<double, 3> rmse_payload_Nm{};  // with the payload
@@ -44,9 +45,10 @@ Eigen::VectorXd with_payload(const Model& model, const Eigen::VectorXd& beta, do
 // for w_j = 1 / s_j and the robot's parameters beta in true units, where
 // phi_j is the platform's mass columns (inertial and weight).
 struct TorqueScaleResult {
-  std::array<double, 3> scale{};      // s_j: logged torque per true torque
-  std::array<double, 3> scale_std{};  // its standard deviation
-  Eigen::VectorXd beta;               // the robot's parameters, in true units
+  std::array<double, 3> scale{};         // s_j: logged torque per true torque
+  std::array<double, 3> scale_std{};     // its standard deviation, with model error
+  std::array<double, 3> scale_ls_std{};  // least squares' own: noise alone
+  Eigen::VectorXd beta;                  // the robot's parameters, in true units
   Eigen::VectorXd beta_std;
   std::size_t equations{0};
   std::array<double, 3> rmse_Nm{};  // of the joint fit, true torque units
