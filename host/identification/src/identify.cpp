@@ -439,6 +439,11 @@ void note_fit_residuals(const Model& model, const Regression& all_rows, const Eq
   }
   r.fit.rmse_filtered_Nm = rmse_per_joint(all_rows, squares);
   r.fit.rmse_measured_Nm = all_rows.measured.rmse(r.beta);
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::size_t n = all_rows.measured.rows[j];
+    r.fit.rms_torque_Nm[j] =
+        n > 0 ? std::sqrt(all_rows.measured.tau_sq[j] / static_cast<double>(n)) : 0.0;
+  }
   if (keep_predictions) {
     r.predictions.push_back(prediction_of(model, all_rows, r.beta, log_name));
     r.predictions.back().role = "fit";

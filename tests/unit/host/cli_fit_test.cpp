@@ -648,5 +648,28 @@ TEST_F(CliTest, MillisecondsAndAStillJointAreNamed) {
   EXPECT_EQ(err_.str().find("every joint's torque is 0"), std::string::npos) << err_.str();
 }
 
+// One joint's torque or angle inverted (a drive or an encoder counting the
+// other way): the fit is refused, naming the joint and the column, whether
+// the default fit (--model auto, PSO) got through or not.
+TEST_F(CliTest, AnInvertedJointIsNamedWithItsColumn) {
+  simulate("a.csv", {"--torque-noise", "0.01"});
+  const std::string text = delta::read_whole_file(path("a.csv"));
+  const auto negate = [](std::size_t field) {
+    return
+        [field](std::vector<std::string>& f) { f[field] = std::to_string(-std::stod(f[field])); };
+  };
+  std::ofstream(path("tau2.csv")) << edited_log(text, negate(6));
+  EXPECT_EQ(run({"fit", path("tau2.csv")}), 1);
+  EXPECT_NE(err_.str().find("joint 2's torque looks opposite in sign"), std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("Negate tau2"), std::string::npos) << err_.str();
+  std::ofstream(path("q3.csv")) << edited_log(text, negate(4));
+  EXPECT_EQ(run({"fit", path("q3.csv")}), 1);
+  EXPECT_NE(err_.str().find("joint 3's angle looks opposite in sign"), std::string::npos)
+      << err_.str();
+  ASSERT_EQ(run({"fit", path("a.csv")}), 0) << err_.str();
+  EXPECT_EQ(err_.str().find("opposite in sign"), std::string::npos) << err_.str();
+}
+
 }  // namespace
 }  // namespace host_id

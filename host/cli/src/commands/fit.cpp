@@ -1,6 +1,7 @@
 // host_id fit LOG.csv: estimate the parameters, validate, report, save, plot.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -15,6 +16,7 @@
 #include "host_id/delta_log.hpp"
 #include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
+#include "host_id/joint_signs.hpp"
 #include "host_id/model_support.hpp"
 #include "host_id/payload.hpp"
 #include "host_id/report.hpp"
@@ -562,6 +564,14 @@ std::vector<FitResult> fit_each_model(const FitArguments& a, const FitOptions& f
   return results;
 }
 
+// A log with one joint's angle or torque inverted (joint_signs.hpp) is
+// refused, naming it: no fit of it means anything. Read again: the fits
+// took the log.
+void refuse_inverted_joint(const FitArguments& a, const FitOptions& f) {
+  const std::optional<InvertedJoint> inverted = inverted_joint(read_delta_log(a.log), f);
+  if (inverted) throw delta::InputError(inverted_joint_message(*inverted, a.log));
+}
+
 // A doubtful result is written, and said so on stderr as well as in it.
 void warn_about_doubts(const FitArguments& a, const std::vector<FitResult>& results,
                        std::ostream& err) {
@@ -600,9 +610,18 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
   };
   f.pso.progress_every = 200;
   FitInputs in = read_fit_inputs(a, f, err);
-  const std::vector<FitResult> results =
-      automatic ? fit_chosen_variant(a, f, in, err) : fit_each_model(a, f, in);
+  std::vector<FitResult> results;
+  try {
+    results = automatic ? fit_chosen_variant(a, f, in, err) : fit_each_model(a, f, in);
+  } catch (const delta::InputError&) {
+    bar.finish();
+    refuse_inverted_joint(a, f);  // the likelier cause of a fit that failed
+    throw;
+  }
   bar.finish();
+  if (std::any_of(results.begin(), results.end(), suspect_inverted_joint)) {
+    refuse_inverted_joint(a, f);
+  }
   warn_about_doubts(a, results, err);
   write_outputs(a, results, out);
   return 0;

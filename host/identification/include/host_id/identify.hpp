@@ -123,6 +123,7 @@ struct LogRmse {
   std::size_t samples{0};
   std::array<double, 3> rmse_measured_Nm{};
   std::array<double, 3> rmse_filtered_Nm{};
+  std::array<double, 3> rms_torque_Nm{};  // the measured torque's RMS (the fit log's; else 0)
 };
 
 // Filtered measured and predicted torques of one log under fitted
