@@ -499,6 +499,10 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.seconds_estimator = seconds_since(te);
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.correlation = ls.correlation;
+  if (options.model.name != "paper14" && !(options.model.stribeck_velocity_rad_s > 0.0)) {
+    r.stribeck = stribeck_signature(all_rows, reg.rows(), options.model.coulomb_smoothing_rad_s,
+                                    r.std_dev_lags / 4);
+  }
   r.doubts = doubts_of(r);
   note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
   validate_fit(*model, options, validation, keep_predictions, r);
@@ -537,6 +541,47 @@ std::string implausible_masses(const FitResult& r) {
 
 }  // namespace
 
+namespace {
+
+// The friction's shape: a search that ended on its bound, or a residual
+// with the Stribeck signature the model lacks; "" where neither.
+std::string friction_shape_doubt(const FitResult& r) {
+  std::ostringstream m;
+  if (r.friction_shape) {
+    const FrictionShapeResult& f = *r.friction_shape;
+    const auto at = [](double v, double lo, double hi) { return v < 1.02 * lo || v > hi / 1.02; };
+    const bool smoothing = at(f.coulomb_smoothing_rad_s, kSmoothingMinRadS, kSmoothingMaxRadS);
+    const bool stribeck = f.stribeck_velocity_rad_s > 0.0 &&
+                          at(f.stribeck_velocity_rad_s, kStribeckMinRadS, kStribeckMaxRadS);
+    if (smoothing || stribeck) {
+      m << "the friction shape's search ended on its bound ("
+        << (smoothing ? "Coulomb smoothing " + format_number(f.coulomb_smoothing_rad_s) +
+                            " rad/s, searched in [" + format_number(kSmoothingMinRadS) + ", " +
+                            format_number(kSmoothingMaxRadS) + "]"
+                      : "Stribeck velocity " + format_number(f.stribeck_velocity_rad_s) +
+                            " rad/s, searched in [" + format_number(kStribeckMinRadS) + ", " +
+                            format_number(kStribeckMaxRadS) + "]")
+        << "): the log does not determine it, and the friction parameters are fitted to a "
+           "shape chosen by the bound; give the shape (--coulomb-smoothing, "
+           "--stribeck-velocity) or excite slow motion more";
+      return m.str();
+    }
+  }
+  if (r.stribeck) {
+    m << "the residual has the Stribeck signature: friction that falls off with speed "
+      << "(a Stribeck term at " << format_number(r.stribeck->velocity_rad_s)
+      << " rad/s) lowers the model's torque error by "
+      << std::lround(100.0 * r.stribeck->error_drop)
+      << " %; without it the viscous and Coulomb friction are biased. Fit with "
+         "--stribeck-velocity "
+      << format_number(r.stribeck->velocity_rad_s)
+      << " (add --fit-friction-shape to search the velocity)";
+  }
+  return m.str();
+}
+
+}  // namespace
+
 std::vector<std::string> doubts_of(const FitResult& r) {
   std::vector<std::string> doubts;
   if (const std::string masses = implausible_masses(r); !masses.empty()) doubts.push_back(masses);
@@ -570,6 +615,7 @@ std::vector<std::string> doubts_of(const FitResult& r) {
     doubts.push_back(std::to_string(pinned_count) + " parameters sit at their bound 0 (" + pinned +
                      "): the log cannot tell them from 0");
   }
+  if (const std::string shape = friction_shape_doubt(r); !shape.empty()) doubts.push_back(shape);
   if (r.support) {
     const ModelSelection& s = *r.support;
     const VariantScore& fitted = s.variants[variant_index(s, r.options.model)];

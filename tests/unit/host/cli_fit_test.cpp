@@ -671,5 +671,42 @@ TEST_F(CliTest, AnInvertedJointIsNamedWithItsColumn) {
   EXPECT_EQ(err_.str().find("opposite in sign"), std::string::npos) << err_.str();
 }
 
+// The friction's shape, named where the log shows it: the shipped robot
+// (docs/examples/robot.json: Stribeck friction of 0.02 N m at 0.1 rad/s)
+// leaves the Stribeck signature in the default fit's residual, and the fit
+// says which --stribeck-velocity to fit with; with it, the doubt is gone.
+// The same robot without the Stribeck term raises no such doubt. A friction
+// shape searched to its bound (a robot whose Coulomb friction is smoothed
+// over 0.5 rad/s, beyond the search's 0.2) is doubtful.
+TEST_F(CliTest, TheStribeckSignatureAndAShapeAtItsBoundAreNamed) {
+  auto robot =
+      nlohmann::json::parse(delta::read_whole_file(DELTA_SOURCE_DIR "/docs/examples/robot.json"));
+  const auto multibody_log = [&](const std::string& name) {
+    delta::write_file_atomically(path(name + ".json"), robot.dump());
+    ASSERT_EQ(run({"simulate", "--plant", "mujoco", "--robot", path(name + ".json"), "-o",
+                   path(name + ".csv"), "--duration", "20", "--base-hz", "0.4", "--torque-noise",
+                   "0.015", "--encoder-bits", "17", "--seed", "3", "--quiet"}),
+              0)
+        << err_.str();
+  };
+  multibody_log("stribeck");
+  ASSERT_EQ(run({"fit", path("stribeck.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("the residual has the Stribeck signature"), std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("Fit with --stribeck-velocity 0.1"), std::string::npos) << err_.str();
+  ASSERT_EQ(run({"fit", path("stribeck.csv"), "--method", "ls", "--stribeck-velocity", "0.1"}), 0);
+  EXPECT_EQ(err_.str().find("Stribeck signature"), std::string::npos) << err_.str();
+  for (auto& joint : robot["joints"]) joint["stribeck_friction_Nm"] = 0.0;
+  multibody_log("plain");
+  ASSERT_EQ(run({"fit", path("plain.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_EQ(err_.str().find("Stribeck signature"), std::string::npos) << err_.str();
+  for (auto& joint : robot["joints"]) joint["friction_smoothing_rad_s"] = 0.5;
+  multibody_log("smooth");
+  ASSERT_EQ(run({"fit", path("smooth.csv"), "--method", "ls", "--fit-friction-shape"}), 0);
+  EXPECT_NE(err_.str().find("the friction shape's search ended on its bound (Coulomb smoothing"),
+            std::string::npos)
+      << err_.str();
+}
+
 }  // namespace
 }  // namespace host_id

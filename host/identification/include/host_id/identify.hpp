@@ -18,6 +18,7 @@
 #include "host_id/model_support.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
+#include "host_id/stribeck_signature.hpp"
 
 namespace host_id {
 
@@ -176,6 +177,9 @@ struct FitResult {
   // Parameter name -> its truth, where the caller knows it (fit --truth).
   std::map<std::string, double> truth;
   std::optional<FrictionShapeResult> friction_shape;
+  // The residual's Stribeck signature, where the model has no Stribeck
+  // term (stribeck_signature.hpp).
+  std::optional<StribeckSignature> stribeck;
   std::optional<ElasticityResult> elasticity;
   // Which variant the log supports, judged on the fit's own rows (delta and
   // lumped, long enough logs): model_selection.hpp's judge_support().
