@@ -175,6 +175,22 @@ void check_torque_sign(const LeastSquaresResult& ls, const std::vector<Parameter
   throw delta::InputError(m.str());
 }
 
+// Parameters whose estimates from the log's spans of time differ more than
+// kChangingRatio times as much as over any split of its motions (and more
+// than the noise's): the log holds runs that differ (glued together) or a
+// drift. Into r.changing, with the largest ratio.
+void note_changing_parameters(const MotionSpread& spread, const LeastSquaresResult& ls,
+                              const std::vector<ParameterInfo>& parameters, FitResult& r) {
+  r.changing.clear();
+  r.changing_ratio = 0.0;
+  for (Eigen::Index c = 0; c < spread.time_std_dev.size(); ++c) {
+    const double t = spread.time_std_dev(c), motion = spread.column_std_dev(c);
+    if (!(t > kChangingRatio * motion) || !(t > ls.std_dev(c))) continue;
+    r.changing.push_back(parameters[static_cast<std::size_t>(c)].name);
+    r.changing_ratio = std::max(r.changing_ratio, t / motion);
+  }
+}
+
 // Least squares, then PSO on the same cost where asked: r.beta, the costs,
 // the conditioning and the box.
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
@@ -184,7 +200,8 @@ LeastSquaresResult estimate_on(const Equations& reg, const std::vector<Parameter
   LeastSquaresResult ls = solve_least_squares(reg, parameters, options.solver, options.weights,
                                               log_name, lags, options.threads);
   check_torque_sign(ls, parameters, reg.rows(), log_name);
-  add_model_error(reg, lags, ls);
+  const MotionSpread spread = add_model_error(reg, lags, ls);
+  note_changing_parameters(spread, ls, parameters, r);
   if (pso) run_swarm(reg, ls, parameters, options, r, box);
   r.joint_weights = ls.joint_weights;
   r.condition_number = ls.condition_number;
@@ -616,6 +633,17 @@ std::vector<std::string> doubts_of(const FitResult& r) {
                      "): the log cannot tell them from 0");
   }
   if (const std::string shape = friction_shape_doubt(r); !shape.empty()) doubts.push_back(shape);
+  if (!r.changing.empty()) {
+    std::string names;
+    for (const std::string& n : r.changing) names += (names.empty() ? "" : ", ") + n;
+    m.str("");
+    m << names << " change along the log: their estimates from its thirds in time differ up to "
+      << std::lround(r.changing_ratio)
+      << " times more than over any split of its motions. Runs of different payloads, robots "
+         "or settings glued into one log, or a drift (a loosening part, warming grease), give "
+         "this; fit each run alone (a payload: fit --base, docs/payload.md)";
+    doubts.push_back(m.str());
+  }
   if (r.support) {
     const ModelSelection& s = *r.support;
     const VariantScore& fitted = s.variants[variant_index(s, r.options.model)];

@@ -146,10 +146,14 @@ MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& join
   });
   MotionSpread out;
   out.time_std_dev = jackknife_variance(rows, a, b, cut(in_time));
-  Eigen::VectorXd largest = out.time_std_dev;
-  for (Eigen::Index k = 0; k < p; ++k)
-    keep_larger(largest, jackknife_variance(rows, a, b, bins_by(rows, k)));
+  Eigen::VectorXd columns = Eigen::VectorXd::Constant(p, kNaN);
+  for (Eigen::Index k = 0; k < p; ++k) {
+    keep_larger(columns, jackknife_variance(rows, a, b, bins_by(rows, k)));
+  }
+  Eigen::VectorXd largest = columns;
+  keep_larger(largest, out.time_std_dev);
   out.std_dev = largest.cwiseSqrt().cwiseQuotient(rows.column_norm);
+  out.column_std_dev = columns.cwiseSqrt().cwiseQuotient(rows.column_norm);
   out.time_std_dev = out.time_std_dev.cwiseSqrt().cwiseQuotient(rows.column_norm);
   return out;
 }

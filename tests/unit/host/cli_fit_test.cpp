@@ -708,5 +708,41 @@ TEST_F(CliTest, TheStribeckSignatureAndAShapeAtItsBoundAreNamed) {
       << err_.str();
 }
 
+// Two runs glued into one log, the second with a 0.5 kg payload (its seq
+// and t carried on): the platform's masses and the gravity moments change
+// along the log, and the fit says so; either run alone raises no such doubt.
+TEST_F(CliTest, RunsGluedIntoOneLogAreNamed) {
+  auto robot =
+      nlohmann::json::parse(delta::read_whole_file(DELTA_SOURCE_DIR "/docs/examples/robot.json"));
+  std::string texts[2];
+  for (int k = 0; k < 2; ++k) {
+    robot["payload"]["mass_kg"] = 0.5 * k;
+    const std::string name = "run" + std::to_string(k);
+    delta::write_file_atomically(path(name + ".json"), robot.dump());
+    ASSERT_EQ(run({"simulate", "--plant", "mujoco", "--robot", path(name + ".json"), "-o",
+                   path(name + ".csv"), "--duration", "10", "--base-hz", "0.4", "--torque-noise",
+                   "0.015", "--encoder-bits", "17", "--seed", "3", "--quiet"}),
+              0)
+        << err_.str();
+    texts[k] = delta::read_whole_file(path(name + ".csv"));
+  }
+  ASSERT_EQ(run({"fit", path("run1.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_EQ(err_.str().find("change along the log"), std::string::npos) << err_.str();
+  // The second run's rows after the first's, 10 s and 10001 samples on.
+  std::string glued = texts[0];
+  const std::string second = edited_log(texts[1], [](std::vector<std::string>& f) {
+    f[0] = std::to_string(std::stoull(f[0]) + 10001);
+    f[1] = std::to_string(std::stod(f[1]) + 10.001);
+  });
+  const std::size_t header = second.find("seq,");
+  glued += second.substr(second.find('\n', header) + 1);
+  std::ofstream(path("glued.csv")) << glued;
+  ASSERT_EQ(run({"fit", path("glued.csv"), "--method", "ls"}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("platform_inertial_mass, platform_weight_mass change along the log"),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find("fit each run alone"), std::string::npos) << err_.str();
+}
+
 }  // namespace
 }  // namespace host_id

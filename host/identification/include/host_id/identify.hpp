@@ -142,6 +142,8 @@ struct Prediction {
   LogRmse rmse() const { return {log, t_s.size(), rmse_measured_Nm, rmse_filtered_Nm}; }
 };
 
+inline constexpr double kChangingRatio = 3.0;
+
 struct FitResult {
   FitOptions options;
   delta::Geometry geometry{};  // of the fit log: the robot the parameters are for
@@ -180,6 +182,11 @@ struct FitResult {
   // The residual's Stribeck signature, where the model has no Stribeck
   // term (stribeck_signature.hpp).
   std::optional<StribeckSignature> stribeck;
+  // Parameters that change along the log (runs glued together, a drift):
+  // their spread over its spans of time, kChangingRatio or more times that
+  // over any split of its motions (motion_spread.hpp); the largest ratio.
+  std::vector<std::string> changing;
+  double changing_ratio{0};
   std::optional<ElasticityResult> elasticity;
   // Which variant the log supports, judged on the fit's own rows (delta and
   // lumped, long enough logs): model_selection.hpp's judge_support().

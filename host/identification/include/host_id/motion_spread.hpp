@@ -31,8 +31,9 @@ namespace host_id {
 inline constexpr unsigned kSpreadBins = 3;
 
 struct MotionSpread {
-  Eigen::VectorXd std_dev;       // over every partition, the largest; NaN where none could tell
-  Eigen::VectorXd time_std_dev;  // over the spans of time alone
+  Eigen::VectorXd std_dev;         // over every partition, the largest; NaN where none could tell
+  Eigen::VectorXd time_std_dev;    // over the spans of time alone
+  Eigen::VectorXd column_std_dev;  // over the columns' partitions alone
 };
 
 // Every `step`-th row is used (rows filtered far below the sample rate
