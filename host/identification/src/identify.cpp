@@ -500,6 +500,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   Preprocessed pre = preprocess_releasing(*model, log, prepare, options.threads);
   Regression& all_rows = pre.regression;
   note_preprocessing(pre, log, r);
+  r.fit.ranges = pre.report.ranges;
   const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name, spans);
@@ -685,11 +686,15 @@ Prediction predict(const Model& model, const Eigen::VectorXd& beta, const DeltaL
                    const PrepareOptions& prepare, unsigned threads) {
   if (model.options().elastic()) {
     const DeltaLog arm = arm_side_for_prediction(model, beta, log, prepare);
-    return prediction_of(model, preprocess(model, arm, prepare, threads).regression, beta,
-                         log.name);
+    const Preprocessed pre = preprocess(model, arm, prepare, threads);
+    Prediction p = prediction_of(model, pre.regression, beta, log.name);
+    p.ranges = pre.report.ranges;
+    return p;
   }
   const Preprocessed pre = preprocess(model, log, prepare, threads);
-  return prediction_of(model, pre.regression, beta, log.name);
+  Prediction p = prediction_of(model, pre.regression, beta, log.name);
+  p.ranges = pre.report.ranges;
+  return p;
 }
 
 }  // namespace host_id

@@ -255,6 +255,7 @@ PreprocessReport report_of(const DeltaLog& log, const FilterDesign& d,
   report.samples_in_log = log.size();
   report.sample_rate_hz = d.sample_rate_hz;
   report.state_cutoff_hz = d.logged_derivatives ? 0.0 : d.state.cutoff_hz;
+  report.ranges = ranges_of(s.states);
   return report;
 }
 

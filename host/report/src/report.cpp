@@ -140,10 +140,17 @@ std::string parameter_table(const FitResult& r) {
 }  // namespace
 
 nlohmann::json json_rmse(const LogRmse& r) {
-  return {{"log", r.log},
-          {"samples", r.samples},
-          {"rmse_measured_Nm", r.rmse_measured_Nm},
-          {"rmse_filtered_Nm", r.rmse_filtered_Nm}};
+  nlohmann::json out{{"log", r.log},
+                     {"samples", r.samples},
+                     {"rmse_measured_Nm", r.rmse_measured_Nm},
+                     {"rmse_filtered_Nm", r.rmse_filtered_Nm}};
+  if (r.ranges.known) {
+    out["ranges"] = {{"q_min_rad", r.ranges.q_min_rad},
+                     {"q_max_rad", r.ranges.q_max_rad},
+                     {"qd_max_rad_s", r.ranges.qd_max_rad_s},
+                     {"qdd_max_rad_s2", r.ranges.qdd_max_rad_s2}};
+  }
+  return out;
 }
 
 std::string text_rmse_table(const std::vector<LogRmse>& rows, const std::string& first_label) {

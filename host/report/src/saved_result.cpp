@@ -126,6 +126,25 @@ Eigen::VectorXd read_parameters(const ResultFile& f, const json& j, const ModelO
   return beta;
 }
 
+// The fitted log's motion, where the result has it.
+MotionRanges read_excitation(const ResultFile& f, const json& j) {
+  MotionRanges r;
+  if (!j.contains("fit") || !j["fit"].is_object() || !j["fit"].contains("ranges")) return r;
+  const json& ranges = j["fit"]["ranges"];
+  try {
+    r.q_min_rad = ranges.at("q_min_rad").get<std::array<double, 3>>();
+    r.q_max_rad = ranges.at("q_max_rad").get<std::array<double, 3>>();
+    r.qd_max_rad_s = ranges.at("qd_max_rad_s").get<std::array<double, 3>>();
+    r.qdd_max_rad_s2 = ranges.at("qdd_max_rad_s2").get<std::array<double, 3>>();
+  } catch (const json::exception& e) {
+    throw delta::InputError(f.path + ": fit.ranges: " + e.what() +
+                            " (four arrays of three numbers: q_min_rad, q_max_rad, qd_max_rad_s, "
+                            "qdd_max_rad_s2)");
+  }
+  r.known = true;
+  return r;
+}
+
 }  // namespace
 
 SavedResult read_saved_result(const std::string& path) {
@@ -145,6 +164,7 @@ SavedResult read_saved_result(const std::string& path) {
                             ": a model or preprocessing value has the wrong type: " + e.what());
   }
   s.beta = read_parameters(f, j, s.model);
+  s.excitation = read_excitation(f, j);
   return s;
 }
 

@@ -744,5 +744,31 @@ TEST_F(CliTest, RunsGluedIntoOneLogAreNamed) {
   EXPECT_NE(err_.str().find("fit each run alone"), std::string::npos) << err_.str();
 }
 
+// A validation log that moves far faster than the fitted one (the same
+// Fourier path at four times the frequency: speeds 4 times, accelerations
+// 16 times) is named extrapolation by fit --validate, validate and
+// predict, with both ranges; a log of the same motion is not.
+TEST_F(CliTest, AValidationLogBeyondTheFittedMotionIsNamedExtrapolation) {
+  simulate("slow.csv", {"--torque-noise", "0.01"});
+  simulate("again.csv", {"--torque-noise", "0.01", "--seed", "2"});
+  simulate("fast.csv", {"--torque-noise", "0.01", "--base-hz", "0.8"});
+  ASSERT_EQ(run({"fit", path("slow.csv"), "--method", "ls", "--validate", path("again.csv"),
+                 "--validate", path("fast.csv"), "-o", path("slow.json")}),
+            0)
+      << err_.str();
+  const std::string fit_err = err_.str();
+  EXPECT_NE(fit_err.find(path("fast.csv") + ": warning: this log goes beyond the motion the fit"),
+            std::string::npos)
+      << fit_err;
+  EXPECT_NE(fit_err.find("speed up to"), std::string::npos) << fit_err;
+  EXPECT_EQ(fit_err.find(path("again.csv") + ": warning"), std::string::npos) << fit_err;
+  ASSERT_EQ(run({"validate", path("slow.json"), path("fast.csv")}), 0) << err_.str();
+  EXPECT_NE(err_.str().find("extrapolation"), std::string::npos) << err_.str();
+  ASSERT_EQ(run({"predict", path("slow.json"), path("fast.csv"), "-o", path("p.csv")}), 0);
+  EXPECT_NE(err_.str().find("extrapolation"), std::string::npos) << err_.str();
+  ASSERT_EQ(run({"predict", path("slow.json"), path("again.csv"), "-o", path("q.csv")}), 0);
+  EXPECT_EQ(err_.str().find("extrapolation"), std::string::npos) << err_.str();
+}
+
 }  // namespace
 }  // namespace host_id

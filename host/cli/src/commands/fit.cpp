@@ -622,6 +622,9 @@ int run_fit(FitArguments& a, std::ostream& out, std::ostream& err) {
   if (std::any_of(results.begin(), results.end(), suspect_inverted_joint)) {
     refuse_inverted_joint(a, f);
   }
+  for (const LogRmse& v : results.front().validation) {
+    warn_beyond(err, v.log, a.log, results.front().fit.ranges, v.ranges);
+  }
   warn_about_doubts(a, results, err);
   write_outputs(a, results, out);
   return 0;

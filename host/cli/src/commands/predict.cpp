@@ -35,6 +35,7 @@ int run_predict(const PredictArguments& a, std::ostream& out, std::ostream& err)
                         a.allow_other_geometry, err);
   warn_about_log(err, log, saved.prepare.time_steps);
   const PredictedLog p = predict_log(*model, saved.beta, log, saved.prepare, a.result_path);
+  warn_beyond(err, a.log_path, a.result_path, saved.excitation, p.report.ranges);
   write_delta_log_atomically(a.out_path, p.log);
   const std::size_t left_out = log.size() - p.log.size();
   if (a.json) {

@@ -40,6 +40,7 @@ int run_validate(const ValidateArguments& a, std::ostream& out, std::ostream& er
     warn_about_log(err, l, saved.prepare.time_steps);
     predictions.push_back(predict(*model, saved.beta, l, saved.prepare, 0));
     rows.push_back(predictions.back().rmse());
+    warn_beyond(err, l.name, a.result_path, saved.excitation, rows.back().ranges);
   }
   if (!a.plot_path.empty()) {
     delta::write_file_atomically(a.plot_path,

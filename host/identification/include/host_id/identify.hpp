@@ -125,6 +125,7 @@ struct LogRmse {
   std::array<double, 3> rmse_measured_Nm{};
   std::array<double, 3> rmse_filtered_Nm{};
   std::array<double, 3> rms_torque_Nm{};  // the measured torque's RMS (the fit log's; else 0)
+  MotionRanges ranges;                    // of the log's motion (motion_ranges.hpp)
 };
 
 // Filtered measured and predicted torques of one log under fitted
@@ -139,7 +140,8 @@ struct Prediction {
   std::array<std::vector<double>, 3> velocity_rad_s;  // qd of each joint at each sample
   std::array<double, 3> rmse_measured_Nm{};
   std::array<double, 3> rmse_filtered_Nm{};
-  LogRmse rmse() const { return {log, t_s.size(), rmse_measured_Nm, rmse_filtered_Nm}; }
+  MotionRanges ranges;
+  LogRmse rmse() const { return {log, t_s.size(), rmse_measured_Nm, rmse_filtered_Nm, {}, ranges}; }
 };
 
 inline constexpr double kChangingRatio = 3.0;

@@ -14,6 +14,7 @@
 
 #include "host_id/delta_log.hpp"
 #include "host_id/model.hpp"
+#include "host_id/motion_ranges.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -54,6 +55,7 @@ struct PreprocessReport {
   std::string derivatives;          // how qd and qdd were obtained
   double sample_rate_hz{0};
   double state_cutoff_hz{0};  // q's filter's; 0: the log's qd, qdd columns
+  MotionRanges ranges;        // of the kept samples' states
 };
 
 struct Preprocessed {

@@ -27,6 +27,9 @@ struct SavedResult {
   std::optional<delta::Geometry> geometry;
   PrepareOptions prepare;
   Eigen::VectorXd beta;  // in the model's parameter order
+  // The fitted log's motion ("fit": "ranges"); unknown in results saved
+  // before it was recorded.
+  MotionRanges excitation;
 };
 
 // Throws delta::InputError naming the file and the key that is missing or wrong.
