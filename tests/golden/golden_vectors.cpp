@@ -4,6 +4,7 @@
 
 #include "delta/fixed/kinematics.hpp"
 #include "delta/fixed/math.hpp"
+#include "fw/collision.hpp"
 #include "fw/feed_forward.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
@@ -337,6 +338,41 @@ void control_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
   }
 }
 
+// The collision detector (fw/collision.hpp): residuals filtered tick by
+// tick, thresholds at the reference's speed and acceleration, and which
+// joint passes first; a contact's step on joint 3 from tick 40.
+void collision_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
+  CollisionConfig c;
+  c.detect = true;
+  c.threshold_scale = Q12_19::from(1.5);
+  for (unsigned j = 0; j < 3; ++j) {
+    c.thresholds.base_Nm[j] =
+        Q12_19::from(0.05) + Q12_19::from(0.01).scaled_by(static_cast<std::int32_t>(j));
+    c.thresholds.per_speed_Nm_s_per_rad[j] = Q12_19::from(0.02);
+    c.thresholds.per_acceleration_Nm_s2_per_rad[j] = Q12_19::from(0.001);
+  }
+  CollisionDetector d;
+  for (std::uint32_t tick = 0; tick < 64; ++tick) {
+    c.filter_shift = static_cast<std::uint8_t>(tick < 32 ? 2 : 3);
+    std::array<Q12_19, 3> measured{}, model{};
+    std::array<Q10_21, 3> qd{};
+    std::array<Q14_17, 3> qdd{};
+    for (unsigned j = 0; j < 3; ++j) {
+      model[j] = Q12_19::from_raw(rng.in(-600000, 600000));
+      measured[j] = model[j] + Q12_19::from_raw(rng.in(-20000, 20000));
+      qd[j] = Q10_21::from_raw(rng.in(-4000000, 4000000));
+      qdd[j] = Q14_17::from_raw(rng.in(-2000000, 2000000));
+    }
+    if (tick >= 40) measured[2] = measured[2] + Q12_19::from(0.4);
+    CollisionEvent e;
+    const bool hit = d.update(c, measured, model, qd, qdd, e);
+    const auto& r = d.residual_Nm();
+    l.word("collision").num(tick).num(r[0].raw()).num(r[1].raw()).num(r[2].raw());
+    l.num(collision_threshold(c, 2, qd[2], qdd[2]).raw()).num(hit).num(hit ? e.joint : 9);
+    l.end(lines);
+  }
+}
+
 // The arithmetic itself on edge operands: saturating add, subtract and
 // negation (one QADD or QSUB on Cortex-M4, a portable form on the host),
 // and the rounding and saturation of mul (shifts of 30 and 31), narrow
@@ -470,6 +506,8 @@ std::uint32_t write_golden_vectors(TextSink& out) {
   model_lines(l, rng, lines);
   update_lines(l, lines);
   primitive_lines(l, lines);
+  Lcg collision_rng{777u};
+  collision_lines(l, collision_rng, lines);
   l.word("end").num(lines + 1).end(lines);
   return lines;
 }

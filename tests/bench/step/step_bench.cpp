@@ -17,6 +17,7 @@ struct FollowingHardware {
   std::uint32_t logged = 0;
   DriveConfigProgress configure_drives() { return DriveConfigProgress::kDone; }
   void enable_drives(bool) {}
+  void quick_stop_drives() {}
   void read_feedback(std::array<DriveFeedback, 3>& fb) {
     for (unsigned j = 0; j < 3; ++j) {
       fb[j].position_rad = reference->q_rad[j];
@@ -42,6 +43,13 @@ ControllerConfig config(FeedForwardMode feed_forward) {
   c.feed_forward.mode = feed_forward;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
   c.feed_forward.model = delta::fx::prepare_model(c.geometry, golden::example_model_parameters());
+  // The detector on, with thresholds no run reaches: its work in every step.
+  c.collision.detect = true;
+  for (unsigned j = 0; j < 3; ++j) {
+    c.collision.thresholds.base_Nm[j] = Q12_19::from(1000.0);
+    c.collision.thresholds.per_speed_Nm_s_per_rad[j] = Q12_19::from(0.5);
+    c.collision.thresholds.per_acceleration_Nm_s2_per_rad[j] = Q12_19::from(0.01);
+  }
   return c;
 }
 

@@ -16,9 +16,10 @@ TEST(ControllerVocabularyTest, NamesFollowTheStableNumbers) {
   EXPECT_STREQ(fault_name(Fault::kNone), "none");
   EXPECT_STREQ(fault_name(Fault::kHeartbeatLost), "heartbeat lost");
   EXPECT_STREQ(fault_name(Fault::kFeedbackLate), "feedback late");
+  EXPECT_STREQ(fault_name(Fault::kCollision), "collision");
   EXPECT_STREQ(trajectory_fault_name(TrajectoryFault::kOutsideWorkspace), "outside the workspace");
   // A number the vocabulary does not know (a newer controller's) is named so.
-  EXPECT_STREQ(fault_name(static_cast<Fault>(14)), "unknown");
+  EXPECT_STREQ(fault_name(static_cast<Fault>(15)), "unknown");
   EXPECT_STREQ(state_name(static_cast<State>(200)), "unknown");
 }
 

@@ -46,6 +46,7 @@ struct FakeHardware {
   int configure_calls_until_done = 3;
   bool configure_fails = false;
   bool drives_enabled = false;
+  bool quick_stopped = false;
   int drives_disabled_at_cycle = -1;
   int cycle = 0;
   std::array<Q12_19, 3> torque{};
@@ -60,6 +61,7 @@ struct FakeHardware {
   std::vector<std::array<Q12_19, 3>> torque_behind_current;  // per record
   std::array<Q12_19, 3> torque_at_feedback{};
   SafetyOutputs outputs;
+  delta::Joint3 external_Nm{};  // a contact's torque at the joints, on the plant alone
   static constexpr double kEncoderStep = 2.0 * std::numbers::pi / 131072.0;  // 17 bits
 
   DriveConfigProgress configure_drives() {
@@ -70,6 +72,11 @@ struct FakeHardware {
   void enable_drives(bool on) {
     if (drives_enabled && !on) drives_disabled_at_cycle = cycle;
     drives_enabled = on;
+    quick_stopped = false;
+  }
+  void quick_stop_drives() {
+    enable_drives(false);
+    quick_stopped = true;
   }
   void read_feedback(std::array<DriveFeedback, 3>& fb) {
     torque_at_feedback = drives_enabled ? torque : std::array<Q12_19, 3>{};
@@ -103,7 +110,7 @@ struct FakeHardware {
       return;
     }
     delta::Joint3 tau{};
-    for (unsigned j = 0; j < 3; ++j) tau[j] = to_double(torque[j]);
+    for (unsigned j = 0; j < 3; ++j) tau[j] = to_double(torque[j]) + external_Nm[j];
     plant.advance(tau, dt);
   }
 };
@@ -415,6 +422,93 @@ TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajec
   // The same limits without the feed-forward's torques: accepted.
   EXPECT_EQ(check_trajectory(heavy.geometry, excitation(), heavy.limits).fault,
             TrajectoryFault::kOk);
+}
+
+// The plant's own model (the lumped truth, friction included) as the
+// feed-forward: what the collision detector compares the measured torque
+// against.
+FeedForwardConfig exact_model(const GeometryQ& geometry) {
+  delta::fx::ModelParametersQ m;
+  m.kind = ModelKind::kLumped;
+  const delta::LumpedParameters truth = delta::default_lumped_parameters();
+  for (unsigned j = 0; j < 3; ++j) {
+    m.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(truth.arm_inertia_kg_m2[j]);
+    m.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(truth.arm_gravity_moment_Nm[j]);
+    m.viscous_friction_Nm_s_per_rad[j] =
+        to_q_saturated<Q12_19>(truth.viscous_friction_Nm_s_per_rad[j]);
+    m.coulomb_friction_Nm[j] = to_q_saturated<Q12_19>(truth.coulomb_friction_Nm[j]);
+  }
+  m.coulomb_smoothing_rad_s = to_q_saturated<Q10_21>(truth.coulomb_smoothing_rad_s);
+  m.platform_inertial_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  m.platform_weight_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  FeedForwardConfig f;
+  f.mode = FeedForwardMode::kModel;
+  f.model = delta::fx::prepare_model(geometry, m);
+  return f;
+}
+
+CollisionConfig detector(double base_Nm) {
+  CollisionConfig c;
+  c.detect = true;
+  for (unsigned j = 0; j < 3; ++j) {
+    c.thresholds.base_Nm[j] = to_q_saturated<Q12_19>(base_Nm);
+    c.thresholds.per_speed_Nm_s_per_rad[j] = to_q_saturated<Q12_19>(0.02);
+    c.thresholds.per_acceleration_Nm_s2_per_rad[j] = to_q_saturated<Q12_19>(0.001);
+  }
+  return c;
+}
+
+// With the plant's own model as the feed-forward, a clean excitation keeps
+// every joint's filtered residual below a threshold of 0.05 N m (plus
+// 0.02 N m per rad/s and 0.001 per rad/s^2): no detection. A contact of
+// 0.5 N m on joint 2 two seconds into the trajectory is detected within
+// 10 ticks: the collision fault, the drives quick-stopped and braked, and
+// the event names joint 2 with its residual over its threshold.
+TEST_F(ControllerTest, AContactIsDetectedAndQuickStopsTheDrives) {
+  to_ready();
+  ASSERT_TRUE(ctl.set_feed_forward(exact_model(config.geometry)));
+  ASSERT_TRUE(ctl.set_collision(detector(0.05)));
+  ASSERT_TRUE(ctl.start(excitation()).accepted);
+  tick(1);
+  double largest = 0.0;
+  while (ctl.state() == State::kRunning) {
+    tick();
+    for (const Q12_19& r : ctl.collision_residual()) {
+      largest = std::max(largest, std::abs(to_double(r)));
+    }
+  }
+  std::printf("clean run: largest filtered residual %.4f N m\n", largest);
+  EXPECT_GT(largest, 0.0);  // the detector ran
+  EXPECT_EQ(ctl.state(), State::kStopping) << fault_name(ctl.fault());
+  EXPECT_FALSE(ctl.collided());
+  tick(static_cast<int>(config.stop_ticks) + 1);
+  ASSERT_EQ(ctl.state(), State::kReady);
+
+  ASSERT_TRUE(ctl.start(excitation()).accepted);
+  tick(1);
+  tick(static_cast<int>(config.approach_ticks) + 2000);
+  ASSERT_EQ(ctl.state(), State::kRunning);
+  hw.external_Nm[1] = 0.5;
+  int ticks = 0;
+  while (ctl.state() == State::kRunning && ticks < 100) {
+    tick();
+    ++ticks;
+  }
+  std::printf("contact of 0.5 N m on joint 2 detected after %d ticks\n", ticks);
+  EXPECT_LE(ticks, 10);
+  expect_fault(Fault::kCollision);
+  EXPECT_TRUE(hw.quick_stopped);
+  ASSERT_TRUE(ctl.collided());
+  EXPECT_EQ(ctl.collision().joint, 1);
+  EXPECT_GT(delta::fx::abs(ctl.collision().residual_Nm[1]), ctl.collision().threshold_Nm[1]);
+  EXPECT_EQ(ctl.collision_run_tick(), ctl.run_tick());
+  // Recovery is an explicit reset.
+  hw.external_Nm = {};
+  tick(10);
+  expect_fault(Fault::kCollision);
+  ctl.reset();
+  tick(6);
+  EXPECT_EQ(ctl.state(), State::kReady);
 }
 
 TEST_F(ControllerTest, EStopDisablesTheDrivesWithinTheSameCycle) {

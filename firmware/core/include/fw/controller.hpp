@@ -4,14 +4,16 @@
 //
 //   boot -> configuring -> ready -> running -> stopping -> ready
 //   any fault (e-stop, drive fault, lost feedback, limit, tracking error,
-//   configuration failure, log overflow) -> fault; drives stay disabled
-//   and braked there until reset(), which starts again at boot.
+//   configuration failure, log overflow, collision) -> fault; drives stay
+//   disabled and braked there until reset(), which starts again at boot. A
+//   collision quick-stops the drives (CiA 402) instead of disabling them.
 #pragma once
 
 #include <array>
 #include <cstdint>
 
 #include "delta/fixed/math.hpp"
+#include "fw/collision.hpp"
 #include "fw/faults.hpp"
 #include "fw/feed_forward.hpp"
 #include "fw/hardware.hpp"
@@ -31,6 +33,7 @@ struct ControllerConfig {
   JointLimits limits{};
   JointGains gains{};
   FeedForwardConfig feed_forward{};
+  CollisionConfig collision{};
   std::array<JointTorqueConfig, 3> torque{};
   Q3_28 max_tracking_error_rad{Q3_28::from(0.1)};
   std::uint32_t approach_ticks{1000};  // move from rest to the trajectory's start
@@ -170,6 +173,19 @@ class Controller {
   // Of those, records marked stale (a drive's feedback missed the cycle).
   std::uint32_t stale_log_records() const { return stale_log_records_; }
   const std::array<DriveFeedback, 3>& feedback() const { return feedback_; }
+  // The last collision since boot (its run tick: run_tick() then), if any.
+  bool collided() const { return collided_; }
+  const CollisionEvent& collision() const { return collision_; }
+  std::uint32_t collision_run_tick() const { return collision_run_tick_; }
+  const CollisionConfig& collision_config() const { return config_.collision; }
+  // The detector's filtered residuals at the last tick it ran.
+  const std::array<Q12_19, 3>& collision_residual() const { return detector_.residual_Nm(); }
+  // Changes the detector's settings between runs (refused during one).
+  bool set_collision(const CollisionConfig& c) {
+    if (state_ == State::kRunning || state_ == State::kStopping || start_requested_) return false;
+    config_.collision = c;
+    return true;
+  }
 
  private:
   static StartResult wrong_state() {
@@ -183,7 +199,11 @@ class Controller {
     state_ = State::kFault;
     command_ = {};
     hw_.command_torque(command_);
-    hw_.enable_drives(false);
+    if (f == Fault::kCollision) {
+      hw_.quick_stop_drives();
+    } else {
+      hw_.enable_drives(false);
+    }
     joint_.reset();
   }
 
@@ -228,6 +248,7 @@ class Controller {
     run_tick_ = 0;
     tracking_ = {};
     joint_.reset();
+    detector_.reset();
     hw_.enable_drives(true);
     state_ = State::kRunning;
     state_ticks_ = 0;
@@ -292,11 +313,28 @@ class Controller {
       enter_fault(Fault::kTrajectoryRejected);
       return;
     }
+    if (collision_detected(feed_forward)) return;
     std::array<bool, 3> saturated{};
     command_ = joint_.update(reference_, q, qd, feed_forward, saturated);
     hw_.command_torque(command_);
     if (!log_tick(q)) return;
     advance_run();
+  }
+
+  // The detector, on the trajectory and while stopping (not in the
+  // approach, whose reference carries no acceleration): true after
+  // entering the collision fault.
+  bool collision_detected(const Joint3Q12_19& model_Nm) {
+    if (!config_.collision.detect) return false;
+    if (state_ == State::kRunning && run_tick_ < config_.approach_ticks) return false;
+    if (!detector_.update(config_.collision, measured_torque_, model_Nm, reference_.qd_rad_s,
+                          reference_.qdd_rad_s2, collision_)) {
+      return false;
+    }
+    collided_ = true;
+    collision_run_tick_ = run_tick_;
+    enter_fault(Fault::kCollision);
+    return true;
   }
 
   // The joints' angles and velocities from the feedback, checked against
@@ -373,6 +411,10 @@ class Controller {
   JointAnglesQ approach_from_{};
   std::array<Q12_19, 3> measured_torque_{};
   std::array<Q12_19, 3> command_{};
+  CollisionDetector detector_{};
+  CollisionEvent collision_{};
+  std::uint32_t collision_run_tick_{0};
+  bool collided_{false};
   std::uint32_t cycles_{0};
   std::uint32_t state_ticks_{0};
   std::uint32_t run_tick_{0};

@@ -5,6 +5,7 @@
 //
 //   DriveConfigProgress configure_drives();   // step the drives' bring-up
 //   void enable_drives(bool on);              // CiA 402 enable / disable
+//   void quick_stop_drives();                 // CiA 402 quick stop, then disabled
 //   void read_feedback(std::array<DriveFeedback, 3>&);
 //   void command_torque(const std::array<Q12_19, 3>& joint_torque_Nm);
 //   bool estop_open();                        // debounced e-stop input

@@ -595,9 +595,10 @@ void CanopenMaster::send_commands() {
   for (Drive& d : drives_) {
     // While starting, only a fault-reset edge for a drive in fault.
     const bool clear_fault = phase_ == Phase::kStarting && d.state == State::kFault;
-    d.controlword = clear_fault
-                        ? delta::can::cia402::controlword_towards(d.state, true, d.controlword)
-                        : delta::can::cia402::controlword_towards(d.state, enable_, d.controlword);
+    d.controlword =
+        clear_fault   ? delta::can::cia402::controlword_towards(d.state, true, d.controlword)
+        : quick_stop_ ? delta::can::cia402::kQuickStop
+                      : delta::can::cia402::controlword_towards(d.state, enable_, d.controlword);
     const bool driving = enable_ && d.state == State::kOperationEnabled;
     const std::int16_t torque = driving ? d.units.target_torque(d.command_current_A) : 0;
     std::array<std::uint8_t, 8> data{};

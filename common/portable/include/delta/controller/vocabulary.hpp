@@ -36,6 +36,7 @@ enum class Fault : std::uint16_t {
   kFeedbackMalformed = 11,  // a drive's feedback frame had the wrong length
   kCanBusError = 12,        // the CAN controller went error-passive or bus-off
   kFeedbackLate = 13,       // a drive's feedback kept arriving after the cycle's deadline
+  kCollision = 14,          // a joint's torque residual passed its threshold (fw/collision.hpp)
 };
 
 // Why a trajectory check refused a trajectory.
@@ -69,7 +70,7 @@ enum class TrajectoryId : std::uint16_t {
 // The names, indexed by the enumerators' values.
 inline constexpr std::array<std::string_view, 6> kStateNames{"boot",    "configuring", "ready",
                                                              "running", "stopping",    "fault"};
-inline constexpr std::array<std::string_view, 14> kFaultNames{"none",
+inline constexpr std::array<std::string_view, 15> kFaultNames{"none",
                                                               "e-stop",
                                                               "drive fault",
                                                               "heartbeat lost",
@@ -82,7 +83,8 @@ inline constexpr std::array<std::string_view, 14> kFaultNames{"none",
                                                               "drive configuration failed",
                                                               "feedback malformed",
                                                               "CAN bus error",
-                                                              "feedback late"};
+                                                              "feedback late",
+                                                              "collision"};
 inline constexpr std::array<std::string_view, 8> kTrajectoryFaultNames{
     "ok",
     "invalid configuration",
@@ -131,7 +133,7 @@ constexpr bool trajectory_id(std::string_view name, TrajectoryId& id) {
 
 static_assert(kStateNames.size() == static_cast<unsigned>(State::kFault) + 1);
 static_assert(kTrajectoryNames.size() == static_cast<unsigned>(TrajectoryId::kCustom) + 1);
-static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kFeedbackLate) + 1);
+static_assert(kFaultNames.size() == static_cast<unsigned>(Fault::kCollision) + 1);
 static_assert(kTrajectoryFaultNames.size() ==
               static_cast<unsigned>(TrajectoryFault::kFeedForwardLimit) + 1);
 

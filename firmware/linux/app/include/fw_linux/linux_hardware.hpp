@@ -41,6 +41,7 @@ class LinuxHardware {
 
   fw::DriveConfigProgress configure_drives() { return drives_.configure_drives(); }
   void enable_drives(bool on) { drives_.enable_drives(on); }
+  void quick_stop_drives() { drives_.quick_stop_drives(); }
   void read_feedback(std::array<fw::DriveFeedback, 3>& fb) { drives_.read_feedback(fb); }
   void command_torque(const std::array<Q12_19, 3>& t) { drives_.command_torque(t); }
   bool estop_open() {

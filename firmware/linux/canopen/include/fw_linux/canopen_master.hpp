@@ -51,7 +51,17 @@ class CanopenMaster {
 
   // --- the core's hardware interface (drives) ---
   fw::DriveConfigProgress configure_drives();
-  void enable_drives(bool on) { enable_ = on; }
+  void enable_drives(bool on) {
+    enable_ = on;
+    quick_stop_ = false;
+  }
+  // CiA 402 quick stop: controlword 0x0002 until the next enable; the
+  // drive brakes on its quick-stop ramp (0x6085) and, as its quick-stop
+  // option code (0x605A) says, stays in quick stop active or disables.
+  void quick_stop_drives() {
+    enable_ = false;
+    quick_stop_ = true;
+  }
   void read_feedback(std::array<fw::DriveFeedback, 3>& out);
   void command_torque(const std::array<Q12_19, 3>& joint_torque_Nm);
 
@@ -147,6 +157,7 @@ class CanopenMaster {
   bool window_open_{false};
   bool bus_error_{false};
   bool enable_{false};
+  bool quick_stop_{false};
   std::uint64_t cycle_{0};
   std::uint8_t sync_counter_{0};  // of the last SYNC sent (with a counter)
   std::uint64_t now_us_{0};
