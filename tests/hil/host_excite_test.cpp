@@ -206,6 +206,65 @@ TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter
   EXPECT_EQ(s.emu.terminate(30s).value_or(-1), 0) << s.emu.err();
 }
 
+// The number after `key` in `text` (the first such), NaN where none is.
+double number_after(const std::string& text, const std::string& key) {
+  const std::size_t at = text.find(key);
+  return at == std::string::npos ? std::nan("")
+                                 : std::strtod(text.c_str() + at + key.size(), nullptr);
+}
+
+// One pick-and-place on the multibody robot with the fitted model as the
+// feed-forward and the collision detector on (thresholds by key until the
+// model carries its own), with `inject` in the emulator; delta_fw's exit
+// code, its words and the emulator's.
+struct CollisionRun {
+  int exit{-1};
+  std::string fw, emu;
+};
+CollisionRun pick_and_place_with_detector(const std::string& model,
+                                          const std::vector<std::string>& inject) {
+  hil::Child emu = start_emulator(inject);
+  hil::Child fw = hil::Child::spawn(
+      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set", "feed_forward.store=", "--set",
+       "feed_forward.model=" + model, "--set", "collision.detect=true", "--set",
+       "collision.threshold_Nm=0.08", "--run", "pick-and-place", "--exit-when-done"});
+  CollisionRun r;
+  r.exit = fw.wait(300s).value_or(-1);
+  emu.terminate(30s);
+  r.fw = fw.err() + fw.out();
+  r.emu = emu.out() + emu.err();
+  return r;
+}
+
+// Collision detection on vcan (docs/safety.md), with the model fitted from
+// the recorded path1: a clean pick-and-place runs to its end with no
+// detection; a 10 N contact on the platform for 200 ms, in each of five
+// directions, 3 s into the run, is detected within 10 ms of its onset
+// (delta_fw's `collision` line against the emulator's `contact` line, both
+// in seconds since the first SYNC), with fault 14 and exit code 3.
+TEST(HostExcite, ContactsWithTheRobotAreDetectedWithinTenMilliseconds) {
+  MultibodySession& s = multibody_session();
+  const std::string model = s.dir + "/fit.json";
+  ASSERT_TRUE(std::ifstream(model).good()) << "the fitted model of the test before";
+  const CollisionRun clean = pick_and_place_with_detector(model, {});
+  EXPECT_EQ(clean.exit, 0) << clean.fw;
+  EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
+  EXPECT_NE(clean.fw.find("collision detection on"), std::string::npos) << clean.fw;
+  for (const char* direction : {"1,0,0", "-1,0,0", "0,1,0", "0,-1,0", "0,0,-1"}) {
+    SCOPED_TRACE(direction);
+    const CollisionRun hit = pick_and_place_with_detector(
+        model, {"--inject", std::string("contact:10:") + direction + ":200@3"});
+    EXPECT_EQ(hit.exit, 3) << hit.fw;
+    EXPECT_NE(hit.fw.find("fault 14 (collision)"), std::string::npos) << hit.fw;
+    const double contact_s = number_after(hit.emu, "contact: t_s=");
+    const double detected_s = number_after(hit.fw, "collision pick-and-place: t_s=");
+    std::cout << "contact 10 N along " << direction << " at " << contact_s << " s, detected at "
+              << detected_s << " s: " << (detected_s - contact_s) * 1e3 << " ms\n";
+    EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
+    EXPECT_LE(detected_s - contact_s, 0.010) << hit.fw << hit.emu;
+  }
+}
+
 // The designed excitation end to end: host_id design writes a trajectory
 // file, excite uploads it into the controller's custom trajectory
 // registers over Modbus, the controller checks and runs it on the

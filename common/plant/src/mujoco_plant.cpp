@@ -243,6 +243,9 @@ PlantStatus MujocoPlant::step(const Joint3& tau_Nm, double dt_s) {
   if (!fault_.empty()) return PlantStatus::kDiverged;
   const int n = std::max(1, static_cast<int>(std::ceil(dt_s / settings_.max_step_s - 1e-9)));
   model_->opt.timestep = dt_s / n;
+  for (unsigned k = 0; k < 3; ++k) {
+    data_->xfrc_applied[6 * platform_body_ + static_cast<int>(k)] = platform_force_N_[k];
+  }
   for (int i = 0; i < n; ++i) {
     for (unsigned j = 0; j < 3; ++j) {
       const int dof = hinge_dof_[j];

@@ -62,6 +62,12 @@ std::unique_ptr<delta::Plant> make_plant(const EmulatorConfig& c) {
 
 Emulator::Emulator(const EmulatorConfig& config, Outbox out)
     : config_(config), out_(std::move(out)), plant_(make_plant(config)), rng_(config.seed) {
+  for (const FaultInjection& f : config.faults) {
+    if (f.kind == FaultKind::kContact && !plant_->set_platform_force({0.0, 0.0, 0.0})) {
+      throw std::invalid_argument(
+          "--inject contact needs a platform to push: --plant mujoco (the lumped plant has none)");
+    }
+  }
   for (unsigned j = 0; j < 3; ++j) {
     drives_[j].node = static_cast<std::uint8_t>(p::kFirstDriveNode + j);
     drives_[j].model = config.drives[j];

@@ -1,5 +1,7 @@
 // The emulator's fault injection: the --inject specs parsed, and each
 // fault triggered on the bus at its simulated time.
+#include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,6 +16,53 @@ namespace od = delta::can::od;
 namespace sdo = delta::can::sdo;
 namespace cia = delta::can::cia402;
 using delta::can::Frame;
+
+namespace {
+
+double number_in(const std::string& text, const std::string& spec, const char* what) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v)) {
+    throw std::invalid_argument("fault '" + spec + "': " + what + " must be a number, got '" +
+                                text + "'");
+  }
+  return v;
+}
+
+// contact:FORCE_N:DX,DY,DZ:MS
+FaultInjection parse_contact(const std::string& spec, const std::vector<std::string>& parts,
+                             FaultInjection f) {
+  if (parts.size() != 4) {
+    throw std::invalid_argument("fault '" + spec +
+                                "': expected contact:FORCE_N:DX,DY,DZ:MS@SECONDS");
+  }
+  f.kind = FaultKind::kContact;
+  const double force = number_in(parts[1], spec, "the force");
+  if (!(force > 0.0) || force > 10000.0) {
+    throw std::invalid_argument("fault '" + spec +
+                                "': the force must be above 0 and at most 10000 N");
+  }
+  std::array<double, 3> d{};
+  std::stringstream ds(parts[2]);
+  std::size_t n = 0;
+  for (std::string c; std::getline(ds, c, ',');) {
+    if (n == 3) throw std::invalid_argument("fault '" + spec + "': the direction is DX,DY,DZ");
+    d[n++] = number_in(c, spec, "the direction");
+  }
+  const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (n != 3 || !(norm > 0.0)) {
+    throw std::invalid_argument("fault '" + spec + "': the direction DX,DY,DZ must not be zero");
+  }
+  for (unsigned k = 0; k < 3; ++k) f.force_N[k] = force * d[k] / norm;
+  const long ms = std::atol(parts[3].c_str());
+  if (ms <= 0 || ms > 60000 || parts[3] != std::to_string(ms)) {
+    throw std::invalid_argument("fault '" + spec + "': the duration must be 1 to 60000 ms");
+  }
+  f.arg_ms = static_cast<std::uint32_t>(ms);
+  return f;
+}
+
+}  // namespace
 
 FaultInjection parse_fault(const std::string& spec) {
   FaultInjection f;
@@ -33,6 +82,7 @@ FaultInjection parse_fault(const std::string& spec) {
   for (std::string part; std::getline(ss, part, ':');) parts.push_back(part);
   if (parts.empty()) throw std::invalid_argument("fault '" + spec + "': no kind");
   const std::string& kind = parts[0];
+  if (kind == "contact") return parse_contact(spec, parts, f);
   const bool needs_node = kind != "error-frame";
   if (kind == "heartbeat-drop") {
     f.kind = FaultKind::kHeartbeatDrop;
@@ -77,6 +127,11 @@ FaultInjection parse_fault(const std::string& spec) {
 
 void Emulator::trigger_faults() {
   for (FaultInjection& f : config_.faults) {
+    if (f.kind == FaultKind::kContact && f.done && !f.ended &&
+        simulated_s() + 1e-9 >= f.at_s + f.arg_ms * 1e-3) {
+      f.ended = true;
+      plant_->set_platform_force({0.0, 0.0, 0.0});
+    }
     if (f.done || simulated_s() + 1e-9 < f.at_s) continue;
     f.done = true;
     Drive* d = f.node != 0 ? &drives_[f.node - p::kFirstDriveNode] : nullptr;
@@ -93,6 +148,19 @@ void Emulator::trigger_faults() {
       case FaultKind::kDelayPdo:
         d->delay_us = f.arg_ms * 1000;
         break;
+      case FaultKind::kContact: {
+        plant_->set_platform_force(f.force_N);
+        if (config_.report) {
+          const double magnitude =
+              std::sqrt(f.force_N[0] * f.force_N[0] + f.force_N[1] * f.force_N[1] +
+                        f.force_N[2] * f.force_N[2]);
+          char line[96];
+          std::snprintf(line, sizeof line, "contact: t_s=%.4f force_N=%.6g", simulated_s(),
+                        magnitude);
+          config_.report(line);
+        }
+        break;
+      }
       case FaultKind::kOvercurrent:
         // The current loop sees a short: the drive trips as a real one would.
         enter_fault(*d, od::kEmcyOvercurrent);

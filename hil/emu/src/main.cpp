@@ -114,7 +114,9 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
   app.add_option("--inject", a.faults,
                  "KIND[:NODE[:MS]]@SECONDS of simulated time after the first SYNC: "
                  "heartbeat-drop:N, silent:N, error-frame, corrupt-pdo:N, delay-pdo:N:MS, "
-                 "overcurrent:N (repeatable)")
+                 "overcurrent:N, contact:FORCE_N:DX,DY,DZ:MS (a force on the platform, "
+                 "--plant mujoco; prints `contact: t_s=T force_N=F` when it starts) "
+                 "(repeatable)")
       ->allow_extra_args(false);
   a.initial_q = config.initial_q_rad[0];
   a.initial = app.add_option("--initial-q", a.initial_q, "the three joints' angle at start, rad")
@@ -148,6 +150,7 @@ void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
                                                 : emu::TorqueUnit::kPerMille;
   configure_plant(a.plant, a.robot_path, a.truth->count() ? a.truth_path : std::string(), config);
   for (const std::string& f : a.faults) config.faults.push_back(emu::parse_fault(f));
+  config.report = [](const std::string& line) { std::cout << line << std::endl; };
 }
 
 // The command line into config, or the exit code when it asked for help or

@@ -285,3 +285,34 @@ TEST(LumpedPlantTest, FaultsInsteadOfDiverging) {
 
 }  // namespace
 }  // namespace delta
+
+namespace delta {
+namespace {
+
+// A force on the platform (a contact) reaches the joints through the
+// closed chains: held at rest by the torques of its inverse dynamics, the
+// robot does not move until 10 N push the platform down, and then every
+// arm turns down (positive angles, docs/conventions.md); 20 N turn them
+// twice as fast, and 10 N up the other way.
+TEST(MujocoPlantTest, APlatformForceTurnsTheArmsAsTheChainsCarryIt) {
+  const RobotDescription robot = default_robot_description();
+  const JointState rest{{0.4, 0.45, 0.5}, {}, {}};
+  const auto qdd_under = [&](double force_z_N) {
+    MujocoPlant plant(robot, rest.q_rad);
+    const Joint3 hold = plant.inverse_dynamics(rest);
+    EXPECT_TRUE(plant.set_platform_force({0.0, 0.0, force_z_N}));
+    EXPECT_EQ(plant.step(hold, 1e-3), PlantStatus::kOk);
+    return plant.state().qdd_rad_s2;
+  };
+  const Joint3 none = qdd_under(0.0), down = qdd_under(-10.0), twice = qdd_under(-20.0),
+               up = qdd_under(10.0);
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_LT(std::abs(none[j]), 0.05 * std::abs(down[j])) << j;
+    EXPECT_GT(down[j], 1.0) << j;
+    EXPECT_NEAR(twice[j] - none[j], 2.0 * (down[j] - none[j]), 0.05 * std::abs(down[j])) << j;
+    EXPECT_NEAR(up[j] - none[j], -(down[j] - none[j]), 0.05 * std::abs(down[j])) << j;
+  }
+}
+
+}  // namespace
+}  // namespace delta

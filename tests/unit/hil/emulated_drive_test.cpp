@@ -528,3 +528,30 @@ TEST(EmulatedVendorDriveTest, ADcfsParameterValuesAreTheDrivesValues) {
 
 }  // namespace
 }  // namespace emu
+
+namespace emu {
+namespace {
+
+// contact:FORCE_N:DX,DY,DZ:MS@SECONDS: the force along the normalised
+// direction, its duration; malformed specs are refused with the reason,
+// and the lumped plant (no platform body) refuses a contact at start.
+TEST(EmulatedDriveTest, AContactIsParsedAndNeedsTheMultibodyPlant) {
+  const FaultInjection f = parse_fault("contact:10:3,0,-4:200@2.5");
+  EXPECT_EQ(f.kind, FaultKind::kContact);
+  EXPECT_NEAR(f.force_N[0], 6.0, 1e-12);
+  EXPECT_NEAR(f.force_N[1], 0.0, 1e-12);
+  EXPECT_NEAR(f.force_N[2], -8.0, 1e-12);
+  EXPECT_EQ(f.arg_ms, 200u);
+  EXPECT_DOUBLE_EQ(f.at_s, 2.5);
+  for (const char* bad : {"contact:10:0,0,0:200@1", "contact:-1:1,0,0:200@1",
+                          "contact:10:1,0:200@1", "contact:10:1,0,0@1", "contact:10:1,0,0:0@1"}) {
+    EXPECT_THROW((void)parse_fault(bad), std::invalid_argument) << bad;
+  }
+  EmulatorConfig lumped;
+  lumped.faults = {f};
+  EXPECT_THROW(Emulator(lumped, [](const delta::can::Frame&, std::uint32_t) {}),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace emu

@@ -45,6 +45,9 @@ class DriveTrainPlant final : public Plant {
   // (in joint units: motor angle / gear ratio), else the arm.
   JointState state() const override;
   JointState arm_state() const override { return arms_->state(); }
+  bool set_platform_force(const std::array<double, 3>& force_N) override {
+    return arms_->set_platform_force(force_N);
+  }
   const std::string& fault() const override;
 
   // Puts the motors where the arms at state `arm` (which the arm plant is
@@ -98,6 +101,9 @@ class MultibodyRobot final : public Plant {
   JointState state() const override { return outer().state(); }
   JointState arm_state() const override { return outer().arm_state(); }
   const std::string& fault() const override { return outer().fault(); }
+  bool set_platform_force(const std::array<double, 3>& force_N) override {
+    return outer().set_platform_force(force_N);
+  }
 
   // The arms at state s, the motors where their springs carry the torques
   // that move the arms so (the arms' inverse dynamics at s).

@@ -57,6 +57,10 @@ class MujocoPlant final : public Plant {
   void stop() override;
   JointState state() const override;
   const std::string& fault() const override { return fault_; }
+  bool set_platform_force(const std::array<double, 3>& force_N) override {
+    platform_force_N_ = force_N;
+    return true;
+  }
 
   // Puts the robot at the joint state s: every body where the joint angles
   // put it, moving as qd and qdd move it (the closed chains closed).
@@ -102,6 +106,7 @@ class MujocoPlant final : public Plant {
   double time_s_{0.0};
   Joint3 last_qdd_{};
   std::string fault_;
+  std::array<double, 3> platform_force_N_{};
 };
 
 }  // namespace delta

@@ -11,6 +11,7 @@
 // the workspace is reported as a fault, and the plant stays stopped.
 #pragma once
 
+#include <array>
 #include <string>
 
 #include "delta/dynamics.hpp"
@@ -36,6 +37,10 @@ class Plant {
   virtual JointState arm_state() const { return state(); }
   // Why the plant faulted; empty while it has not.
   virtual const std::string& fault() const = 0;
+  // A force on the platform's centre (world frame, N) from the next step on,
+  // until changed (a contact); false where the plant has no platform body
+  // to put it on (the lumped plant).
+  virtual bool set_platform_force(const std::array<double, 3>& /*force_N*/) { return false; }
 };
 
 // The largest joint speed a plant accepts before it calls the state

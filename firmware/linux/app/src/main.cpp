@@ -126,6 +126,7 @@ int check_config(const Arguments& a) {
     return fw_linux::kExitUsage;
   }
   std::cout << fw_linux::describe_feed_forward(config) << "\n";
+  std::cout << fw_linux::describe_collision(config) << "\n";
   const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);
   std::size_t transfers = 0;
   for (const fw_linux::DrivePlan& plan : plans.drives) {

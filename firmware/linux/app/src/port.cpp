@@ -295,6 +295,7 @@ void announce(const PortConfig& config, const RunOptions& options,
   } else {
     out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
   }
+  out << "delta_fw: " << describe_collision(config) << "\n";
 }
 
 // The control step after the cycle's exchange: the controller's step, its

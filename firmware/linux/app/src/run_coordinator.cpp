@@ -76,6 +76,9 @@ void RunCoordinator::report_state_change(const Controller& c, const CanopenMaste
     }
   }
   out_ << "\n";
+  if (state == fw::State::kFault && c.fault() == fw::Fault::kCollision && c.collided()) {
+    print_collision(c, master);
+  }
 }
 
 bool RunCoordinator::start_command_line_run(Controller& c) {
@@ -129,6 +132,24 @@ void RunCoordinator::track_run(const Controller& c) {
     running_cli_ = false;
     print_tracking(c.tracking());
   }
+}
+
+// A collision: `collision NAME: t_s=T joint=J residual_Nm=a,b,c
+// threshold_Nm=a,b,c`, T in seconds since the first SYNC (docs/safety.md).
+void RunCoordinator::print_collision(const Controller& c, const CanopenMaster& master) {
+  const fw::CollisionEvent& e = c.collision();
+  const auto nm = [](fw::Q12_19 v) { return std::ldexp(static_cast<double>(v.raw()), -19); };
+  const double t_s = master.syncs_sent() > 0
+                         ? static_cast<double>(master.syncs_sent() - 1) * master.period_us() * 1e-6
+                         : 0.0;
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "collision %s: t_s=%.4f joint=%u residual_Nm=%.4f,%.4f,%.4f "
+                "threshold_Nm=%.4f,%.4f,%.4f\n",
+                run_name_.c_str(), t_s, e.joint + 1u, nm(e.residual_Nm[0]), nm(e.residual_Nm[1]),
+                nm(e.residual_Nm[2]), nm(e.threshold_Nm[0]), nm(e.threshold_Nm[1]),
+                nm(e.threshold_Nm[2]));
+  out_ << text;
 }
 
 // After each run: `tracking NAME: rms_rad=a,b,c max_rad=a,b,c`, over the

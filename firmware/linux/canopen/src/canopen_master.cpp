@@ -461,6 +461,7 @@ void CanopenMaster::begin_cycle(std::uint64_t now_us) {
   }
   window_open_ = cyclic();
   if (!window_open_) return;
+  ++syncs_sent_;
   if (!counted()) {
     bus_.send(frame(p::cob_id(p::kSync, 0), 0, {}));
     return;

@@ -203,6 +203,30 @@ void finish_config(PortConfig& c, std::vector<std::string>* problems) {
 
 namespace {
 
+// The collision detector: its residual is against the model's torque, and
+// it needs thresholds to compare it with.
+void validate_collision(const PortConfig& c, std::vector<std::string>& problems) {
+  if (!(c.collision_threshold_scale > 0.0) || c.collision_threshold_scale > 100.0) {
+    problems.push_back("collision.threshold_scale must be above 0 and at most 100, got " +
+                       std::to_string(c.collision_threshold_scale));
+  }
+  if (c.collision_threshold_Nm < 0.0 || c.collision_threshold_per_speed < 0.0 ||
+      c.collision_threshold_per_acceleration < 0.0) {
+    problems.push_back("collision.threshold_* must not be negative");
+  }
+  if (!c.collision_detect) return;
+  if (c.feed_forward != fw::FeedForwardMode::kModel) {
+    problems.push_back(
+        "collision.detect = true needs feed_forward = model: the detector compares the measured "
+        "torque with the identified model's (docs/safety.md)");
+  }
+  if (!(c.collision_threshold_Nm > 0.0)) {
+    problems.push_back(
+        "collision.detect = true needs collision.threshold_Nm, the residual that is a "
+        "collision at rest (docs/safety.md)");
+  }
+}
+
 // The identified model where the feed-forward is to use it: there, and
 // fitted for this robot with values the controller holds.
 void validate_feed_forward(const PortConfig& c, std::vector<std::string>& problems) {
@@ -365,6 +389,7 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
   validate_joints(c, problems);
   validate_io(c, problems);
   validate_feed_forward(c, problems);
+  validate_collision(c, problems);
   try {
     (void)controller_config(c);  // every value fits its Q format
   } catch (const ConfigError& e) {
@@ -372,6 +397,16 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
   }
   for (std::string& p : plan_drives(c).problems) problems.push_back(std::move(p));
   return grouped_problems(problems);
+}
+
+std::string describe_collision(const PortConfig& c) {
+  if (!c.collision_detect) return "collision detection off (collision.detect, docs/safety.md)";
+  std::ostringstream m;
+  m << "collision detection on: threshold " << c.collision_threshold_Nm << " N m + "
+    << c.collision_threshold_per_speed << " N m per rad/s + "
+    << c.collision_threshold_per_acceleration << " N m per rad/s^2, times "
+    << c.collision_threshold_scale;
+  return m.str();
 }
 
 std::string describe_feed_forward(const PortConfig& c) {
@@ -460,6 +495,18 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
   out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
   out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
   out.feed_forward.mode = c.feed_forward;
+  out.collision.detect = c.collision_detect;
+  out.collision.threshold_scale =
+      to_q<Q12_19>(c.collision_threshold_scale, "collision.threshold_scale");
+  for (unsigned j = 0; j < 3; ++j) {
+    fw::CollisionThresholds& t = out.collision.thresholds;
+    t.base_Nm[j] = to_q<Q12_19>(c.collision_threshold_Nm, "collision.threshold_Nm");
+    t.per_speed_Nm_s_per_rad[j] =
+        to_q<Q12_19>(c.collision_threshold_per_speed, "collision.threshold_per_speed_Nm_s_per_rad");
+    t.per_acceleration_Nm_s2_per_rad[j] =
+        to_q<Q12_19>(c.collision_threshold_per_acceleration,
+                     "collision.threshold_per_acceleration_Nm_s2_per_rad");
+  }
   if (c.feed_forward_model) {
     out.feed_forward.model =
         prepare_model(out.geometry, delta::model_parameters_q(*c.feed_forward_model));

@@ -275,6 +275,15 @@ void add_run_keys(Setters& s) {
   s["feed_forward.store"] = [](PortConfig& c, const std::string& v, const std::string&) {
     c.feed_forward_store = v;
   };
+  s["collision.detect"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.collision_detect = parse_bool(v, w, "collision.detect");
+  };
+  add_number(s, "collision.threshold_scale", &PortConfig::collision_threshold_scale);
+  add_number(s, "collision.threshold_Nm", &PortConfig::collision_threshold_Nm);
+  add_number(s, "collision.threshold_per_speed_Nm_s_per_rad",
+             &PortConfig::collision_threshold_per_speed);
+  add_number(s, "collision.threshold_per_acceleration_Nm_s2_per_rad",
+             &PortConfig::collision_threshold_per_acceleration);
   s["approach_s"] = seconds_setter("approach_s", &PortConfig::approach_s);
   s["stop_s"] = seconds_setter("stop_s", &PortConfig::stop_s);
   s["blend_s"] = seconds_setter("blend_s", &PortConfig::blend_s);

@@ -42,17 +42,22 @@ enum class FaultKind : std::uint8_t {
   kCorruptPdo,     // the node's next TPDO1 is 5 bytes long
   kDelayPdo,       // the node's TPDOs leave ARG ms (wall clock) after the SYNC
   kOvercurrent,    // the node's current exceeds its limit: fault, EMCY 0x2310
+  kContact,        // a force on the platform for ARG ms (the MuJoCo plant's)
 };
 
 struct FaultInjection {
   FaultKind kind{FaultKind::kSilent};
-  std::uint8_t node{0};     // 0 for bus-wide faults
-  double at_s{0.0};         // simulated time after the first SYNC
-  std::uint32_t arg_ms{0};  // delay-pdo
+  std::uint8_t node{0};             // 0 for bus-wide faults
+  double at_s{0.0};                 // simulated time after the first SYNC
+  std::uint32_t arg_ms{0};          // delay-pdo, contact
+  std::array<double, 3> force_N{};  // contact: the force, world frame
   bool done{false};
+  bool ended{false};  // contact: the force is off again
 };
 
-// Parses "silent:2@1.5", "error-frame@3", "delay-pdo:1:15@0.5". Throws
+// Parses "silent:2@1.5", "error-frame@3", "delay-pdo:1:15@0.5",
+// "contact:10:1,0,0:200@2.5" (FORCE_N:DX,DY,DZ:MS, the direction
+// normalised). Throws
 // std::invalid_argument with the reason.
 FaultInjection parse_fault(const std::string& spec);
 
@@ -130,6 +135,8 @@ struct EmulatorConfig {
   std::uint64_t seed{1};
   std::vector<FaultInjection> faults;
   TorqueUnit torque_unit{TorqueUnit::kPerMille};
+  // Lines for the user (`contact: t_s=T force_N=F`); none where unset.
+  std::function<void(const std::string&)> report;
 };
 
 // Frames leave with a delay (wall clock, microseconds; 0 = now).

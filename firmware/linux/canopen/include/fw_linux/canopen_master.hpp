@@ -77,6 +77,10 @@ class CanopenMaster {
   // when asked, outside the control loop: the cycle only records the facts.
   std::string last_problem() const;
   std::uint64_t late_frames() const { return late_frames_; }
+  // SYNCs sent so far, and the cycle's period: the time since the first
+  // SYNC, as the emulator counts it.
+  std::uint64_t syncs_sent() const { return syncs_sent_; }
+  std::uint32_t period_us() const { return config_.period_us; }
 
  private:
   // kStarting: the drives are operational (cyclic exchange running) and any
@@ -158,6 +162,7 @@ class CanopenMaster {
   bool bus_error_{false};
   bool enable_{false};
   bool quick_stop_{false};
+  std::uint64_t syncs_sent_{0};
   std::uint64_t cycle_{0};
   std::uint8_t sync_counter_{0};  // of the last SYNC sent (with a counter)
   std::uint64_t now_us_{0};
