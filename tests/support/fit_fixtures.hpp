@@ -107,6 +107,18 @@ inline DeltaLog multibody_log(const delta::RobotDescription& robot, double base_
   return simulate_log(o);
 }
 
+// The default robot, heavier (twice the arm mass, a 0.5 kg payload), so
+// that its torques are those of a working delta.
+inline delta::RobotDescription heavy_robot() {
+  delta::RobotDescription r = delta::default_robot_description();
+  r.upper_arm.mass_kg *= 2.0;
+  r.upper_arm.inertia.xx_kg_m2 *= 2.0;
+  r.upper_arm.inertia.yy_kg_m2 *= 2.0;
+  r.upper_arm.inertia.zz_kg_m2 *= 2.0;
+  r.payload.mass_kg = 0.5;
+  return r;
+}
+
 inline FitResult fit_multibody_log(const delta::RobotDescription& robot, const std::string& model) {
   return fit_log(multibody_log(robot), least_squares(model_named(model)));
 }

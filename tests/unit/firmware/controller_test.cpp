@@ -367,6 +367,26 @@ TEST_F(ControllerTest, StartIsRefusedOutsideReadyOrForATrajectoryThatBreaksALimi
   EXPECT_FALSE(hw.drives_enabled);
 }
 
+// The plant's lumped truth as the controller's model parameters: arms and
+// platform, and with `friction` the joints' friction too.
+delta::fx::ModelParametersQ lumped_truth_q(bool friction) {
+  delta::fx::ModelParametersQ m;
+  m.kind = ModelKind::kLumped;
+  const delta::LumpedParameters truth = delta::default_lumped_parameters();
+  for (unsigned j = 0; j < 3; ++j) {
+    m.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(truth.arm_inertia_kg_m2[j]);
+    m.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(truth.arm_gravity_moment_Nm[j]);
+    if (!friction) continue;
+    m.viscous_friction_Nm_s_per_rad[j] =
+        to_q_saturated<Q12_19>(truth.viscous_friction_Nm_s_per_rad[j]);
+    m.coulomb_friction_Nm[j] = to_q_saturated<Q12_19>(truth.coulomb_friction_Nm[j]);
+  }
+  m.coulomb_smoothing_rad_s = to_q_saturated<Q10_21>(truth.coulomb_smoothing_rad_s);
+  m.platform_inertial_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  m.platform_weight_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  return m;
+}
+
 // The feed-forward changes only between runs, only to a model fitted for
 // this geometry; a trajectory checked before the change is refused at
 // start (its check no longer covers the feed-forward), and a feed-forward
@@ -374,15 +394,7 @@ TEST_F(ControllerTest, StartIsRefusedOutsideReadyOrForATrajectoryThatBreaksALimi
 // check, naming the tick and the joint.
 TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajectory) {
   to_ready();
-  delta::fx::ModelParametersQ m;
-  m.kind = ModelKind::kLumped;
-  const delta::LumpedParameters truth = delta::default_lumped_parameters();
-  for (unsigned j = 0; j < 3; ++j) {
-    m.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(truth.arm_inertia_kg_m2[j]);
-    m.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(truth.arm_gravity_moment_Nm[j]);
-  }
-  m.platform_inertial_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
-  m.platform_weight_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  const delta::fx::ModelParametersQ m = lumped_truth_q(false);
   FeedForwardConfig model = ctl.feed_forward();
   model.mode = FeedForwardMode::kModel;
   GeometryQ other = config.geometry;
@@ -428,19 +440,7 @@ TEST_F(ControllerTest, TheFeedForwardChangesBetweenRunsAndIsCheckedWithTheTrajec
 // feed-forward: what the collision detector compares the measured torque
 // against.
 FeedForwardConfig exact_model(const GeometryQ& geometry) {
-  delta::fx::ModelParametersQ m;
-  m.kind = ModelKind::kLumped;
-  const delta::LumpedParameters truth = delta::default_lumped_parameters();
-  for (unsigned j = 0; j < 3; ++j) {
-    m.arm_inertia_kg_m2[j] = to_q_saturated<Q7_24>(truth.arm_inertia_kg_m2[j]);
-    m.arm_gravity_cos_Nm[j] = to_q_saturated<Q12_19>(truth.arm_gravity_moment_Nm[j]);
-    m.viscous_friction_Nm_s_per_rad[j] =
-        to_q_saturated<Q12_19>(truth.viscous_friction_Nm_s_per_rad[j]);
-    m.coulomb_friction_Nm[j] = to_q_saturated<Q12_19>(truth.coulomb_friction_Nm[j]);
-  }
-  m.coulomb_smoothing_rad_s = to_q_saturated<Q10_21>(truth.coulomb_smoothing_rad_s);
-  m.platform_inertial_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
-  m.platform_weight_mass_kg = to_q_saturated<Q7_24>(truth.platform_mass_kg);
+  const delta::fx::ModelParametersQ m = lumped_truth_q(true);
   FeedForwardConfig f;
   f.mode = FeedForwardMode::kModel;
   f.model = delta::fx::prepare_model(geometry, m);

@@ -18,17 +18,7 @@
 namespace host_id {
 namespace {
 
-// The default robot, heavier (twice the arm mass, a 0.5 kg payload), so
-// that its torques are those of a working delta.
-delta::RobotDescription heavy_robot() {
-  delta::RobotDescription r = delta::default_robot_description();
-  r.upper_arm.mass_kg *= 2.0;
-  r.upper_arm.inertia.xx_kg_m2 *= 2.0;
-  r.upper_arm.inertia.yy_kg_m2 *= 2.0;
-  r.upper_arm.inertia.zz_kg_m2 *= 2.0;
-  r.payload.mass_kg = 0.5;
-  return r;
-}
+using test::heavy_robot;
 
 // A pick-and-place of the robot without torque noise: the torque the drive
 // reports, which the model is to predict.

@@ -20,14 +20,10 @@
 namespace host_id {
 namespace {
 
-// A working delta (twice the default's arm mass, a 0.5 kg payload) whose
-// arms differ by 3 %, with Stribeck friction and cogging at every joint.
+// A working delta (test::heavy_robot) whose arms differ by 3 %, with
+// Stribeck friction and cogging at every joint.
 delta::RobotDescription rigid_robot() {
-  delta::RobotDescription r = delta::default_robot_description();
-  r.upper_arm.mass_kg *= 2.0;
-  r.upper_arm.inertia.yy_kg_m2 *= 2.0;
-  r.upper_arm.inertia.zz_kg_m2 *= 2.0;
-  r.payload.mass_kg = 0.5;
+  delta::RobotDescription r = test::heavy_robot();
   const double arm_scale[3] = {1.0, 1.03, 0.97};
   for (unsigned j = 0; j < 3; ++j) {
     delta::UpperArmBody arm = r.upper_arm;
