@@ -263,6 +263,23 @@ TEST(HostExcite, ContactsWithTheRobotAreDetectedWithinTenMilliseconds) {
     EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
     EXPECT_LE(detected_s - contact_s, 0.010) << hit.fw << hit.emu;
   }
+  // In fault, the controller shows the detection over Modbus, and host_id
+  // status says it.
+  hil::Child emu = start_emulator({"--inject", "contact:10:1,0,0:200@3"});
+  hil::Child fw =
+      hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set",
+                         "feed_forward.store=", "--set", "feed_forward.model=" + model, "--set",
+                         "collision.detect=true", "--set", "collision.threshold_Nm=0.08", "--set",
+                         "modbus.tcp=127.0.0.1:15027", "--run", "pick-and-place"});
+  ASSERT_TRUE(fw.wait_for_output("collision pick-and-place: t_s=", 120s)) << fw.err();
+  hil::Child status =
+      hil::Child::spawn({kBin + "/host_id", "status", "--modbus", "127.0.0.1:15027"});
+  EXPECT_EQ(status.wait(30s).value_or(-1), 0) << status.err();
+  EXPECT_NE(status.out().find("  collision  detector on; last of 1: joint 1 at t_s=3.006"),
+            std::string::npos)
+      << status.out();
+  fw.terminate(30s);
+  emu.terminate(30s);
 }
 
 // The designed excitation end to end: host_id design writes a trajectory

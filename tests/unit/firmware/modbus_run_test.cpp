@@ -149,6 +149,9 @@ TEST_F(Fixture, RunsATrajectoryToItsEndAndRefusesChangesWhileRunning) {
   EXPECT_EQ(value(r.data(), "feed_forward_mode"), 1);  // nominal: no model configured
   EXPECT_EQ(value(r.data(), "model_fit_id"), 0);
   EXPECT_NE(out.str().find("  feed-fwd   nominal\n"), std::string::npos) << out.str();
+  EXPECT_EQ(value(r.data(), "collision_detect"), 0);  // off by default
+  EXPECT_EQ(value(r.data(), "collision_joint"), 0);
+  EXPECT_NE(out.str().find("  collision  detector off\n"), std::string::npos) << out.str();
   EXPECT_EQ(client.write(mb::kTrajectory, 2), 0);  // allowed again
 }
 

@@ -142,6 +142,8 @@ void RunCoordinator::print_collision(const Controller& c, const CanopenMaster& m
   const double t_s = master.syncs_sent() > 0
                          ? static_cast<double>(master.syncs_sent() - 1) * master.period_us() * 1e-6
                          : 0.0;
+  ++collision_count_;
+  collision_t_ms_ = static_cast<std::uint32_t>(std::llround(t_s * 1e3));
   char text[320];
   std::snprintf(text, sizeof text,
                 "collision %s: t_s=%.4f joint=%u residual_Nm=%.4f,%.4f,%.4f "
@@ -239,6 +241,17 @@ PanelStatus RunCoordinator::status(const Controller& c, const LinuxHardware& hw)
   for (unsigned j = 0; j < 3; ++j) {
     s.q_urad[j] = micro(c.feedback()[j].position_rad.raw(), 28);
     s.tau_uNm[j] = micro(c.measured_torque()[j].raw(), 19);
+  }
+  s.collision_detect = c.collision_config().detect;
+  s.collision_count = collision_count_;
+  if (c.collided()) {
+    const fw::CollisionEvent& e = c.collision();
+    s.collision_joint = static_cast<std::uint16_t>(e.joint + 1);
+    s.collision_t_ms = collision_t_ms_;
+    for (unsigned j = 0; j < 3; ++j) {
+      s.collision_residual_uNm[j] = micro(e.residual_Nm[j].raw(), 19);
+      s.collision_threshold_uNm[j] = micro(e.threshold_Nm[j].raw(), 19);
+    }
   }
   const fw::TrackingStats& t = c.tracking();
   if (t.ticks != 0) {

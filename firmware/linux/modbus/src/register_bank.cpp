@@ -121,6 +121,18 @@ void RegisterBank::refresh_inputs() {
     set(*kRms[j], s.tracking_rms_nrad[j]);
     set(*kMax[j], s.tracking_max_nrad[j]);
   }
+  set(reg("collision_detect"), s.collision_detect ? 1 : 0);
+  set(reg("collision_count"), s.collision_count);
+  set(reg("collision_joint"), s.collision_joint);
+  set(reg("collision_t"), s.collision_t_ms);
+  static constexpr const mb::Register* kResidual[] = {
+      &reg("collision_residual_1"), &reg("collision_residual_2"), &reg("collision_residual_3")};
+  static constexpr const mb::Register* kThreshold[] = {
+      &reg("collision_threshold_1"), &reg("collision_threshold_2"), &reg("collision_threshold_3")};
+  for (unsigned j = 0; j < 3; ++j) {
+    set(*kResidual[j], s.collision_residual_uNm[j]);
+    set(*kThreshold[j], s.collision_threshold_uNm[j]);
+  }
   set(reg("feed_forward_mode"), static_cast<int>(s.feed_forward.mode));
   set(reg("model_fit_id"), s.model_fit_id);
   set(reg("protocol_version"), mb::kMapVersion);

@@ -65,6 +65,16 @@ void print_run_and_settings(const std::vector<std::uint16_t>& in,
         << scaled("tracking_max_2", in) << " " << scaled("tracking_max_3", in) << " rad over "
         << r("tracking_ticks") << " cycles\n";
   }
+  out << "  collision  " << (r("collision_detect") != 0 ? "detector on" : "detector off");
+  if (r("collision_joint") != 0) {
+    out << std::setprecision(4) << "; last of " << r("collision_count") << ": joint "
+        << r("collision_joint") << " at t_s=" << scaled("collision_t", in) << ", residual "
+        << scaled("collision_residual_1", in) << " " << scaled("collision_residual_2", in) << " "
+        << scaled("collision_residual_3", in) << " N m against "
+        << scaled("collision_threshold_1", in) << " " << scaled("collision_threshold_2", in) << " "
+        << scaled("collision_threshold_3", in) << " N m";
+  }
+  out << "\n";
   static const char* const kModes[] = {"off", "nominal", "the identified model"};
   const std::int64_t mode = r("feed_forward_mode");
   out << "  feed-fwd   " << (mode >= 0 && mode < 3 ? kModes[mode] : "unknown");

@@ -16,7 +16,7 @@
 
 namespace delta::modbus {
 
-inline constexpr std::uint16_t kMapVersion = 6;  // the input register protocol_version
+inline constexpr std::uint16_t kMapVersion = 7;  // the input register protocol_version
 inline constexpr int kDefaultTcpPort = 1502;     // 502 needs root
 
 enum class Table : std::uint8_t { kInput, kHolding };
@@ -158,12 +158,12 @@ inline constexpr std::uint16_t kIoLogEnabled = 1u << 4;
 inline constexpr unsigned kFaultHistoryLength = 8;
 
 // clang-format off
-inline constexpr std::array<Register, 107> kRegisters{{
+inline constexpr std::array<Register, 117> kRegisters{{
     // Identity
     {"firmware_version_major", Table::kInput, 0, Type::kU16, 1, 1, "", "firmware version, major"},
     {"firmware_version_minor", Table::kInput, 1, Type::kU16, 1, 1, "", "firmware version, minor"},
     {"firmware_version_patch", Table::kInput, 2, Type::kU16, 1, 1, "", "firmware version, patch"},
-    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (6)"},
+    {"protocol_version", Table::kInput, 3, Type::kU16, 1, 1, "", "version of this register map (7)"},
     // State
     {"state", Table::kInput, 4, Type::kU16, 1, 1, "", kStateText.data()},
     {"fault_code", Table::kInput, 5, Type::kU16, 1, 1, "", "the current fault (docs/firmware.md), 0 none"},
@@ -226,6 +226,17 @@ inline constexpr std::array<Register, 107> kRegisters{{
     // The feed-forward in use (docs/protocol.md, node 16's 0x2200)
     {"feed_forward_mode", Table::kInput, 91, Type::kU16, 1, 1, "", "0 off, 1 nominal, 2 the identified model"},
     {"model_fit_id", Table::kInput, 92, Type::kU32, 1, 1, "", "the fit id of the model loaded or configured (CRC-32 of its result file), 0 none"},
+    // The collision detector (docs/safety.md) and its last detection
+    {"collision_detect", Table::kInput, 94, Type::kU16, 1, 1, "", "1 the detector is on, 0 off"},
+    {"collision_count", Table::kInput, 95, Type::kU16, 1, 1, "", "detections since start"},
+    {"collision_joint", Table::kInput, 96, Type::kU16, 1, 1, "", "the last detection's joint (1-3), 0 none yet"},
+    {"collision_t", Table::kInput, 97, Type::kU32, 1, 1000, "s", "its time since the first SYNC (ms)"},
+    {"collision_residual_1", Table::kInput, 99, Type::kI32, 1, 1000000, "N m", "its joint 1 filtered residual (uN m)"},
+    {"collision_residual_2", Table::kInput, 101, Type::kI32, 1, 1000000, "N m", "its joint 2 filtered residual (uN m)"},
+    {"collision_residual_3", Table::kInput, 103, Type::kI32, 1, 1000000, "N m", "its joint 3 filtered residual (uN m)"},
+    {"collision_threshold_1", Table::kInput, 105, Type::kI32, 1, 1000000, "N m", "its joint 1 threshold (uN m)"},
+    {"collision_threshold_2", Table::kInput, 107, Type::kI32, 1, 1000000, "N m", "its joint 2 threshold (uN m)"},
+    {"collision_threshold_3", Table::kInput, 109, Type::kI32, 1, 1000000, "N m", "its joint 3 threshold (uN m)"},
     // Settings and the command
     {"trajectory", Table::kHolding, 0, Type::kU16, 1, 1, "", kTrajectoryText.data()},
     {"amplitude_scale", Table::kHolding, 1, Type::kU16, 1, 1000, "", "1-2000 per mille of the trajectory's amplitude; not while running"},

@@ -79,6 +79,8 @@ class RunCoordinator {
   bool stop_commanded_{false};
   bool last_estop_open_{false};
   std::uint16_t fault_count_{0};
+  std::uint16_t collision_count_{0};
+  std::uint32_t collision_t_ms_{0};  // the last collision's, since the first SYNC
   std::array<FaultRecord, delta::modbus::kFaultHistoryLength> history_{};
   const FeedForwardSlot* feed_forward_slot_{nullptr};
 };

@@ -48,6 +48,13 @@ struct PanelStatus {
   std::uint32_t tracking_ticks{0};
   std::array<std::uint32_t, 3> tracking_rms_nrad{};
   std::array<std::uint32_t, 3> tracking_max_nrad{};
+  // The collision detector and its last detection (docs/safety.md).
+  bool collision_detect{false};
+  std::uint16_t collision_count{0};
+  std::uint16_t collision_joint{0};  // 1-3, 0 none yet
+  std::uint32_t collision_t_ms{0};   // since the first SYNC
+  std::array<std::int32_t, 3> collision_residual_uNm{};
+  std::array<std::int32_t, 3> collision_threshold_uNm{};
 };
 
 struct PanelCommand {
