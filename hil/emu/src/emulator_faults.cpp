@@ -99,7 +99,7 @@ FaultInjection parse_fault(const std::string& spec) {
   } else {
     throw std::invalid_argument("fault '" + spec +
                                 "': unknown kind (heartbeat-drop, silent, error-frame, "
-                                "corrupt-pdo, delay-pdo, overcurrent)");
+                                "corrupt-pdo, delay-pdo, overcurrent, contact)");
   }
   const std::size_t expected = needs_node ? (f.kind == FaultKind::kDelayPdo ? 3u : 2u) : 1u;
   if (parts.size() != expected) {

@@ -519,7 +519,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   r.correlation = ls.correlation;
   if (options.model.name != "paper14" && !(options.model.stribeck_velocity_rad_s > 0.0)) {
     r.stribeck = stribeck_signature(all_rows, reg.rows(), options.model.coulomb_smoothing_rad_s,
-                                    r.std_dev_lags / 4);
+                                    nyquist_step(r.std_dev_lags));
   }
   r.doubts = doubts_of(r);
   note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
@@ -557,10 +557,6 @@ std::string implausible_masses(const FitResult& r) {
          "values; check the log's torque unit (docs/log-format.md)";
 }
 
-}  // namespace
-
-namespace {
-
 // The friction's shape: a search that ended on its bound, or a residual
 // with the Stribeck signature the model lacks; "" where neither.
 std::string friction_shape_doubt(const FitResult& r) {
@@ -594,6 +590,46 @@ std::string friction_shape_doubt(const FitResult& r) {
          "--stribeck-velocity "
       << format_number(r.stribeck->velocity_rad_s)
       << " (add --fit-friction-shape to search the velocity)";
+  }
+  return m.str();
+}
+
+// Parameters that change along the log (FitResult::changing); "" where
+// none does.
+std::string changing_doubt(const FitResult& r) {
+  if (r.changing.empty()) return "";
+  std::string names;
+  for (const std::string& n : r.changing) names += (names.empty() ? "" : ", ") + n;
+  std::ostringstream m;
+  m << names << " change along the log: their estimates from its thirds in time differ up to "
+    << std::lround(r.changing_ratio)
+    << " times more than over any split of its motions. Runs of different payloads, robots "
+       "or settings glued into one log, or a drift (a loosening part, warming grease), give "
+       "this; fit each run alone (a payload: fit --base, docs/payload.md)";
+  return m.str();
+}
+
+// Another variant of the model that the log supports better than the one
+// fitted (FitResult::support); "" where none does.
+std::string support_doubt(const FitResult& r) {
+  if (!r.support) return "";
+  const ModelSelection& s = *r.support;
+  const VariantScore& fitted = s.variants[variant_index(s, r.options.model)];
+  const VariantScore& best = s.variants[s.chosen];
+  if (!(best.held_out_rmse_Nm <= (1.0 - kSupportDoubt) * fitted.held_out_rmse_Nm)) return "";
+  std::ostringstream m;
+  m << "the log supports " << best.name << ": held-out torque error " << best.held_out_rmse_Nm
+    << " N m against " << fitted.held_out_rmse_Nm << " N m for the " << fitted.name << " fitted ("
+    << s.folds << " time blocks); fit with ";
+  const std::string flags = std::string(best.model.per_joint ? " --per-joint" : "") +
+                            (best.model.offsets ? " --offsets" : "") +
+                            (best.model.torque_gains ? " --torque-gains" : "") +
+                            (best.model.load_friction ? " --load-friction" : "");
+  // --model auto chooses among the delta model's variants.
+  if (r.options.model.name == "delta") {
+    m << "--model auto (or" << flags << ")";
+  } else {
+    m << "--model " << r.options.model.name << flags;
   }
   return m.str();
 }
@@ -634,38 +670,8 @@ std::vector<std::string> doubts_of(const FitResult& r) {
                      "): the log cannot tell them from 0");
   }
   if (const std::string shape = friction_shape_doubt(r); !shape.empty()) doubts.push_back(shape);
-  if (!r.changing.empty()) {
-    std::string names;
-    for (const std::string& n : r.changing) names += (names.empty() ? "" : ", ") + n;
-    m.str("");
-    m << names << " change along the log: their estimates from its thirds in time differ up to "
-      << std::lround(r.changing_ratio)
-      << " times more than over any split of its motions. Runs of different payloads, robots "
-         "or settings glued into one log, or a drift (a loosening part, warming grease), give "
-         "this; fit each run alone (a payload: fit --base, docs/payload.md)";
-    doubts.push_back(m.str());
-  }
-  if (r.support) {
-    const ModelSelection& s = *r.support;
-    const VariantScore& fitted = s.variants[variant_index(s, r.options.model)];
-    const VariantScore& best = s.variants[s.chosen];
-    if (best.held_out_rmse_Nm <= (1.0 - kSupportDoubt) * fitted.held_out_rmse_Nm) {
-      m.str("");
-      m << "the log supports " << best.name << ": held-out torque error " << best.held_out_rmse_Nm
-        << " N m against " << fitted.held_out_rmse_Nm << " N m for the " << fitted.name
-        << " fitted (" << s.folds << " time blocks); fit with ";
-      const std::string flags = std::string(best.model.per_joint ? " --per-joint" : "") +
-                                (best.model.offsets ? " --offsets" : "") +
-                                (best.model.torque_gains ? " --torque-gains" : "") +
-                                (best.model.load_friction ? " --load-friction" : "");
-      // --model auto chooses among the delta model's variants.
-      if (r.options.model.name == "delta") {
-        m << "--model auto (or" << flags << ")";
-      } else {
-        m << "--model " << r.options.model.name << flags;
-      }
-      doubts.push_back(m.str());
-    }
+  for (const std::string& d : {changing_doubt(r), support_doubt(r)}) {
+    if (!d.empty()) doubts.push_back(d);
   }
   return doubts;
 }

@@ -160,7 +160,7 @@ MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& join
 
 MotionSpread add_model_error(const Equations& r, std::size_t correlation_lags,
                              LeastSquaresResult& ls) {
-  const MotionSpread spread = motion_spread(r, ls.joint_weights, correlation_lags / 4);
+  const MotionSpread spread = motion_spread(r, ls.joint_weights, nyquist_step(correlation_lags));
   ls.honest_std_dev = ls.std_dev;
   keep_larger(ls.honest_std_dev, spread.std_dev);
   return spread;

@@ -77,7 +77,7 @@ void RunCoordinator::report_state_change(const Controller& c, const CanopenMaste
   }
   out_ << "\n";
   if (state == fw::State::kFault && c.fault() == fw::Fault::kCollision && c.collided()) {
-    print_collision(c, master);
+    note_collision(c, master);
   }
 }
 
@@ -134,9 +134,10 @@ void RunCoordinator::track_run(const Controller& c) {
   }
 }
 
-// A collision: `collision NAME: t_s=T joint=J residual_Nm=a,b,c
-// threshold_Nm=a,b,c`, T in seconds since the first SYNC (docs/safety.md).
-void RunCoordinator::print_collision(const Controller& c, const CanopenMaster& master) {
+// A collision: counted and timed for the status registers, and printed as
+// `collision NAME: t_s=T joint=J residual_Nm=a,b,c threshold_Nm=a,b,c`,
+// T in seconds since the first SYNC (docs/safety.md).
+void RunCoordinator::note_collision(const Controller& c, const CanopenMaster& master) {
   const fw::CollisionEvent& e = c.collision();
   const auto nm = [](fw::Q12_19 v) { return std::ldexp(static_cast<double>(v.raw()), -19); };
   const double t_s = master.syncs_sent() > 0

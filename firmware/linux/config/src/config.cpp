@@ -461,6 +461,27 @@ std::pair<std::string, int> split_host_port(const std::string& text, const std::
   return {text.substr(0, colon), static_cast<int>(p)};
 }
 
+namespace {
+
+// The collision detector's settings in the core's formats (every joint's
+// thresholds alike).
+fw::CollisionConfig collision_config(const PortConfig& c) {
+  using delta::fx::Q12_19;
+  fw::CollisionConfig out;
+  out.detect = c.collision_detect;
+  out.threshold_scale = to_q<Q12_19>(c.collision_threshold_scale, "collision.threshold_scale");
+  fw::CollisionThresholds& t = out.thresholds;
+  t.base_Nm.fill(to_q<Q12_19>(c.collision_threshold_Nm, "collision.threshold_Nm"));
+  t.per_speed_Nm_s_per_rad.fill(
+      to_q<Q12_19>(c.collision_threshold_per_speed, "collision.threshold_per_speed_Nm_s_per_rad"));
+  t.per_acceleration_Nm_s2_per_rad.fill(
+      to_q<Q12_19>(c.collision_threshold_per_acceleration,
+                   "collision.threshold_per_acceleration_Nm_s2_per_rad"));
+  return out;
+}
+
+}  // namespace
+
 fw::ControllerConfig controller_config(const PortConfig& c) {
   using namespace delta::fx;
   fw::ControllerConfig out;
@@ -495,18 +516,7 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
   out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
   out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
   out.feed_forward.mode = c.feed_forward;
-  out.collision.detect = c.collision_detect;
-  out.collision.threshold_scale =
-      to_q<Q12_19>(c.collision_threshold_scale, "collision.threshold_scale");
-  for (unsigned j = 0; j < 3; ++j) {
-    fw::CollisionThresholds& t = out.collision.thresholds;
-    t.base_Nm[j] = to_q<Q12_19>(c.collision_threshold_Nm, "collision.threshold_Nm");
-    t.per_speed_Nm_s_per_rad[j] =
-        to_q<Q12_19>(c.collision_threshold_per_speed, "collision.threshold_per_speed_Nm_s_per_rad");
-    t.per_acceleration_Nm_s2_per_rad[j] =
-        to_q<Q12_19>(c.collision_threshold_per_acceleration,
-                     "collision.threshold_per_acceleration_Nm_s2_per_rad");
-  }
+  out.collision = collision_config(c);
   if (c.feed_forward_model) {
     out.feed_forward.model =
         prepare_model(out.geometry, delta::model_parameters_q(*c.feed_forward_model));

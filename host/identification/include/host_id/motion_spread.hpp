@@ -42,9 +42,14 @@ struct MotionSpread {
 MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& joint_weights,
                            std::size_t step);
 
-// ls.honest_std_dev: the larger of ls.std_dev and the motion spread, with
-// the step for `correlation_lags` (2 fs / f_cutoff): fs / (2 f_cutoff), the
-// rows at the Nyquist rate of the filtered signals.
+// The step that takes the rows at the Nyquist rate of the filtered
+// signals, fs / (2 f_cutoff), from the correlation lags (2 fs / f_cutoff).
+inline std::size_t nyquist_step(std::size_t correlation_lags) {
+  return correlation_lags / 4 > 0 ? correlation_lags / 4 : 1;
+}
+
+// ls.honest_std_dev: the larger of ls.std_dev and the motion spread, its
+// rows every nyquist_step(correlation_lags)-th.
 MotionSpread add_model_error(const Equations& r, std::size_t correlation_lags,
                              LeastSquaresResult& ls);
 

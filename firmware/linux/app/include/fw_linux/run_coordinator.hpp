@@ -57,7 +57,7 @@ class RunCoordinator {
   // ended or the controller faulted.
   void count_down_to_exit(fw::State state);
   void track_run(const Controller& controller);
-  void print_collision(const Controller& controller, const CanopenMaster& master);
+  void note_collision(const Controller& controller, const CanopenMaster& master);
   void print_tracking(const fw::TrackingStats& tracking);
   PanelStatus status(const Controller& controller, const LinuxHardware& hw) const;
 
