@@ -66,6 +66,33 @@ std::optional<Geometry> geometry_of(const nlohmann::json& j, const std::string& 
                   length("platform_radius_m")};
 }
 
+// The collision thresholds where the result has them: three numbers, not
+// negative, for each of the three terms.
+std::optional<CollisionThresholds> collision_thresholds_of(const nlohmann::json& j,
+                                                           const std::string& path) {
+  if (!j.contains("collision_thresholds") || j["collision_thresholds"].is_null()) {
+    return std::nullopt;
+  }
+  const auto& c = j["collision_thresholds"];
+  const auto joint3 = [&](const char* key) {
+    const auto& v = member(c, key, path + ": collision_thresholds");
+    Joint3 out{};
+    if (!v.is_array() || v.size() != 3) {
+      throw InputError(path + ": collision_thresholds." + key + " must be three numbers");
+    }
+    for (unsigned i = 0; i < 3; ++i) {
+      if (!v[i].is_number() || !(v[i].get<double>() >= 0.0)) {
+        throw InputError(path + ": collision_thresholds." + key +
+                         " must be three numbers, none negative");
+      }
+      out[i] = v[i].get<double>();
+    }
+    return out;
+  };
+  return CollisionThresholds{joint3("base_Nm"), joint3("per_speed_Nm_s_per_rad"),
+                             joint3("per_acceleration_Nm_s2_per_rad")};
+}
+
 }  // namespace
 
 IdentifiedModel read_identified_model(const std::string& path) {
@@ -92,6 +119,7 @@ IdentifiedModel read_identified_model(const std::string& path) {
     m.terms_not_run = std::string(gains ? "torque gains" : "") + (gains && load ? " and " : "") +
                       (load ? "load friction" : "");
     m.geometry = geometry_of(j, path);
+    m.collision_thresholds = collision_thresholds_of(j, path);
     const auto& params = member(j, "parameters", path);
     if (m.kind != "delta" && m.kind != "lumped") {
       throw InputError(path + ": model '" + m.kind +

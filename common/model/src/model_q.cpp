@@ -54,7 +54,22 @@ controller::ModelRecord model_record(const IdentifiedModel& m) {
   r.geometry = geometry_q(m.geometry.value_or(Geometry{}));
   r.parameters = model_parameters_q(m);
   r.fit_id = m.fit_id;
+  if (m.collision_thresholds) {
+    r.has_collision_thresholds = true;
+    r.collision_thresholds = collision_thresholds_q(*m.collision_thresholds);
+  }
   return r;
+}
+
+fx::CollisionThresholdsQ collision_thresholds_q(const CollisionThresholds& t) {
+  fx::CollisionThresholdsQ q;
+  for (unsigned j = 0; j < 3; ++j) {
+    q.base_Nm[j] = to_q_saturated<fx::Q12_19>(t.base_Nm[j]);
+    q.per_speed_Nm_s_per_rad[j] = to_q_saturated<fx::Q12_19>(t.per_speed_Nm_s_per_rad[j]);
+    q.per_acceleration_Nm_s2_per_rad[j] =
+        to_q_saturated<fx::Q12_19>(t.per_acceleration_Nm_s2_per_rad[j]);
+  }
+  return q;
 }
 
 namespace {
@@ -91,6 +106,12 @@ IdentifiedModel identified_model(const controller::ModelRecord& r) {
   m.per_joint = h.arm_inertia_kg_m2[0] != h.arm_inertia_kg_m2[1] ||
                 h.arm_inertia_kg_m2[1] != h.arm_inertia_kg_m2[2];
   m.offsets = h.torque_offset_Nm != Joint3{};
+  if (r.has_collision_thresholds) {
+    const fx::CollisionThresholdsQ& t = r.collision_thresholds;
+    m.collision_thresholds =
+        CollisionThresholds{from_q3(t.base_Nm), from_q3(t.per_speed_Nm_s_per_rad),
+                            from_q3(t.per_acceleration_Nm_s2_per_rad)};
+  }
   return m;
 }
 
@@ -138,6 +159,13 @@ std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry
   c.joints<Q12_19>("coulomb_friction", p.coulomb_friction_Nm, true, "N m");
   c.joints<Q12_19>("stribeck_friction", p.stribeck_friction_Nm, true, "N m");
   c.joints<Q12_19>("torque_offset", p.torque_offset_Nm, false, "N m");
+  if (m.collision_thresholds) {
+    const CollisionThresholds& t = *m.collision_thresholds;
+    c.joints<Q12_19>("collision_thresholds.base", t.base_Nm, true, "N m");
+    c.joints<Q12_19>("collision_thresholds.per_speed", t.per_speed_Nm_s_per_rad, true, "N m s/rad");
+    c.joints<Q12_19>("collision_thresholds.per_acceleration", t.per_acceleration_Nm_s2_per_rad,
+                     true, "N m s^2/rad");
+  }
   const double min_speed = std::ldexp(fx::kMinFrictionVelocity.raw(), -21);
   if (!(p.coulomb_smoothing_rad_s >= min_speed && p.coulomb_smoothing_rad_s < 1024.0)) {
     problems.push_back("model.coulomb_smoothing_rad_s = " + number(p.coulomb_smoothing_rad_s) +

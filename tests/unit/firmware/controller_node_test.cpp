@@ -10,7 +10,9 @@
 
 #include "delta/can/protocol.hpp"
 #include "delta/controller/model_record.hpp"
+#include "delta/little_endian.hpp"
 #include "delta/model_q.hpp"
+#include "delta/update/crc32.hpp"
 #include "node_rig.hpp"
 #include "scratch_directory.hpp"
 
@@ -295,6 +297,53 @@ TEST(ControllerNodeTest, ARefusedOrUnfinishedLoadLeavesTheModelInUse) {
   bare.transfer();
   EXPECT_EQ(bare.client.abort_code(), sdo::kAbortValueRange);
   EXPECT_EQ(bare.read(0x2200, 3), 1u);
+}
+
+// The collision thresholds travel with the model (delta-model/2): loaded,
+// they are the slot's, and given back; a negative one is refused as a
+// value out of range; a delta-model/1 record (140 bytes, from before) is
+// still taken, without thresholds.
+TEST(ControllerNodeTest, AModelCarriesItsCollisionThresholds) {
+  NodeRig rig;
+  rig.step();
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = delta::kDefaultGeometry;
+  m.parameters = delta::to_high_fidelity(delta::default_lumped_parameters());
+  m.fit_id = 0xC0111DE5u;
+  m.collision_thresholds =
+      delta::CollisionThresholds{{0.04, 0.05, 0.06}, {0.1, 0.1, 0.2}, {0, 0.01, 0}};
+  mc::ModelRecordBytes bytes{};
+  mc::encode_model_record(delta::model_record(m), bytes);
+  ASSERT_EQ(load(rig, bytes), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  ASSERT_TRUE(rig.feed_forward.thresholds().has_value());
+  EXPECT_EQ(rig.feed_forward.thresholds()->base_Nm[2].raw(), delta::fx::Q12_19::from(0.06).raw());
+  EXPECT_EQ(rig.feed_forward.thresholds()->per_speed_Nm_s_per_rad[2].raw(),
+            delta::fx::Q12_19::from(0.2).raw());
+  mc::ModelRecord back;
+  ASSERT_EQ(mc::decode_model_record(rig.feed_forward.record(), back), mc::ModelRecordFault::kOk);
+  EXPECT_TRUE(back.has_collision_thresholds);
+  EXPECT_EQ(back.collision_thresholds, *rig.feed_forward.thresholds());
+
+  m.collision_thresholds->base_Nm[1] = -0.01;
+  mc::encode_model_record(delta::model_record(m), bytes);
+  EXPECT_EQ(load(rig, bytes), sdo::kAbortValueRange);
+  EXPECT_EQ(rig.read(0x2200, 4), 5u);
+  EXPECT_EQ(rig.read(0x2200, 2), 0xC0111DE5u);
+
+  // Version 1: the same bytes up to the parameters, its CRC at 136.
+  m.collision_thresholds.reset();
+  m.fit_id = 0x0000F001u;
+  mc::encode_model_record(delta::model_record(m), bytes);
+  std::vector<std::uint8_t> v1(bytes.begin(), bytes.begin() + mc::kModelRecordV1Bytes);
+  v1[4] = 1;
+  delta::put_le32(v1, 136, delta::update::crc32(std::span<const std::uint8_t>(v1.data(), 136)));
+  ASSERT_EQ(load(rig, v1), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  EXPECT_EQ(rig.read(0x2200, 2), 0x0000F001u);
+  EXPECT_FALSE(rig.feed_forward.thresholds().has_value());
+  EXPECT_EQ(
+      std::vector<std::uint8_t>(rig.feed_forward.record().begin(), rig.feed_forward.record().end()),
+      v1);
 }
 
 }  // namespace

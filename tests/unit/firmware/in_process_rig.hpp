@@ -11,6 +11,7 @@
 #include "emu/emulator.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/canopen_master.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/controller_node.hpp"
 #include "fw_linux/linux_hardware.hpp"
@@ -72,7 +73,9 @@ struct Rig {
         node(bus, c, kVersion, program, feed_forward) {
     bus.emulator_.boot();
     feed_forward.set_apply(
-        [this](const fw::FeedForwardConfig& f) { return controller.set_feed_forward(f); });
+        [this, c](const fw::FeedForwardConfig& f, const std::optional<fw::CollisionThresholds>& t) {
+          return apply_model(controller, c, f, t).has_value();
+        });
   }
   static PortConfig config() {
     PortConfig c;

@@ -14,6 +14,15 @@
 
 namespace delta {
 
+// The collision detector's thresholds the fit derived from its own
+// residual (docs/safety.md): per joint, base + per_speed |qd| +
+// per_acceleration |qdd|.
+struct CollisionThresholds {
+  Joint3 base_Nm{};
+  Joint3 per_speed_Nm_s_per_rad{};
+  Joint3 per_acceleration_Nm_s2_per_rad{};
+};
+
 struct IdentifiedModel {
   std::string kind;  // "delta" or "lumped"
   bool per_joint{false};
@@ -27,6 +36,9 @@ struct IdentifiedModel {
   // ("torque gains", "load friction"; docs/model.md, "The drive train"),
   // joined by " and "; empty: none. Its feed-forward leaves them out.
   std::string terms_not_run;
+  // None in results saved before they were derived, or where the
+  // controller's model is not the fit's (terms it does not run).
+  std::optional<CollisionThresholds> collision_thresholds;
 };
 
 // What a controller says at start or on loading a model with terms it does

@@ -33,6 +33,10 @@ fx::GeometryQ geometry_q(const Geometry& g);
 controller::ModelRecord model_record(const IdentifiedModel& m);
 IdentifiedModel identified_model(const controller::ModelRecord& r);
 
+// The collision thresholds in the controller's format (Q12.19; call
+// model_problems() first).
+fx::CollisionThresholdsQ collision_thresholds_q(const CollisionThresholds& t);
+
 // Whether two geometries are the same robot (every length within 1 um).
 bool same_geometry(const Geometry& a, const Geometry& b);
 

@@ -12,7 +12,10 @@ namespace {
 constexpr std::uint8_t kMagic[4] = {'D', 'M', 'D', 'L'};
 constexpr std::size_t kGeometryAt = 12;
 constexpr std::size_t kParametersAt = 28;
-constexpr std::size_t kCrcAt = 136;
+constexpr std::size_t kThresholdsAt = 136;
+constexpr std::size_t kCrcAt = 172;
+constexpr std::size_t kV1CrcAt = 136;
+constexpr std::uint8_t kHasThresholds = 0x01;
 constexpr std::int32_t kMicrometreQ24 = 17;  // 1 um in Q7.24, rounded up
 
 // The 27 parameters in record order, each with whether it must not be
@@ -34,6 +37,51 @@ void each_field(P& p, Visit&& visit) {
   visit(p.gravity_m_s2, true);
 }
 
+// The collision thresholds in record order (every one not negative).
+template <class T, class Visit>
+void each_threshold(T& t, Visit&& visit) {
+  for (auto& v : t.base_Nm) visit(v);
+  for (auto& v : t.per_speed_Nm_s_per_rad) visit(v);
+  for (auto& v : t.per_acceleration_Nm_s2_per_rad) visit(v);
+}
+
+// The record's length for its format version; 0 for a version it does not
+// have.
+std::size_t length_of_version(std::uint16_t version) {
+  if (version == 1) return kModelRecordV1Bytes;
+  if (version == kModelRecordVersion) return kModelRecordBytes;
+  return 0;
+}
+
+ModelRecordFault check_frame(std::span<const std::uint8_t> bytes) {
+  if (bytes.size() != kModelRecordBytes && bytes.size() != kModelRecordV1Bytes) {
+    return ModelRecordFault::kLength;
+  }
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (bytes[i] != kMagic[i]) return ModelRecordFault::kFormat;
+  }
+  if (length_of_version(get_le16(bytes, 4)) != bytes.size()) return ModelRecordFault::kFormat;
+  const std::size_t crc_at = bytes.size() == kModelRecordBytes ? kCrcAt : kV1CrcAt;
+  if (get_le32(bytes, crc_at) != update::crc32(bytes.first(crc_at))) {
+    return ModelRecordFault::kChecksum;
+  }
+  return ModelRecordFault::kOk;
+}
+
+// A version 2 record's thresholds; false for a negative one.
+bool decode_thresholds(std::span<const std::uint8_t> bytes, ModelRecord& r) {
+  if (bytes.size() != kModelRecordBytes || (bytes[7] & kHasThresholds) == 0) return true;
+  r.has_collision_thresholds = true;
+  std::size_t at = kThresholdsAt;
+  bool in_range = true;
+  each_threshold(r.collision_thresholds, [&](fx::Q12_19& v) {
+    v = fx::Q12_19::from_raw(static_cast<std::int32_t>(get_le32(bytes, at)));
+    at += 4;
+    if (v.raw() < 0) in_range = false;
+  });
+  return in_range;
+}
+
 }  // namespace
 
 void encode_model_record(const ModelRecord& r, ModelRecordBytes& out) {
@@ -52,18 +100,20 @@ void encode_model_record(const ModelRecord& r, ModelRecordBytes& out) {
     put_le32(out, at, static_cast<std::uint32_t>(v.raw()));
     at += 4;
   });
+  if (r.has_collision_thresholds) {
+    out[7] = kHasThresholds;
+    at = kThresholdsAt;
+    each_threshold(r.collision_thresholds, [&](const fx::Q12_19& v) {
+      put_le32(out, at, static_cast<std::uint32_t>(v.raw()));
+      at += 4;
+    });
+  }
   put_le32(out, kCrcAt, update::crc32(std::span<const std::uint8_t>(out.data(), kCrcAt)));
 }
 
 ModelRecordFault decode_model_record(std::span<const std::uint8_t> bytes, ModelRecord& out) {
-  if (bytes.size() != kModelRecordBytes) return ModelRecordFault::kLength;
-  for (std::size_t i = 0; i < 4; ++i) {
-    if (bytes[i] != kMagic[i]) return ModelRecordFault::kFormat;
-  }
-  if (get_le16(bytes, 4) != kModelRecordVersion) return ModelRecordFault::kFormat;
-  if (get_le32(bytes, kCrcAt) != update::crc32(bytes.first(kCrcAt))) {
-    return ModelRecordFault::kChecksum;
-  }
+  const ModelRecordFault frame = check_frame(bytes);
+  if (frame != ModelRecordFault::kOk) return frame;
   ModelRecord r;
   const std::uint8_t kind = bytes[6];
   if (kind != static_cast<std::uint8_t>(fx::ModelKind::kDelta) &&
@@ -84,6 +134,7 @@ ModelRecordFault decode_model_record(std::span<const std::uint8_t> bytes, ModelR
     at += 4;
     if (nonnegative && v.raw() < 0) in_range = false;
   });
+  if (!decode_thresholds(bytes, r)) in_range = false;
   const fx::ModelParametersQ& p = r.parameters;
   if (!in_range || p.coulomb_smoothing_rad_s < fx::kMinFrictionVelocity ||
       (p.stribeck_velocity_rad_s.raw() != 0 &&

@@ -16,6 +16,7 @@
 #include <array>
 #include <cstdint>
 
+#include "delta/fixed/dynamics.hpp"
 #include "delta/fixed/q.hpp"
 
 namespace fw {
@@ -24,13 +25,8 @@ using delta::fx::Q10_21;
 using delta::fx::Q12_19;
 using delta::fx::Q14_17;
 
-struct CollisionThresholds {
-  std::array<Q12_19, 3> base_Nm{};
-  std::array<Q12_19, 3> per_speed_Nm_s_per_rad{};
-  std::array<Q12_19, 3> per_acceleration_Nm_s2_per_rad{};
-  friend constexpr bool operator==(const CollisionThresholds&,
-                                   const CollisionThresholds&) = default;
-};
+// Per joint, the model's own (delta/fixed/dynamics.hpp): they travel with it.
+using CollisionThresholds = delta::fx::CollisionThresholdsQ;
 
 struct CollisionConfig {
   bool detect{false};

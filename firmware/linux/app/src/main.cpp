@@ -8,6 +8,7 @@
 #include <string>
 
 #include "delta/can/socketcan.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/drive_plan.hpp"
 #include "fw_linux/exit_codes.hpp"
@@ -126,7 +127,13 @@ int check_config(const Arguments& a) {
     return fw_linux::kExitUsage;
   }
   std::cout << fw_linux::describe_feed_forward(config) << "\n";
-  std::cout << fw_linux::describe_collision(config) << "\n";
+  std::cout << fw_linux::describe_collision(fw_linux::collision_setting(
+                   config,
+                   config.feed_forward == fw::FeedForwardMode::kModel &&
+                       config.feed_forward_model.has_value(),
+                   fw_linux::model_thresholds(config),
+                   config.feed_forward_model ? config.feed_forward_model->fit_id : 0))
+            << "\n";
   const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);
   std::size_t transfers = 0;
   for (const fw_linux::DrivePlan& plan : plans.drives) {

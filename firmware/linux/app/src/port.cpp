@@ -19,6 +19,7 @@
 #include "delta/can/protocol.hpp"
 #include "delta/monotonic_clock.hpp"
 #include "fw/controller.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/controller_node.hpp"
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/run_coordinator.hpp"
@@ -231,8 +232,19 @@ struct Loop {
     if (options.panel != nullptr) hw.gate_log(&options.panel->log_enabled());
     hw.gate_pdos(&node);
     feed_forward.set_apply(
-        [this](const fw::FeedForwardConfig& f) { return controller.set_feed_forward(f); });
+        [this, &config, &out](const fw::FeedForwardConfig& f,
+                              const std::optional<fw::CollisionThresholds>& thresholds) {
+          return apply_model(config, f, thresholds, out);
+        });
     coordinator.set_feed_forward_slot(&feed_forward);
+  }
+  // A model (or feed-forward mode) set over the bus, with the detector's
+  // settings that go with it: false where a run is on.
+  bool apply_model(const PortConfig& config, const fw::FeedForwardConfig& f,
+                   const std::optional<fw::CollisionThresholds>& thresholds, std::ostream& out) {
+    const auto s = fw_linux::apply_model(controller, config, f, thresholds);
+    if (s) out << "delta_fw: " << describe_collision(*s) << "\n";
+    return s.has_value();
   }
   delta::can::Socket socket;
   SocketSink sink;
@@ -287,7 +299,8 @@ void report(const CycleStats& stats, bool realtime, std::ostream& out) {
 
 // What runs, where and how fast, and with which feed-forward.
 void announce(const PortConfig& config, const RunOptions& options,
-              const FeedForwardSlot& feed_forward, bool realtime, std::ostream& out) {
+              const FeedForwardSlot& feed_forward, const CollisionSetting& collision, bool realtime,
+              std::ostream& out) {
   out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
       << 1000000 / config.period_us << " Hz\n";
   if (feed_forward.startup_note().empty()) {
@@ -295,7 +308,7 @@ void announce(const PortConfig& config, const RunOptions& options,
   } else {
     out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
   }
-  out << "delta_fw: " << describe_collision(config) << "\n";
+  out << "delta_fw: " << describe_collision(collision) << "\n";
 }
 
 // The control step after the cycle's exchange: the controller's step, its
@@ -340,6 +353,14 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   // before a restart.
   FeedForwardSlot feed_forward(config, core);
   core.feed_forward = feed_forward.current();
+  const CollisionSetting collision =
+      collision_setting(config, core.feed_forward.mode == fw::FeedForwardMode::kModel,
+                        feed_forward.thresholds(), feed_forward.fit_id());
+  if (!collision.problem.empty()) {
+    out << "delta_fw: " << collision.problem << "\n";
+    return kExitUsage;
+  }
+  core.collision = collision.config;
   std::vector<NamedRun> runs;
   if (const auto refused = checked_runs(config, core, options, runs, out)) return *refused;
   Loop l(config, options, io, core, feed_forward, std::move(runs), out);
@@ -351,7 +372,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
     set_realtime(options.rt_priority, out);
     if (!timer.start(config.period_us, out)) return kExitCanError;
   }
-  announce(config, options, feed_forward, realtime, out);
+  announce(config, options, feed_forward, collision, realtime, out);
   CycleStats stats;
   const std::uint64_t wall_start = monotonic_us();
   int exit_code = -1;

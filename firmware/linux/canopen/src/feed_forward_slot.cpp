@@ -31,9 +31,9 @@ FeedForwardSlot::FeedForwardSlot(const PortConfig& c, const fw::ControllerConfig
     : geometry_(core.geometry), store_path_(c.feed_forward_store), current_(core.feed_forward) {
   if (c.feed_forward_model) {
     const mc::ModelRecord r = delta::model_record(*c.feed_forward_model);
-    mc::encode_model_record(r, record_);
-    has_record_ = true;
-    fit_id_ = r.fit_id;
+    mc::ModelRecordBytes bytes{};
+    mc::encode_model_record(r, bytes);
+    keep(bytes, r);
   }
   if (store_path_.empty()) return;
   std::ifstream in(store_path_, std::ios::binary);
@@ -49,9 +49,7 @@ FeedForwardSlot::FeedForwardSlot(const PortConfig& c, const fw::ControllerConfig
                     "; the configuration's feed-forward is";
     return;
   }
-  std::copy(bytes.begin(), bytes.end(), record_.begin());
-  has_record_ = true;
-  fit_id_ = r.fit_id;
+  keep(bytes, r);
   current_.mode = fw::FeedForwardMode::kModel;
   current_.model = delta::fx::prepare_model(geometry_, r.parameters);
   startup_note_ =
@@ -63,13 +61,23 @@ FeedForwardSlot::FeedForwardSlot(const PortConfig& c, const fw::ControllerConfig
 }
 
 std::span<const std::uint8_t> FeedForwardSlot::record() const {
-  if (!has_record_) return {};
-  return record_;
+  return std::span<const std::uint8_t>(record_.data(), record_bytes_);
 }
 
-FeedForwardSlot::Fault FeedForwardSlot::apply(const fw::FeedForwardConfig& next,
-                                              bool between_runs) {
-  if (!between_runs || (apply_ && !apply_(next))) return Fault::kBusy;
+// A checked record as the model in use: its bytes (a delta-model/1 one as
+// it came), fit id and thresholds.
+void FeedForwardSlot::keep(std::span<const std::uint8_t> bytes, const mc::ModelRecord& r) {
+  std::copy(bytes.begin(), bytes.end(), record_.begin());
+  record_bytes_ = bytes.size();
+  fit_id_ = r.fit_id;
+  thresholds_.reset();
+  if (r.has_collision_thresholds) thresholds_ = r.collision_thresholds;
+}
+
+FeedForwardSlot::Fault FeedForwardSlot::apply(
+    const fw::FeedForwardConfig& next, const std::optional<fw::CollisionThresholds>& thresholds,
+    bool between_runs) {
+  if (!between_runs || (apply_ && !apply_(next, thresholds))) return Fault::kBusy;
   current_ = next;
   return Fault::kOk;
 }
@@ -92,13 +100,11 @@ FeedForwardSlot::Fault FeedForwardSlot::load(std::span<const std::uint8_t> bytes
     fw::FeedForwardConfig next = current_;
     next.mode = fw::FeedForwardMode::kModel;
     next.model = delta::fx::prepare_model(geometry_, r.parameters);
-    f = apply(next, between_runs);
+    std::optional<fw::CollisionThresholds> thresholds;
+    if (r.has_collision_thresholds) thresholds = r.collision_thresholds;
+    f = apply(next, thresholds, between_runs);
   }
-  if (f == Fault::kOk) {
-    std::copy(bytes.begin(), bytes.end(), record_.begin());
-    has_record_ = true;
-    fit_id_ = r.fit_id;
-  }
+  if (f == Fault::kOk) keep(bytes, r);
   last_load_ = f;
   return f;
 }
@@ -107,8 +113,8 @@ FeedForwardSlot::Fault FeedForwardSlot::set_mode(std::uint32_t mode, bool betwee
   if (mode > static_cast<std::uint32_t>(fw::FeedForwardMode::kModel)) return Fault::kValue;
   fw::FeedForwardConfig next = current_;
   next.mode = static_cast<fw::FeedForwardMode>(mode);
-  if (next.mode == fw::FeedForwardMode::kModel && !has_record_) return Fault::kKind;
-  return apply(next, between_runs);
+  if (next.mode == fw::FeedForwardMode::kModel && record_bytes_ == 0) return Fault::kKind;
+  return apply(next, thresholds_, between_runs);
 }
 
 }  // namespace fw_linux

@@ -23,6 +23,7 @@
 #include "delta/model_q.hpp"
 #include "delta/q_conversion.hpp"
 #include "delta/trajectory_file.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/drive_plan.hpp"
 
 namespace fw_linux {
@@ -203,27 +204,24 @@ void finish_config(PortConfig& c, std::vector<std::string>* problems) {
 
 namespace {
 
-// The collision detector: its residual is against the model's torque, and
-// it needs thresholds to compare it with.
+// The collision detector's keys on their own; whether the model in use
+// lets the detector run is collision_setting()'s, at start.
 void validate_collision(const PortConfig& c, std::vector<std::string>& problems) {
   if (!(c.collision_threshold_scale > 0.0) || c.collision_threshold_scale > 100.0) {
     problems.push_back("collision.threshold_scale must be above 0 and at most 100, got " +
                        std::to_string(c.collision_threshold_scale));
   }
-  if (c.collision_threshold_Nm < 0.0 || c.collision_threshold_per_speed < 0.0 ||
-      c.collision_threshold_per_acceleration < 0.0) {
-    problems.push_back("collision.threshold_* must not be negative");
+  if (c.collision_threshold_Nm.value_or(1.0) <= 0.0) {
+    problems.push_back("collision.threshold_Nm must be above 0, got " +
+                       std::to_string(*c.collision_threshold_Nm));
   }
-  if (!c.collision_detect) return;
-  if (c.feed_forward != fw::FeedForwardMode::kModel) {
+  if (c.collision_threshold_per_speed < 0.0 || c.collision_threshold_per_acceleration < 0.0) {
+    problems.push_back("collision.threshold_per_* must not be negative");
+  }
+  if (c.collision_detect.value_or(false) && c.feed_forward != fw::FeedForwardMode::kModel) {
     problems.push_back(
         "collision.detect = true needs feed_forward = model: the detector compares the measured "
         "torque with the identified model's (docs/safety.md)");
-  }
-  if (!(c.collision_threshold_Nm > 0.0)) {
-    problems.push_back(
-        "collision.detect = true needs collision.threshold_Nm, the residual that is a "
-        "collision at rest (docs/safety.md)");
   }
 }
 
@@ -399,16 +397,6 @@ std::vector<std::string> configuration_problems(const PortConfig& c) {
   return grouped_problems(problems);
 }
 
-std::string describe_collision(const PortConfig& c) {
-  if (!c.collision_detect) return "collision detection off (collision.detect, docs/safety.md)";
-  std::ostringstream m;
-  m << "collision detection on: threshold " << c.collision_threshold_Nm << " N m + "
-    << c.collision_threshold_per_speed << " N m per rad/s + "
-    << c.collision_threshold_per_acceleration << " N m per rad/s^2, times "
-    << c.collision_threshold_scale;
-  return m.str();
-}
-
 std::string describe_feed_forward(const PortConfig& c) {
   switch (c.feed_forward) {
     case fw::FeedForwardMode::kOff:
@@ -461,27 +449,6 @@ std::pair<std::string, int> split_host_port(const std::string& text, const std::
   return {text.substr(0, colon), static_cast<int>(p)};
 }
 
-namespace {
-
-// The collision detector's settings in the core's formats (every joint's
-// thresholds alike).
-fw::CollisionConfig collision_config(const PortConfig& c) {
-  using delta::fx::Q12_19;
-  fw::CollisionConfig out;
-  out.detect = c.collision_detect;
-  out.threshold_scale = to_q<Q12_19>(c.collision_threshold_scale, "collision.threshold_scale");
-  fw::CollisionThresholds& t = out.thresholds;
-  t.base_Nm.fill(to_q<Q12_19>(c.collision_threshold_Nm, "collision.threshold_Nm"));
-  t.per_speed_Nm_s_per_rad.fill(
-      to_q<Q12_19>(c.collision_threshold_per_speed, "collision.threshold_per_speed_Nm_s_per_rad"));
-  t.per_acceleration_Nm_s2_per_rad.fill(
-      to_q<Q12_19>(c.collision_threshold_per_acceleration,
-                   "collision.threshold_per_acceleration_Nm_s2_per_rad"));
-  return out;
-}
-
-}  // namespace
-
 fw::ControllerConfig controller_config(const PortConfig& c) {
   using namespace delta::fx;
   fw::ControllerConfig out;
@@ -516,7 +483,11 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
   out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
   out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
   out.feed_forward.mode = c.feed_forward;
-  out.collision = collision_config(c);
+  out.collision =
+      collision_setting(
+          c, c.feed_forward == fw::FeedForwardMode::kModel && c.feed_forward_model.has_value(),
+          model_thresholds(c))
+          .config;
   if (c.feed_forward_model) {
     out.feed_forward.model =
         prepare_model(out.geometry, delta::model_parameters_q(*c.feed_forward_model));

@@ -279,7 +279,9 @@ void add_run_keys(Setters& s) {
     c.collision_detect = parse_bool(v, w, "collision.detect");
   };
   add_number(s, "collision.threshold_scale", &PortConfig::collision_threshold_scale);
-  add_number(s, "collision.threshold_Nm", &PortConfig::collision_threshold_Nm);
+  s["collision.threshold_Nm"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.collision_threshold_Nm = parse_number(v, w, "collision.threshold_Nm");
+  };
   add_number(s, "collision.threshold_per_speed_Nm_s_per_rad",
              &PortConfig::collision_threshold_per_speed);
   add_number(s, "collision.threshold_per_acceleration_Nm_s2_per_rad",

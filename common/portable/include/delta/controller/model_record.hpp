@@ -1,18 +1,24 @@
 // The identified model as the controller stores and transfers it: the
-// `delta-model/1` record, 140 bytes, little-endian (docs/protocol.md,
+// `delta-model/2` record, 176 bytes, little-endian (docs/protocol.md,
 // object 0x2200:1). `host_id model load` writes it, the controller checks it
 // whole before it uses it, keeps it across restarts and gives it back on a
 // read. Integer only: the firmware core's formats (delta/fixed/dynamics.hpp).
 //
 //   offset size
 //     0     4   magic "DMDL"
-//     4     2   format version, 1
+//     4     2   format version, 2
 //     6     1   kind: 1 delta, 2 lumped
-//     7     1   0
+//     7     1   flags: bit 0, the record carries collision thresholds
 //     8     4   fit id (the CRC-32 of the result file it came from)
 //    12    16   geometry it was fitted for: a, b, R, r, Q7.24 m
 //    28   108   27 parameters, i32 each, in the order of kModelFields
-//   136     4   CRC-32 of bytes 0..135
+//   136    36   collision thresholds, Q12.19 i32: base 1-3 (N m), per speed
+//               1-3 (N m s/rad), per acceleration 1-3 (N m s^2/rad); 0
+//               without flag bit 0
+//   172     4   CRC-32 of bytes 0..171
+//
+// A `delta-model/1` record (version 1, 140 bytes: no flags, no thresholds,
+// the CRC at 136) is still read: a controller keeps one from before.
 #pragma once
 
 #include <array>
@@ -23,25 +29,30 @@
 
 namespace delta::controller {
 
-inline constexpr std::size_t kModelRecordBytes = 140;
+inline constexpr std::size_t kModelRecordBytes = 176;
+inline constexpr std::size_t kModelRecordV1Bytes = 140;
 using ModelRecordBytes = std::array<std::uint8_t, kModelRecordBytes>;
-inline constexpr std::uint16_t kModelRecordVersion = 1;
+inline constexpr std::uint16_t kModelRecordVersion = 2;
 
 struct ModelRecord {
   fx::GeometryQ geometry{};
   fx::ModelParametersQ parameters{};
   std::uint32_t fit_id{0};
+  // The detector's thresholds the fit derived for this model; none in a
+  // delta-model/1 record or a model fitted without them.
+  bool has_collision_thresholds{false};
+  fx::CollisionThresholdsQ collision_thresholds{};
 };
 
 // Why a record was refused (0: it was not). The controller shows the last
 // load's verdict at 0x2200:4.
 enum class ModelRecordFault : std::uint8_t {
   kOk = 0,
-  kLength = 1,     // not 140 bytes
-  kFormat = 2,     // not "DMDL", or another format version
+  kLength = 1,     // neither 176 (version 2) nor 140 (version 1) bytes
+  kFormat = 2,     // not "DMDL", or another format version (or length)
   kChecksum = 3,   // the CRC-32 does not match: damaged on the way
   kKind = 4,       // neither delta nor lumped
-  kValue = 5,      // a value out of range (a negative mass, inertia or friction; w, vs)
+  kValue = 5,      // a value out of range (a negative mass, inertia, friction or threshold; w, vs)
   kGeometry = 6,   // fitted for another geometry than the controller's
   kBusy = 7,       // a trajectory is running: models change between runs
   kNotStored = 8,  // the controller could not store it (it keeps the one it had)
@@ -52,9 +63,9 @@ inline constexpr const char* model_record_fault_name(ModelRecordFault f) {
     case ModelRecordFault::kOk:
       return "ok";
     case ModelRecordFault::kLength:
-      return "not 140 bytes";
+      return "neither 176 nor 140 bytes";
     case ModelRecordFault::kFormat:
-      return "not a delta-model/1 record";
+      return "not a delta-model/2 (or /1) record";
     case ModelRecordFault::kChecksum:
       return "CRC-32 mismatch (damaged on the way)";
     case ModelRecordFault::kKind:

@@ -49,6 +49,19 @@ struct ModelParametersQ {
   friend constexpr bool operator==(const ModelParametersQ&, const ModelParametersQ&) = default;
 };
 
+// How far each joint's measured torque may stray from the model's before
+// it is a collision (the controller's detector, docs/safety.md): the
+// threshold base + per_speed |qd| + per_acceleration |qdd|, per joint.
+// `host_id fit` derives them from the fit's own residual; they travel with
+// the model.
+struct CollisionThresholdsQ {
+  Joint3Q12_19 base_Nm{};
+  Joint3Q12_19 per_speed_Nm_s_per_rad{};
+  Joint3Q12_19 per_acceleration_Nm_s2_per_rad{};
+  friend constexpr bool operator==(const CollisionThresholdsQ&,
+                                   const CollisionThresholdsQ&) = default;
+};
+
 // A joint-space state: the reference the controller tracks. Where the
 // platform's position and acceleration at this state are known already (a
 // Cartesian trajectory has them), the model takes them instead of solving

@@ -1,13 +1,14 @@
 // The controller's feed-forward as node 16 serves it (docs/protocol.md,
 // 0x2200): the mode and the identified model in use, a model loaded over
-// the bus (a delta-model/1 record, checked whole: format, CRC, kind, every
+// the bus (a delta-model/2 record, checked whole: format, CRC, kind, every
 // value, the geometry), stored atomically so that it survives a restart,
-// and applied only between runs. A load that fails at any point, or never
-// ends, leaves the model in use as it was.
+// and applied only between runs, with the collision thresholds it carries. A load that fails at any
+// point, or never ends, leaves the model in use as it was.
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -33,13 +34,15 @@ class FeedForwardSlot {
   std::uint32_t fit_id() const { return fit_id_; }
   // The model in use as a record; empty: none.
   std::span<const std::uint8_t> record() const;
+  // The collision thresholds of the model in use, where it carries them.
+  const std::optional<fw::CollisionThresholds>& thresholds() const { return thresholds_; }
   Fault last_load() const { return last_load_; }
 
-  // How a change reaches the controller (Controller::set_feed_forward):
-  // false when it refused (a run is on).
-  void set_apply(std::function<bool(const fw::FeedForwardConfig&)> apply) {
-    apply_ = std::move(apply);
-  }
+  // How a change reaches the controller (Controller::set_feed_forward,
+  // and the detector's thresholds): false when it refused (a run is on).
+  using Apply = std::function<bool(const fw::FeedForwardConfig&,
+                                   const std::optional<fw::CollisionThresholds>&)>;
+  void set_apply(Apply apply) { apply_ = std::move(apply); }
 
   // A whole record written to 0x2200:1: checked, stored, applied (the mode
   // becomes model). Anything but kOk leaves the model in use as it was.
@@ -48,17 +51,20 @@ class FeedForwardSlot {
   Fault set_mode(std::uint32_t mode, bool between_runs);
 
  private:
-  Fault apply(const fw::FeedForwardConfig& next, bool between_runs);
+  Fault apply(const fw::FeedForwardConfig& next,
+              const std::optional<fw::CollisionThresholds>& thresholds, bool between_runs);
+  void keep(std::span<const std::uint8_t> bytes, const delta::controller::ModelRecord& r);
 
   fw::GeometryQ geometry_;
   std::string store_path_;
   fw::FeedForwardConfig current_{};
   std::uint32_t fit_id_{0};
   delta::controller::ModelRecordBytes record_{};
-  bool has_record_{false};
+  std::size_t record_bytes_{0};  // 0: none
+  std::optional<fw::CollisionThresholds> thresholds_;
   Fault last_load_{Fault::kOk};
   std::string startup_note_;
-  std::function<bool(const fw::FeedForwardConfig&)> apply_;
+  Apply apply_;
 };
 
 }  // namespace fw_linux

@@ -140,12 +140,14 @@ struct PortConfig {
   // Where a model loaded over the bus is kept across restarts (written
   // atomically); "": not kept.
   std::string feed_forward_store{"delta_fw_model.bin"};
-  // Collision detection (fw/collision.hpp, docs/safety.md): off unless
-  // collision.detect = true, which needs feed_forward = model and the
-  // thresholds (N m; per rad/s; per rad/s^2, every joint alike).
-  bool collision_detect{false};
+  // Collision detection (fw/collision.hpp, docs/safety.md;
+  // fw_linux/collision_setting.hpp): collision.detect unset is on where the
+  // model in use carries its thresholds, off otherwise. The keys'
+  // thresholds (N m; per rad/s; per rad/s^2, every joint alike) replace the
+  // model's where collision.threshold_Nm is given.
+  std::optional<bool> collision_detect;
   double collision_threshold_scale{1.0};
-  double collision_threshold_Nm{0.0};
+  std::optional<double> collision_threshold_Nm;
   double collision_threshold_per_speed{0.0};
   double collision_threshold_per_acceleration{0.0};
   double approach_s{2.0};
@@ -191,8 +193,6 @@ std::vector<std::string> configuration_problems(const PortConfig& c);
 // "feed-forward: model (delta, fit 0x1A2B3C4D, RESULT.json)", or nominal
 // with its two values, or off: what the controller starts with.
 std::string describe_feed_forward(const PortConfig& c);
-// The collision detector's settings in one line.
-std::string describe_collision(const PortConfig& c);
 
 // Throws ConfigError with every problem, a line each.
 void validate(const PortConfig& c);
