@@ -467,6 +467,19 @@ void note_fit_residuals(const Model& model, const Regression& all_rows, const Eq
   }
 }
 
+// The collision detector's thresholds from the fit's residual on its own
+// log, where the controller runs the model as fitted.
+void note_collision_thresholds(const Model& model, const Regression& all_rows,
+                               const std::string& log_name, FitResult& r) {
+  r.collision_unavailable = collision_thresholds_unavailable(r.options.model);
+  if (!r.collision_unavailable.empty() || !r.fit.ranges.known) return;
+  if (!r.predictions.empty()) {
+    r.collision = collision_thresholds_from(r.predictions.front(), r.fit);
+    return;
+  }
+  r.collision = collision_thresholds_from(prediction_of(model, all_rows, r.beta, log_name), r.fit);
+}
+
 // The fitted parameters' RMSE on each validation log, and their
 // predictions where kept.
 void validate_fit(const Model& model, const FitOptions& options,
@@ -523,6 +536,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.doubts = doubts_of(r);
   note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
+  note_collision_thresholds(*model, all_rows, log.name, r);
   validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;

@@ -20,6 +20,28 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// The collision detector's thresholds the model carries, or why none.
+void text_collision(const FitResult& r, std::ostream& s) {
+  if (!r.collision) {
+    if (!r.collision_unavailable.empty()) {
+      s << "  collision no thresholds for the controller's detector: " << r.collision_unavailable
+        << "\n";
+    }
+    return;
+  }
+  const delta::CollisionThresholds& t = r.collision->thresholds;
+  s << "  collision thresholds for the controller's detector (docs/safety.md), "
+    << fmt("%.0f", kCollisionMargin) << "x the residual's peak "
+    << fmt("%.3g", r.collision->peak_residual_Nm[0]) << ", "
+    << fmt("%.3g", r.collision->peak_residual_Nm[1]) << ", "
+    << fmt("%.3g", r.collision->peak_residual_Nm[2]) << " N m:\n";
+  for (unsigned j = 0; j < 3; ++j) {
+    s << "            joint " << j + 1 << ": " << fmt("%.4g", t.base_Nm[j]) << " N m + "
+      << fmt("%.4g", t.per_speed_Nm_s_per_rad[j]) << " N m s/rad |qd| + "
+      << fmt("%.4g", t.per_acceleration_Nm_s2_per_rad[j]) << " N m s^2/rad |qdd|\n";
+  }
+}
+
 // The gearboxes' stiffness found (fit --elastic), with the costs and the
 // held-out errors rigid and elastic.
 void text_elasticity(const ElasticityResult& e, std::ostream& s) {
@@ -278,6 +300,7 @@ void text_method(const FitResult& r, std::ostream& s) {
     }
   }
   if (r.elasticity) text_elasticity(*r.elasticity, s);
+  text_collision(r, s);
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
 }
@@ -387,6 +410,19 @@ nlohmann::json json_elasticity(const FitResult& r) {
           {"supported", e.supported},
           {"evaluations", e.evaluations},
           {"seconds", e.seconds}};
+}
+
+// The collision detector's thresholds (collision_thresholds.hpp), null
+// where the controller would not run the model as fitted.
+nlohmann::json json_collision(const FitResult& r) {
+  if (!r.collision) return nullptr;
+  const delta::CollisionThresholds& t = r.collision->thresholds;
+  return {{"base_Nm", t.base_Nm},
+          {"per_speed_Nm_s_per_rad", t.per_speed_Nm_s_per_rad},
+          {"per_acceleration_Nm_s2_per_rad", t.per_acceleration_Nm_s2_per_rad},
+          {"peak_residual_Nm", r.collision->peak_residual_Nm},
+          {"margin", kCollisionMargin},
+          {"filter_ticks", kCollisionFilterTicks}};
 }
 
 nlohmann::json json_friction_shape(const FitResult& r) {
@@ -536,6 +572,7 @@ nlohmann::json json_report(const FitResult& r) {
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
       {"friction_shape", json_friction_shape(r)},
       {"elasticity", json_elasticity(r)},
+      {"collision_thresholds", json_collision(r)},
       {"pso", json_pso(r)},
   };
 }

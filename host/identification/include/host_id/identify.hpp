@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "host_id/collision_thresholds.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/model.hpp"
@@ -196,6 +197,10 @@ struct FitResult {
   // Set where the log cannot separate every parameter: the estimate is of
   // the base parameters (least_squares.hpp).
   std::optional<Identifiability> identifiability;
+  // The collision detector's thresholds for this model
+  // (collision_thresholds.hpp), or why there are none.
+  std::optional<CollisionThresholdFit> collision;
+  std::string collision_unavailable;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With
