@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "delta/controller/model_record.hpp"
 #include "delta/little_endian.hpp"
 #include "delta/model_q.hpp"
+#include "delta/q_conversion.hpp"
 #include "delta/update/crc32.hpp"
 #include "node_rig.hpp"
 #include "scratch_directory.hpp"
@@ -114,6 +116,48 @@ TEST(ControllerNodeTest, SendsAnEmergencyOnEnteringAndLeavingAFault) {
       codes.push_back(static_cast<std::uint16_t>(f.data[0] | f.data[1] << 8));
   }
   EXPECT_EQ(codes, (std::vector<std::uint16_t>{0xFF0A, 0x0000}));
+}
+
+// A collision: the EMCY of fault 14, then TPDO4 once per joint with its
+// residual and threshold in the log's 2^-16 N m, which 0x2103 holds (the
+// last one) as the mapping 0x1A03 says; once, not every cycle in fault.
+TEST(ControllerNodeTest, SendsTheCollisionsResidualsAndThresholdsAfterItsEmergency) {
+  NodeRig rig;
+  rig.step();
+  rig.bus.take();
+  fw::CollisionEvent e;
+  e.joint = 1;
+  e.residual_Nm = {delta::fx::Q12_19::from(0.01), delta::fx::Q12_19::from(-0.25),
+                   delta::fx::Q12_19::from(0.002)};
+  e.threshold_Nm = {delta::fx::Q12_19::from(0.05), delta::fx::Q12_19::from(0.125),
+                    delta::fx::Q12_19::from(0.04)};
+  rig.report.collision = &e;
+  rig.step(fw::Fault::kCollision, 3);
+  std::vector<Frame> collision;
+  std::size_t emcy_at = 0, index = 0;
+  for (const Frame& f : rig.bus.take()) {
+    if (f.id == p::kControllerEmcy.base_id) emcy_at = index;
+    if (f.id == p::kCollision.base_id) collision.push_back(f);
+    ++index;
+  }
+  ASSERT_EQ(collision.size(), 3u);
+  EXPECT_EQ(emcy_at, 0u);
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(collision[j].dlc, 8);
+    EXPECT_EQ(p::unpack(collision[j].data, p::kCollisionJoint), j + 1);
+    EXPECT_EQ(p::unpack(collision[j].data, p::kCollisionTripped), 2);
+    EXPECT_EQ(p::unpack(collision[j].data, p::kCollisionResidual),
+              std::llround(delta::to_double(e.residual_Nm[j]) * 65536.0));
+    EXPECT_EQ(p::unpack(collision[j].data, p::kCollisionThreshold),
+              std::llround(delta::to_double(e.threshold_Nm[j]) * 65536.0));
+  }
+  EXPECT_EQ(rig.read(0x1803, 1), 0x490u);
+  EXPECT_EQ(rig.read(0x1803, 2), 254u);
+  EXPECT_EQ(rig.read(0x1A03, 3), 0x21030318u);
+  EXPECT_EQ(rig.read(0x2103, 1), 3u);
+  EXPECT_EQ(rig.read(0x2103, 2), 2u);
+  EXPECT_EQ(rig.read(0x2103, 4), static_cast<std::uint32_t>(
+                                     std::llround(delta::to_double(e.threshold_Nm[2]) * 65536.0)));
 }
 
 TEST(ControllerNodeTest, ItsEdsListsExactlyItsObjects) {

@@ -90,9 +90,9 @@ struct Rig {
     master.end_window();
     controller.step();
     master.send_commands();
-    node.after_step(
-        step_report(controller.state(), controller.fault(), controller.cycles(), hw.last_outputs()),
-        0);
+    node.after_step(step_report(controller.state(), controller.fault(), controller.cycles(),
+                                hw.last_outputs(), &controller.collision()),
+                    0);
   }
   InProcessBus bus;
   CanopenMaster master;

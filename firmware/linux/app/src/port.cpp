@@ -320,7 +320,7 @@ void step(Loop& l, CycleStats& stats) {
   stats.step_max_us =
       std::max(stats.step_max_us, static_cast<std::int64_t>(monotonic_us() - step_start));
   l.node.after_step(step_report(l.controller.state(), l.controller.fault(), l.controller.cycles(),
-                                l.hw.last_outputs()),
+                                l.hw.last_outputs(), &l.controller.collision()),
                     monotonic_us());
   ++stats.cycles;
   l.coordinator.after_step(l.controller, l.hw, l.master);

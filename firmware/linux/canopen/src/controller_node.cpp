@@ -1,5 +1,7 @@
 #include "fw_linux/controller_node.hpp"
 
+#include <algorithm>
+
 #include "delta/can/cia402.hpp"
 #include "delta/can/protocol.hpp"
 #include "delta/update/image_file.hpp"
@@ -73,11 +75,33 @@ std::uint32_t logged_value(const std::array<std::array<std::uint8_t, 8>, 3>& fra
   return static_cast<std::uint32_t>(p::unpack(frames[kFrame[value]], *kSignals[value])) & 0xFFFFFFu;
 }
 
+// TPDO4's mapping (0x1A03): the collision frame's four values, 0x2103:1-4.
+constexpr std::uint32_t kCollisionMapping[4] = {
+    mapping_entry(0x2103, 1, 8), mapping_entry(0x2103, 2, 8), mapping_entry(0x2103, 3, 24),
+    mapping_entry(0x2103, 4, 24)};
+static_assert(p::kCollisionJoint.start_bit == 0 && p::kCollisionTripped.start_bit == 8 &&
+              p::kCollisionResidual.start_bit == 16 && p::kCollisionResidual.length == 24 &&
+              p::kCollisionThreshold.start_bit == 40 && p::kCollisionThreshold.length == 24);
+
+std::uint32_t collision_value(const std::array<std::uint8_t, 8>& frame, unsigned value) {
+  static constexpr const p::Signal* kSignals[4] = {&p::kCollisionJoint, &p::kCollisionTripped,
+                                                   &p::kCollisionResidual, &p::kCollisionThreshold};
+  return static_cast<std::uint32_t>(p::unpack(frame, *kSignals[value])) &
+         (kSignals[value]->length == 24 ? 0xFFFFFFu : 0xFFu);
+}
+
+// A Q12.19 torque in the log's 2^-16 N m, rounded, within 24 bits.
+std::int64_t log_torque(delta::fx::Q12_19 v) {
+  const std::int64_t r = (std::int64_t{v.raw()} + 4) >> 3;
+  return std::clamp<std::int64_t>(r, -(std::int64_t{1} << 23), (std::int64_t{1} << 23) - 1);
+}
+
 }  // namespace
 
 StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
-                       const fw::SafetyOutputs& outputs) {
+                       const fw::SafetyOutputs& outputs, const fw::CollisionEvent* collision) {
   StepReport r;
+  r.collision = collision;
   r.fault = fault;
   r.cycle = cycle;
   r.ready = state == fw::State::kReady;
@@ -119,6 +143,10 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1802, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1802, 1, 4, [](const Context&) { return log_cob_id(2); }, nullptr},
       {0x1802, 2, 1, [](const Context&) { return 1u; }, nullptr},
+      // TPDO4, the collision frames: event-driven (254), sent by the node.
+      {0x1803, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1803, 1, 4, [](const Context&) { return std::uint32_t{p::kCollision.base_id}; }, nullptr},
+      {0x1803, 2, 1, [](const Context&) { return 254u; }, nullptr},
       {0x1A00, 0, 1, [](const Context&) { return 3u; }, nullptr},
       {0x1A00, 1, 4, [](const Context&) { return kLogMapping[0][0]; }, nullptr},
       {0x1A00, 2, 4, [](const Context&) { return kLogMapping[0][1]; }, nullptr},
@@ -131,6 +159,11 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1A02, 1, 4, [](const Context&) { return kLogMapping[2][0]; }, nullptr},
       {0x1A02, 2, 4, [](const Context&) { return kLogMapping[2][1]; }, nullptr},
       {0x1A02, 3, 4, [](const Context&) { return kLogMapping[2][2]; }, nullptr},
+      {0x1A03, 0, 1, [](const Context&) { return 4u; }, nullptr},
+      {0x1A03, 1, 4, [](const Context&) { return kCollisionMapping[0]; }, nullptr},
+      {0x1A03, 2, 4, [](const Context&) { return kCollisionMapping[1]; }, nullptr},
+      {0x1A03, 3, 4, [](const Context&) { return kCollisionMapping[2]; }, nullptr},
+      {0x1A03, 4, 4, [](const Context&) { return kCollisionMapping[3]; }, nullptr},
       // Program download (CiA 302-3): one program, 0x1F50:1 (a domain, below).
       {0x1F50, 0, 1, [](const Context&) { return 1u; }, nullptr},
       {0x1F51, 0, 1, [](const Context&) { return 1u; }, nullptr},
@@ -163,6 +196,16 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
        true},
       {0x2102, 3, 3, [](const Context& c) { return logged_value(c.node.log_frames_, 5); }, nullptr,
        true},
+      // The last collision frame sent (TPDO4; 0 before one).
+      {0x2103, 0, 1, [](const Context&) { return 4u; }, nullptr},
+      {0x2103, 1, 1, [](const Context& c) { return collision_value(c.node.collision_frame_, 0); },
+       nullptr, true},
+      {0x2103, 2, 1, [](const Context& c) { return collision_value(c.node.collision_frame_, 1); },
+       nullptr, true},
+      {0x2103, 3, 3, [](const Context& c) { return collision_value(c.node.collision_frame_, 2); },
+       nullptr, true},
+      {0x2103, 4, 3, [](const Context& c) { return collision_value(c.node.collision_frame_, 3); },
+       nullptr, true},
       // The feed-forward: the fit id of the model in use, the mode, the last
       // load's verdict (0x2200:1, the model itself, is a domain below).
       {0x2200, 0, 1, [](const Context&) { return 4u; }, nullptr},
@@ -329,6 +372,9 @@ void ControllerNode::after_step(const StepReport& step, std::uint64_t now_us) {
                                          static_cast<std::uint16_t>(step.fault));
     emergency(code, static_cast<std::uint16_t>(step.fault), step.cycle);
     last_reported_ = step.fault;
+    if (step.fault == fw::Fault::kCollision && step.collision != nullptr) {
+      collision_frames(*step.collision);
+    }
   }
   since_heartbeat_us_ += period_us_;
   if (heartbeat_ms_ != 0 && since_heartbeat_us_ >= std::uint32_t{heartbeat_ms_} * 1000u) {
@@ -337,6 +383,19 @@ void ControllerNode::after_step(const StepReport& step, std::uint64_t now_us) {
   }
   server_->tick(now_us);
   flush_sdo(now_us);
+}
+
+// A collision's residuals and thresholds: TPDO4 once per joint.
+void ControllerNode::collision_frames(const fw::CollisionEvent& e) {
+  for (unsigned j = 0; j < 3; ++j) {
+    std::array<std::uint8_t, 8> d{};
+    p::pack(d, p::kCollisionJoint, j + 1);
+    p::pack(d, p::kCollisionTripped, e.joint + 1u);
+    p::pack(d, p::kCollisionResidual, log_torque(e.residual_Nm[j]));
+    p::pack(d, p::kCollisionThreshold, std::max<std::int64_t>(0, log_torque(e.threshold_Nm[j])));
+    collision_frame_ = d;
+    send(p::kCollision.base_id, p::kCollision.dlc, d);
+  }
 }
 
 // The error register's generic bit (CiA 301) is set for any code but the reset.

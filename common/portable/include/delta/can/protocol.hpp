@@ -62,7 +62,7 @@ inline constexpr Scale kPerMille{1, 1000, 0};  // of the drive's rated value
 inline constexpr Scale kLogAngle{1, 1, -20};   // 2^-20 rad (9.5e-7 rad), +/- 8 rad
 inline constexpr Scale kLogTorque{1, 1, -16};  // 2^-16 N m (1.5e-5 N m), +/- 128 N m
 
-inline constexpr std::array<Message, 15> kMessages{{
+inline constexpr std::array<Message, 16> kMessages{{
     {"NMT",
      0x000,
      false,
@@ -238,6 +238,19 @@ inline constexpr std::array<Message, 15> kMessages{{
         "object 0x2019: the counter of the SYNC this cycle's TPDOs answer"}}},
      "the cycle of the drive's sample, sent after its TPDO1 and TPDO2; only with "
      "sync_counter_overflow > 0"},
+    {"COLLISION",
+     0x490,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     4,
+     {{{"joint", 0, 8, false, kRaw, "", "1-3: the joint whose residual and threshold follow"},
+       {"tripped", 8, 8, false, kRaw, "", "1-3: the joint over its threshold"},
+       {"residual", 16, 24, true, kLogTorque, "N m", "the joint's filtered torque residual"},
+       {"threshold", 40, 24, false, kLogTorque, "N m", "the joint's threshold at that tick"}}},
+     "a collision detected (TPDO4 of node 16, 0x1803/0x1A03 onto 0x2103): three frames, "
+     "joints 1, 2, 3, right after the EMCY of fault 14"},
 }};
 
 // The messages by name.
@@ -256,6 +269,7 @@ inline constexpr const Message& kLogC = kMessages[11];
 inline constexpr const Message& kControllerEmcy = kMessages[12];
 inline constexpr const Message& kControllerHeartbeat = kMessages[13];
 inline constexpr const Message& kTpdo3 = kMessages[14];
+inline constexpr const Message& kCollision = kMessages[15];
 
 // The signals by name: a wrong name does not compile.
 namespace detail {
@@ -318,6 +332,10 @@ inline constexpr const Signal& kControllerEmcyFaultCode =
 inline constexpr const Signal& kControllerEmcyCycle = signal_named(kControllerEmcy, "cycle");
 inline constexpr const Signal& kControllerHeartbeatNmtState =
     signal_named(kControllerHeartbeat, "nmt_state");
+inline constexpr const Signal& kCollisionJoint = signal_named(kCollision, "joint");
+inline constexpr const Signal& kCollisionTripped = signal_named(kCollision, "tripped");
+inline constexpr const Signal& kCollisionResidual = signal_named(kCollision, "residual");
+inline constexpr const Signal& kCollisionThreshold = signal_named(kCollision, "threshold");
 
 // NMT commands and states (CiA 301).
 inline constexpr std::uint8_t kNmtStart = 1;

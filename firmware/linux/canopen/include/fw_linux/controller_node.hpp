@@ -19,6 +19,7 @@
 #include "delta/can/sdo.hpp"
 #include "delta/canopen/eds.hpp"
 #include "delta/canopen/object_table.hpp"
+#include "fw/collision.hpp"
 #include "fw/faults.hpp"
 #include "fw/hardware.hpp"
 #include "fw_linux/canopen_master.hpp"
@@ -35,10 +36,13 @@ struct StepReport {
   std::uint32_t cycle{0};
   bool safe_to_update{false};  // no trajectory, drives disabled, brakes engaged
   bool ready{false};           // the controller reached ready (its drives up)
+  // With fault collision: the detection (the node sends its frames).
+  const fw::CollisionEvent* collision{nullptr};
 };
 // Safe to update: no trajectory, drives disabled, brakes engaged.
 StepReport step_report(fw::State state, fw::Fault fault, std::uint32_t cycle,
-                       const fw::SafetyOutputs& outputs);
+                       const fw::SafetyOutputs& outputs,
+                       const fw::CollisionEvent* collision = nullptr);
 
 class ControllerNode {
  public:
@@ -82,6 +86,7 @@ class ControllerNode {
   void flush_sdo(std::uint64_t now_us);
   void send(std::uint32_t id, std::uint8_t dlc, const std::array<std::uint8_t, 8>& data);
   void emergency(std::uint16_t code, std::uint16_t fault_code, std::uint32_t cycle);
+  void collision_frames(const fw::CollisionEvent& e);
 
   FrameSink& bus_;
   delta::update::Version version_;
@@ -102,6 +107,7 @@ class ControllerNode {
   bool revert_reported_{false};
   fw::Fault last_reported_{fw::Fault::kNone};
   std::array<std::array<std::uint8_t, 8>, 3> log_frames_{};
+  std::array<std::uint8_t, 8> collision_frame_{};  // the last one sent
   Table table_;
   std::optional<delta::can::sdo::Server> server_;
 };
