@@ -51,7 +51,8 @@ delta::can::Socket open_socket(const RecordOptions& o) {
                  {kLogB.base_id, p::kStandardIdMask, false},
                  {kLogC.base_id, p::kStandardIdMask, false},
                  {p::kTpdo1.base_id, p::kFunctionCodeMask, false},
-                 {p::kEmcy.base_id, p::kFunctionCodeMask, false}};
+                 {p::kEmcy.base_id, p::kFunctionCodeMask, false},
+                 {p::kCollision.base_id, p::kStandardIdMask, false}};
     }
     return delta::can::Socket::open(o.iface, filters,
                                     8 << 20);  // 8 MB: about 10 000 frames of burst
@@ -149,6 +150,7 @@ class Session {
     s.started_inside = assembler_.started_inside();
     s.emergencies = emergencies_.seen();
     s.emergencies_not_kept = emergencies_.not_kept();
+    s.collision = collisions_.seen();
     return s;
   }
   const std::vector<LogSample>& samples() const { return samples_; }
@@ -178,6 +180,7 @@ class Session {
     if (o_.raw_path) append_candump_line(r, o_.iface, raw_);
     if (!r.error) currents_.feed(r.frame);
     if (!r.error) emergencies_.feed(r.frame, log_time_s());
+    if (!r.error) collisions_.feed(r.frame, log_time_s());
     if (!r.error && assembler_.feed(r.frame)) last_log_frame_ = std::chrono::steady_clock::now();
     collect();
   }
@@ -199,12 +202,30 @@ class Session {
   LogAssembler assembler_;
   DriveCurrentTracker currents_;
   EmergencyWatch emergencies_;
+  CollisionWatch collisions_;
   std::vector<LogSample> samples_;
   std::vector<std::optional<std::array<std::int16_t, 3>>> sample_currents_;
   std::string raw_;
   RecordSummary summary_;
   bool limit_reached_{false};
 };
+
+// A collision the controller detected, in the log's metadata: where it
+// came in the log (collision_t_s), the joint over its threshold, and every
+// joint's residual and threshold (N m).
+void add_collision_metadata(const SeenCollision& c, DeltaLog& log) {
+  const auto three = [](const std::array<double, 3>& v) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g", v[0], v[1], v[2]);
+    return std::string(buf);
+  };
+  char t[32];
+  std::snprintf(t, sizeof t, "%.6g", c.after_log_t_s.value_or(0.0));
+  log.metadata.emplace_back("collision_t_s", t);
+  log.metadata.emplace_back("collision_joint", std::to_string(c.joint));
+  log.metadata.emplace_back("collision_residual_Nm", three(c.residual_Nm));
+  log.metadata.emplace_back("collision_threshold_Nm", three(c.threshold_Nm));
+}
 
 // The session's samples as a delta-log/1 log; i1..i3 only when every sample
 // has its drives' currents: never a guess.
@@ -217,6 +238,7 @@ DeltaLog session_log(const RecordOptions& o, const Session& session, RecordSumma
   log.metadata.emplace_back("source", "robot");
   log.metadata.emplace_back("can_interface", o.iface);
   if (summary.stale > 0) log.metadata.emplace_back("stale_samples", std::to_string(summary.stale));
+  if (summary.collision) add_collision_metadata(*summary.collision, log);
   summary.samples_without_currents =
       static_cast<std::uint64_t>(std::count(currents.begin(), currents.end(), std::nullopt));
   summary.currents = session.currents_seen() && summary.samples_without_currents == 0;

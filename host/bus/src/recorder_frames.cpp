@@ -207,4 +207,22 @@ void EmergencyWatch::feed(const delta::can::Frame& f, std::optional<double> log_
   seen_.push_back(e);
 }
 
+void CollisionWatch::feed(const delta::can::Frame& f, std::optional<double> log_t_s) {
+  if (f.extended || f.remote || f.error_frame) return;
+  if (f.id != p::kCollision.base_id || f.dlc != p::kCollision.dlc) return;
+  const auto joint = static_cast<unsigned>(p::unpack(f.data, p::kCollisionJoint));
+  if (joint < 1 || joint > 3) return;
+  if (!seen_) {
+    seen_.emplace();
+    seen_->joint = static_cast<unsigned>(p::unpack(f.data, p::kCollisionTripped));
+    seen_->after_log_t_s = log_t_s;
+  }
+  if ((seen_->joints_seen & 0x7) == 0x7) return;  // the first collision's frames only
+  seen_->residual_Nm[joint - 1] =
+      scaled(p::kCollisionResidual, p::unpack(f.data, p::kCollisionResidual));
+  seen_->threshold_Nm[joint - 1] =
+      scaled(p::kCollisionThreshold, p::unpack(f.data, p::kCollisionThreshold));
+  seen_->joints_seen = static_cast<std::uint8_t>(seen_->joints_seen | (1u << (joint - 1)));
+}
+
 }  // namespace host_id

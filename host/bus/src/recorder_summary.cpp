@@ -41,14 +41,46 @@ std::string describe_emergency(const SeenEmergency& e) {
   return m.str();
 }
 
+std::string describe_collision(const SeenCollision& c) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "joint %u, residual %.4g, %.4g, %.4g N m against thresholds %.4g, %.4g, %.4g N m",
+                c.joint, c.residual_Nm[0], c.residual_Nm[1], c.residual_Nm[2], c.threshold_Nm[0],
+                c.threshold_Nm[1], c.threshold_Nm[2]);
+  std::ostringstream m;
+  m << "the controller detected a collision ";
+  if (c.after_log_t_s) {
+    m << "after the log's sample at t = " << *c.after_log_t_s << " s";
+  } else {
+    m << "before the log's first sample";
+  }
+  m << ": " << buf;
+  if (c.joints_seen != 0x7) m << " (some of its frames were lost: those joints read 0)";
+  return m.str();
+}
+
 void report_emergencies(std::ostream& err, const std::string& who, const RecordSummary& s) {
   for (const SeenEmergency& e : s.emergencies) {
     err << who << ": " << describe_emergency(e) << "\n";
   }
+  if (s.collision) err << who << ": " << describe_collision(*s.collision) << "\n";
   if (s.emergencies_not_kept > 0) {
     err << who << ": and " << s.emergencies_not_kept << " more EMCY frame(s)\n";
   }
 }
+
+namespace {
+
+nlohmann::json json_collision(const std::optional<SeenCollision>& c) {
+  if (!c) return nullptr;
+  return {{"joint", c->joint},
+          {"after_log_t_s", c->after_log_t_s ? nlohmann::json(*c->after_log_t_s) : nullptr},
+          {"residual_Nm", c->residual_Nm},
+          {"threshold_Nm", c->threshold_Nm},
+          {"whole", c->joints_seen == 0x7}};
+}
+
+}  // namespace
 
 nlohmann::json json_summary(const RecordSummary& s) {
   using nlohmann::json;
@@ -79,7 +111,8 @@ nlohmann::json json_summary(const RecordSummary& s) {
           {"currents", s.currents},
           {"samples_without_currents", s.samples_without_currents},
           {"emergencies", emergencies},
-          {"emergencies_not_kept", s.emergencies_not_kept}};
+          {"emergencies_not_kept", s.emergencies_not_kept},
+          {"collision", json_collision(s.collision)}};
 }
 
 void report_left_out(std::ostream& err, const std::string& who, const RecordSummary& s) {

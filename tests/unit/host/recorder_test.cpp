@@ -309,6 +309,45 @@ TEST(EmergencyWatchTest, AStormIsCountedBeyondWhatItKeeps) {
   EXPECT_NE(text.find("host_id record: and 84 more EMCY frame(s)\n"), std::string::npos) << text;
 }
 
+// The controller's COLLISION frames (TPDO4 of node 16), one per joint:
+// the first collision is kept whole, with its place in the log; frames of
+// other IDs, lengths or joints are not its; a second collision's frames do
+// not overwrite it.
+delta::can::Frame collision_frame(unsigned joint, unsigned tripped, double residual_Nm,
+                                  double threshold_Nm) {
+  delta::can::Frame f;
+  f.id = p::kCollision.base_id;
+  f.dlc = 8;
+  p::pack(f.data, p::kCollisionJoint, joint);
+  p::pack(f.data, p::kCollisionTripped, tripped);
+  p::pack(f.data, p::kCollisionResidual, std::llround(residual_Nm * 65536.0));
+  p::pack(f.data, p::kCollisionThreshold, std::llround(threshold_Nm * 65536.0));
+  return f;
+}
+
+TEST(CollisionWatchTest, KeepsTheControllersCollisionWithItsPlaceInTheLog) {
+  CollisionWatch w;
+  delta::can::Frame short_one = collision_frame(1, 1, 1.0, 1.0);
+  short_one.dlc = 4;
+  w.feed(short_one, 2.0);
+  w.feed(collision_frame(4, 1, 1.0, 1.0), 2.0);
+  EXPECT_FALSE(w.seen().has_value());
+  w.feed(collision_frame(1, 2, 0.0625, 0.125), 3.004);
+  w.feed(collision_frame(2, 2, -0.25, 0.1875), 3.004);
+  ASSERT_TRUE(w.seen().has_value());
+  EXPECT_EQ(w.seen()->joints_seen, 0x3);
+  EXPECT_NE(describe_collision(*w.seen()).find("some of its frames were lost"), std::string::npos);
+  w.feed(collision_frame(3, 2, 0.5, 0.75), 3.004);
+  w.feed(collision_frame(1, 3, 9.0, 9.0), 5.0);
+  const SeenCollision& c = *w.seen();
+  EXPECT_EQ(c.joint, 2u);
+  EXPECT_EQ(c.residual_Nm, (std::array<double, 3>{0.0625, -0.25, 0.5}));
+  EXPECT_EQ(c.threshold_Nm, (std::array<double, 3>{0.125, 0.1875, 0.75}));
+  EXPECT_EQ(describe_collision(c),
+            "the controller detected a collision after the log's sample at t = 3.004 s: joint 2, "
+            "residual 0.0625, -0.25, 0.5 N m against thresholds 0.125, 0.1875, 0.75 N m");
+}
+
 // --json's summary (record, excite) carries every count the text reports,
 // with the runs of lost and stale samples and the emergencies.
 TEST(RecordSummaryTest, TheJsonSummaryCarriesEveryCount) {

@@ -126,6 +126,29 @@ class EmergencyWatch {
   std::uint64_t not_kept_{0};
 };
 
+// A collision the controller detected (its COLLISION frames, TPDO4 of node
+// 16: one per joint), and where in the log it came.
+struct SeenCollision {
+  unsigned joint{0};  // 1-3: the joint over its threshold
+  std::array<double, 3> residual_Nm{}, threshold_Nm{};
+  std::uint8_t joints_seen{0};  // bit j: joint j+1's frame came (0x7: whole)
+  std::optional<double> after_log_t_s;
+};
+
+// Keeps the first collision of a recording (a run ends at one).
+class CollisionWatch {
+ public:
+  void feed(const delta::can::Frame& f, std::optional<double> log_t_s);
+  const std::optional<SeenCollision>& seen() const { return seen_; }
+
+ private:
+  std::optional<SeenCollision> seen_;
+};
+
+// "the controller detected a collision after the log's sample at t = 3.004
+// s: joint 1, residual 0.21, -0.15, -0.13 N m against 0.19, 0.16, 0.15 N m".
+std::string describe_collision(const SeenCollision& c);
+
 // "node 2 sent EMCY 0x2310 (continuous over-current), error register 0x02,
 // after the log's sample at t = 6.642 s"; the controller's names its fault.
 std::string describe_emergency(const SeenEmergency& e);
@@ -162,6 +185,7 @@ struct RecordSummary {
   std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
   std::vector<SeenEmergency> emergencies;     // in the order they came
   std::uint64_t emergencies_not_kept{0};
+  std::optional<SeenCollision> collision;  // the controller's, where it detected one
   double seconds{0};
 };
 
