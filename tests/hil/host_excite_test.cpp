@@ -214,9 +214,9 @@ double number_after(const std::string& text, const std::string& key) {
 }
 
 // One pick-and-place on the multibody robot with the fitted model as the
-// feed-forward and the collision detector on (thresholds by key until the
-// model carries its own), with `inject` in the emulator; delta_fw's exit
-// code, its words and the emulator's.
+// feed-forward, the collision detector on as it comes with it (its own
+// thresholds, no key), and `inject` in the emulator; delta_fw's exit code,
+// its words and the emulator's.
 struct CollisionRun {
   int exit{-1};
   std::string fw, emu;
@@ -224,10 +224,9 @@ struct CollisionRun {
 CollisionRun pick_and_place_with_detector(const std::string& model,
                                           const std::vector<std::string>& inject) {
   hil::Child emu = start_emulator(inject);
-  hil::Child fw = hil::Child::spawn(
-      {kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set", "feed_forward.store=", "--set",
-       "feed_forward.model=" + model, "--set", "collision.detect=true", "--set",
-       "collision.threshold_Nm=0.08", "--run", "pick-and-place", "--exit-when-done"});
+  hil::Child fw = hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set",
+                                     "feed_forward.store=", "--set", "feed_forward.model=" + model,
+                                     "--run", "pick-and-place", "--exit-when-done"});
   CollisionRun r;
   r.exit = fw.wait(300s).value_or(-1);
   emu.terminate(30s);
@@ -237,46 +236,83 @@ CollisionRun pick_and_place_with_detector(const std::string& model,
 }
 
 // Collision detection on vcan (docs/safety.md), with the model fitted from
-// the recorded path1: a clean pick-and-place runs to its end with no
-// detection; a 10 N contact on the platform for 200 ms, in each of five
-// directions, 3 s into the run, is detected within 10 ms of its onset
-// (delta_fw's `collision` line against the emulator's `contact` line, both
-// in seconds since the first SYNC), with fault 14 and exit code 3.
+// the recorded path1 and the thresholds it carries: five clean
+// pick-and-place runs reach their end with no detection; a 10 N contact on
+// the platform for 200 ms, in each of five directions at each of three
+// moments (2 s: holding; 3 s: at 2 rad/s; 5 s: accelerating at 5-7
+// rad/s^2), is detected within 10 ms of its onset (delta_fw's `collision`
+// line against the emulator's `contact` line, both in seconds since the
+// first SYNC; the controller ticks at 500 Hz), with fault 14 and exit
+// code 3.
 TEST(HostExcite, ContactsWithTheRobotAreDetectedWithinTenMilliseconds) {
   MultibodySession& s = multibody_session();
   const std::string model = s.dir + "/fit.json";
   ASSERT_TRUE(std::ifstream(model).good()) << "the fitted model of the test before";
-  const CollisionRun clean = pick_and_place_with_detector(model, {});
-  EXPECT_EQ(clean.exit, 0) << clean.fw;
-  EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
-  EXPECT_NE(clean.fw.find("collision detection on"), std::string::npos) << clean.fw;
-  for (const char* direction : {"1,0,0", "-1,0,0", "0,1,0", "0,-1,0", "0,0,-1"}) {
-    SCOPED_TRACE(direction);
-    const CollisionRun hit = pick_and_place_with_detector(
-        model, {"--inject", std::string("contact:10:") + direction + ":200@3"});
-    EXPECT_EQ(hit.exit, 3) << hit.fw;
-    EXPECT_NE(hit.fw.find("fault 14 (collision)"), std::string::npos) << hit.fw;
-    const double contact_s = number_after(hit.emu, "contact: t_s=");
-    const double detected_s = number_after(hit.fw, "collision pick-and-place: t_s=");
-    std::cout << "contact 10 N along " << direction << " at " << contact_s << " s, detected at "
-              << detected_s << " s: " << (detected_s - contact_s) * 1e3 << " ms\n";
-    EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
-    EXPECT_LE(detected_s - contact_s, 0.010) << hit.fw << hit.emu;
+  for (int run = 1; run <= 5; ++run) {
+    SCOPED_TRACE("clean run " + std::to_string(run));
+    const CollisionRun clean = pick_and_place_with_detector(model, {});
+    EXPECT_EQ(clean.exit, 0) << clean.fw;
+    EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
+    EXPECT_NE(clean.fw.find("collision detection on: the model's thresholds (fit 0x"),
+              std::string::npos)
+        << clean.fw;
   }
-  // In fault, the controller shows the detection over Modbus, and host_id
-  // status says it.
-  hil::Child emu = start_emulator({"--inject", "contact:10:1,0,0:200@3"});
-  hil::Child fw =
-      hil::Child::spawn({kBin + "/delta_fw", "--can", kIface, "--lockstep", "--set",
-                         "feed_forward.store=", "--set", "feed_forward.model=" + model, "--set",
-                         "collision.detect=true", "--set", "collision.threshold_Nm=0.08", "--set",
-                         "modbus.tcp=127.0.0.1:15027", "--run", "pick-and-place"});
-  ASSERT_TRUE(fw.wait_for_output("collision pick-and-place: t_s=", 120s)) << fw.err();
+  double worst_ms = 0.0;
+  for (const char* moment : {"2", "3", "5"}) {
+    for (const char* direction : {"1,0,0", "-1,0,0", "0,1,0", "0,-1,0", "0,0,-1"}) {
+      SCOPED_TRACE(std::string(direction) + " at " + moment + " s");
+      const CollisionRun hit = pick_and_place_with_detector(
+          model, {"--inject", std::string("contact:10:") + direction + ":200@" + moment});
+      EXPECT_EQ(hit.exit, 3) << hit.fw;
+      EXPECT_NE(hit.fw.find("fault 14 (collision)"), std::string::npos) << hit.fw;
+      const double contact_s = number_after(hit.emu, "contact: t_s=");
+      const double detected_s = number_after(hit.fw, "collision pick-and-place: t_s=");
+      const double ms = (detected_s - contact_s) * 1e3;
+      std::cout << "contact 10 N along " << direction << " at " << contact_s << " s, detected at "
+                << detected_s << " s: " << ms << " ms\n";
+      EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
+      EXPECT_LE(ms, 10.0 + 1e-6) << hit.fw << hit.emu;
+      worst_ms = std::max(worst_ms, ms);
+    }
+  }
+  std::cout << "15 contacts of 10 N: detected within " << worst_ms << " ms at worst\n";
+}
+
+// A collision as the user's tools see it (the contact 6 s into the bus's
+// time: inside the run, which excite starts once delta_fw is up): host_id
+// excite stops with the
+// controller's fault, names the detection (its COLLISION frames on the
+// bus), keeps it in the partial log's metadata, and host_id status shows
+// the detector and its last event over Modbus.
+TEST(HostExcite, ACollisionIsInTheRecordedLogAndInTheStatus) {
+  MultibodySession& s = multibody_session();
+  const std::string model = s.dir + "/fit.json";
+  ASSERT_TRUE(std::ifstream(model).good()) << "the fitted model of the test before";
+  hil::Child emu = start_emulator({"--inject", "contact:10:1,0,0:200@6"});
+  hil::Child fw = start_firmware_with_modbus(
+      15027, {"--set", "feed_forward.store=", "--set", "feed_forward.model=" + model});
+  hil::Child excite =
+      hil::Child::spawn({kBin + "/host_id", "excite", "--modbus", "127.0.0.1:15027", "--trajectory",
+                         "pick-and-place", "--can", kIface, "-o", s.dir + "/hit.csv"});
+  ASSERT_EQ(excite.wait(300s).value_or(-1), 4)
+      << excite.out() << excite.err() << stopped_and_told(fw, emu);
+  const std::string said = excite.err();
+  EXPECT_NE(said.find("the controller faulted: fault 14 (collision)"), std::string::npos) << said;
+  EXPECT_NE(said.find("host_id excite: the controller detected a collision after the log's "
+                      "sample at t = "),
+            std::string::npos)
+      << said;
+  std::ifstream partial(s.dir + "/hit.partial.csv");
+  const std::string text((std::istreambuf_iterator<char>(partial)),
+                         std::istreambuf_iterator<char>());
+  for (const char* key : {"# collision_t_s = ", "# collision_joint = ",
+                          "# collision_residual_Nm = ", "# collision_threshold_Nm = "}) {
+    EXPECT_NE(text.find(key), std::string::npos) << key;
+  }
   hil::Child status =
       hil::Child::spawn({kBin + "/host_id", "status", "--modbus", "127.0.0.1:15027"});
   EXPECT_EQ(status.wait(30s).value_or(-1), 0) << status.err();
-  EXPECT_NE(status.out().find("  collision  detector on; last of 1: joint 1 at t_s=3.006"),
-            std::string::npos)
+  EXPECT_NE(status.out().find("  collision  detector on; last of 1: joint "), std::string::npos)
       << status.out();
   fw.terminate(30s);
   emu.terminate(30s);
