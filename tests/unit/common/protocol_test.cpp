@@ -19,10 +19,11 @@ TEST(ProtocolTest, EveryCobIdOnTheBusIsUnique) {
       ++count;
     }
   }
-  EXPECT_EQ(count, 31u);
-  // The log frames are TPDO1..3 of the controller's node 16, its emergency
-  // and heartbeat those of node 16 too.
+  EXPECT_EQ(count, 32u);
+  // The log frames are TPDO1..3 of the controller's node 16, the collision
+  // frame its TPDO4, its emergency and heartbeat those of node 16 too.
   EXPECT_EQ(kLogA.base_id, 0x180 + kControllerNode);
+  EXPECT_EQ(kCollision.base_id, 0x480 + kControllerNode);
   EXPECT_EQ(kControllerEmcy.base_id, kEmcy.base_id + kControllerNode);
   EXPECT_EQ(kControllerHeartbeat.base_id, kHeartbeat.base_id + kControllerNode);
 }
