@@ -62,11 +62,23 @@ std::string collision_thresholds_unavailable(const ModelOptions& model) {
   if (model.name != "delta" && model.name != "lumped") {
     return "the " + model.name + " model does not run on the controller";
   }
-  if (model.torque_gains || model.load_friction || model.elastic()) {
-    return "the controller does not run the fit's drive-train terms (torque gains, load "
-           "friction, elasticity): fit with --model delta --per-joint for a model it runs whole";
+  if (model.elastic()) {
+    return "the elastic model's states are the arm's, the controller's the motor's: fit without "
+           "--elastic for a model whose thresholds hold there";
   }
   return "";
+}
+
+Eigen::VectorXd controller_parameters(const Model& model, const Eigen::VectorXd& beta) {
+  Eigen::VectorXd out = beta;
+  const auto& info = model.parameters();
+  for (std::size_t i = 0; i < info.size() && i < static_cast<std::size_t>(out.size()); ++i) {
+    const std::string& n = info[i].name;
+    if (n.rfind("torque_gain_gap_", 0) == 0 || n.rfind("load_friction_", 0) == 0) {
+      out(static_cast<Eigen::Index>(i)) = 0.0;
+    }
+  }
+  return out;
 }
 
 }  // namespace host_id

@@ -36,7 +36,10 @@ TEST(CollisionSettingTest, OnByDefaultWithAModelThatCarriesThresholds) {
   const CollisionSetting none = collision_setting(c, true, std::nullopt);
   EXPECT_FALSE(none.config.detect);
   EXPECT_TRUE(none.problem.empty());
-  EXPECT_NE(describe_collision(none).find("collision detection off"), std::string::npos);
+  EXPECT_NE(describe_collision(none).find(
+                "collision detection off: the model in use carries no thresholds"),
+            std::string::npos)
+      << describe_collision(none);
 }
 
 TEST(CollisionSettingTest, DetectTrueInsistsAndSaysWhyItCannot) {

@@ -52,8 +52,12 @@ CollisionSetting collision_setting(const PortConfig& c, bool model_in_use,
     have = false;
   }
   const bool insist = c.collision_detect.value_or(false);
-  if (c.collision_detect.has_value() && !insist) return s;
+  if (c.collision_detect.has_value() && !insist) {
+    s.off_why = "collision.detect = false";
+    return s;
+  }
   if (!model_in_use) {
+    s.off_why = "the feed-forward is not the identified model";
     if (insist) {
       s.problem =
           "collision.detect = true needs the identified model as the feed-forward "
@@ -63,6 +67,9 @@ CollisionSetting collision_setting(const PortConfig& c, bool model_in_use,
     return s;
   }
   if (!have) {
+    s.off_why =
+        "the model in use carries no thresholds (fitted before host_id derived them: fit it "
+        "again) and collision.threshold_Nm is not set";
     if (insist) {
       s.problem =
           "collision.detect = true needs thresholds: the model in use carries none (fit it "
@@ -77,10 +84,7 @@ CollisionSetting collision_setting(const PortConfig& c, bool model_in_use,
 
 std::string describe_collision(const CollisionSetting& s) {
   if (!s.problem.empty()) return "collision detection refused: " + s.problem;
-  if (!s.config.detect) {
-    return "collision detection off (collision.detect; it is on by default with a model "
-           "that carries thresholds; docs/safety.md)";
-  }
+  if (!s.config.detect) return "collision detection off: " + s.off_why + " (docs/safety.md)";
   const fw::CollisionThresholds& t = s.config.thresholds;
   std::string text = "collision detection on: " + s.source + ", times " +
                      std::to_string(delta::to_double(s.config.threshold_scale)).substr(0, 5);

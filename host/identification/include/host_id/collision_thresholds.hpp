@@ -19,6 +19,7 @@
 // model's error does where it extrapolates.
 #pragma once
 
+#include <Eigen/Dense>
 #include <array>
 #include <optional>
 #include <string>
@@ -49,8 +50,14 @@ std::array<double, 3> filtered_residual_peak(const Prediction& p);
 // ranges.
 CollisionThresholdFit collision_thresholds_from(const Prediction& fitted, const LogRmse& fit);
 
-// Why the controller's residual would not be the fit's: "" where it is (the
-// thresholds can be derived), else the terms it does not run.
+// Why the thresholds cannot be derived: "" where they can, else why (a
+// model the controller does not run, an elastic one whose arm-side states
+// are not the controller's).
 std::string collision_thresholds_unavailable(const ModelOptions& model);
+
+// The parameters as the controller runs them: the drive train's torque
+// gains and load friction, which it does not run, set to none (its
+// residual then carries what they would have explained).
+Eigen::VectorXd controller_parameters(const Model& model, const Eigen::VectorXd& beta);
 
 }  // namespace host_id

@@ -19,6 +19,7 @@ struct CollisionSetting {
   fw::CollisionConfig config;
   std::string source;   // "the model's (fit 0x...)", "the keys'", "" none
   std::string problem;  // why collision.detect = true cannot be honoured; "" fine
+  std::string off_why;  // why it is off, where it is
 };
 
 // `model_in_use`: the identified model is the feed-forward; `thresholds`
