@@ -120,6 +120,29 @@ ModelInUse read_model(const ModelLink& link) {
   return r;
 }
 
+namespace {
+
+// The collision detector's thresholds the model carries (docs/safety.md).
+void print_collision_thresholds(const delta::IdentifiedModel& m, std::ostream& out) {
+  if (!m.collision_thresholds) {
+    out << "collision thresholds: none (the detector is off unless keys set them)\n";
+    return;
+  }
+  const delta::CollisionThresholds& t = *m.collision_thresholds;
+  out << "collision thresholds (docs/safety.md):\n";
+  char line[160];
+  const auto row = [&](const char* name, const delta::Joint3& v, const char* unit) {
+    std::snprintf(line, sizeof line, "  %-24s %12.6g %12.6g %12.6g %s\n", name, v[0], v[1], v[2],
+                  unit);
+    out << line;
+  };
+  row("base", t.base_Nm, "N m");
+  row("per_speed", t.per_speed_Nm_s_per_rad, "N m s/rad");
+  row("per_acceleration", t.per_acceleration_Nm_s2_per_rad, "N m s^2/rad");
+}
+
+}  // namespace
+
 void print_model(const ModelInUse& m, std::ostream& out) {
   static const char* const kModes[] = {"off", "nominal", "model"};
   out << "feed-forward: " << (m.mode < 3 ? kModes[m.mode] : "unknown") << "\n";
@@ -155,6 +178,7 @@ void print_model(const ModelInUse& m, std::ostream& out) {
                   id.parameters.stribeck_velocity_rad_s);
     out << line;
   }
+  print_collision_thresholds(id, out);
 }
 
 }  // namespace host_id
