@@ -119,6 +119,34 @@ inline delta::RobotDescription heavy_robot() {
   return r;
 }
 
+// A working delta (heavy_robot) whose arms differ by 3 %, with Stribeck
+// friction and cogging at every joint; with `drive_train`, also the four
+// effects of a real drive train (elastic gearboxes, torque constants off,
+// currents filtered, load friction).
+inline delta::RobotDescription flawed_robot(bool drive_train) {
+  delta::RobotDescription r = heavy_robot();
+  const double arm_scale[3] = {1.0, 1.03, 0.97};
+  const double stiffness[3] = {3000.0, 3400.0, 2700.0};
+  const double ratio[3] = {1.06, 0.95, 1.10};
+  for (unsigned j = 0; j < 3; ++j) {
+    delta::UpperArmBody arm = r.upper_arm;
+    arm.mass_kg *= arm_scale[j];
+    r.arm_bodies[j] = arm;
+    r.joints[j].stribeck_friction_Nm = 0.02;
+    r.joints[j].stribeck_velocity_rad_s = 0.1;
+    r.joints[j].cogging_amplitude_Nm = 0.03;
+    r.joints[j].cogging_periods_per_motor_rev = 6.0;
+    if (!drive_train) continue;
+    r.joints[j].rotor_inertia_kg_m2 = 3e-5;
+    r.joints[j].gearbox_stiffness_Nm_per_rad = stiffness[j];
+    r.joints[j].gearbox_damping_Nm_s_per_rad = 0.5;
+    r.joints[j].torque_constant_ratio = ratio[j];
+    r.joints[j].current_filter_time_constant_s = 0.5e-3;
+    r.joints[j].load_friction_coefficient = 0.05;
+  }
+  return r;
+}
+
 inline FitResult fit_multibody_log(const delta::RobotDescription& robot, const std::string& model) {
   return fit_log(multibody_log(robot), least_squares(model_named(model)));
 }

@@ -19,34 +19,6 @@
 namespace host_id {
 namespace {
 
-// The drive-train robot of HonestStdDevTest: arms 3 % apart, Stribeck
-// friction, cogging, elastic gearboxes, torque constants off, current
-// filtered, load friction; `drive_train` false leaves the joints rigid and
-// ideal.
-delta::RobotDescription robot_with_flaws(bool drive_train) {
-  delta::RobotDescription r = test::heavy_robot();
-  const double arm_scale[3] = {1.0, 1.03, 0.97};
-  const double stiffness[3] = {3000.0, 3400.0, 2700.0};
-  const double ratio[3] = {1.06, 0.95, 1.10};
-  for (unsigned j = 0; j < 3; ++j) {
-    delta::UpperArmBody arm = r.upper_arm;
-    arm.mass_kg *= arm_scale[j];
-    r.arm_bodies[j] = arm;
-    r.joints[j].stribeck_friction_Nm = 0.02;
-    r.joints[j].stribeck_velocity_rad_s = 0.1;
-    r.joints[j].cogging_amplitude_Nm = 0.03;
-    r.joints[j].cogging_periods_per_motor_rev = 6.0;
-    if (!drive_train) continue;
-    r.joints[j].rotor_inertia_kg_m2 = 3e-5;
-    r.joints[j].gearbox_stiffness_Nm_per_rad = stiffness[j];
-    r.joints[j].gearbox_damping_Nm_s_per_rad = 0.5;
-    r.joints[j].torque_constant_ratio = ratio[j];
-    r.joints[j].current_filter_time_constant_s = 0.5e-3;
-    r.joints[j].load_friction_coefficient = 0.05;
-  }
-  return r;
-}
-
 // The largest ratio, over a log's samples and joints, of the controller's
 // filtered residual to its threshold at the sample's speed and
 // acceleration.
@@ -73,7 +45,7 @@ double worst_ratio(const FitResult& fit, const DeltaLog& log) {
 }
 
 void expect_thresholds_hold_both_ways(bool drive_train, const ModelOptions& m = {}) {
-  const delta::RobotDescription robot = robot_with_flaws(drive_train);
+  const delta::RobotDescription robot = test::flawed_robot(drive_train);
   const DeltaLog fitted = test::multibody_log(robot, 0.2, "fourier", 1);
   const DeltaLog held_out = test::multibody_log(robot, 0.2, "fourier", 2);
   const FitResult fit = fit_log(fitted, test::least_squares(m));
@@ -109,7 +81,7 @@ TEST(CollisionThresholdsTest, HoldForWhatTheControllerRunsOfADriveTrainModel) {
 
 // paper14's coefficients do not run on the controller: none, and why.
 TEST(CollisionThresholdsTest, NoneForAModelTheControllerDoesNotRun) {
-  const FitResult fit = fit_log(test::multibody_log(robot_with_flaws(false)),
+  const FitResult fit = fit_log(test::multibody_log(test::flawed_robot(false)),
                                 test::least_squares(test::model_named("paper14")));
   EXPECT_FALSE(fit.collision.has_value());
   EXPECT_NE(fit.collision_unavailable.find("does not run on the controller"), std::string::npos)

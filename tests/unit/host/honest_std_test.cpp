@@ -20,37 +20,11 @@
 namespace host_id {
 namespace {
 
-// A working delta (test::heavy_robot) whose arms differ by 3 %, with
-// Stribeck friction and cogging at every joint.
 delta::RobotDescription rigid_robot() {
-  delta::RobotDescription r = test::heavy_robot();
-  const double arm_scale[3] = {1.0, 1.03, 0.97};
-  for (unsigned j = 0; j < 3; ++j) {
-    delta::UpperArmBody arm = r.upper_arm;
-    arm.mass_kg *= arm_scale[j];
-    r.arm_bodies[j] = arm;
-    r.joints[j].stribeck_friction_Nm = 0.02;
-    r.joints[j].stribeck_velocity_rad_s = 0.1;
-    r.joints[j].cogging_amplitude_Nm = 0.03;
-    r.joints[j].cogging_periods_per_motor_rev = 6.0;
-  }
-  return r;
+  return test::flawed_robot(false);
 }
-
-// The rigid robot with the four effects of a real drive train.
 delta::RobotDescription drive_train_robot() {
-  delta::RobotDescription r = rigid_robot();
-  const double stiffness[3] = {3000.0, 3400.0, 2700.0};
-  const double ratio[3] = {1.06, 0.95, 1.10};
-  for (unsigned j = 0; j < 3; ++j) {
-    r.joints[j].rotor_inertia_kg_m2 = 3e-5;
-    r.joints[j].gearbox_stiffness_Nm_per_rad = stiffness[j];
-    r.joints[j].gearbox_damping_Nm_s_per_rad = 0.5;
-    r.joints[j].torque_constant_ratio = ratio[j];
-    r.joints[j].current_filter_time_constant_s = 0.5e-3;
-    r.joints[j].load_friction_coefficient = 0.05;
-  }
-  return r;
+  return test::flawed_robot(true);
 }
 
 // A lighter robot whose only flaws are a Stribeck dip the default model
