@@ -116,6 +116,26 @@ void reference_line(Line& l, const char* name, std::uint32_t tick, const JointRe
   l.end(lines);
 }
 
+// The model with the drive train's torque gains and load friction along
+// the pick-and-place reference: its torques divided as the fit's model
+// solves them.
+void drive_train_lines(Line& l, std::uint32_t& lines) {
+  ModelParametersQ p = example_model_parameters();
+  p.torque_gain_gap = {Q1_30::from(0.0), Q1_30::from(0.08), Q1_30::from(-0.06)};
+  p.load_friction = {Q1_30::from(0.05), Q1_30::from(0.0), Q1_30::from(0.12)};
+  const delta::fx::ModelQ m = delta::fx::prepare_model(kGeometry, p);
+  const Trajectory pnp(kGeometry, pick_and_place_config());
+  for (std::uint32_t tick = 7; tick <= pnp.length_ticks(); tick += 97) {
+    JointReference r;
+    pnp.reference(tick, r);
+    Joint3Q12_19 tau{};
+    const auto status = delta::fx::model_torque(m, r, tau);
+    l.word("model-drive").num(tick).num(static_cast<int>(status));
+    for (const Q12_19 t : tau) l.num(t.raw());
+    l.end(lines);
+  }
+}
+
 // The identified model's arithmetic: exp and tanh, the model's torques
 // along the pick-and-place reference with the states disturbed (with the
 // platform's position and acceleration given, and without), and the
@@ -147,6 +167,7 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
     for (const Q12_19 t : tau) l.num(t.raw());
     l.end(lines);
   }
+  drive_train_lines(l, lines);
   TrajectoryBounds bounds{
       kGeometry, JointLimits{}, {FeedForwardMode::kModel, {}, m}, Q12_19::from(1.3)};
   const TrajectoryCheck c = check_trajectory(bounds, pick_and_place_config());

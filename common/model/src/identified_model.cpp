@@ -93,6 +93,28 @@ std::optional<CollisionThresholds> collision_thresholds_of(const nlohmann::json&
                              joint3("per_acceleration_Nm_s2_per_rad")};
 }
 
+// The drive train's terms of a fit that has them (torque_gain_gap_2, _3;
+// load_friction_1 to _3); null counts as 0, as for every parameter.
+DriveTrainTerms drive_train_of(const nlohmann::json& params, bool gains, bool load,
+                               const std::string& path) {
+  DriveTrainTerms d;
+  const auto get = [&](const std::string& name) {
+    if (!params.is_object() || !params.contains(name)) {
+      throw InputError(path + ": parameters." + name + " is missing (the model has " +
+                       (gains ? "torque gains" : "load friction") + ")");
+    }
+    const auto& v = params[name];
+    if (v.is_null()) return 0.0;
+    if (!v.is_number()) throw InputError(path + ": parameters." + name + " must be a number");
+    return v.get<double>();
+  };
+  for (unsigned j = 0; j < 3; ++j) {
+    if (gains && j > 0) d.torque_gain_gap[j] = get("torque_gain_gap_" + std::to_string(j + 1));
+    if (load) d.load_friction[j] = get("load_friction_" + std::to_string(j + 1));
+  }
+  return d;
+}
+
 }  // namespace
 
 IdentifiedModel read_identified_model(const std::string& path) {
@@ -116,8 +138,6 @@ IdentifiedModel read_identified_model(const std::string& path) {
     const double stribeck = model.value("stribeck_velocity_rad_s", 0.0);
     const bool gains = model.value("torque_gains", false);
     const bool load = model.value("load_friction", false);
-    m.terms_not_run = std::string(gains ? "torque gains" : "") + (gains && load ? " and " : "") +
-                      (load ? "load friction" : "");
     m.geometry = geometry_of(j, path);
     m.collision_thresholds = collision_thresholds_of(j, path);
     const auto& params = member(j, "parameters", path);
@@ -137,6 +157,7 @@ IdentifiedModel read_identified_model(const std::string& path) {
           }
           return v.get<double>();
         });
+    m.drive_train = drive_train_of(params, gains, load, path);
   } catch (const nlohmann::json::type_error& e) {
     throw InputError(path + ": a model value has the wrong type: " + e.what());
   } catch (const InputError& e) {
@@ -145,14 +166,6 @@ IdentifiedModel read_identified_model(const std::string& path) {
     throw InputError(path + ": " + what);
   }
   return m;
-}
-
-std::string terms_not_run_warning(const IdentifiedModel& m) {
-  if (m.terms_not_run.empty()) return "";
-  return "the fit has the drive train's " + m.terms_not_run +
-         ", which the controller's model does not run: its feed-forward leaves them out (each "
-         "joint's torque off by its gain's gap and its load friction, a few %); fit with --model "
-         "delta --per-joint for a model the controller runs whole";
 }
 
 }  // namespace delta

@@ -41,6 +41,25 @@ struct Check {
   }
 };
 
+// The drive train's terms within what the controller runs (as the record
+// checks them): |gap| < 1/2, load friction in [0, 1/2).
+void drive_train_problems(const DriveTrainTerms& d, std::vector<std::string>& problems) {
+  for (unsigned j = 0; j < 3; ++j) {
+    const double gap = d.torque_gain_gap[j];
+    const double mu = d.load_friction[j];
+    if (!(gap > -0.5 && gap < 0.5)) {
+      problems.push_back("parameter torque_gain_gap_" + std::to_string(j + 1) + " = " +
+                         number(gap) +
+                         " is outside what the controller runs: -0.5 to 0.5 (a torque constant "
+                         "that far from joint 1's: check the drives' scaling)");
+    }
+    if (!(mu >= 0.0 && mu < 0.5)) {
+      problems.push_back("parameter load_friction_" + std::to_string(j + 1) + " = " + number(mu) +
+                         " is outside what the controller runs: 0 to 0.5");
+    }
+  }
+}
+
 }  // namespace
 
 fx::GeometryQ geometry_q(const Geometry& g) {
@@ -106,6 +125,7 @@ IdentifiedModel identified_model(const controller::ModelRecord& r) {
   m.per_joint = h.arm_inertia_kg_m2[0] != h.arm_inertia_kg_m2[1] ||
                 h.arm_inertia_kg_m2[1] != h.arm_inertia_kg_m2[2];
   m.offsets = h.torque_offset_Nm != Joint3{};
+  m.drive_train = DriveTrainTerms{from_q3(q.torque_gain_gap), from_q3(q.load_friction)};
   if (r.has_collision_thresholds) {
     const fx::CollisionThresholdsQ& t = r.collision_thresholds;
     m.collision_thresholds =
@@ -159,6 +179,7 @@ std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry
   c.joints<Q12_19>("coulomb_friction", p.coulomb_friction_Nm, true, "N m");
   c.joints<Q12_19>("stribeck_friction", p.stribeck_friction_Nm, true, "N m");
   c.joints<Q12_19>("torque_offset", p.torque_offset_Nm, false, "N m");
+  drive_train_problems(m.drive_train, problems);
   if (m.collision_thresholds) {
     const CollisionThresholds& t = *m.collision_thresholds;
     c.joints<Q12_19>("collision_thresholds.base", t.base_Nm, true, "N m");
@@ -200,6 +221,10 @@ fx::ModelParametersQ model_parameters_q(const IdentifiedModel& m) {
   q.coulomb_smoothing_rad_s = to_q_saturated<Q10_21>(p.coulomb_smoothing_rad_s);
   q.stribeck_velocity_rad_s = to_q_saturated<Q10_21>(p.stribeck_velocity_rad_s);
   q.gravity_m_s2 = to_q_saturated<Q7_24>(p.gravity_m_s2);
+  for (unsigned j = 0; j < 3; ++j) {
+    q.torque_gain_gap[j] = to_q_saturated<Q1_30>(m.drive_train.torque_gain_gap[j]);
+    q.load_friction[j] = to_q_saturated<Q1_30>(m.drive_train.load_friction[j]);
+  }
   return q;
 }
 

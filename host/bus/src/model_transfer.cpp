@@ -61,6 +61,10 @@ std::string reason_of(std::uint32_t fault) {
       return text + ": try again";
     case mc::ModelRecordFault::kNotStored:
       return text + ": check feed_forward.store on the controller";
+    case mc::ModelRecordFault::kDetector:
+      return text +
+             ": fit the log again with this host_id (it derives the thresholds), or set "
+             "collision.threshold_Nm or collision.detect on the controller";
     default:
       return text;
   }
@@ -177,6 +181,14 @@ void print_model(const ModelInUse& m, std::ostream& out) {
     std::snprintf(line, sizeof line, "  %-24s %12.6g rad/s\n", "stribeck_velocity",
                   id.parameters.stribeck_velocity_rad_s);
     out << line;
+  }
+  const delta::DriveTrainTerms& d = id.drive_train;
+  if (d.torque_gain_gap != delta::Joint3{} || d.load_friction != delta::Joint3{}) {
+    for (const auto& [name, v] : {std::pair{"torque_gain_gap", d.torque_gain_gap},
+                                  std::pair{"load_friction", d.load_friction}}) {
+      std::snprintf(line, sizeof line, "  %-24s %12.6g %12.6g %12.6g\n", name, v[0], v[1], v[2]);
+      out << line;
+    }
   }
   print_collision_thresholds(id, out);
 }

@@ -69,16 +69,4 @@ std::string collision_thresholds_unavailable(const ModelOptions& model) {
   return "";
 }
 
-Eigen::VectorXd controller_parameters(const Model& model, const Eigen::VectorXd& beta) {
-  Eigen::VectorXd out = beta;
-  const auto& info = model.parameters();
-  for (std::size_t i = 0; i < info.size() && i < static_cast<std::size_t>(out.size()); ++i) {
-    const std::string& n = info[i].name;
-    if (n.rfind("torque_gain_gap_", 0) == 0 || n.rfind("load_friction_", 0) == 0) {
-      out(static_cast<Eigen::Index>(i)) = 0.0;
-    }
-  }
-  return out;
-}
-
 }  // namespace host_id

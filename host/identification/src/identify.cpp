@@ -467,19 +467,20 @@ void note_fit_residuals(const Model& model, const Regression& all_rows, const Eq
   }
 }
 
-// The collision detector's thresholds from the residual on the fit's own
-// log of the model as the controller runs it (without the drive train's
-// gains and load friction).
+// The collision detector's thresholds from the fit's residual on its own
+// log, where the controller runs the model as fitted.
 void note_collision_thresholds(const Model& model, const Regression& all_rows,
                                const std::string& log_name, FitResult& r) {
   r.collision_unavailable = collision_thresholds_unavailable(r.options.model);
-  if (!r.collision_unavailable.empty() || !r.fit.ranges.known) return;
-  const Eigen::VectorXd run = controller_parameters(model, r.beta);
-  if (!r.predictions.empty() && run == r.beta) {
+  if (r.collision_unavailable.empty() && !r.fit.ranges.known) {
+    r.collision_unavailable = "the log's motion ranges are unknown";
+  }
+  if (!r.collision_unavailable.empty()) return;
+  if (!r.predictions.empty()) {
     r.collision = collision_thresholds_from(r.predictions.front(), r.fit);
     return;
   }
-  r.collision = collision_thresholds_from(prediction_of(model, all_rows, run, log_name), r.fit);
+  r.collision = collision_thresholds_from(prediction_of(model, all_rows, r.beta, log_name), r.fit);
 }
 
 // The fitted parameters' RMSE on each validation log, and their

@@ -42,7 +42,11 @@ ControllerConfig config(FeedForwardMode feed_forward) {
   c.approach_ticks = 1;
   c.feed_forward.mode = feed_forward;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
-  c.feed_forward.model = delta::fx::prepare_model(c.geometry, golden::example_model_parameters());
+  // Every term, the drive train's too (its division and tanh each tick).
+  delta::fx::ModelParametersQ model = golden::example_model_parameters();
+  model.torque_gain_gap = {Q1_30::from(0.0), Q1_30::from(0.08), Q1_30::from(-0.06)};
+  model.load_friction = {Q1_30::from(0.05), Q1_30::from(0.03), Q1_30::from(0.12)};
+  c.feed_forward.model = delta::fx::prepare_model(c.geometry, model);
   // The detector on, with thresholds no run reaches: its work in every step.
   c.collision.detect = true;
   for (unsigned j = 0; j < 3; ++j) {

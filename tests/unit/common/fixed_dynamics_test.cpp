@@ -210,6 +210,52 @@ TEST(FixedDynamicsTest, TheLumpedModelIsTheCaseWithoutSinCouplingAndMassSplit) {
   EXPECT_LE(w.given_platform_Nm, 1e-3 * kMaxTorqueNm);
 }
 
+// The drive train's torque gains and load friction (host_id fit's, which
+// the controller runs): at every state the torque is the rigid model's y
+// divided by 1 - gap - mu tanh(qd / w) sign y, as the fit's model solves it
+// (in double here), within 1e-5 N m. (Without the terms the torque is y bit
+// for bit: the golden vectors' model lines are unchanged.)
+TEST(FixedDynamicsTest, TheDriveTrainDividesTheTorqueAsTheFitsModelSolvesIt) {
+  const GeometryQ gq = geometry_q(kDefaultGeometry);
+  const HighFidelityParameters h = every_term();
+  ModelParametersQ with = parameters_q(h);
+  const ModelQ rigid = prepare_model(gq, with);
+  const double gap[3] = {0.0, 0.08, -0.06};
+  const double mu[3] = {0.05, 0.0, 0.12};
+  for (unsigned j = 0; j < 3; ++j) {
+    with.torque_gain_gap[j] = to_q_saturated<Q1_30>(gap[j]);
+    with.load_friction[j] = to_q_saturated<Q1_30>(mu[j]);
+  }
+  const ModelQ drive = prepare_model(gq, with);
+  SplitMix64 rng(7);
+  double worst = 0.0;
+  int states = 0;
+  for (int tries = 0; states < 2000 && tries < 100000; ++tries) {
+    const Vec3<double> p{uniform(rng, -0.3, 0.3), uniform(rng, -0.3, 0.3),
+                         uniform(rng, -0.6, -0.2)};
+    const auto ws = check_workspace(kDefaultGeometry, p, WorkspaceLimits<double>{});
+    if (ws.status != WorkspaceStatus::kInside) continue;
+    JointStateQ sq;
+    JointState sd;
+    random_joint_state(ws, rng, 0.05 + 3.0 * (states % 2), 60.0, sq, sd);
+    Joint3Q12_19 y{}, tau{};
+    ASSERT_EQ(model_torque(rigid, sq, y), KinematicsStatus::kOk);
+    ASSERT_EQ(model_torque(drive, sq, tau), KinematicsStatus::kOk);
+    ++states;
+    for (unsigned j = 0; j < 3; ++j) {
+      const double yd = to_double(y[j]);
+      const double gain =
+          1.0 - gap[j] -
+          mu[j] * std::tanh(sd.qd_rad_s[j] / h.coulomb_smoothing_rad_s) * (yd < 0.0 ? -1.0 : 1.0);
+      worst = std::max(worst, std::abs(to_double(tau[j]) - yd / std::max(gain, 0.05)));
+    }
+  }
+  std::printf("drive train over %d states: worst %.3g N m against the fit's formula\n", states,
+              worst);
+  EXPECT_EQ(states, 2000);
+  EXPECT_LE(worst, 1e-5);
+}
+
 TEST(FixedDynamicsTest, RefusesPosesWithoutKinematics) {
   // Forearms as long as the arms: with every arm at acos(0.675) the
   // forearms lie flat (the parallel singularity): a hair above it the

@@ -3,12 +3,15 @@
 // elastic gearboxes (2700-3400 N m/rad), torque constants 5-10 % off,
 // currents filtered, load friction and cogging, none of which the
 // controller's model runs. Its path1 is recorded through the firmware's
-// port and fitted as `host_id fit` fits by default (--model auto), the
-// result saved and read back; the controller starts with that model and
-// the thresholds it carries, the detector on as it comes. Three clean
+// port and fitted as `host_id fit` fits by default (--model auto: with the
+// torque gains and load friction, which the controller runs), the result
+// saved and read back; the controller starts with that model and the
+// thresholds it carries, the detector on as it comes, scaled by 2
+// (collision.threshold_scale) as docs/safety.md says for elastic
+// gearboxes. Three clean
 // pick-and-place runs end with no detection; 20 N contacts on the platform
 // (three directions at 2 s holding, 3 s at speed, 5 s accelerating) are
-// each detected within 20 ms of their onset.
+// each detected within 20 ms of their onset (measured: 6-12 ms).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -56,6 +59,11 @@ PortConfig with_model(const delta::IdentifiedModel& m) {
   PortConfig c = Rig::config();
   c.feed_forward = fw::FeedForwardMode::kModel;
   c.feed_forward_model = m;
+  // The elastic gearboxes ring at the pick-and-place's stops, which the
+  // fitted Fourier log does not show: at 1 the residual reached 1.08 of the
+  // thresholds (a false stop), at 1.25 too; 2 is the scale docs/safety.md
+  // gives for such a robot.
+  c.collision_threshold_scale = 2.0;
   return c;
 }
 

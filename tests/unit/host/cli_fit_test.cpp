@@ -425,9 +425,8 @@ namespace host_id {
 namespace {
 
 // The drive train's terms, asked for by name: in the report's model line,
-// the saved result and the JSON; a controller reading the result is told
-// that its feed-forward leaves them out.
-TEST_F(CliTest, TheDriveTrainsTermsAreFittedSavedAndNamedToTheController) {
+// the saved result and the JSON, and read back for the controller.
+TEST_F(CliTest, TheDriveTrainsTermsAreFittedSavedAndReadBackForTheController) {
   simulate("p1.csv", {"--torque-noise", "0.01"});
   ASSERT_EQ(run({"fit", path("p1.csv"), "--torque-gains", "--load-friction", "--method", "ls", "-o",
                  path("r.json")}),
@@ -441,9 +440,9 @@ TEST_F(CliTest, TheDriveTrainsTermsAreFittedSavedAndNamedToTheController) {
   EXPECT_EQ(saved["model"]["torque_gains"], true);
   EXPECT_EQ(saved["model"]["load_friction"], true);
   const delta::IdentifiedModel m = delta::read_identified_model(path("r.json"));
-  EXPECT_EQ(m.terms_not_run, "torque gains and load friction");
-  EXPECT_NE(delta::terms_not_run_warning(m).find("feed-forward leaves them out"),
-            std::string::npos);
+  EXPECT_EQ(m.drive_train.torque_gain_gap[0], 0.0);
+  EXPECT_EQ(m.drive_train.torque_gain_gap[1], saved["parameters"]["torque_gain_gap_2"]);
+  EXPECT_EQ(m.drive_train.load_friction[2], saved["parameters"]["load_friction_3"]);
   ASSERT_EQ(run({"predict", path("r.json"), path("p1.csv"), "-o", path("pred.csv")}), 0)
       << err_.str();
   EXPECT_EQ(run({"fit", path("p1.csv"), "--torque-gains", "--model", "paper14"}), 1);

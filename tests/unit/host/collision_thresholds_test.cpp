@@ -24,8 +24,7 @@ namespace {
 // acceleration.
 double worst_ratio(const FitResult& fit, const DeltaLog& log) {
   const auto model = make_model(fit.options.model);
-  const PredictedLog p =
-      predict_log(*model, controller_parameters(*model, fit.beta), log, fit.options.prepare, "fit");
+  const PredictedLog p = predict_log(*model, fit.beta, log, fit.options.prepare, "fit");
   const delta::CollisionThresholds& t = fit.collision->thresholds;
   double worst = 0.0;
   for (unsigned j = 0; j < 3; ++j) {
@@ -70,9 +69,8 @@ TEST(CollisionThresholdsTest, HoldOnTheDriveTrainRobot) {
 }
 
 // A model with the drive train's torque gains and load friction (what
-// --model auto takes on such a robot): the controller runs it without them,
-// and the thresholds hold for that, its residual carrying the gains' gaps.
-TEST(CollisionThresholdsTest, HoldForWhatTheControllerRunsOfADriveTrainModel) {
+// --model auto takes on such a robot), which the controller runs too.
+TEST(CollisionThresholdsTest, HoldForADriveTrainModel) {
   ModelOptions m;
   m.torque_gains = true;
   m.load_friction = true;

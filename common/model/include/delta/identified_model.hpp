@@ -23,6 +23,14 @@ struct CollisionThresholds {
   Joint3 per_acceleration_Nm_s2_per_rad{};
 };
 
+// The drive's torque for the model's y: y / (1 - gap_j - mu_j tanh(qd_j /
+// w) sign y). gap is joint j's torque constant's gap to joint 1's (joint 1:
+// 0), mu the gear's load friction.
+struct DriveTrainTerms {
+  Joint3 torque_gain_gap{};
+  Joint3 load_friction{};
+};
+
 struct IdentifiedModel {
   std::string kind;  // "delta" or "lumped"
   bool per_joint{false};
@@ -32,18 +40,13 @@ struct IdentifiedModel {
   std::optional<Geometry> geometry;
   HighFidelityParameters parameters{};
   std::uint32_t fit_id{0};  // CRC-32 of the file's bytes: which fit this is
-  // The fit's drive-train terms that the controller's model does not run
-  // ("torque gains", "load friction"; docs/model.md, "The drive train"),
-  // joined by " and "; empty: none. Its feed-forward leaves them out.
-  std::string terms_not_run;
+  // The drive train's torque gains and load friction where the fit has them
+  // (docs/model.md, "The drive train"; 0: none): the controller runs them.
+  DriveTrainTerms drive_train{};
   // None in results saved before they were derived, or where the
   // controller's model is not the fit's (terms it does not run).
   std::optional<CollisionThresholds> collision_thresholds;
 };
-
-// What a controller says at start or on loading a model with terms it does
-// not run; empty for a model without them.
-std::string terms_not_run_warning(const IdentifiedModel& m);
 
 // Reads a saved result. Throws InputError naming the file and the key (and
 // what to do) for anything else: not a result, paper14, a missing or

@@ -13,7 +13,8 @@ constexpr std::uint8_t kMagic[4] = {'D', 'M', 'D', 'L'};
 constexpr std::size_t kGeometryAt = 12;
 constexpr std::size_t kParametersAt = 28;
 constexpr std::size_t kThresholdsAt = 136;
-constexpr std::size_t kCrcAt = 172;
+constexpr std::size_t kDriveTrainAt = 172;
+constexpr std::size_t kCrcAt = 196;
 constexpr std::size_t kV1CrcAt = 136;
 constexpr std::uint8_t kHasThresholds = 0x01;
 constexpr std::int32_t kMicrometreQ24 = 17;  // 1 um in Q7.24, rounded up
@@ -35,6 +36,24 @@ void each_field(P& p, Visit&& visit) {
   visit(p.coulomb_smoothing_rad_s, true);
   visit(p.stribeck_velocity_rad_s, true);
   visit(p.gravity_m_s2, true);
+}
+
+// The drive train's terms in record order (version 2 only).
+template <class P, class Visit>
+void each_drive_train_field(P& p, Visit&& visit) {
+  for (auto& v : p.torque_gain_gap) visit(v);
+  for (auto& v : p.load_friction) visit(v);
+}
+
+// Within what the controller runs: |gap| < 1/2, load friction in [0, 1/2).
+bool drive_train_in_range(const fx::ModelParametersQ& p) {
+  constexpr std::int32_t kHalf = std::int32_t{1} << 29;  // 1/2 in Q1.30
+  for (unsigned j = 0; j < 3; ++j) {
+    const std::int32_t gap = p.torque_gain_gap[j].raw();
+    const std::int32_t mu = p.load_friction[j].raw();
+    if (gap <= -kHalf || gap >= kHalf || mu < 0 || mu >= kHalf) return false;
+  }
+  return true;
 }
 
 // The collision thresholds in record order (every one not negative).
@@ -100,6 +119,11 @@ void encode_model_record(const ModelRecord& r, ModelRecordBytes& out) {
     put_le32(out, at, static_cast<std::uint32_t>(v.raw()));
     at += 4;
   });
+  at = kDriveTrainAt;
+  each_drive_train_field(r.parameters, [&](const fx::Q1_30& v) {
+    put_le32(out, at, static_cast<std::uint32_t>(v.raw()));
+    at += 4;
+  });
   if (r.has_collision_thresholds) {
     out[7] = kHasThresholds;
     at = kThresholdsAt;
@@ -135,6 +159,14 @@ ModelRecordFault decode_model_record(std::span<const std::uint8_t> bytes, ModelR
     if (nonnegative && v.raw() < 0) in_range = false;
   });
   if (!decode_thresholds(bytes, r)) in_range = false;
+  if (bytes.size() == kModelRecordBytes) {
+    at = kDriveTrainAt;
+    each_drive_train_field(r.parameters, [&](fx::Q1_30& v) {
+      v = fx::Q1_30::from_raw(static_cast<std::int32_t>(get_le32(bytes, at)));
+      at += 4;
+    });
+    if (!drive_train_in_range(r.parameters)) in_range = false;
+  }
   const fx::ModelParametersQ& p = r.parameters;
   if (!in_range || p.coulomb_smoothing_rad_s < fx::kMinFrictionVelocity ||
       (p.stribeck_velocity_rad_s.raw() != 0 &&

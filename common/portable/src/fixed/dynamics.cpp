@@ -182,10 +182,12 @@ Joint3Q12_19 platform_torque(const ModelQ& model, const JointStateQ& s, const Po
 }
 
 // Joint j's terms in cos q, sin q and the smoothed sign of qd, rounded
-// once: -Gc cos q + Gs sin q + (Fc + Fs exp(-(qd / vs)^2)) tanh(qd / w).
-Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10_21 qd) {
+// once: -Gc cos q + Gs sin q + (Fc + Fs exp(-(qd / vs)^2)) tanh(qd / w);
+// tanh(qd / w) into `sign` (the drive train's load friction takes it too).
+Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10_21 qd,
+                           Q1_30& sign) {
   const ModelParametersQ& m = model.parameters;
-  const Q1_30 sign = tanh(mul<Q10_21>(qd, model.inverse_smoothing_s_per_rad));
+  sign = tanh(mul<Q10_21>(qd, model.inverse_smoothing_s_per_rad));
   Q12_19 coulomb = m.coulomb_friction_Nm[j];
   if (model.inverse_stribeck_s_per_rad.raw() > 0) {
     const Q10_21 v = mul<Q10_21>(qd, model.inverse_stribeck_s_per_rad);
@@ -194,12 +196,28 @@ Q12_19 gravity_and_coulomb(const ModelQ& model, unsigned j, const SinCos& t, Q10
   // Three products of a 32-bit value and a Q1.30 one of at most 1 in
   // magnitude (2^30), each at most 2^61: their sum fits 64 bits.
   static_assert(std::is_same_v<decltype(SinCos::sin), Q1_30> &&
-                    std::is_same_v<std::remove_cv_t<decltype(sign)>, Q1_30>,
+                    std::is_same_v<std::remove_reference_t<decltype(sign)>, Q1_30>,
                 "the sum of three products needs unit factors to stay within 64 bits");
   const i64 sum = i64{m.arm_gravity_sin_Nm[j].raw()} * t.sin.raw() -
                   i64{m.arm_gravity_cos_Nm[j].raw()} * t.cos.raw() +
                   i64{coulomb.raw()} * sign.raw();
   return narrowed<Q12_19, 30>(sum);
+}
+
+// The drive's torque for the model's y at joint j: y / (1 - gap - mu
+// tanh(qd / w) sign y), as host_id fit's model solves it (shape: tanh(qd /
+// w)); y exactly without either term.
+Q12_19 drive_torque(const ModelQ& model, unsigned j, Q12_19 y, Q1_30 shape) {
+  const ModelParametersQ& m = model.parameters;
+  if (m.torque_gain_gap[j].raw() == 0 && m.load_friction[j].raw() == 0) return y;
+  i64 gain = (i64{1} << 30) - m.torque_gain_gap[j].raw();
+  if (m.load_friction[j].raw() != 0) {
+    const i64 loss = shift_round(i64{m.load_friction[j].raw()} * shape.raw(), 30);
+    gain -= y.raw() < 0 ? -loss : loss;
+  }
+  if (gain < kSmallestDriveGain.raw()) gain = kSmallestDriveGain.raw();
+  if (gain > Q1_30::max().raw()) gain = Q1_30::max().raw();
+  return quotient<Q12_19>(y, Q1_30::from_raw(static_cast<std::int32_t>(gain)));
 }
 
 }  // namespace
@@ -242,10 +260,12 @@ KinematicsStatus model_torque(const ModelQ& model, const JointStateQ& s, Joint3Q
                            : platform_acceleration(g, model.inverse_forearm_per_m, s, pose);
   const Joint3Q12_19 platform = platform_torque(model, s, pose, pdd);
   for (unsigned i = 0; i < 3; ++i) {
-    tau_Nm[i] = mul<Q12_19>(m.arm_inertia_kg_m2[i], s.qdd_rad_s2[i]) +
-                mul<Q12_19>(m.viscous_friction_Nm_s_per_rad[i], s.qd_rad_s[i]) +
-                gravity_and_coulomb(model, i, pose.trig[i], s.qd_rad_s[i]) + platform[i] +
-                m.torque_offset_Nm[i];
+    Q1_30 shape{};
+    const Q12_19 y = mul<Q12_19>(m.arm_inertia_kg_m2[i], s.qdd_rad_s2[i]) +
+                     mul<Q12_19>(m.viscous_friction_Nm_s_per_rad[i], s.qd_rad_s[i]) +
+                     gravity_and_coulomb(model, i, pose.trig[i], s.qd_rad_s[i], shape) +
+                     platform[i] + m.torque_offset_Nm[i];
+    tau_Nm[i] = drive_torque(model, i, y, shape);
   }
   return KinematicsStatus::kOk;
 }

@@ -218,6 +218,13 @@ void validate_collision(const PortConfig& c, std::vector<std::string>& problems)
   if (c.collision_threshold_per_speed < 0.0 || c.collision_threshold_per_acceleration < 0.0) {
     problems.push_back("collision.threshold_per_* must not be negative");
   }
+  if (!c.collision_threshold_Nm &&
+      (c.collision_threshold_per_speed != 0.0 || c.collision_threshold_per_acceleration != 0.0)) {
+    problems.push_back(
+        "collision.threshold_per_speed_Nm_s_per_rad and _per_acceleration_Nm_s2_per_rad go with "
+        "collision.threshold_Nm (the keys' thresholds replace the model's whole): set it too, or "
+        "leave the three out to use the model's");
+  }
   if (c.collision_detect.value_or(false) && c.feed_forward != fw::FeedForwardMode::kModel) {
     problems.push_back(
         "collision.detect = true needs feed_forward = model: the detector compares the measured "
@@ -418,11 +425,6 @@ std::string describe_feed_forward(const PortConfig& c) {
   std::string line = "feed-forward: model (" +
                      (c.feed_forward_model ? c.feed_forward_model->kind : "none") + ", fit " + id +
                      ", " + c.feed_forward_model_file + ")";
-  if (c.feed_forward_model) {
-    if (const std::string w = delta::terms_not_run_warning(*c.feed_forward_model); !w.empty()) {
-      line += "; warning: " + w;
-    }
-  }
   return line;
 }
 

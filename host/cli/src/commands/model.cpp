@@ -29,9 +29,6 @@ void add_link_options(CLI::App* c, ModelLink& link) {
 
 void run_load(const ModelCommandOptions& o, CommandContext& context) {
   const delta::IdentifiedModel m = delta::read_identified_model(o.result);
-  if (const std::string w = delta::terms_not_run_warning(m); !w.empty()) {
-    context.err << "host_id model: warning: " << o.result << ": " << w << "\n";
-  }
   try {
     load_model(o.link, m);
   } catch (const ModelTransferError& e) {

@@ -1,6 +1,7 @@
 // The collision detector's thresholds from a fit's own residual
 // (docs/safety.md), derived where the controller runs the fitted model as
-// it is (delta or lumped, without drive-train or elastic terms).
+// it is (delta or lumped, with the drive train's gains and load friction;
+// not elastic).
 //
 // The controller filters each joint's residual, measured minus model
 // torque, over kCollisionFilterTicks ticks (fw::CollisionConfig) and
@@ -19,7 +20,6 @@
 // model's error does where it extrapolates.
 #pragma once
 
-#include <Eigen/Dense>
 #include <array>
 #include <optional>
 #include <string>
@@ -54,10 +54,5 @@ CollisionThresholdFit collision_thresholds_from(const Prediction& fitted, const 
 // model the controller does not run, an elastic one whose arm-side states
 // are not the controller's).
 std::string collision_thresholds_unavailable(const ModelOptions& model);
-
-// The parameters as the controller runs them: the drive train's torque
-// gains and load friction, which it does not run, set to none (its
-// residual then carries what they would have explained).
-Eigen::VectorXd controller_parameters(const Model& model, const Eigen::VectorXd& beta);
 
 }  // namespace host_id

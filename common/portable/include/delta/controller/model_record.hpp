@@ -1,5 +1,5 @@
 // The identified model as the controller stores and transfers it: the
-// `delta-model/2` record, 176 bytes, little-endian (docs/protocol.md,
+// `delta-model/2` record, 200 bytes, little-endian (docs/protocol.md,
 // object 0x2200:1). `host_id model load` writes it, the controller checks it
 // whole before it uses it, keeps it across restarts and gives it back on a
 // read. Integer only: the firmware core's formats (delta/fixed/dynamics.hpp).
@@ -15,7 +15,9 @@
 //   136    36   collision thresholds, Q12.19 i32: base 1-3 (N m), per speed
 //               1-3 (N m s/rad), per acceleration 1-3 (N m s^2/rad); 0
 //               without flag bit 0
-//   172     4   CRC-32 of bytes 0..171
+//   172    24   the drive train, Q1.30 i32: torque gain gap 1-3, load
+//               friction 1-3 (0: none)
+//   196     4   CRC-32 of bytes 0..195
 //
 // A `delta-model/1` record (version 1, 140 bytes: no flags, no thresholds,
 // the CRC at 136) is still read: a controller keeps one from before.
@@ -29,7 +31,7 @@
 
 namespace delta::controller {
 
-inline constexpr std::size_t kModelRecordBytes = 176;
+inline constexpr std::size_t kModelRecordBytes = 200;
 inline constexpr std::size_t kModelRecordV1Bytes = 140;
 using ModelRecordBytes = std::array<std::uint8_t, kModelRecordBytes>;
 inline constexpr std::uint16_t kModelRecordVersion = 2;
@@ -48,7 +50,7 @@ struct ModelRecord {
 // load's verdict at 0x2200:4.
 enum class ModelRecordFault : std::uint8_t {
   kOk = 0,
-  kLength = 1,     // neither 176 (version 2) nor 140 (version 1) bytes
+  kLength = 1,     // neither 200 (version 2) nor 140 (version 1) bytes
   kFormat = 2,     // not "DMDL", or another format version (or length)
   kChecksum = 3,   // the CRC-32 does not match: damaged on the way
   kKind = 4,       // neither delta nor lumped
@@ -56,6 +58,7 @@ enum class ModelRecordFault : std::uint8_t {
   kGeometry = 6,   // fitted for another geometry than the controller's
   kBusy = 7,       // a trajectory is running: models change between runs
   kNotStored = 8,  // the controller could not store it (it keeps the one it had)
+  kDetector = 9,   // collision.detect = true: the detector needs the model and its thresholds
 };
 
 inline constexpr const char* model_record_fault_name(ModelRecordFault f) {
@@ -63,7 +66,7 @@ inline constexpr const char* model_record_fault_name(ModelRecordFault f) {
     case ModelRecordFault::kOk:
       return "ok";
     case ModelRecordFault::kLength:
-      return "neither 176 nor 140 bytes";
+      return "neither 200 nor 140 bytes";
     case ModelRecordFault::kFormat:
       return "not a delta-model/2 (or /1) record";
     case ModelRecordFault::kChecksum:
@@ -78,6 +81,9 @@ inline constexpr const char* model_record_fault_name(ModelRecordFault f) {
       return "a trajectory is running (models change between runs)";
     case ModelRecordFault::kNotStored:
       return "the controller could not store it";
+    case ModelRecordFault::kDetector:
+      return "collision.detect = true: the detector needs the identified model with its "
+             "collision thresholds";
   }
   return "unknown";
 }

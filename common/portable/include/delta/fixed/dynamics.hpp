@@ -46,6 +46,13 @@ struct ModelParametersQ {
   Q10_21 coulomb_smoothing_rad_s{Q10_21::from(0.01)};  // > 0
   Q10_21 stribeck_velocity_rad_s{};                    // 0: no Stribeck term
   Q7_24 gravity_m_s2{Q7_24::from(9.81)};
+  // The drive train (host_id fit's torque gains and load friction,
+  // docs/model.md): the drive's torque for the model's y is
+  //   y / (1 - gap_j - mu_j tanh(qd_j / w) sign y),
+  // the divisor held at kSmallestDriveGain at least. Zero: the drive
+  // converts exactly and its gear loses nothing with load (y as it is).
+  std::array<Q1_30, 3> torque_gain_gap{};  // |gap| < 1/2; joint 1's is 0 (the unit)
+  std::array<Q1_30, 3> load_friction{};    // in [0, 1/2)
   friend constexpr bool operator==(const ModelParametersQ&, const ModelParametersQ&) = default;
 };
 
@@ -105,6 +112,10 @@ struct ModelQ {
   Q12_19 platform_weight_N{};            // m_w g
   friend constexpr bool operator==(const ModelQ&, const ModelQ&) = default;
 };
+
+// The smallest divisor of the drive train's torque (as host_id fit's model
+// holds it): the torque stays finite.
+inline constexpr Q1_30 kSmallestDriveGain = Q1_30::from(0.05);
 
 // The smallest smoothing and Stribeck velocities prepare_model() takes
 // (their reciprocals must fit Q10.21).
