@@ -211,17 +211,20 @@ class Session {
 };
 
 // A collision the controller detected, in the log's metadata: where it
-// came in the log (collision_t_s), the joint over its threshold, and every
-// joint's residual and threshold (N m).
+// came in the log (collision_t_s: left out where it came before the first
+// sample), the joint over its threshold, and every joint's residual and
+// threshold (N m).
 void add_collision_metadata(const SeenCollision& c, DeltaLog& log) {
   const auto three = [](const std::array<double, 3>& v) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "%.6g,%.6g,%.6g", v[0], v[1], v[2]);
     return std::string(buf);
   };
-  char t[32];
-  std::snprintf(t, sizeof t, "%.6g", c.after_log_t_s.value_or(0.0));
-  log.metadata.emplace_back("collision_t_s", t);
+  if (c.after_log_t_s) {  // none where it came before the log's first sample
+    char t[32];
+    std::snprintf(t, sizeof t, "%.6g", *c.after_log_t_s);
+    log.metadata.emplace_back("collision_t_s", t);
+  }
   log.metadata.emplace_back("collision_joint", std::to_string(c.joint));
   log.metadata.emplace_back("collision_residual_Nm", three(c.residual_Nm));
   log.metadata.emplace_back("collision_threshold_Nm", three(c.threshold_Nm));

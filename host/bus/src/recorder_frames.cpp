@@ -217,12 +217,15 @@ void CollisionWatch::feed(const delta::can::Frame& f, std::optional<double> log_
     seen_->joint = static_cast<unsigned>(p::unpack(f.data, p::kCollisionTripped));
     seen_->after_log_t_s = log_t_s;
   }
-  if ((seen_->joints_seen & 0x7) == 0x7) return;  // the first collision's frames only
+  // The first collision's frames only: they come in one cycle, after the
+  // same log sample; a joint's frame once.
+  const auto bit = static_cast<std::uint8_t>(1u << (joint - 1));
+  if (log_t_s != seen_->after_log_t_s || (seen_->joints_seen & bit) != 0) return;
   seen_->residual_Nm[joint - 1] =
       scaled(p::kCollisionResidual, p::unpack(f.data, p::kCollisionResidual));
   seen_->threshold_Nm[joint - 1] =
       scaled(p::kCollisionThreshold, p::unpack(f.data, p::kCollisionThreshold));
-  seen_->joints_seen = static_cast<std::uint8_t>(seen_->joints_seen | (1u << (joint - 1)));
+  seen_->joints_seen = static_cast<std::uint8_t>(seen_->joints_seen | bit);
 }
 
 }  // namespace host_id

@@ -52,7 +52,8 @@ TEST(CollisionSettingTest, DetectTrueInsistsAndSaysWhyItCannot) {
       << nominal.problem;
   const CollisionSetting bare = collision_setting(c, true, std::nullopt);
   EXPECT_FALSE(bare.config.detect);
-  EXPECT_NE(bare.problem.find("the model in use carries none"), std::string::npos) << bare.problem;
+  EXPECT_NE(bare.problem.find("the model in use carries no thresholds"), std::string::npos)
+      << bare.problem;
   c.collision_threshold_Nm = 0.08;
   const CollisionSetting keyed = collision_setting(c, true, std::nullopt);
   EXPECT_TRUE(keyed.config.detect);

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "delta/model_q.hpp"
 #include "delta/q_conversion.hpp"
 #include "delta/update/crc32.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "node_rig.hpp"
 #include "scratch_directory.hpp"
 
@@ -132,7 +134,7 @@ TEST(ControllerNodeTest, SendsTheCollisionsResidualsAndThresholdsAfterItsEmergen
   e.threshold_Nm = {delta::fx::Q12_19::from(0.05), delta::fx::Q12_19::from(0.125),
                     delta::fx::Q12_19::from(0.04)};
   rig.report.collision = &e;
-  rig.step(fw::Fault::kCollision, 3);
+  rig.step(fw::Fault::kCollision, 3);  // three cycles in fault: the frames once
   std::vector<Frame> collision;
   std::size_t emcy_at = 0, index = 0;
   for (const Frame& f : rig.bus.take()) {
@@ -151,6 +153,14 @@ TEST(ControllerNodeTest, SendsTheCollisionsResidualsAndThresholdsAfterItsEmergen
     EXPECT_EQ(p::unpack(collision[j].data, p::kCollisionThreshold),
               std::llround(delta::to_double(e.threshold_Nm[j]) * 65536.0));
   }
+  // Pre-operational (by NMT), then another collision: its EMCY goes out,
+  // its frames (a TPDO) do not.
+  rig.step();
+  rig.nmt(p::kNmtEnterPreOperational, 0);
+  rig.bus.take();
+  rig.step(fw::Fault::kCollision);
+  for (const Frame& f : rig.bus.take()) EXPECT_NE(f.id, p::kCollision.base_id);
+  rig.nmt(p::kNmtStart, 0);
   EXPECT_EQ(rig.read(0x1803, 1), 0x490u);
   EXPECT_EQ(rig.read(0x1803, 2), 254u);
   EXPECT_EQ(rig.read(0x1A03, 3), 0x21030318u);
@@ -388,6 +398,41 @@ TEST(ControllerNodeTest, AModelCarriesItsCollisionThresholds) {
   EXPECT_EQ(
       std::vector<std::uint8_t>(rig.feed_forward.record().begin(), rig.feed_forward.record().end()),
       v1);
+}
+
+// With collision.detect = true, a load or a mode that would leave the
+// detector without the model or its thresholds is refused (0x06040043,
+// 0x2200:4 = 9) and nothing is stored; a model with thresholds goes in.
+TEST(ControllerNodeTest, DetectTrueRefusesAModelWithoutThresholds) {
+  const std::string store = testsupport::process_scratch("node_test").file("model_detect.bin");
+  PortConfig c = stored_in(store);
+  c.collision_detect = true;
+  NodeRig rig(std::nullopt, c);
+  rig.feed_forward.set_check(
+      [c](const fw::FeedForwardConfig& f, const std::optional<fw::CollisionThresholds>& t) {
+        return collision_check(c, f, t);
+      });
+  rig.step();
+  EXPECT_EQ(load(rig, model_bytes(0.45, delta::kDefaultGeometry, 0x0000BAD1u)),
+            sdo::kAbortParameterIncompatible);
+  EXPECT_EQ(rig.read(0x2200, 4), 9u);
+  EXPECT_EQ(rig.read(0x2200, 2), 0u);
+  EXPECT_FALSE(std::ifstream(store).good()) << "nothing stored";
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = delta::kDefaultGeometry;
+  m.parameters = delta::to_high_fidelity(delta::default_lumped_parameters());
+  m.fit_id = 0x0000600Du;
+  m.collision_thresholds = delta::CollisionThresholds{{0.05, 0.05, 0.05}, {}, {}};
+  mc::ModelRecordBytes bytes{};
+  mc::encode_model_record(delta::model_record(m), bytes);
+  ASSERT_EQ(load(rig, bytes), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  EXPECT_EQ(rig.read(0x2200, 2), 0x0000600Du);
+  // Nominal would leave the detector without its model.
+  rig.client.download(0x2200, 3, std::vector<std::uint8_t>{1}, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  EXPECT_EQ(rig.client.abort_code(), sdo::kAbortParameterIncompatible);
+  EXPECT_EQ(rig.read(0x2200, 3), 2u);
 }
 
 }  // namespace

@@ -76,6 +76,10 @@ struct Rig {
         [this, c](const fw::FeedForwardConfig& f, const std::optional<fw::CollisionThresholds>& t) {
           return apply_model(controller, c, f, t).has_value();
         });
+    feed_forward.set_check(
+        [c](const fw::FeedForwardConfig& f, const std::optional<fw::CollisionThresholds>& t) {
+          return collision_check(c, f, t);
+        });
   }
   static PortConfig config() {
     PortConfig c;

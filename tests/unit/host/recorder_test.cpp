@@ -348,6 +348,18 @@ TEST(CollisionWatchTest, KeepsTheControllersCollisionWithItsPlaceInTheLog) {
             "residual 0.0625, -0.25, 0.5 N m against thresholds 0.125, 0.1875, 0.75 N m");
 }
 
+// A first collision whose frames were partly lost is not completed by a
+// later one's.
+TEST(CollisionWatchTest, ALaterCollisionDoesNotFillInTheFirstsLostFrames) {
+  CollisionWatch w;
+  w.feed(collision_frame(1, 1, 0.5, 0.25), 1.0);
+  w.feed(collision_frame(2, 3, 9.0, 9.0), 7.5);
+  w.feed(collision_frame(1, 3, 9.0, 9.0), 7.5);
+  ASSERT_TRUE(w.seen().has_value());
+  EXPECT_EQ(w.seen()->joints_seen, 0x1);
+  EXPECT_EQ(w.seen()->residual_Nm, (std::array<double, 3>{0.5, 0.0, 0.0}));
+}
+
 // --json's summary (record, excite) carries every count the text reports,
 // with the runs of lost and stale samples and the emergencies.
 TEST(RecordSummaryTest, TheJsonSummaryCarriesEveryCount) {

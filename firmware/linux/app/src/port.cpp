@@ -236,6 +236,10 @@ struct Loop {
                               const std::optional<fw::CollisionThresholds>& thresholds) {
           return apply_model(config, f, thresholds, out);
         });
+    feed_forward.set_check([&config](const fw::FeedForwardConfig& f,
+                                     const std::optional<fw::CollisionThresholds>& thresholds) {
+      return collision_check(config, f, thresholds);
+    });
     coordinator.set_feed_forward_slot(&feed_forward);
   }
   // A model (or feed-forward mode) set over the bus, with the detector's

@@ -26,6 +26,7 @@ delta::can::sdo::AbortCode model_abort(delta::controller::ModelRecordFault f) {
     case F::kValue:
       return sdo::kAbortValueRange;
     case F::kGeometry:
+    case F::kDetector:
       return sdo::kAbortParameterIncompatible;
     case F::kBusy:
       return sdo::kAbortDeviceState;
@@ -90,10 +91,13 @@ std::uint32_t collision_value(const std::array<std::uint8_t, 8>& frame, unsigned
          (kSignals[value]->length == 24 ? 0xFFFFFFu : 0xFFu);
 }
 
-// A Q12.19 torque in the log's 2^-16 N m, rounded, within 24 bits.
-std::int64_t log_torque(delta::fx::Q12_19 v) {
+// A Q12.19 torque in the log's 2^-16 N m, rounded, within a 24-bit
+// signal: signed (-2^23 .. 2^23 - 1) or not (0 .. 2^24 - 1).
+std::int64_t log_torque(delta::fx::Q12_19 v, bool is_signed) {
   const std::int64_t r = (std::int64_t{v.raw()} + 4) >> 3;
-  return std::clamp<std::int64_t>(r, -(std::int64_t{1} << 23), (std::int64_t{1} << 23) - 1);
+  return is_signed
+             ? std::clamp<std::int64_t>(r, -(std::int64_t{1} << 23), (std::int64_t{1} << 23) - 1)
+             : std::clamp<std::int64_t>(r, 0, (std::int64_t{1} << 24) - 1);
 }
 
 }  // namespace
@@ -372,7 +376,7 @@ void ControllerNode::after_step(const StepReport& step, std::uint64_t now_us) {
                                          static_cast<std::uint16_t>(step.fault));
     emergency(code, static_cast<std::uint16_t>(step.fault), step.cycle);
     last_reported_ = step.fault;
-    if (step.fault == fw::Fault::kCollision && step.collision != nullptr) {
+    if (step.fault == fw::Fault::kCollision && step.collision != nullptr && nmt_ == kOperational) {
       collision_frames(*step.collision);
     }
   }
@@ -391,8 +395,8 @@ void ControllerNode::collision_frames(const fw::CollisionEvent& e) {
     std::array<std::uint8_t, 8> d{};
     p::pack(d, p::kCollisionJoint, j + 1);
     p::pack(d, p::kCollisionTripped, e.joint + 1u);
-    p::pack(d, p::kCollisionResidual, log_torque(e.residual_Nm[j]));
-    p::pack(d, p::kCollisionThreshold, std::max<std::int64_t>(0, log_torque(e.threshold_Nm[j])));
+    p::pack(d, p::kCollisionResidual, log_torque(e.residual_Nm[j], true));
+    p::pack(d, p::kCollisionThreshold, log_torque(e.threshold_Nm[j], false));
     collision_frame_ = d;
     send(p::kCollision.base_id, p::kCollision.dlc, d);
   }

@@ -88,6 +88,14 @@ FeedForwardSlot::Fault FeedForwardSlot::load(std::span<const std::uint8_t> bytes
   Fault f = mc::decode_model_record(bytes, r);
   if (f == Fault::kOk && !mc::same_geometry_q(r.geometry, geometry_)) f = Fault::kGeometry;
   if (f == Fault::kOk && !between_runs) f = Fault::kBusy;
+  fw::FeedForwardConfig next = current_;
+  std::optional<fw::CollisionThresholds> thresholds;
+  if (f == Fault::kOk) {
+    next.mode = fw::FeedForwardMode::kModel;
+    next.model = delta::fx::prepare_model(geometry_, r.parameters);
+    if (r.has_collision_thresholds) thresholds = r.collision_thresholds;
+    if (check_) f = check_(next, thresholds);
+  }
   if (f == Fault::kOk && !store_path_.empty()) {
     try {
       delta::write_file_atomically(
@@ -96,14 +104,7 @@ FeedForwardSlot::Fault FeedForwardSlot::load(std::span<const std::uint8_t> bytes
       f = Fault::kNotStored;
     }
   }
-  if (f == Fault::kOk) {
-    fw::FeedForwardConfig next = current_;
-    next.mode = fw::FeedForwardMode::kModel;
-    next.model = delta::fx::prepare_model(geometry_, r.parameters);
-    std::optional<fw::CollisionThresholds> thresholds;
-    if (r.has_collision_thresholds) thresholds = r.collision_thresholds;
-    f = apply(next, thresholds, between_runs);
-  }
+  if (f == Fault::kOk) f = apply(next, thresholds, between_runs);
   if (f == Fault::kOk) keep(bytes, r);
   last_load_ = f;
   return f;
@@ -114,6 +115,9 @@ FeedForwardSlot::Fault FeedForwardSlot::set_mode(std::uint32_t mode, bool betwee
   fw::FeedForwardConfig next = current_;
   next.mode = static_cast<fw::FeedForwardMode>(mode);
   if (next.mode == fw::FeedForwardMode::kModel && record_bytes_ == 0) return Fault::kKind;
+  if (check_) {
+    if (const Fault f = check_(next, thresholds_); f != Fault::kOk) return f;
+  }
   return apply(next, thresholds_, between_runs);
 }
 

@@ -67,14 +67,12 @@ CollisionSetting collision_setting(const PortConfig& c, bool model_in_use,
     return s;
   }
   if (!have) {
-    s.off_why =
-        "the model in use carries no thresholds (fitted before host_id derived them: fit it "
-        "again) and collision.threshold_Nm is not set";
+    s.off_why = "the model in use" + (fit_id != 0 ? " (" + fit_text(fit_id) + ")" : "") +
+                " carries no thresholds (fitted before host_id derived them, or a record from "
+                "before them kept in feed_forward.store: fit and load it again) and "
+                "collision.threshold_Nm is not set";
     if (insist) {
-      s.problem =
-          "collision.detect = true needs thresholds: the model in use carries none (fit it "
-          "again: host_id fit derives them and model load carries them) and "
-          "collision.threshold_Nm is not set (docs/safety.md)";
+      s.problem = "collision.detect = true needs thresholds: " + s.off_why + " (docs/safety.md)";
     }
     return s;
   }

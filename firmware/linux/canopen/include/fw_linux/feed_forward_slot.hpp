@@ -43,6 +43,12 @@ class FeedForwardSlot {
   using Apply = std::function<bool(const fw::FeedForwardConfig&,
                                    const std::optional<fw::CollisionThresholds>&)>;
   void set_apply(Apply apply) { apply_ = std::move(apply); }
+  // Whether the controller's settings take a change at all (kOk, or why
+  // not: the detector that collision.detect = true insists on), asked
+  // before anything is stored or applied.
+  using Check = std::function<Fault(const fw::FeedForwardConfig&,
+                                    const std::optional<fw::CollisionThresholds>&)>;
+  void set_check(Check check) { check_ = std::move(check); }
 
   // A whole record written to 0x2200:1: checked, stored, applied (the mode
   // becomes model). Anything but kOk leaves the model in use as it was.
@@ -65,6 +71,7 @@ class FeedForwardSlot {
   Fault last_load_{Fault::kOk};
   std::string startup_note_;
   Apply apply_;
+  Check check_;
 };
 
 }  // namespace fw_linux

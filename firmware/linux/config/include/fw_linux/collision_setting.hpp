@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "delta/controller/model_record.hpp"
 #include "fw/collision.hpp"
 #include "fw_linux/config.hpp"
 
@@ -43,8 +44,23 @@ std::optional<CollisionSetting> apply_model(
     Controller& controller, const PortConfig& c, const fw::FeedForwardConfig& f,
     const std::optional<fw::CollisionThresholds>& thresholds) {
   CollisionSetting s = collision_setting(c, f.mode == fw::FeedForwardMode::kModel, thresholds);
-  if (!controller.set_collision(s.config) || !controller.set_feed_forward(f)) return std::nullopt;
+  const fw::CollisionConfig before = controller.collision_config();
+  if (!controller.set_collision(s.config)) return std::nullopt;
+  if (!controller.set_feed_forward(f)) {
+    controller.set_collision(before);
+    return std::nullopt;
+  }
   return s;
+}
+
+// Whether a model or mode set over the bus keeps collision.detect = true
+// honoured (FeedForwardSlot::set_check): kDetector where it would not.
+inline delta::controller::ModelRecordFault collision_check(
+    const PortConfig& c, const fw::FeedForwardConfig& f,
+    const std::optional<fw::CollisionThresholds>& thresholds) {
+  return collision_setting(c, f.mode == fw::FeedForwardMode::kModel, thresholds).problem.empty()
+             ? delta::controller::ModelRecordFault::kOk
+             : delta::controller::ModelRecordFault::kDetector;
 }
 
 }  // namespace fw_linux
