@@ -469,18 +469,39 @@ void note_fit_residuals(const Model& model, const Regression& all_rows, const Eq
 
 // The collision detector's thresholds from the fit's residual on its own
 // log, where the controller runs the model as fitted.
-void note_collision_thresholds(const Model& model, const Regression& all_rows,
-                               const std::string& log_name, FitResult& r) {
+void note_collision_thresholds(const Prediction& fitted, FitResult& r) {
   r.collision_unavailable = collision_thresholds_unavailable(r.options.model);
   if (r.collision_unavailable.empty() && !r.fit.ranges.known) {
     r.collision_unavailable = "the log's motion ranges are unknown";
   }
-  if (!r.collision_unavailable.empty()) return;
+  if (r.collision_unavailable.empty()) r.collision = collision_thresholds_from(fitted, r.fit);
+}
+
+// The logged torque's lag behind the motion, a doubt where it matters.
+void note_torque_lag(const Prediction& fitted, FitResult& r) {
+  r.torque_lag = torque_lag(fitted);
+  if (!r.torque_lag || r.torque_lag->error_drop < kTorqueLagDoubt) return;
+  std::ostringstream m;
+  m << "the logged torque lags the motion by " << r.torque_lag->lag_s * 1e3
+    << " ms (the drive's current filter, or its torque reported late): shifting the model's "
+    << "torque by it lowers the torque error by " << 100.0 * r.torque_lag->error_drop
+    << " %; the inertias and the viscous friction absorb it. Log the drive's torque unfiltered "
+    << "(or its filter shorter), or time-shift the torque columns before fitting";
+  r.doubts.push_back(m.str());
+}
+
+// What the fit's own log's prediction tells: the collision thresholds and
+// the torque's lag.
+void note_fit_prediction(const Model& model, const Regression& all_rows,
+                         const std::string& log_name, FitResult& r) {
   if (!r.predictions.empty()) {
-    r.collision = collision_thresholds_from(r.predictions.front(), r.fit);
+    note_collision_thresholds(r.predictions.front(), r);
+    note_torque_lag(r.predictions.front(), r);
     return;
   }
-  r.collision = collision_thresholds_from(prediction_of(model, all_rows, r.beta, log_name), r.fit);
+  const Prediction fitted = prediction_of(model, all_rows, r.beta, log_name);
+  note_collision_thresholds(fitted, r);
+  note_torque_lag(fitted, r);
 }
 
 // The fitted parameters' RMSE on each validation log, and their
@@ -539,7 +560,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.doubts = doubts_of(r);
   note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
-  note_collision_thresholds(*model, all_rows, log.name, r);
+  note_fit_prediction(*model, all_rows, log.name, r);
   validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;

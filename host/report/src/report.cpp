@@ -20,6 +20,18 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// The logged torque's lag behind the motion, and whether it matters.
+void text_torque_lag(const FitResult& r, std::ostream& s) {
+  if (!r.torque_lag) return;
+  const TorqueLag& l = *r.torque_lag;
+  s << "  lag       the logged torque lags the motion by " << fmt("%.2f", l.lag_s * 1e3)
+    << " ms; shifting the model by it lowers the torque error by "
+    << fmt("%.1f", 100.0 * l.error_drop) << " %"
+    << (l.error_drop < kTorqueLagDoubt ? ": it costs nothing at this log's bandwidth"
+                                       : " (DOUBTFUL below)")
+    << "\n";
+}
+
 // The collision detector's thresholds the model carries, or why none.
 void text_collision(const FitResult& r, std::ostream& s) {
   if (!r.collision) {
@@ -300,6 +312,7 @@ void text_method(const FitResult& r, std::ostream& s) {
     }
   }
   if (r.elasticity) text_elasticity(*r.elasticity, s);
+  text_torque_lag(r, s);
   text_collision(r, s);
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
@@ -573,6 +586,9 @@ nlohmann::json json_report(const FitResult& r) {
       {"friction_shape", json_friction_shape(r)},
       {"elasticity", json_elasticity(r)},
       {"collision_thresholds", json_collision(r)},
+      {"torque_lag", r.torque_lag ? nlohmann::json{{"lag_s", r.torque_lag->lag_s},
+                                                   {"error_drop", r.torque_lag->error_drop}}
+                                  : nlohmann::json(nullptr)},
       {"pso", json_pso(r)},
   };
 }

@@ -20,6 +20,7 @@
 #include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
 #include "host_id/stribeck_signature.hpp"
+#include "host_id/torque_lag.hpp"
 
 namespace host_id {
 
@@ -201,6 +202,8 @@ struct FitResult {
   // (collision_thresholds.hpp), or why there are none.
   std::optional<CollisionThresholdFit> collision;
   std::string collision_unavailable;
+  // The logged torque's lag behind the motion (torque_lag.hpp).
+  std::optional<TorqueLag> torque_lag;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With
