@@ -7,7 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include "delta/atomic_file.hpp"
+#include "delta/dynamics.hpp"
+#include "delta/model_q.hpp"
 #include "delta/q_conversion.hpp"
+#include "fw_linux/port.hpp"
+#include "scratch_directory.hpp"
 
 namespace fw_linux {
 namespace {
@@ -75,6 +80,38 @@ TEST(CollisionSettingTest, TheKeysReplaceTheModelsAndFalseTurnsItOff) {
   EXPECT_NE(describe_collision(s).find("the keys' thresholds"), std::string::npos);
   c.collision_detect = false;
   EXPECT_FALSE(collision_setting(c, true, model_thresholds_of(0.05)).config.detect);
+}
+
+// At start (and --check-config, which says the same): the configuration's
+// model, or the one kept in feed_forward.store, which takes its place.
+TEST(CollisionSettingTest, AtStartTheStoresModelTakesTheConfigurationsPlace) {
+  delta::IdentifiedModel m;
+  m.kind = "lumped";
+  m.geometry = delta::kDefaultGeometry;
+  m.parameters = delta::to_high_fidelity(delta::default_lumped_parameters());
+  m.fit_id = 0x00C0FFEEu;
+  PortConfig c;
+  c.feed_forward = fw::FeedForwardMode::kModel;
+  c.feed_forward_model = m;
+  c.feed_forward_store = "";
+  c.collision_detect = true;
+  EXPECT_NE(collision_at_start(c).problem.find("(fit 0x00C0FFEE) carries no thresholds"),
+            std::string::npos)
+      << collision_at_start(c).problem;
+  m.collision_thresholds = delta::CollisionThresholds{{0.05, 0.05, 0.05}, {}, {}};
+  m.fit_id = 0x0000BEEFu;
+  delta::controller::ModelRecordBytes bytes{};
+  delta::controller::encode_model_record(delta::model_record(m), bytes);
+  c.feed_forward_store = testsupport::process_scratch("collision_setting").file("store.bin");
+  delta::write_file_atomically(
+      c.feed_forward_store,
+      std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+  const CollisionSetting s = collision_at_start(c);
+  EXPECT_TRUE(s.problem.empty()) << s.problem;
+  EXPECT_TRUE(s.config.detect);
+  EXPECT_NE(describe_collision(s).find("the model's thresholds (fit 0x0000BEEF)"),
+            std::string::npos)
+      << describe_collision(s);
 }
 
 }  // namespace

@@ -43,8 +43,8 @@ struct IdentifiedModel {
   // The drive train's torque gains and load friction where the fit has them
   // (docs/model.md, "The drive train"; 0: none): the controller runs them.
   DriveTrainTerms drive_train{};
-  // None in results saved before they were derived, or where the
-  // controller's model is not the fit's (terms it does not run).
+  // None in results saved before they were derived, and for models the fit
+  // derives none for (paper14; elastic, whose states are the arm's).
   std::optional<CollisionThresholds> collision_thresholds;
 };
 

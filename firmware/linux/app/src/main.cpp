@@ -8,7 +8,6 @@
 #include <string>
 
 #include "delta/can/socketcan.hpp"
-#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/drive_plan.hpp"
 #include "fw_linux/exit_codes.hpp"
@@ -126,14 +125,13 @@ int check_config(const Arguments& a) {
     for (const std::string& p : problems) std::cerr << "  " << p << "\n";
     return fw_linux::kExitUsage;
   }
+  const fw_linux::CollisionSetting collision = fw_linux::collision_at_start(config);
+  if (!collision.problem.empty()) {
+    std::cerr << "delta_fw --check-config: 1 problem:\n  " << collision.problem << "\n";
+    return fw_linux::kExitUsage;
+  }
   std::cout << fw_linux::describe_feed_forward(config) << "\n";
-  std::cout << fw_linux::describe_collision(fw_linux::collision_setting(
-                   config,
-                   config.feed_forward == fw::FeedForwardMode::kModel &&
-                       config.feed_forward_model.has_value(),
-                   fw_linux::model_thresholds(config),
-                   config.feed_forward_model ? config.feed_forward_model->fit_id : 0))
-            << "\n";
+  std::cout << fw_linux::describe_collision(collision) << "\n";
   const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);
   std::size_t transfers = 0;
   for (const fw_linux::DrivePlan& plan : plans.drives) {

@@ -350,6 +350,19 @@ void finish_stats(const Loop& l, const PortConfig& config, std::uint64_t wall_st
 
 }  // namespace
 
+namespace {
+
+CollisionSetting collision_for(const PortConfig& config, const FeedForwardSlot& slot) {
+  return collision_setting(config, slot.current().mode == fw::FeedForwardMode::kModel,
+                           slot.thresholds(), slot.fit_id());
+}
+
+}  // namespace
+
+CollisionSetting collision_at_start(const PortConfig& config) {
+  return collision_for(config, FeedForwardSlot(config, controller_config(config)));
+}
+
 int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
              const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats_out) {
   fw::ControllerConfig core = controller_config(config);
@@ -357,9 +370,7 @@ int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
   // before a restart.
   FeedForwardSlot feed_forward(config, core);
   core.feed_forward = feed_forward.current();
-  const CollisionSetting collision =
-      collision_setting(config, core.feed_forward.mode == fw::FeedForwardMode::kModel,
-                        feed_forward.thresholds(), feed_forward.fit_id());
+  const CollisionSetting collision = collision_for(config, feed_forward);
   if (!collision.problem.empty()) {
     out << "delta_fw: " << collision.problem << "\n";
     return kExitUsage;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fw_linux/boot_protocol.hpp"
+#include "fw_linux/collision_setting.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/control_panel.hpp"
 #include "fw_linux/exit_codes.hpp"
@@ -46,6 +47,11 @@ struct CycleStats {
 // Runs until `stop` is set, the cycle limit, or (with exit_when_done) the
 // end of the trajectories or a fault. Messages go to `out`. Returns an exit
 // code above; throws delta::can::CanError when the bus cannot be opened.
+// The collision detector as delta_fw starts with it: for the model the
+// configuration names, or the one kept in feed_forward.store, which takes
+// its place (as at start; --check-config says the same).
+CollisionSetting collision_at_start(const PortConfig& config);
+
 int run_port(const PortConfig& config, const RunOptions& options, SafetyIo& io,
              const std::atomic<bool>& stop, std::ostream& out, CycleStats* stats = nullptr);
 
