@@ -484,7 +484,8 @@ void note_torque_lag(const Prediction& fitted, FitResult& r) {
   m << "the logged torque lags the motion by " << r.torque_lag->lag_s * 1e3
     << " ms (the drive's current filter, or its torque reported late): shifting the model's "
     << "torque by it lowers the torque error by " << 100.0 * r.torque_lag->error_drop
-    << " %; the inertias and the viscous friction absorb it. Log the drive's torque unfiltered "
+    << " %; the fit's inertias and viscous friction absorb the rest of it. Log the drive's torque "
+       "unfiltered "
     << "(or its filter shorter), or time-shift the torque columns before fitting";
   r.doubts.push_back(m.str());
 }
