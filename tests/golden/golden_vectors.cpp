@@ -5,6 +5,7 @@
 #include "delta/fixed/kinematics.hpp"
 #include "delta/fixed/math.hpp"
 #include "fw/collision.hpp"
+#include "fw/deflection.hpp"
 #include "fw/feed_forward.hpp"
 #include "fw/joint_controller.hpp"
 #include "fw/torque_from_current.hpp"
@@ -136,6 +137,30 @@ void drive_train_lines(Line& l, std::uint32_t& lines) {
   }
 }
 
+// Deflection compensation along the pick-and-place reference: the motors'
+// reference past the arms' by c tau_ff, its velocity from the shift's
+// change, at 500 Hz (every tick run, every 97th written).
+void deflection_lines(Line& l, std::uint32_t& lines) {
+  ModelParametersQ p = example_model_parameters();
+  p.gearbox_compliance_rad_per_Nm = {Q1_30::from(1.0 / 3000), Q1_30::from(1.0 / 3400),
+                                     Q1_30::from(1.0 / 2700)};
+  const delta::fx::ModelQ m = delta::fx::prepare_model(kGeometry, p);
+  const Trajectory pnp(kGeometry, pick_and_place_config());
+  DeflectionCompensation compensation;
+  for (std::uint32_t tick = 0; tick <= pnp.length_ticks(); ++tick) {
+    JointReference r;
+    pnp.reference(tick, r);
+    Joint3Q12_19 tau{};
+    delta::fx::model_torque(m, r, tau);
+    const JointReference motor =
+        compensation.motor_reference(p.gearbox_compliance_rad_per_Nm, tau, 500, r);
+    if (tick % 97 != 5) continue;
+    l.word("deflection").num(tick);
+    for (unsigned j = 0; j < 3; ++j) l.num(motor.q_rad[j].raw()).num(motor.qd_rad_s[j].raw());
+    l.end(lines);
+  }
+}
+
 // The identified model's arithmetic: exp and tanh, the model's torques
 // along the pick-and-place reference with the states disturbed (with the
 // platform's position and acceleration given, and without), and the
@@ -168,6 +193,7 @@ void model_lines(Line& l, Lcg& rng, std::uint32_t& lines) {
     l.end(lines);
   }
   drive_train_lines(l, lines);
+  deflection_lines(l, lines);
   TrajectoryBounds bounds{
       kGeometry, JointLimits{}, {FeedForwardMode::kModel, {}, m}, Q12_19::from(1.3)};
   const TrajectoryCheck c = check_trajectory(bounds, pick_and_place_config());

@@ -93,6 +93,27 @@ std::optional<CollisionThresholds> collision_thresholds_of(const nlohmann::json&
                              joint3("per_acceleration_Nm_s2_per_rad")};
 }
 
+// The gearboxes' compliances of an elastic model (model.
+// gearbox_compliance_rad_per_Nm: three numbers, none negative); all 0 for a
+// rigid one or a result saved before they were.
+Joint3 compliance_of(const nlohmann::json& model, const std::string& path) {
+  Joint3 c{};
+  if (!model.contains("gearbox_compliance_rad_per_Nm")) return c;
+  const auto& v = model["gearbox_compliance_rad_per_Nm"];
+  if (!v.is_array() || v.size() != 3) {
+    throw InputError(path + ": model.gearbox_compliance_rad_per_Nm must be three numbers");
+  }
+  for (unsigned i = 0; i < 3; ++i) {
+    if (!v[i].is_number() || !(v[i].get<double>() >= 0.0)) {
+      throw InputError(path +
+                       ": model.gearbox_compliance_rad_per_Nm must be three numbers, none "
+                       "negative (rad/(N m); 0: rigid)");
+    }
+    c[i] = v[i].get<double>();
+  }
+  return c;
+}
+
 // The drive train's terms of a fit that has them (torque_gain_gap_2, _3;
 // load_friction_1 to _3); null counts as 0, as for every parameter.
 DriveTrainTerms drive_train_of(const nlohmann::json& params, bool gains, bool load,
@@ -139,6 +160,7 @@ IdentifiedModel read_identified_model(const std::string& path) {
     const bool gains = model.value("torque_gains", false);
     const bool load = model.value("load_friction", false);
     m.geometry = geometry_of(j, path);
+    m.gearbox_compliance_rad_per_Nm = compliance_of(model, path);
     m.collision_thresholds = collision_thresholds_of(j, path);
     const auto& params = member(j, "parameters", path);
     if (m.kind != "delta" && m.kind != "lumped") {

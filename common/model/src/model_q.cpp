@@ -126,6 +126,7 @@ IdentifiedModel identified_model(const controller::ModelRecord& r) {
                 h.arm_inertia_kg_m2[1] != h.arm_inertia_kg_m2[2];
   m.offsets = h.torque_offset_Nm != Joint3{};
   m.drive_train = DriveTrainTerms{from_q3(q.torque_gain_gap), from_q3(q.load_friction)};
+  m.gearbox_compliance_rad_per_Nm = from_q3(q.gearbox_compliance_rad_per_Nm);
   if (r.has_collision_thresholds) {
     const fx::CollisionThresholdsQ& t = r.collision_thresholds;
     m.collision_thresholds =
@@ -180,6 +181,15 @@ std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry
   c.joints<Q12_19>("stribeck_friction", p.stribeck_friction_Nm, true, "N m");
   c.joints<Q12_19>("torque_offset", p.torque_offset_Nm, false, "N m");
   drive_train_problems(m.drive_train, problems);
+  for (unsigned j = 0; j < 3; ++j) {
+    const double compliance = m.gearbox_compliance_rad_per_Nm[j];
+    if (!(compliance >= 0.0 && compliance < 1.0 / 64.0)) {
+      problems.push_back("model.gearbox_compliance_rad_per_Nm[" + std::to_string(j) +
+                         "] = " + number(compliance) +
+                         " rad/(N m) is outside what the controller runs: 0 (rigid) to 1/64 "
+                         "(a stiffness of 64 N m/rad)");
+    }
+  }
   if (m.collision_thresholds) {
     const CollisionThresholds& t = *m.collision_thresholds;
     c.joints<Q12_19>("collision_thresholds.base", t.base_Nm, true, "N m");
@@ -224,6 +234,7 @@ fx::ModelParametersQ model_parameters_q(const IdentifiedModel& m) {
   for (unsigned j = 0; j < 3; ++j) {
     q.torque_gain_gap[j] = to_q_saturated<Q1_30>(m.drive_train.torque_gain_gap[j]);
     q.load_friction[j] = to_q_saturated<Q1_30>(m.drive_train.load_friction[j]);
+    q.gearbox_compliance_rad_per_Nm[j] = to_q_saturated<Q1_30>(m.gearbox_compliance_rad_per_Nm[j]);
   }
   return q;
 }

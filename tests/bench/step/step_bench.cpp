@@ -28,6 +28,7 @@ struct FollowingHardware {
     }
   }
   void command_torque(const std::array<Q12_19, 3>&) {}
+  void command_reference(const JointAnglesQ&) {}
   bool estop_open() const { return false; }
   void set_outputs(const SafetyOutputs&) {}
   bool log(const LogRecord&) {
@@ -42,10 +43,13 @@ ControllerConfig config(FeedForwardMode feed_forward) {
   c.approach_ticks = 1;
   c.feed_forward.mode = feed_forward;
   c.feed_forward.nominal = {Q12_19::from(0.0125), Q12_19::from(0.7026)};
-  // Every term, the drive train's too (its division and tanh each tick).
+  // Every term, the drive train's too (its division and tanh each tick),
+  // and the gearboxes' compliance: the deflection compensation's shift.
   delta::fx::ModelParametersQ model = golden::example_model_parameters();
   model.torque_gain_gap = {Q1_30::from(0.0), Q1_30::from(0.08), Q1_30::from(-0.06)};
   model.load_friction = {Q1_30::from(0.05), Q1_30::from(0.03), Q1_30::from(0.12)};
+  model.gearbox_compliance_rad_per_Nm = {Q1_30::from(1.0 / 3000), Q1_30::from(1.0 / 3400),
+                                         Q1_30::from(1.0 / 2700)};
   c.feed_forward.model = delta::fx::prepare_model(c.geometry, model);
   // The detector on, with thresholds no run reaches: its work in every step.
   c.collision.detect = true;

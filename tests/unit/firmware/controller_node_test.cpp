@@ -270,7 +270,7 @@ TEST(ControllerNodeTest, LoadsAModelOverSdoKeepsItAndGivesItBack) {
   EXPECT_EQ(rig.feed_forward.current().mode, fw::FeedForwardMode::kModel);
   EXPECT_EQ(rig.feed_forward.current().model.parameters.platform_inertial_mass_kg.raw(),
             delta::fx::Q7_24::from(0.45).raw());
-  std::vector<std::uint8_t> back(200);
+  std::vector<std::uint8_t> back(mc::kModelRecordBytes);
   rig.client.upload(0x2200, 1, back, sdo::Transfer::kAuto, rig.now_us);
   rig.transfer();
   ASSERT_EQ(rig.client.status(), sdo::ClientStatus::kDone);
@@ -398,6 +398,25 @@ TEST(ControllerNodeTest, AModelCarriesItsCollisionThresholds) {
   EXPECT_EQ(
       std::vector<std::uint8_t>(rig.feed_forward.record().begin(), rig.feed_forward.record().end()),
       v1);
+
+  // Version 3 carries the gearboxes' compliances; version 2 (200 bytes, its
+  // CRC at 196) has none: a rigid model.
+  m.gearbox_compliance_rad_per_Nm = {1.0 / 3000, 1.0 / 3400, 1.0 / 2700};
+  mc::encode_model_record(delta::model_record(m), bytes);
+  ASSERT_EQ(load(rig, bytes), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  EXPECT_EQ(rig.feed_forward.current().model.parameters.gearbox_compliance_rad_per_Nm[2].raw(),
+            delta::fx::Q1_30::from(1.0 / 2700).raw());
+  std::vector<std::uint8_t> v2(bytes.begin(), bytes.begin() + mc::kModelRecordV2Bytes);
+  v2[4] = 2;
+  delta::put_le32(v2, 196, delta::update::crc32(std::span<const std::uint8_t>(v2.data(), 196)));
+  ASSERT_EQ(load(rig, v2), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  EXPECT_EQ(rig.feed_forward.current().model.parameters.gearbox_compliance_rad_per_Nm,
+            (std::array<delta::fx::Q1_30, 3>{}));
+  // A stiffness below 64 N m/rad is no gearbox: refused as out of range.
+  m.gearbox_compliance_rad_per_Nm[1] = 1.0 / 60;
+  mc::encode_model_record(delta::model_record(m), bytes);
+  EXPECT_EQ(load(rig, bytes), sdo::kAbortValueRange);
+  EXPECT_EQ(rig.read(0x2200, 4), 5u);
 }
 
 // With collision.detect = true, a load or a mode that would leave the

@@ -50,6 +50,7 @@ struct FakeHardware {
   int drives_disabled_at_cycle = -1;
   int cycle = 0;
   std::array<Q12_19, 3> torque{};
+  JointAnglesQ reference{};  // the arms' reference of the last controlled tick
   bool estop = false;
   bool drive_fault = false;
   bool stale_feedback = false;
@@ -94,6 +95,7 @@ struct FakeHardware {
     }
   }
   void command_torque(const std::array<Q12_19, 3>& t) { torque = t; }
+  void command_reference(const JointAnglesQ& q) { reference = q; }
   bool estop_open() const { return estop; }
   void set_outputs(const SafetyOutputs& o) { outputs = o; }
   bool log(const LogRecord& r) {
@@ -456,6 +458,63 @@ CollisionConfig detector(double base_Nm) {
     c.thresholds.per_acceleration_Nm_s2_per_rad[j] = to_q_saturated<Q12_19>(0.001);
   }
   return c;
+}
+
+// With the gearboxes' compliance in the model, the motors track past the
+// arms' reference by the model's deflection c tau_ff (fw/deflection.hpp).
+// On this rigid plant the joints then sit at reference + c tau_ff: the
+// controller's tracking measures them against that, the drives get the
+// arms' reference, and the approach starts where the joints are (no step).
+TEST_F(ControllerTest, DeflectionCompensationTracksTheMotorsPastTheArmsReference) {
+  delta::fx::ModelParametersQ m = lumped_truth_q(true);
+  m.gearbox_compliance_rad_per_Nm = {Q1_30::from(1.0 / 3000), Q1_30::from(1.0 / 2000),
+                                     Q1_30::from(1.0 / 4000)};
+  FeedForwardConfig f;
+  f.mode = FeedForwardMode::kModel;
+  f.model = delta::fx::prepare_model(config.geometry, m);
+  ASSERT_TRUE(compensates_deflection(f));
+  to_ready();
+  ASSERT_TRUE(ctl.set_feed_forward(f));
+  std::array<double, 3> at_rest{};  // as the encoders see it
+  for (unsigned j = 0; j < 3; ++j)
+    at_rest[j] =
+        std::round(hw.plant.q[j] / FakeHardware::kEncoderStep) * FakeHardware::kEncoderStep;
+  ASSERT_TRUE(ctl.start(excitation()).accepted);
+  tick(2);  // begin the run, then its first controlled tick
+  std::array<double, 3> shift_sq{}, off_sq{};
+  int n = 0;
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_EQ(hw.reference[j], ctl.reference().q_rad[j]);
+    // The first motor reference is where the joint rested.
+    Joint3Q12_19 tau{};
+    ASSERT_EQ(feed_forward_torque(f, ctl.reference(), tau), delta::KinematicsStatus::kOk);
+    const double motor_ref = to_double(ctl.reference().q_rad[j]) +
+                             to_double(m.gearbox_compliance_rad_per_Nm[j]) * to_double(tau[j]);
+    EXPECT_NEAR(motor_ref, at_rest[j], 2e-7) << j;
+  }
+  while (ctl.state() == State::kRunning && n < 20000) {
+    const std::array<double, 3> q_seen = hw.plant.q;
+    tick();
+    Joint3Q12_19 tau{};
+    feed_forward_torque(f, ctl.reference(), tau);
+    if (ctl.run_tick() < config.approach_ticks) continue;
+    for (unsigned j = 0; j < 3; ++j) {
+      const double shift = to_double(m.gearbox_compliance_rad_per_Nm[j]) * to_double(tau[j]);
+      const double off = q_seen[j] - (to_double(ctl.reference().q_rad[j]) + shift);
+      shift_sq[j] += shift * shift;
+      off_sq[j] += off * off;
+    }
+    ++n;
+  }
+  ASSERT_GT(n, 10000);
+  for (unsigned j = 0; j < 3; ++j) {
+    const double shift_rms = std::sqrt(shift_sq[j] / n);
+    const double off_rms = std::sqrt(off_sq[j] / n);
+    std::printf("joint %u: deflection shift rms %.3g rad, the joint off the motor reference %.3g\n",
+                j + 1, shift_rms, off_rms);
+    EXPECT_GT(shift_rms, 1e-4) << j;
+    EXPECT_LT(off_rms, 0.1 * shift_rms) << j;
+  }
 }
 
 // With the plant's own model as the feed-forward, a clean excitation keeps

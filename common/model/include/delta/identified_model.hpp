@@ -43,6 +43,10 @@ struct IdentifiedModel {
   // The drive train's torque gains and load friction where the fit has them
   // (docs/model.md, "The drive train"; 0: none): the controller runs them.
   DriveTrainTerms drive_train{};
+  // Each gearbox's compliance 1/K [rad/(N m)] where the model is elastic
+  // (`host_id fit --elastic` or --gearbox-stiffness; docs/model.md); all 0:
+  // rigid. The controller compensates the deflection with it.
+  Joint3 gearbox_compliance_rad_per_Nm{};
   // None in results saved before they were derived, and for models the fit
   // derives none for (paper14; elastic, whose states are the arm's).
   std::optional<CollisionThresholds> collision_thresholds;

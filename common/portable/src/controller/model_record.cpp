@@ -14,8 +14,8 @@ constexpr std::size_t kGeometryAt = 12;
 constexpr std::size_t kParametersAt = 28;
 constexpr std::size_t kThresholdsAt = 136;
 constexpr std::size_t kDriveTrainAt = 172;
-constexpr std::size_t kCrcAt = 196;
-constexpr std::size_t kV1CrcAt = 136;
+constexpr std::size_t kComplianceAt = 196;
+constexpr std::size_t kCrcAt = 208;
 constexpr std::uint8_t kHasThresholds = 0x01;
 constexpr std::int32_t kMicrometreQ24 = 17;  // 1 um in Q7.24, rounded up
 
@@ -38,7 +38,7 @@ void each_field(P& p, Visit&& visit) {
   visit(p.gravity_m_s2, true);
 }
 
-// The drive train's terms in record order (version 2 only).
+// The drive train's terms in record order (versions 2 and 3).
 template <class P, class Visit>
 void each_drive_train_field(P& p, Visit&& visit) {
   for (auto& v : p.torque_gain_gap) visit(v);
@@ -68,28 +68,40 @@ void each_threshold(T& t, Visit&& visit) {
 // have.
 std::size_t length_of_version(std::uint16_t version) {
   if (version == 1) return kModelRecordV1Bytes;
+  if (version == 2) return kModelRecordV2Bytes;
   if (version == kModelRecordVersion) return kModelRecordBytes;
   return 0;
 }
 
+// Within what the controller runs: 0 <= c < 1/64 rad/(N m) (a stiffness of
+// 64 N m/rad at least, softer than any gearbox).
+bool compliance_in_range(const fx::ModelParametersQ& p) {
+  constexpr std::int32_t kLimit = std::int32_t{1} << 24;  // 1/64 in Q1.30
+  for (const fx::Q1_30 c : p.gearbox_compliance_rad_per_Nm) {
+    if (c.raw() < 0 || c.raw() >= kLimit) return false;
+  }
+  return true;
+}
+
 ModelRecordFault check_frame(std::span<const std::uint8_t> bytes) {
-  if (bytes.size() != kModelRecordBytes && bytes.size() != kModelRecordV1Bytes) {
+  if (bytes.size() != kModelRecordBytes && bytes.size() != kModelRecordV2Bytes &&
+      bytes.size() != kModelRecordV1Bytes) {
     return ModelRecordFault::kLength;
   }
   for (std::size_t i = 0; i < 4; ++i) {
     if (bytes[i] != kMagic[i]) return ModelRecordFault::kFormat;
   }
   if (length_of_version(get_le16(bytes, 4)) != bytes.size()) return ModelRecordFault::kFormat;
-  const std::size_t crc_at = bytes.size() == kModelRecordBytes ? kCrcAt : kV1CrcAt;
+  const std::size_t crc_at = bytes.size() - 4;
   if (get_le32(bytes, crc_at) != update::crc32(bytes.first(crc_at))) {
     return ModelRecordFault::kChecksum;
   }
   return ModelRecordFault::kOk;
 }
 
-// A version 2 record's thresholds; false for a negative one.
+// A version 2 or 3 record's thresholds; false for a negative one.
 bool decode_thresholds(std::span<const std::uint8_t> bytes, ModelRecord& r) {
-  if (bytes.size() != kModelRecordBytes || (bytes[7] & kHasThresholds) == 0) return true;
+  if (bytes.size() == kModelRecordV1Bytes || (bytes[7] & kHasThresholds) == 0) return true;
   r.has_collision_thresholds = true;
   std::size_t at = kThresholdsAt;
   bool in_range = true;
@@ -124,6 +136,11 @@ void encode_model_record(const ModelRecord& r, ModelRecordBytes& out) {
     put_le32(out, at, static_cast<std::uint32_t>(v.raw()));
     at += 4;
   });
+  at = kComplianceAt;
+  for (const fx::Q1_30 c : r.parameters.gearbox_compliance_rad_per_Nm) {
+    put_le32(out, at, static_cast<std::uint32_t>(c.raw()));
+    at += 4;
+  }
   if (r.has_collision_thresholds) {
     out[7] = kHasThresholds;
     at = kThresholdsAt;
@@ -159,13 +176,21 @@ ModelRecordFault decode_model_record(std::span<const std::uint8_t> bytes, ModelR
     if (nonnegative && v.raw() < 0) in_range = false;
   });
   if (!decode_thresholds(bytes, r)) in_range = false;
-  if (bytes.size() == kModelRecordBytes) {
+  if (bytes.size() != kModelRecordV1Bytes) {
     at = kDriveTrainAt;
     each_drive_train_field(r.parameters, [&](fx::Q1_30& v) {
       v = fx::Q1_30::from_raw(static_cast<std::int32_t>(get_le32(bytes, at)));
       at += 4;
     });
     if (!drive_train_in_range(r.parameters)) in_range = false;
+  }
+  if (bytes.size() == kModelRecordBytes) {
+    at = kComplianceAt;
+    for (fx::Q1_30& c : r.parameters.gearbox_compliance_rad_per_Nm) {
+      c = fx::Q1_30::from_raw(static_cast<std::int32_t>(get_le32(bytes, at)));
+      at += 4;
+    }
+    if (!compliance_in_range(r.parameters)) in_range = false;
   }
   const fx::ModelParametersQ& p = r.parameters;
   if (!in_range || p.coulomb_smoothing_rad_s < fx::kMinFrictionVelocity ||

@@ -14,6 +14,7 @@
 
 #include "delta/fixed/math.hpp"
 #include "fw/collision.hpp"
+#include "fw/deflection.hpp"
 #include "fw/faults.hpp"
 #include "fw/feed_forward.hpp"
 #include "fw/hardware.hpp"
@@ -65,7 +66,8 @@ class Controller {
         torque_from_current_{TorqueFromCurrent(config.torque[0]),
                              TorqueFromCurrent(config.torque[1]),
                              TorqueFromCurrent(config.torque[2])},
-        trajectory_(config.geometry, TrajectoryConfig{}) {}
+        trajectory_(config.geometry, TrajectoryConfig{}),
+        ticks_per_s_(1000000u / config.tick_period_us) {}
 
   // Checks the whole trajectory against the limits and the feed-forward's
   // torques (before any motion, in the caller's context, not in step()) and
@@ -249,6 +251,8 @@ class Controller {
     tracking_ = {};
     joint_.reset();
     detector_.reset();
+    deflection_.reset();
+    if (compensates_deflection(config_.feed_forward)) start_at_the_arm();
     hw_.enable_drives(true);
     state_ = State::kRunning;
     state_ticks_ = 0;
@@ -272,6 +276,19 @@ class Controller {
     // The platform's position and acceleration only for the model.
     const bool model = config_.feed_forward.mode == FeedForwardMode::kModel;
     return trajectory_.reference(run_tick_ - approach, reference_, model) == KinematicsStatus::kOk;
+  }
+
+  // With deflection compensation the approach starts where the arms are,
+  // the motors' angles less the deflection of the torque that holds them
+  // still there (the model's), so that the motors' reference starts where
+  // they are.
+  void start_at_the_arm() {
+    JointReference rest;
+    rest.q_rad = approach_from_;
+    Joint3Q12_19 tau{};
+    if (feed_forward_torque(config_.feed_forward, rest, tau) != KinematicsStatus::kOk) return;
+    const auto& c = config_.feed_forward.model.parameters.gearbox_compliance_rad_per_Nm;
+    for (unsigned j = 0; j < 3; ++j) approach_from_[j] = arm_angle(c[j], tau[j], approach_from_[j]);
   }
 
   // Minimum-jerk joint move from approach_from_ to start over approach_ticks.
@@ -301,22 +318,30 @@ class Controller {
       enter_fault(Fault::kTrajectoryRejected);
       return;
     }
-    JointAnglesQ q{};
-    std::array<Q10_21, 3> qd{};
-    if (!read_joints(q, qd)) return;
-    if (state_ == State::kRunning && run_tick_ >= config_.approach_ticks) {
-      tracking_.add(reference_.q_rad, q);
-    }
     Joint3Q12_19 feed_forward{};
     if (feed_forward_torque(config_.feed_forward, reference_, feed_forward) !=
         KinematicsStatus::kOk) {
       enter_fault(Fault::kTrajectoryRejected);
       return;
     }
+    // What the motors track: the reference, or past it by the deflection.
+    const JointReference motor =
+        compensates_deflection(config_.feed_forward)
+            ? deflection_.motor_reference(
+                  config_.feed_forward.model.parameters.gearbox_compliance_rad_per_Nm, feed_forward,
+                  ticks_per_s_, reference_)
+            : reference_;
+    JointAnglesQ q{};
+    std::array<Q10_21, 3> qd{};
+    if (!read_joints(motor, q, qd)) return;
+    if (state_ == State::kRunning && run_tick_ >= config_.approach_ticks) {
+      tracking_.add(motor.q_rad, q);
+    }
     if (collision_detected(feed_forward)) return;
     std::array<bool, 3> saturated{};
-    command_ = joint_.update(reference_, q, qd, feed_forward, saturated);
+    command_ = joint_.update(motor, q, qd, feed_forward, saturated);
     hw_.command_torque(command_);
+    hw_.command_reference(reference_.q_rad);
     if (!log_tick(q)) return;
     advance_run();
   }
@@ -338,9 +363,10 @@ class Controller {
   }
 
   // The joints' angles and velocities from the feedback, checked against
-  // the limits and the tracking error, and their measured torques; false
-  // after entering the fault a check gives.
-  bool read_joints(JointAnglesQ& q, std::array<Q10_21, 3>& qd) {
+  // the limits and the tracking error from the motors' reference `motor`,
+  // and their measured torques; false after entering the fault a check
+  // gives.
+  bool read_joints(const JointReference& motor, JointAnglesQ& q, std::array<Q10_21, 3>& qd) {
     for (unsigned j = 0; j < 3; ++j) {
       q[j] = feedback_[j].position_rad;
       qd[j] = feedback_[j].velocity_rad_s;
@@ -352,7 +378,7 @@ class Controller {
         enter_fault(Fault::kVelocityLimit);
         return false;
       }
-      if (delta::fx::abs(reference_.q_rad[j] - q[j]) > config_.max_tracking_error_rad) {
+      if (delta::fx::abs(motor.q_rad[j] - q[j]) > config_.max_tracking_error_rad) {
         enter_fault(Fault::kTrackingError);
         return false;
       }
@@ -412,6 +438,8 @@ class Controller {
   std::array<Q12_19, 3> measured_torque_{};
   std::array<Q12_19, 3> command_{};
   CollisionDetector detector_{};
+  DeflectionCompensation deflection_{};
+  std::uint32_t ticks_per_s_;
   CollisionEvent collision_{};
   std::uint32_t collision_run_tick_{0};
   bool collided_{false};

@@ -40,8 +40,20 @@ struct FeedForwardConfig {
   // Used in mode kModel: its kind must not be kNone, and it must have been
   // fitted for the controller's geometry.
   ModelQ model{};
+  // Mode kModel with a model that has gearbox compliances: track the motor
+  // past the arm's reference by the deflection (fw/deflection.hpp).
+  bool deflection_compensation{true};
   friend constexpr bool operator==(const FeedForwardConfig&, const FeedForwardConfig&) = default;
 };
+
+// Whether the controller compensates the gearboxes' deflection with `f`.
+constexpr bool compensates_deflection(const FeedForwardConfig& f) {
+  if (f.mode != FeedForwardMode::kModel || !f.deflection_compensation) return false;
+  for (const auto c : f.model.parameters.gearbox_compliance_rad_per_Nm) {
+    if (c.raw() != 0) return true;
+  }
+  return false;
+}
 
 // The feed-forward torques at reference ref. kOk, or (model only) why the
 // reference's pose has no kinematics; the torques are then zero.

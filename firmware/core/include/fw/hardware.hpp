@@ -8,6 +8,7 @@
 //   void quick_stop_drives();                 // CiA 402 quick stop, then disabled
 //   void read_feedback(std::array<DriveFeedback, 3>&);
 //   void command_torque(const std::array<Q12_19, 3>& joint_torque_Nm);
+//   void command_reference(const JointAnglesQ& arm_reference_rad);  // a run's
 //   bool estop_open();                        // debounced e-stop input
 //   void set_outputs(const SafetyOutputs&);   // enable, brake, status lines
 //   bool log(const LogRecord&);               // false: the sink is full

@@ -248,6 +248,7 @@ struct Loop {
                    const std::optional<fw::CollisionThresholds>& thresholds, std::ostream& out) {
     const auto s = fw_linux::apply_model(controller, config, f, thresholds);
     if (s) out << "delta_fw: " << describe_collision(*s) << "\n";
+    if (s && !describe_deflection(f).empty()) out << "delta_fw: " << describe_deflection(f) << "\n";
     return s.has_value();
   }
   delta::can::Socket socket;

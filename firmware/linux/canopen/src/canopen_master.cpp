@@ -591,6 +591,13 @@ void CanopenMaster::command_torque(const std::array<Q12_19, 3>& joint_torque_Nm)
   }
 }
 
+void CanopenMaster::command_reference(const fw::JointAnglesQ& arm_reference_rad) {
+  for (unsigned j = 0; j < 3; ++j) {
+    drives_[j].reference_counts = drives_[j].units.counts(arm_reference_rad[j]);
+    drives_[j].has_reference = true;
+  }
+}
+
 void CanopenMaster::send_commands() {
   if (!cyclic()) return;
   for (Drive& d : drives_) {
@@ -610,7 +617,7 @@ void CanopenMaster::send_commands() {
         case 0x6071:
           return torque;
         case 0x607A:
-          return d.position_counts;
+          return driving && d.has_reference ? d.reference_counts : d.position_counts;
         case 0x6060:
           return d.plan->mode;
         default:

@@ -425,7 +425,28 @@ std::string describe_feed_forward(const PortConfig& c) {
   std::string line = "feed-forward: model (" +
                      (c.feed_forward_model ? c.feed_forward_model->kind : "none") + ", fit " + id +
                      ", " + c.feed_forward_model_file + ")";
-  return line;
+  const std::string deflection = describe_deflection(controller_config(c).feed_forward);
+  return deflection.empty() ? line : line + "; " + deflection;
+}
+
+std::string describe_deflection(const fw::FeedForwardConfig& f) {
+  if (f.mode != fw::FeedForwardMode::kModel) return "";
+  const auto& c = f.model.parameters.gearbox_compliance_rad_per_Nm;
+  std::string stiffness;
+  bool elastic = false;
+  for (unsigned j = 0; j < 3; ++j) {
+    const double compliance = std::ldexp(static_cast<double>(c[j].raw()), -30);
+    char k[32] = "rigid";
+    if (compliance > 0) std::snprintf(k, sizeof k, "%.0f", 1.0 / compliance);
+    stiffness += (j == 0 ? "" : ", ") + std::string(k);
+    elastic = elastic || compliance > 0;
+  }
+  if (!elastic) return "";
+  return fw::compensates_deflection(f)
+             ? "deflection compensation on (gearbox stiffness " + stiffness + " N m/rad)"
+             : "deflection compensation off (feed_forward.deflection_compensation = false; the "
+               "model's gearbox stiffness is " +
+                   stiffness + " N m/rad)";
 }
 
 void validate(const PortConfig& c) {
@@ -485,6 +506,7 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
   out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
   out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
   out.feed_forward.mode = c.feed_forward;
+  out.feed_forward.deflection_compensation = c.deflection_compensation;
   out.collision =
       collision_setting(
           c, c.feed_forward == fw::FeedForwardMode::kModel && c.feed_forward_model.has_value(),

@@ -272,6 +272,10 @@ void add_run_keys(Setters& s) {
     c.feed_forward_set = true;
   };
   s["feed_forward.model"] = read_feed_forward_model;
+  s["feed_forward.deflection_compensation"] = [](PortConfig& c, const std::string& v,
+                                                 const std::string& w) {
+    c.deflection_compensation = parse_bool(v, w, "feed_forward.deflection_compensation");
+  };
   s["feed_forward.store"] = [](PortConfig& c, const std::string& v, const std::string&) {
     c.feed_forward_store = v;
   };

@@ -1,12 +1,12 @@
 // The identified model as the controller stores and transfers it: the
-// `delta-model/2` record, 200 bytes, little-endian (docs/protocol.md,
+// `delta-model/3` record, 212 bytes, little-endian (docs/protocol.md,
 // object 0x2200:1). `host_id model load` writes it, the controller checks it
 // whole before it uses it, keeps it across restarts and gives it back on a
 // read. Integer only: the firmware core's formats (delta/fixed/dynamics.hpp).
 //
 //   offset size
 //     0     4   magic "DMDL"
-//     4     2   format version, 2
+//     4     2   format version, 3
 //     6     1   kind: 1 delta, 2 lumped
 //     7     1   flags: bit 0, the record carries collision thresholds
 //     8     4   fit id (the CRC-32 of the result file it came from)
@@ -17,10 +17,14 @@
 //               without flag bit 0
 //   172    24   the drive train, Q1.30 i32: torque gain gap 1-3, load
 //               friction 1-3 (0: none)
-//   196     4   CRC-32 of bytes 0..195
+//   196    12   each gearbox's compliance 1/K, Q1.30 i32 rad/(N m), in
+//               [0, 1/64) (0: rigid)
+//   208     4   CRC-32 of bytes 0..207
 //
-// A `delta-model/1` record (version 1, 140 bytes: no flags, no thresholds,
-// the CRC at 136) is still read: a controller keeps one from before.
+// Older records are still read, as a controller keeps one from before:
+// `delta-model/2` (version 2, 200 bytes: no compliances, the CRC at 196)
+// and `delta-model/1` (version 1, 140 bytes: no flags, thresholds or drive
+// train, the CRC at 136).
 #pragma once
 
 #include <array>
@@ -31,10 +35,11 @@
 
 namespace delta::controller {
 
-inline constexpr std::size_t kModelRecordBytes = 200;
+inline constexpr std::size_t kModelRecordBytes = 212;
+inline constexpr std::size_t kModelRecordV2Bytes = 200;
 inline constexpr std::size_t kModelRecordV1Bytes = 140;
 using ModelRecordBytes = std::array<std::uint8_t, kModelRecordBytes>;
-inline constexpr std::uint16_t kModelRecordVersion = 2;
+inline constexpr std::uint16_t kModelRecordVersion = 3;
 
 struct ModelRecord {
   fx::GeometryQ geometry{};
@@ -50,11 +55,12 @@ struct ModelRecord {
 // load's verdict at 0x2200:4.
 enum class ModelRecordFault : std::uint8_t {
   kOk = 0,
-  kLength = 1,     // neither 200 (version 2) nor 140 (version 1) bytes
+  kLength = 1,     // neither 212 (version 3), 200 (version 2) nor 140 (version 1) bytes
   kFormat = 2,     // not "DMDL", or another format version (or length)
   kChecksum = 3,   // the CRC-32 does not match: damaged on the way
   kKind = 4,       // neither delta nor lumped
-  kValue = 5,      // a value out of range (a negative mass, inertia, friction or threshold; w, vs)
+  kValue = 5,      // a value out of range (a negative mass, inertia, friction, threshold or
+                   // compliance; w, vs)
   kGeometry = 6,   // fitted for another geometry than the controller's
   kBusy = 7,       // a trajectory is running: models change between runs
   kNotStored = 8,  // the controller could not store it (it keeps the one it had)
@@ -66,9 +72,9 @@ inline constexpr const char* model_record_fault_name(ModelRecordFault f) {
     case ModelRecordFault::kOk:
       return "ok";
     case ModelRecordFault::kLength:
-      return "neither 200 nor 140 bytes";
+      return "neither 212, 200 nor 140 bytes";
     case ModelRecordFault::kFormat:
-      return "not a delta-model/2 (or /1) record";
+      return "not a delta-model/3 (or /2, /1) record";
     case ModelRecordFault::kChecksum:
       return "CRC-32 mismatch (damaged on the way)";
     case ModelRecordFault::kKind:

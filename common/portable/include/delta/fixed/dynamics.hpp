@@ -53,6 +53,10 @@ struct ModelParametersQ {
   // converts exactly and its gear loses nothing with load (y as it is).
   std::array<Q1_30, 3> torque_gain_gap{};  // |gap| < 1/2; joint 1's is 0 (the unit)
   std::array<Q1_30, 3> load_friction{};    // in [0, 1/2)
+  // Each gearbox's compliance 1 / K [rad/(N m)] (`host_id fit --elastic`,
+  // or a given stiffness): the controller's deflection compensation
+  // (fw/deflection.hpp). Zero: rigid. In [0, 1/64).
+  std::array<Q1_30, 3> gearbox_compliance_rad_per_Nm{};
   friend constexpr bool operator==(const ModelParametersQ&, const ModelParametersQ&) = default;
 };
 

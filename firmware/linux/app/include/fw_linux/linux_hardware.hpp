@@ -44,6 +44,7 @@ class LinuxHardware {
   void quick_stop_drives() { drives_.quick_stop_drives(); }
   void read_feedback(std::array<fw::DriveFeedback, 3>& fb) { drives_.read_feedback(fb); }
   void command_torque(const std::array<Q12_19, 3>& t) { drives_.command_torque(t); }
+  void command_reference(const fw::JointAnglesQ& q) { drives_.command_reference(q); }
   bool estop_open() {
     estop_open_ = io_.estop_open();
     return estop_open_;

@@ -54,6 +54,7 @@ class CanopenMaster {
   void enable_drives(bool on) {
     enable_ = on;
     quick_stop_ = false;
+    for (Drive& d : drives_) d.has_reference = false;  // until this run's first
   }
   // CiA 402 quick stop: controlword 0x0002 until the next enable; the
   // drive brakes on its quick-stop ramp (0x6085) and, as its quick-stop
@@ -64,6 +65,10 @@ class CanopenMaster {
   }
   void read_feedback(std::array<fw::DriveFeedback, 3>& out);
   void command_torque(const std::array<Q12_19, 3>& joint_torque_Nm);
+  // The arms' reference this cycle: RPDO1's target position (0x607A)
+  // carries it while the drives are enabled for a run, their own position
+  // otherwise (docs/protocol.md).
+  void command_reference(const fw::JointAnglesQ& arm_reference_rad);
 
   // Restart the bring-up (after the core's reset).
   void restart();
@@ -128,6 +133,8 @@ class CanopenMaster {
     bool heartbeat_seen{false};
     std::uint16_t controlword{0};
     Q12_19 command_current_A{};
+    bool has_reference{false};
+    std::int32_t reference_counts{0};
   };
 
   static bool bring_up_done(const Drive& d) { return d.sdo_step >= d.plan->actions.size(); }

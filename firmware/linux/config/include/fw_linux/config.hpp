@@ -137,6 +137,10 @@ struct PortConfig {
   bool feed_forward_set{false};
   std::string feed_forward_model_file;
   std::optional<delta::IdentifiedModel> feed_forward_model;
+  // With a model that has its gearboxes' stiffness (an elastic fit): the
+  // motors track past the arms' reference by the deflection
+  // (fw/deflection.hpp); false turns it off.
+  bool deflection_compensation{true};
   // Where a model loaded over the bus is kept across restarts (written
   // atomically); "": not kept.
   std::string feed_forward_store{"delta_fw_model.bin"};
@@ -193,6 +197,10 @@ std::vector<std::string> configuration_problems(const PortConfig& c);
 // "feed-forward: model (delta, fit 0x1A2B3C4D, RESULT.json)", or nominal
 // with its two values, or off: what the controller starts with.
 std::string describe_feed_forward(const PortConfig& c);
+// Whether the controller compensates the gearboxes' deflection with `f`
+// and with which stiffness, or why not (a model with stiffness, the key
+// off); "" for a rigid model or another mode.
+std::string describe_deflection(const fw::FeedForwardConfig& f);
 
 // Throws ConfigError with every problem, a line each.
 void validate(const PortConfig& c);
