@@ -301,6 +301,7 @@ sdo::AbortCode Emulator::set_interpolation_period(Drive& d) {
 
 void Emulator::enter_fault(Drive& d, std::uint16_t emcy_code) {
   d.state = cia::State::kFault;
+  end_arm_run(static_cast<unsigned>(&d - drives_.data()));
   d.target_torque_pm = 0;
   if (d.silent || d.nmt == p::kNmtStateStopped) return;  // CiA 301: no EMCY when stopped
   std::array<std::uint8_t, 8> data{};

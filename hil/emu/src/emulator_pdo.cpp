@@ -1,6 +1,9 @@
 // The emulated drives' PDOs and EDS: RPDO1 applied and the TPDOs sent as
 // mapped, CiA 301's rules for the PDOs' COB-IDs and mappings, and a drive
 // that behaves as its EDS file describes.
+#include <algorithm>
+#include <cmath>
+
 #include "delta/can/emcy.hpp"
 #include "delta/can/protocol.hpp"
 #include "drive_objects.hpp"
@@ -38,6 +41,28 @@ void Emulator::handle_rpdo(unsigned j, const Frame& f) {
                         std::span<const std::uint8_t>(f.data).subspan(at, n), true);
     at += n;
   }
+  track_arm(j);
+}
+
+void Emulator::track_arm(unsigned j) {
+  const Drive& d = drives_[j];
+  if (d.state != cia::State::kOperationEnabled) return end_arm_run(j);
+  const PdoMapping& m = d.pdos[0];
+  const bool reference = std::any_of(m.entries.begin(), m.entries.begin() + m.count,
+                                     [](std::uint32_t e) { return e >> 16 == 0x607A; });
+  if (!reference) return;
+  if (!arm_tracking_) {
+    const double cycle_s = (d.cycle_us != 0 ? d.cycle_us : 2000u) * 1e-6;
+    arm_tracking_.emplace(static_cast<std::uint32_t>(std::lround(config_.approach_s / cycle_s)),
+                          static_cast<std::uint32_t>(std::lround(config_.stop_s / cycle_s)));
+  }
+  arm_tracking_->add(j, joint_angle_rad(d, d.target_position) - plant_->arm_state().q_rad[j]);
+}
+
+void Emulator::end_arm_run(unsigned j) {
+  if (!arm_tracking_ || !arm_tracking_->running(j)) return;
+  const auto line = arm_tracking_->end(j);
+  if (line && config_.report) config_.report(*line);
 }
 
 // A TPDO as mapped, each entry read from its object, when its

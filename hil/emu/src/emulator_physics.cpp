@@ -24,6 +24,12 @@ std::int32_t Emulator::position_counts(const Drive& d, double q) const {
   return static_cast<std::int32_t>(d.model.inverted ? -counts : counts);
 }
 
+double Emulator::joint_angle_rad(const Drive& d, std::int32_t counts) const {
+  const double c = d.model.inverted ? -static_cast<double>(counts) : static_cast<double>(counts);
+  return c / d.model.counts_per_rev / d.model.gear_ratio * 2.0 * std::numbers::pi +
+         d.model.joint_zero_rad;
+}
+
 std::int32_t Emulator::velocity_counts_s(const Drive& d, double qd) const {
   const double counts_s =
       qd / (2.0 * std::numbers::pi) * d.model.gear_ratio * d.model.counts_per_rev;

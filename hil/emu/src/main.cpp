@@ -125,6 +125,15 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
       ->check(kCurrentNoise)
       ->capture_default_str();
   app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
+  app.add_option("--approach-s", config.approach_s,
+                 "the controller's approach_s: the `arm tracking` line after each run covers "
+                 "the span of delta_fw's `tracking` line, after the approach")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--stop-s", config.stop_s,
+                 "the controller's stop_s: the `arm tracking` line leaves out the stop")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--eds", a.eds_path,
                  "the drives' EDS or DCF (CiA 306): the drives then behave as it describes, "
                  "with exactly its objects, access types, sizes, defaults (transmission types "

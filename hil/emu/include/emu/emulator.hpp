@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,7 @@
 #include "delta/plant.hpp"
 #include "delta/robot_description.hpp"
 #include "delta/splitmix.hpp"
+#include "emu/arm_tracking.hpp"
 
 namespace emu {
 
@@ -135,7 +137,12 @@ struct EmulatorConfig {
   std::uint64_t seed{1};
   std::vector<FaultInjection> faults;
   TorqueUnit torque_unit{TorqueUnit::kPerMille};
-  // Lines for the user (`contact: t_s=T force_N=F`); none where unset.
+  // The controller's approach_s and stop_s: the span of its `tracking` line,
+  // which the `arm tracking` line covers too (emu/arm_tracking.hpp).
+  double approach_s{2.0};
+  double stop_s{0.4};
+  // Lines for the user (`contact: t_s=T force_N=F`, `arm tracking: ...`);
+  // none where unset.
   std::function<void(const std::string&)> report;
 };
 
@@ -263,6 +270,10 @@ class Emulator {
   void reset_application(Drive& d);
   void apply_controlword(Drive& d, std::uint16_t controlword);
   void handle_rpdo(unsigned j, const delta::can::Frame& f);
+  // The arm's tracking error at this RPDO's reference (0x607A), or the end
+  // of the drive's run once it is no longer enabled.
+  void track_arm(unsigned j);
+  void end_arm_run(unsigned j);
   void send_tpdo(unsigned j, unsigned pdo);
   std::uint32_t pdo_cob_id(const Drive& d, unsigned pdo) const;
   delta::can::sdo::AbortCode set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v);
@@ -284,6 +295,7 @@ class Emulator {
   double noise();
   std::int32_t position_counts(const Drive& d, double q) const;
   std::int32_t velocity_counts_s(const Drive& d, double qd) const;
+  double joint_angle_rad(const Drive& d, std::int32_t counts) const;
 
   EmulatorConfig config_;
   EmulatedProduct product_;
@@ -296,6 +308,7 @@ class Emulator {
   std::array<std::unique_ptr<delta::can::sdo::Server>, 3> sdo_servers_;
   std::unique_ptr<delta::canopen::Eds> eds_;  // use_eds()
   std::unique_ptr<delta::Plant> plant_;
+  std::optional<ArmTracking> arm_tracking_;  // from the first enabled cycle
   std::uint64_t sim_us_{0};
   std::uint64_t syncs_{0};
   delta::SplitMix64 rng_;
