@@ -53,10 +53,11 @@ struct FitArguments {
   bool allow_other_geometry{false};
   std::string time_steps{"check"};
   std::string state_cutoff{"auto"};
-  std::optional<ModelSelection> selection;  // with --model auto
-  std::string base_path;                    // --base: a payload on this fit
-  std::string calibrate_path;               // --calibrate-torque: the loaded log
-  double payload_mass_kg{0};                // --payload-mass, with --calibrate-torque
+  std::optional<ModelSelection> selection;           // with --model auto
+  std::string base_path;                             // --base: a payload on this fit
+  std::string calibrate_path;                        // --calibrate-torque: the loaded log
+  double payload_mass_kg{0};                         // --payload-mass, with --calibrate-torque
+  std::vector<double> gearbox_stiffness_Nm_per_rad;  // --gearbox-stiffness: 1 or 3 values
   CLI::Option* model_given{nullptr};
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
@@ -106,6 +107,16 @@ void add_model_options(CLI::App& c, FitArguments& a) {
              "PSO, the other parameters solved exactly for each candidate, and take it where the "
              "held-out error says so; where the log has qa1..qa3 (arm-side encoders), those "
              "(docs/model.md, 'Elastic gearboxes')")
+      ->group("model");
+  c.add_option("--gearbox-stiffness", a.gearbox_stiffness_Nm_per_rad,
+               "delta, lumped: the gearboxes' torsional stiffness in N m/rad at the joint, from "
+               "their datasheets (one for all joints, or K1,K2,K3): the model is fitted at the "
+               "arms' angles and carries it, and the controller compensates the deflection "
+               "(docs/model.md, 'Elastic gearboxes')")
+      ->delimiter(',')
+      ->expected(1, 3)
+      ->check(CLI::PositiveNumber)
+      ->excludes("--elastic")
       ->group("model");
   c.add_flag("--fit-friction-shape", a.fit.fit_friction_shape,
              "search the Coulomb smoothing (and, with --stribeck-velocity, the Stribeck "
@@ -237,6 +248,17 @@ void add_output_options(CLI::App& c, FitArguments& a) {
       ->group("output");
 }
 
+// --gearbox-stiffness as compliances 1/K (all 0 without it).
+delta::Joint3 given_compliance(const FitArguments& a) {
+  const std::vector<double>& k = a.gearbox_stiffness_Nm_per_rad;
+  if (k.empty()) return {};
+  if (k.size() == 2) {
+    throw UsageError("--gearbox-stiffness: give one stiffness for all joints or three, K1,K2,K3");
+  }
+  return k.size() == 1 ? delta::Joint3{1 / k[0], 1 / k[0], 1 / k[0]}
+                       : delta::Joint3{1 / k[0], 1 / k[1], 1 / k[2]};
+}
+
 // The options the strings and the optional values stand for.
 FitOptions fit_options(const FitArguments& a) {
   FitOptions f = a.fit;
@@ -249,6 +271,7 @@ FitOptions fit_options(const FitArguments& a) {
   f.prepare.time_steps = time_steps_named(a.time_steps);
   if (a.state_cutoff != "auto") f.prepare.state_cutoff_hz = std::stod(a.state_cutoff);
   if (a.min_speed_given->count()) f.min_speed_rad_s = a.min_speed_rad_s;
+  f.model.gearbox_compliance_rad_per_Nm = given_compliance(a);
   return f;
 }
 
@@ -542,7 +565,9 @@ std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInpu
         << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
   }
   if (a.selection && a.selection->chosen != variant_index(*a.selection, f.model)) {
+    const delta::Joint3 compliance = f.model.gearbox_compliance_rad_per_Nm;
     f.model = a.selection->variants[a.selection->chosen].model;
+    f.model.gearbox_compliance_rad_per_Nm = compliance;
     results.back() =
         fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());
   }
