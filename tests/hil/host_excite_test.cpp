@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -32,6 +33,7 @@ using hil::start_emulator;
 using hil::start_firmware_with_modbus;
 using hil::stopped_and_told;
 using hil::sum_of_numbers;
+using hil::worst_arm_tracking;
 using namespace std::chrono_literals;
 
 // The controller's tracking error of the run, in the log's metadata.
@@ -204,6 +206,12 @@ TEST(HostExcite, TheFittedModelAsFeedForwardTracksThePickAndPlaceFiveTimesBetter
   EXPECT_EQ(s.fw.terminate(30s).value_or(-1), 0) << s.fw.err();
   EXPECT_NE(s.fw.err().find("tracking pick-and-place: rms_rad="), std::string::npos) << s.fw.err();
   EXPECT_EQ(s.emu.terminate(30s).value_or(-1), 0) << s.emu.err();
+  // This robot's gearboxes are rigid: the emulator's `arm tracking` of
+  // each run (path1, nominal, model) is the controller's own tracking.
+  const std::vector<double> arm = worst_arm_tracking(s.emu.out());
+  ASSERT_EQ(arm.size(), 3u) << s.emu.out();
+  EXPECT_NEAR(arm[1], nominal, 0.02 * nominal);
+  EXPECT_NEAR(arm[2], model, 0.02 * model);
 }
 
 // The number after `key` in `text` (the first such), NaN where none is.

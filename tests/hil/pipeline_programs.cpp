@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <sstream>
 
 namespace hil {
 
@@ -51,6 +54,19 @@ std::string stopped_and_told(Child& fw, Child& emu) {
   fw.terminate(30s);
   emu.terminate(30s);
   return "\n--- delta_fw:\n" + fw.err() + "\n--- delta_drive_emu:\n" + emu.err();
+}
+
+std::vector<double> worst_arm_tracking(const std::string& emulator_said) {
+  std::vector<double> worst;
+  std::istringstream lines(emulator_said);
+  for (std::string line; std::getline(lines, line);) {
+    double rms[3] = {};
+    if (std::sscanf(line.c_str(), "arm tracking: rms_rad=%lf,%lf,%lf", &rms[0], &rms[1], &rms[2]) ==
+        3) {
+      worst.push_back(std::max({rms[0], rms[1], rms[2]}));
+    }
+  }
+  return worst;
 }
 
 }  // namespace hil

@@ -34,4 +34,8 @@ Child start_firmware_with_modbus(int port, const std::vector<std::string>& extra
 // and why).
 std::string stopped_and_told(Child& fw, Child& emu);
 
+// The worst joint's RMS of each `arm tracking` line delta_drive_emu printed
+// (one after each run), in the order of the runs.
+std::vector<double> worst_arm_tracking(const std::string& emulator_said);
+
 }  // namespace hil

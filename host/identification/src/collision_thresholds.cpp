@@ -63,8 +63,9 @@ std::string collision_thresholds_unavailable(const ModelOptions& model) {
     return "the " + model.name + " model does not run on the controller";
   }
   if (model.elastic()) {
-    return "the elastic model's states are the arm's, the controller's the motor's: fit without "
-           "--elastic for a model whose thresholds hold there";
+    return "none are derived for an elastic model (its residual is the arms', which the "
+           "controller's motor encoders do not see): fit without --elastic and "
+           "--gearbox-stiffness for a model with thresholds, or set collision.threshold_Nm";
   }
   return "";
 }

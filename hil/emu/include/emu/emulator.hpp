@@ -230,7 +230,7 @@ class Emulator {
     std::uint8_t sync_counter_overflow{0};
     std::uint8_t sync_counter{0};
     bool sync_length_reported{false};
-    std::int32_t target_position{0};      // 0x607A: mappable, not used (CST only)
+    std::int32_t target_position{0};      // 0x607A: the arm reference (arm tracking)
     std::int16_t current_measured_pm{0};  // 0x6078, with the noise, per SYNC
     std::uint16_t max_current_pm{3000};
     double current_A{0.0};

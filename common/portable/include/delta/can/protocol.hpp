@@ -127,7 +127,7 @@ inline constexpr std::array<Message, 16> kMessages{{
        {"target_torque", 16, 16, true, kPerMille, "rated torque",
         "object 0x6071 (cyclic synchronous torque)"},
        {"target_position", 32, 32, true, kRaw, "counts",
-        "object 0x607A (cyclic synchronous position)"}}},
+        "object 0x607A: the arm reference during a run, else the drive position"}}},
      "drive command, applied on the next SYNC"},
     {"SDO_RX",
      0x600,
