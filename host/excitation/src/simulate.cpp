@@ -1,5 +1,6 @@
 #include "host_id/simulate.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -151,6 +152,34 @@ DeltaLog exact_log(const SimulateOptions& o, const Path& path) {
   return log;
 }
 
+// The path follower's tracking error per joint (the path's angle less the
+// encoder's, or the arm's), as the controller's `tracking` line and the
+// emulator's `arm tracking` line count it.
+struct TrackingSums {
+  delta::Joint3 sum_sq{};
+  delta::Joint3 max_abs{};
+  std::size_t n{0};
+  void add(const delta::Joint3& reference, const delta::Joint3& q) {
+    for (unsigned j = 0; j < 3; ++j) {
+      const double e = reference[j] - q[j];
+      sum_sq[j] += e * e;
+      max_abs[j] = std::max(max_abs[j], std::abs(e));
+    }
+    ++n;
+  }
+  // Into the log's metadata as PREFIXrms_rad_1..3 and PREFIXmax_rad_1..3.
+  void write(DeltaLog& log, const std::string& prefix) const {
+    for (unsigned j = 0; j < 3; ++j) {
+      log.metadata.emplace_back(prefix + "rms_rad_" + std::to_string(j + 1),
+                                format_number(std::sqrt(sum_sq[j] / static_cast<double>(n))));
+    }
+    for (unsigned j = 0; j < 3; ++j) {
+      log.metadata.emplace_back(prefix + "max_rad_" + std::to_string(j + 1),
+                                format_number(max_abs[j]));
+    }
+  }
+};
+
 // The multibody plant follows the path under the PD controller with its
 // lumped model as feed-forward: each sample has the state the plant is in
 // and the torque applied from it to the next sample (and, with
@@ -176,10 +205,13 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
                              ? std::max(1, static_cast<int>(std::ceil(dt / 2.5e-4)))
                              : 1;
   const double h = dt / loop_steps;
+  TrackingSums motor_tracking, arm_tracking;
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * dt;
     delta::JointState s = plant.state();
     const delta::JointState arm = plant.arm_state();
+    motor_tracking.add(path.at(t).q_rad, s.q_rad);
+    arm_tracking.add(path.at(t).q_rad, arm.q_rad);
     delta::Joint3 logged{};
     for (int i = 0; i < loop_steps; ++i) {
       delta::Joint3 tau{};
@@ -196,6 +228,8 @@ DeltaLog followed_log(const SimulateOptions& o, const Path& path) {
     }
     report_progress(o, k, n);
   }
+  motor_tracking.write(log, "tracking_");
+  if (o.arm_encoders) arm_tracking.write(log, "arm_tracking_");
   return log;
 }
 

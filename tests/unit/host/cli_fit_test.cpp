@@ -534,6 +534,30 @@ TEST_F(CliTest, ElasticGearboxesAreFittedFromTheArmsEncoders) {
       0)
       << err_.str();
   EXPECT_NE(delta::read_whole_file(path("e.csv")).find("qa1,qa2,qa3"), std::string::npos);
+  // The follower's tracking, the motors' and the arms' (behind the gearbox).
+  const DeltaLog simulated = read_delta_log(path("e.csv"));
+  for (const char* key :
+       {"tracking_rms_rad_1", "arm_tracking_rms_rad_3", "arm_tracking_max_rad_2"}) {
+    ASSERT_TRUE(simulated.metadata_value(key).has_value()) << key;
+    EXPECT_GT(std::stod(*simulated.metadata_value(key)), 1e-6) << key;
+  }
+  EXPECT_NE(std::stod(*simulated.metadata_value("tracking_rms_rad_1")),
+            std::stod(*simulated.metadata_value("arm_tracking_rms_rad_1")));
+  EXPECT_NE(out_.str().find("arm tracking: rms_rad="), std::string::npos) << out_.str();
+  // The datasheet's stiffness, given: carried as it is, not searched.
+  ASSERT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "1400,1500,1600", "--method", "ls",
+                 "-o", path("given.json")}),
+            0)
+      << err_.str();
+  EXPECT_NE(out_.str().find("elastic gearboxes K 1400, 1500, 1600 N m/rad"), std::string::npos)
+      << out_.str();
+  const auto given = nlohmann::json::parse(delta::read_whole_file(path("given.json")));
+  EXPECT_NEAR(given["model"]["gearbox_compliance_rad_per_Nm"][2].get<double>(), 1.0 / 1600, 1e-12);
+  EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "1400,1500"}), 2);
+  EXPECT_NE(err_.str().find("one stiffness for all joints or three"), std::string::npos)
+      << err_.str();
+  EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "1500", "--elastic"}), 2);
+  EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "-5"}), 2);
   ASSERT_EQ(run({"fit", path("e.csv"), "--elastic", "--method", "ls", "-o", path("r.json")}), 0)
       << err_.str();
   EXPECT_NE(out_.str().find("gearbox stiffness K = 1 / c from the arm's encoders"),

@@ -119,7 +119,24 @@ SimulateOptions simulate_options(const SimulateArguments& a, std::ostream& err) 
   return s;
 }
 
-// What was written: a JSON summary (--json) or one line.
+// The log's PREFIXrms_rad_1..3 and PREFIXmax_rad_1..3 (simulate's
+// follower: tracking_, and arm_tracking_ with the arms' encoders) as
+// "rms_rad=a,b,c max_rad=a,b,c"; "" where it has none.
+std::string tracking_of(const DeltaLog& log, const std::string& prefix) {
+  std::string text;
+  for (const char* kind : {"rms", "max"}) {
+    text += std::string(text.empty() ? "" : " ") + kind + "_rad=";
+    for (int j = 1; j <= 3; ++j) {
+      const auto v = log.metadata_value(prefix + kind + "_rad_" + std::to_string(j));
+      if (!v) return "";
+      text += (j == 1 ? "" : ",") + *v;
+    }
+  }
+  return text;
+}
+
+// What was written: a JSON summary (--json) or one line (and the tracking
+// lines of a followed path).
 void print_simulated(const SimulateArguments& a, const SimulateOptions& s, const DeltaLog& log,
                      std::ostream& out) {
   if (a.json) {
@@ -130,12 +147,19 @@ void print_simulated(const SimulateArguments& a, const SimulateOptions& s, const
                           {"duration_s", s.duration_s},
                           {"sample_rate_hz", s.sample_rate_hz},
                           {"torque_noise", s.torque_noise},
-                          {"encoder_bits", s.encoder_bits}}
+                          {"encoder_bits", s.encoder_bits},
+                          {"tracking", tracking_of(log, "tracking_")},
+                          {"arm_tracking", tracking_of(log, "arm_tracking_")}}
                .dump(2)
         << "\n";
   } else {
     out << "host_id simulate: wrote " << a.out_path << " (" << log.size() << " samples, "
         << s.trajectory << ")\n";
+    for (const auto& [line, prefix] :
+         {std::pair{"tracking", "tracking_"}, std::pair{"arm tracking", "arm_tracking_"}}) {
+      const std::string t = tracking_of(log, prefix);
+      if (!t.empty()) out << line << ": " << t << "\n";
+    }
   }
 }
 
