@@ -190,6 +190,14 @@ void print_model(const ModelInUse& m, std::ostream& out) {
       out << line;
     }
   }
+  const delta::Joint3& c = id.gearbox_compliance_rad_per_Nm;
+  if (c != delta::Joint3{}) {
+    const auto stiffness = [](double v) { return v > 0.0 ? 1.0 / v : 0.0; };
+    std::snprintf(line, sizeof line, "  %-24s %12.6g %12.6g %12.6g N m/rad", "gearbox_stiffness",
+                  stiffness(c[0]), stiffness(c[1]), stiffness(c[2]));
+    out << line << " (0: rigid; the controller compensates the deflection unless "
+        << "feed_forward.deflection_compensation = false)\n";
+  }
   print_collision_thresholds(id, out);
 }
 

@@ -14,13 +14,16 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "chain_runs.hpp"
 #include "delta/identified_model.hpp"
+#include "delta/model_q.hpp"
 #include "delta/robot_description.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/model_selection.hpp"
+#include "host_id/model_transfer.hpp"
 #include "host_id/report.hpp"
 #include "in_process_rig.hpp"
 
@@ -112,6 +115,18 @@ TEST(ChainElastic, CompensationPutsTheIdentifiedModelsGainOnTheArm) {
   const host_id::DeltaLog log = record_path1(ec).log;
   ASSERT_GT(log.size(), 7000u);
   const delta::IdentifiedModel model = fitted_model(log, 3000.0);
+  // As `host_id model show` reads it back from the controller's record.
+  delta::controller::ModelRecordBytes bytes{};
+  delta::controller::encode_model_record(delta::model_record(model), bytes);
+  delta::controller::ModelRecord record;
+  ASSERT_EQ(delta::controller::decode_model_record(bytes, record),
+            delta::controller::ModelRecordFault::kOk);
+  std::ostringstream shown;
+  host_id::print_model({2, model.fit_id, delta::identified_model(record)}, shown);
+  EXPECT_NE(
+      shown.str().find("gearbox_stiffness                3000         3000         3000 N m/rad"),
+      std::string::npos)
+      << shown.str();
   const Tracking nominal = pick_and_place(with(fw::FeedForwardMode::kNominal), ec);
   const Tracking compensated = pick_and_place(with(fw::FeedForwardMode::kModel, model), ec);
   PortConfig off = with(fw::FeedForwardMode::kModel, model);
