@@ -172,6 +172,58 @@ scenario("confirm", CONFIRMS, "1.1.0", confirmed)
 scenario("crash", CRASHES, "1.1.0", crashed)
 scenario("power loss", HANGS, "1.1.0", power_loss)
 
+def keys(work, name):
+    secret, public = os.path.join(work, name + ".key"), os.path.join(work, name + ".pub")
+    subprocess.run([HOST_ID, "image", "keygen", "--secret", secret, "--public", public],
+                   check=True, capture_output=True)
+    return secret, public
+
+
+def boot_until(work, extra, needle):
+    """delta_boot until `needle` (or its end), then stopped; what it said."""
+    boot = Boot(work, extra)
+    boot.wait_for(needle)
+    boot.stop()
+    return boot.log
+
+
+def boot_ends(work, extra):
+    """delta_boot that ends by itself: its exit code and what it said."""
+    p = subprocess.run([DELTA_BOOT, "--state-dir", os.path.join(work, "state")] + extra,
+                       capture_output=True, text=True, timeout=60,
+                       env=dict(os.environ, FIFO=os.path.join(work, "fifo"),
+                                STATE_LOG=os.path.join(work, "started.log")))
+    return p.returncode, p.stderr
+
+
+# The public key is installed once (docs/security.md): the first --public-key
+# goes into the state folder and holds without the option; another key is
+# refused; --replace-public-key, the local procedure, replaces it, and then
+# the images signed with the old key no longer start.
+with tempfile.TemporaryDirectory() as work:
+    os.mkdir(os.path.join(work, "state"))
+    os.mkfifo(os.path.join(work, "fifo"))
+    secret_a, public_a = keys(work, "a")
+    _, public_b = keys(work, "b")
+    v1 = make_image(work, "v1", V1, "1.0.0")
+    subprocess.run([HOST_ID, "image", "sign", v1, "--key", secret_a], check=True,
+                   capture_output=True)
+    log = boot_until(work, ["--install", v1, "--public-key", public_a], "started slot 0")
+    check("installed public key" in log and "started slot 0" in log, "key installed\n" + log)
+    with open(os.path.join(work, "state", "public.key")) as f, open(public_a) as g:
+        check(f.read() == g.read(), "state/public.key is the given key")
+    log = boot_until(work, [], "started slot 0")
+    check("must be signed with the public key installed in" in log and "started slot 0" in log,
+          "the installed key holds without --public-key\n" + log)
+    code, log = boot_ends(work, ["--public-key", public_b])
+    check(code == 2 and "is another" in log and "--replace-public-key" in log,
+          "another key refused: %r\n%s" % (code, log))
+    code, log = boot_ends(work, ["--replace-public-key", public_b])
+    check("public key replaced (" in log and "by the local procedure" in log,
+          "the local procedure replaces it\n" + log)
+    check(code == 7 and "started slot 0" not in log,
+          "an image signed with the old key no longer starts: %r\n%s" % (code, log))
+
 with tempfile.TemporaryDirectory() as work:
     os.mkdir(os.path.join(work, "state"))
     p = subprocess.run([DELTA_BOOT, "--state-dir", os.path.join(work, "state")],
@@ -187,4 +239,5 @@ with tempfile.TemporaryDirectory() as work:
 
 if failures:
     sys.exit("%d check(s) failed" % len(failures))
-print("delta_boot: confirm, crash, power loss, empty folder and corrupt record behave as documented")
+print("delta_boot: confirm, crash, power loss, the public key installed once, empty folder and "
+      "corrupt record behave as documented")

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "delta/input_error.hpp"
+#include "public_key_store.hpp"
 #include "supervisor.hpp"
 
 namespace {
@@ -25,7 +26,7 @@ constexpr const char* kDescription =
 struct Arguments {
   std::string state_dir;
   std::string install;
-  std::string public_key;
+  boot::KeyArguments keys;
   double trial_timeout_s{30};
   std::uint32_t capacity_mib{64};
   std::vector<std::string> program_arguments;
@@ -39,8 +40,14 @@ std::optional<int> parse(int argc, char** argv, Arguments& a) {
   app.add_option("--install", a.install,
                  "an image to install in slot 0 when STATE_DIR holds no program yet")
       ->check(CLI::ExistingFile);
-  app.add_option("--public-key", a.public_key,
-                 "accept only images signed with this key (host_id image keygen)")
+  app.add_option("--public-key", a.keys.given,
+                 "accept only images signed with this key (host_id image keygen); the first "
+                 "one given is installed in STATE_DIR/public.key and holds from then on, "
+                 "given or not; another key is refused (docs/security.md)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--replace-public-key", a.keys.replacement,
+                 "the local procedure: install this key in place of STATE_DIR/public.key "
+                 "(docs/security.md)")
       ->check(CLI::ExistingFile);
   app.add_option("--trial-timeout", a.trial_timeout_s,
                  "seconds a new program has to confirm itself")
@@ -94,15 +101,20 @@ std::optional<fw::update::BootRecord> record_to_boot(const boot::SlotStore& stor
 int main(int argc, char** argv) {
   Arguments a;
   if (const auto code = parse(argc, argv, a)) return *code;
+  const std::string folder = std::filesystem::absolute(a.state_dir).string();
+  boot::SupervisorOptions options;
   try {
-    boot::SupervisorOptions options;
-    if (!a.public_key.empty()) options.public_key = up::read_public_key(a.public_key);
+    options.public_key = boot::settle_public_key(folder, a.keys, std::cerr);
+  } catch (const delta::InputError& e) {
+    std::cerr << "delta_boot: " << e.what() << "\n";
+    return boot::kExitUsage;
+  }
+  try {
     options.program_arguments = a.program_arguments;
     options.trial_timeout =
         std::chrono::milliseconds(static_cast<std::int64_t>(a.trial_timeout_s * 1000));
     options.capacity_bytes = a.capacity_mib << 20;
-    const boot::SlotStore store(std::filesystem::absolute(a.state_dir).string(),
-                                options.public_key);
+    const boot::SlotStore store(folder, options.public_key);
     const auto record = record_to_boot(store, a);
     if (!record) return boot::kExitNoProgram;
     boot::Supervisor supervisor(store, *record, options, std::cerr);

@@ -1,0 +1,67 @@
+#include "public_key_store.hpp"
+
+#include <filesystem>
+
+#include "delta/atomic_file.hpp"
+#include "delta/input_error.hpp"
+
+namespace fw_linux::boot {
+
+namespace up = delta::update;
+
+namespace {
+
+// The key's first 16 hexadecimal digits: enough to tell two apart in a log.
+std::string fingerprint(const up::PublicKey& k) {
+  return up::key_text(k).substr(0, 16);
+}
+
+void install(const std::string& path, const up::PublicKey& k) {
+  delta::write_file_atomically(path, up::key_text(k), 0644);
+}
+
+}  // namespace
+
+std::optional<up::PublicKey> settle_public_key(const std::string& state_folder,
+                                               const KeyArguments& a, std::ostream& log) {
+  const std::string path = state_folder + "/public.key";
+  std::optional<up::PublicKey> installed;
+  if (std::filesystem::exists(path)) installed = up::read_public_key(path);
+  if (!a.replacement.empty()) {
+    const up::PublicKey next = up::read_public_key(a.replacement);
+    if (!a.given.empty() && up::read_public_key(a.given) != next) {
+      throw delta::InputError("--public-key " + a.given + " and --replace-public-key " +
+                              a.replacement + " are different keys: give the new key once");
+    }
+    install(path, next);
+    log << "delta_boot: " << path << ": public key "
+        << (installed ? "replaced (" + fingerprint(*installed) + "... by " : "installed (")
+        << fingerprint(next) << "...) from " << a.replacement
+        << " by the local procedure; every image must be signed with its secret key\n";
+    return next;
+  }
+  if (!a.given.empty()) {
+    const up::PublicKey given = up::read_public_key(a.given);
+    if (installed && *installed != given) {
+      throw delta::InputError(
+          path + " holds public key " + fingerprint(*installed) + "..., and --public-key " +
+          a.given + " is another (" + fingerprint(given) +
+          "...): an installed key is replaced only on the controller itself, with delta_boot "
+          "--replace-public-key FILE (docs/security.md)");
+    }
+    if (!installed) {
+      install(path, given);
+      log << "delta_boot: installed public key " << fingerprint(given) << "... in " << path
+          << ": from now on every image must be signed with its secret key, with or without "
+             "--public-key (replacing it: docs/security.md)\n";
+    }
+    return given;
+  }
+  if (installed) {
+    log << "delta_boot: images must be signed with the public key installed in " << path << " ("
+        << fingerprint(*installed) << "...)\n";
+  }
+  return installed;
+}
+
+}  // namespace fw_linux::boot

@@ -1,0 +1,29 @@
+// The controller's public key, installed once in delta_boot's state folder
+// as `public.key` (docs/security.md). Once it is there every image must be
+// signed with its secret key, whether delta_boot is given --public-key or
+// not; another key is refused, and only the local procedure
+// (--replace-public-key, run on the controller) replaces it.
+#pragma once
+
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include "delta/update/signature.hpp"
+
+namespace fw_linux::boot {
+
+struct KeyArguments {
+  std::string given;        // --public-key FILE ("" none)
+  std::string replacement;  // --replace-public-key FILE ("" none)
+};
+
+// The key delta_boot checks images with, after installing or replacing it
+// as asked (each said on `log`); nothing where none is given or installed.
+// Throws delta::InputError (naming the files and what to do) for a given
+// key that is not the installed one, a replacement beside another
+// --public-key, and an unreadable key file.
+std::optional<delta::update::PublicKey> settle_public_key(const std::string& state_folder,
+                                                          const KeyArguments& a, std::ostream& log);
+
+}  // namespace fw_linux::boot
