@@ -419,6 +419,36 @@ TEST(ControllerNodeTest, AModelCarriesItsCollisionThresholds) {
   EXPECT_EQ(rig.read(0x2200, 4), 5u);
 }
 
+// Every load and mode change over the bus is said, taken or refused (who
+// may load a model: docs/security.md): a load during a run is refused
+// (0x08000022) and said with why.
+TEST(ControllerNodeTest, EveryLoadOverTheBusIsSaidTakenOrRefused) {
+  NodeRig rig;
+  std::vector<std::string> said;
+  rig.feed_forward.set_report([&said](const std::string& s) { said.push_back(s); });
+  rig.step();
+  const auto bytes = model_bytes(0.45, delta::kDefaultGeometry, 0x0000AB12u);
+  ASSERT_EQ(load(rig, bytes), sdo::kNoAbort) << sdo::abort_meaning(rig.client.abort_code());
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_EQ(said[0],
+            "model fit 0x0000AB12 loaded over the bus (SDO download to node 16, 0x2200:1); the "
+            "feed-forward from the next run on");
+  rig.report.safe_to_update = false;  // a run is on
+  rig.step();
+  EXPECT_EQ(load(rig, bytes), 0x08000022u);
+  ASSERT_EQ(said.size(), 2u);
+  EXPECT_NE(said[1].find("was refused: a trajectory is running (models change between runs) "
+                         "(0x2200:4 = 7); the model in use stays"),
+            std::string::npos)
+      << said[1];
+  rig.report.safe_to_update = true;
+  rig.step();
+  rig.client.download(0x2200, 3, std::vector<std::uint8_t>{1}, sdo::Transfer::kAuto, rig.now_us);
+  rig.transfer();
+  ASSERT_EQ(said.size(), 3u);
+  EXPECT_EQ(said[2], "feed-forward nominal asked over the bus (0x2200:3): from the next run on");
+}
+
 // With collision.detect = true, a load or a mode that would leave the
 // detector without the model or its thresholds is refused (0x06040043,
 // 0x2200:4 = 9) and nothing is stored; a model with thresholds goes in.

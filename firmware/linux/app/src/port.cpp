@@ -240,6 +240,9 @@ struct Loop {
                                      const std::optional<fw::CollisionThresholds>& thresholds) {
       return collision_check(config, f, thresholds);
     });
+    feed_forward.set_report([&out, iface = options.iface](const std::string& what) {
+      out << "delta_fw: " << what << ", on " << iface << "\n";
+    });
     coordinator.set_feed_forward_slot(&feed_forward);
   }
   // A model (or feed-forward mode) set over the bus, with the detector's

@@ -107,7 +107,27 @@ FeedForwardSlot::Fault FeedForwardSlot::load(std::span<const std::uint8_t> bytes
   if (f == Fault::kOk) f = apply(next, thresholds, between_runs);
   if (f == Fault::kOk) keep(bytes, r);
   last_load_ = f;
+  report_load(f, r.fit_id);
   return f;
+}
+
+// Every load over the bus, taken or refused, in delta_fw's log (who may
+// load a model: docs/security.md).
+void FeedForwardSlot::report_load(Fault f, std::uint32_t fit_id) const {
+  if (!report_) return;
+  char id[16];
+  std::snprintf(id, sizeof id, "0x%08X", fit_id);
+  if (f == Fault::kOk) {
+    report_(std::string("model fit ") + id +
+            " loaded over the bus (SDO download to node 16, 0x2200:1)" +
+            (store_path_.empty() ? "" : ", stored in " + store_path_) +
+            "; the feed-forward from the next run on");
+  } else {
+    report_(std::string("a model load over the bus (SDO download to node 16, 0x2200:1) was "
+                        "refused: ") +
+            mc::model_record_fault_name(f) + " (0x2200:4 = " + std::to_string(static_cast<int>(f)) +
+            "); the model in use stays");
+  }
 }
 
 FeedForwardSlot::Fault FeedForwardSlot::set_mode(std::uint32_t mode, bool between_runs) {
@@ -115,10 +135,15 @@ FeedForwardSlot::Fault FeedForwardSlot::set_mode(std::uint32_t mode, bool betwee
   fw::FeedForwardConfig next = current_;
   next.mode = static_cast<fw::FeedForwardMode>(mode);
   if (next.mode == fw::FeedForwardMode::kModel && record_bytes_ == 0) return Fault::kKind;
-  if (check_) {
-    if (const Fault f = check_(next, thresholds_); f != Fault::kOk) return f;
+  Fault f = check_ ? check_(next, thresholds_) : Fault::kOk;
+  if (f == Fault::kOk) f = apply(next, thresholds_, between_runs);
+  if (report_) {
+    report_(std::string("feed-forward ") + fw::feed_forward_mode_name(next.mode) +
+            " asked over the bus (0x2200:3): " +
+            (f == Fault::kOk ? "from the next run on"
+                             : std::string("refused, ") + mc::model_record_fault_name(f)));
   }
-  return apply(next, thresholds_, between_runs);
+  return f;
 }
 
 }  // namespace fw_linux

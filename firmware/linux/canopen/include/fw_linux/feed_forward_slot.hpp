@@ -1,6 +1,6 @@
 // The controller's feed-forward as node 16 serves it (docs/protocol.md,
 // 0x2200): the mode and the identified model in use, a model loaded over
-// the bus (a delta-model/2 record, checked whole: format, CRC, kind, every
+// the bus (a delta-model/3 record, checked whole: format, CRC, kind, every
 // value, the geometry), stored atomically so that it survives a restart,
 // and applied only between runs, with the collision thresholds it carries. A load that fails at any
 // point, or never ends, leaves the model in use as it was.
@@ -49,6 +49,10 @@ class FeedForwardSlot {
   using Check = std::function<Fault(const fw::FeedForwardConfig&,
                                     const std::optional<fw::CollisionThresholds>&)>;
   void set_check(Check check) { check_ = std::move(check); }
+  // Where each load and mode change over the bus, taken or refused, is
+  // said (delta_fw's log); none where unset.
+  using Report = std::function<void(const std::string&)>;
+  void set_report(Report report) { report_ = std::move(report); }
 
   // A whole record written to 0x2200:1: checked, stored, applied (the mode
   // becomes model). Anything but kOk leaves the model in use as it was.
@@ -60,6 +64,7 @@ class FeedForwardSlot {
   Fault apply(const fw::FeedForwardConfig& next,
               const std::optional<fw::CollisionThresholds>& thresholds, bool between_runs);
   void keep(std::span<const std::uint8_t> bytes, const delta::controller::ModelRecord& r);
+  void report_load(Fault f, std::uint32_t fit_id) const;
 
   fw::GeometryQ geometry_;
   std::string store_path_;
@@ -72,6 +77,7 @@ class FeedForwardSlot {
   std::string startup_note_;
   Apply apply_;
   Check check_;
+  Report report_;
 };
 
 }  // namespace fw_linux
