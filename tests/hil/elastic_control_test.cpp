@@ -2,7 +2,8 @@
 // gearboxes"), with the real programs in lock-step: the emulator's MuJoCo
 // robot of tests/data/robots/elastic.json has gearboxes of 3000, 3400 and
 // 2700 N m/rad with the encoders on the motors, torque constants 6 %, -5 %
-// and +10 % off and currents filtered at 0.5 ms. path1 is recorded, fitted
+// and +10 % off and currents filtered at 0.5 ms. path1 (one period) is
+// recorded, fitted
 // with the gearboxes' datasheet stiffness (one value, 3000 N m/rad, up to
 // 11 % off each), and the pick-and-place run with the nominal feed-forward
 // and with the fitted model: the emulator's `arm tracking` line, the arms'
@@ -26,10 +27,11 @@ using hil::kSource;
 using hil::worst_arm_tracking;
 using namespace std::chrono_literals;
 
-// One pick-and-place with `sets`; delta_fw's words.
+// One pick-and-place cycle (of the trajectory's three: the VM's time; the
+// in-process ChainElastic runs all three) with `sets`; delta_fw's words.
 std::string pick_and_place(const std::vector<std::string>& sets) {
   std::vector<std::string> argv{kBin + "/delta_fw", "--can", kIface,
-                                "--lockstep",       "--run", "pick-and-place",
+                                "--lockstep",       "--run", "pick-and-place:1",
                                 "--exit-when-done", "--set", "feed_forward.store="};
   argv.insert(argv.end(), sets.begin(), sets.end());
   hil::Child fw = hil::Child::spawn(argv);
