@@ -3,10 +3,9 @@
 // robot of tests/data/robots/elastic.json has gearboxes of 3000, 3400 and
 // 2700 N m/rad with the encoders on the motors, torque constants 6 %, -5 %
 // and +10 % off and currents filtered at 0.5 ms. path1 (one period) is
-// recorded, fitted
-// with the gearboxes' datasheet stiffness (one value, 3000 N m/rad, up to
-// 11 % off each), and the pick-and-place run with the nominal feed-forward
-// and with the fitted model: the emulator's `arm tracking` line, the arms'
+// recorded, fitted with the gearboxes' datasheet stiffness (one value, 3000
+// N m/rad, up to 11 % off each), and the pick-and-place run with the
+// nominal feed-forward and with the fitted model: the emulator's `arm tracking` line, the arms'
 // own error that the controller cannot see, is at least 4 times lower.
 #include <gtest/gtest.h>
 
