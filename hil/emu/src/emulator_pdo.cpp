@@ -149,6 +149,15 @@ std::size_t Emulator::use_eds(const delta::canopen::Eds& eds) {
   return eds_objects_[0]->behaviour_count();
 }
 
+void Emulator::commission(const CommissionedDrives& c) {
+  for (unsigned j = 0; j < 3; ++j) drives_[j].model = c.applied(j, drives_[j].model);
+  if (c.torque_unit) {
+    config_.torque_unit = *c.torque_unit == "mA"    ? TorqueUnit::kMilliamp
+                          : *c.torque_unit == "mNm" ? TorqueUnit::kMilliNewtonMetre
+                                                    : TorqueUnit::kPerMille;
+  }
+}
+
 // The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
 // PDO off and on; bit 30 (no remote request) is taken either way.
 sdo::AbortCode Emulator::set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v) {

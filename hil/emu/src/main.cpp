@@ -93,6 +93,8 @@ struct EmulatorArguments {
   CLI::Option* initial{nullptr};
   std::string eds_path;
   std::string torque_unit{"per_mille"};
+  std::vector<std::string> sets;  // --set jointN.KEY=VALUE
+  std::string config_path;        // --config: the controller's configuration
 };
 
 void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
@@ -125,6 +127,15 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
       ->check(kCurrentNoise)
       ->capture_default_str();
   app.add_option("--seed", config.seed, "noise seed")->capture_default_str();
+  app.add_option("--set", a.sets,
+                 "jointN.KEY=VALUE: a value the drive was commissioned with, as the controller's "
+                 "key names it (rated_torque_Nm, rated_current_A, counts_per_rev, gear_ratio, "
+                 "gearbox_efficiency, inverted, zero_rad, torque_unit); it takes the place of "
+                 "the EDS's default (repeatable)");
+  app.add_option("--config", a.config_path,
+                 "the controller's configuration file (delta_fw --config): its jointN drive "
+                 "values, as --set; its other keys are the controller's")
+      ->check(CLI::ExistingFile);
   app.add_option("--approach-s", config.approach_s,
                  "the controller's approach_s: the `arm tracking` line after each run covers "
                  "the span of delta_fw's `tracking` line, after the approach")
@@ -149,7 +160,16 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
 // The parsed arguments into config and eds; throws on a file or a fault
 // spec that cannot be read.
 void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
-                     std::optional<delta::canopen::Eds>& eds) {
+                     std::optional<delta::canopen::Eds>& eds, emu::CommissionedDrives& drives) {
+  if (!a.config_path.empty()) drives.read_config(a.config_path);
+  for (const std::string& s : a.sets) {
+    if (!drives.set(s, "--set")) {
+      throw std::invalid_argument("--set " + s +
+                                  ": not a drive's value (jointN.rated_torque_Nm, "
+                                  "rated_current_A, counts_per_rev, gear_ratio, "
+                                  "gearbox_efficiency, inverted, zero_rad, torque_unit)");
+    }
+  }
   if (!a.eds_path.empty()) {
     eds = delta::canopen::read_eds(a.eds_path);
   }
@@ -166,13 +186,14 @@ void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
 // was wrong.
 std::optional<int> parse_arguments(int argc, char** argv, std::string& iface,
                                    emu::EmulatorConfig& config,
-                                   std::optional<delta::canopen::Eds>& eds) {
+                                   std::optional<delta::canopen::Eds>& eds,
+                                   emu::CommissionedDrives& drives) {
   CLI::App app(kDescription, "delta_drive_emu");
   EmulatorArguments a;
   add_options(app, iface, config, a);
   try {
     app.parse(argc, argv);
-    apply_arguments(a, config, eds);
+    apply_arguments(a, config, eds, drives);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     std::cerr << "delta_drive_emu: " << e.what() << " (see delta_drive_emu --help)\n";
@@ -227,7 +248,10 @@ int main(int argc, char** argv) {
   std::string iface;
   emu::EmulatorConfig config;
   std::optional<delta::canopen::Eds> eds;
-  if (const auto exit_code = parse_arguments(argc, argv, iface, config, eds)) return *exit_code;
+  emu::CommissionedDrives drives;
+  if (const auto exit_code = parse_arguments(argc, argv, iface, config, eds, drives)) {
+    return *exit_code;
+  }
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -259,6 +283,12 @@ int main(int argc, char** argv) {
                 << " objects, " << emulated
                 << " with an emulated behaviour, the others keep their values" << std::endl;
       for (const std::string& note : eds->notes) std::cerr << "delta_drive_emu: " << note << "\n";
+    }
+    emulator.commission(drives);
+    if (!drives.taken.empty()) {
+      std::cout << "delta_drive_emu: the drives as commissioned:";
+      for (const std::string& t : drives.taken) std::cout << " " << t;
+      std::cout << std::endl;
     }
     emulator.on_wall_time(monotonic_us());
     emulator.boot();

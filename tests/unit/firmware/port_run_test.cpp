@@ -96,3 +96,29 @@ TEST(InProcessPortTest, ARunCheckedBeforeAModelWasLoadedIsRefusedWithItsReason) 
 
 }  // namespace
 }  // namespace fw_linux
+
+namespace fw_linux {
+namespace {
+
+// The gear is 10:1, the controller is told 2.5:1 (a counts_per_rev the
+// bring-up cannot check against 0x608F would do the same): every angle
+// reads 4 times too far, joint limit at the run's first cycle. delta_fw
+// names the joint, its angle and what to check.
+TEST(InProcessPortTest, AJointOutsideItsRangeIsNamedWithWhatToCheck) {
+  PortConfig c = Rig::config();
+  for (auto& j : c.joints) j.model.gear_ratio = 2.5;
+  Rig rig(c, {});
+  std::ostringstream messages;
+  RunCoordinator coordinator(path2_checked_at_start(controller_config(c)), true, nullptr, messages);
+  run_until_exit(rig, coordinator);
+  EXPECT_EQ(coordinator.exit_code(), kExitFault) << messages.str();
+  EXPECT_NE(messages.str().find("fault 4 (joint limit): joint 1 at 1.8 rad, outside [-1.2, 1.4] "
+                                "rad; if the arm is not there, the drive's position is read with "
+                                "the wrong scale or zero: check joint1.counts_per_rev (the "
+                                "drive's 0x608F:1), joint1.gear_ratio and joint1.zero_rad"),
+            std::string::npos)
+      << messages.str();
+}
+
+}  // namespace
+}  // namespace fw_linux

@@ -496,7 +496,47 @@ TEST(EmulatedVendorDriveTest, AnswersForExactlyTheObjectsOfItsEds) {
   EXPECT_EQ(bus.read(0x1006, 0), 4000u);
 }
 
-// Transmission type 255 (event-driven): a TPDO goes when its data change,
+// A drive as the user commissioned it (delta_drive_emu --set, --config:
+// the controller's own keys): its values take the place of the EDS's
+// defaults, the controller's other keys are left to it, and a wrong value
+// names its key and place.
+TEST(EmulatedVendorDriveTest, TakesTheValuesItWasCommissionedWith) {
+  const std::string conf = ::testing::TempDir() + "commissioned.conf";
+  {
+    std::ofstream out(conf);
+    out << "# the controller's configuration\nperiod_us = 2000\njoint1.eds = epos4.eds\n"
+           "joint1.rated_torque_Nm = 0.5   # the motor's\njoint2.counts_per_rev = 4096\n"
+           "joint1.max_rad = 1.2\njoint3.torque_unit = mA\n";
+  }
+  CommissionedDrives drives;
+  drives.read_config(conf);
+  EXPECT_TRUE(drives.set("joint1.rated_current_A=3", "--set"));
+  EXPECT_FALSE(drives.set("limits.max_velocity_rad_s=3", "--set"));  // the controller's
+  EXPECT_EQ(drives.taken,
+            (std::vector<std::string>{"joint1.rated_torque_Nm=0.5", "joint2.counts_per_rev=4096",
+                                      "joint3.torque_unit=mA", "joint1.rated_current_A=3"}));
+  Bus bus;
+  bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/epos4.eds"));
+  EXPECT_EQ(bus.read(0x6076, 0), 200u);  // the emulation's own, the EDS's default being 0
+  bus.emulator.commission(drives);
+  EXPECT_EQ(bus.read(0x6076, 0), 500u);
+  const auto refused = [](const std::string& assignment) {
+    CommissionedDrives d;
+    try {
+      d.set(assignment, "robot.conf:4");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(refused("joint2.rated_torque_Nm = -1"),
+            "robot.conf:4: joint2.rated_torque_Nm: '-1' is not a positive number");
+  EXPECT_EQ(refused("joint1.counts_per_rev=4096.5"),
+            "robot.conf:4: joint1.counts_per_rev: '4096.5' is not a whole number of counts");
+  EXPECT_EQ(refused("joint1.torque_unit=Nm"),
+            "robot.conf:4: joint1.torque_unit: 'Nm' is not per_mille, mA or mNm");
+}
+
 // not on every SYNC; type 1 on every SYNC.
 TEST(EmulatedVendorDriveTest, TransmissionTypesDecideWhenATpdoGoes) {
   Bus bus;

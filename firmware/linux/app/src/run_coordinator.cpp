@@ -58,12 +58,37 @@ void RunCoordinator::after_step(Controller& c, const LinuxHardware& hw,
   last_state_ = state;
 }
 
+namespace {
+
+// Which joint left its range (fault 4), at which angle, and what to check
+// when it is not really there: a joint far outside at the run's start is
+// an encoder read with the wrong scale or zero.
+std::string joint_outside_limits(const RunCoordinator::Controller& c) {
+  const fw::JointLimits& limits = c.bounds().limits;
+  const auto rad = [](delta::fx::Q3_28 v) { return std::ldexp(static_cast<double>(v.raw()), -28); };
+  for (unsigned j = 0; j < 3; ++j) {
+    const double q = rad(c.feedback()[j].position_rad);
+    if (q >= rad(limits.min_rad) && q <= rad(limits.max_rad)) continue;
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "joint %u at %.4g rad, outside [%.4g, %.4g] rad; if the arm is not there, the "
+                  "drive's position is read with the wrong scale or zero: check joint%u."
+                  "counts_per_rev (the drive's 0x608F:1), joint%u.gear_ratio and joint%u.zero_rad",
+                  j + 1, q, rad(limits.min_rad), rad(limits.max_rad), j + 1, j + 1, j + 1);
+    return text;
+  }
+  return "no joint outside the range now";
+}
+
+}  // namespace
+
 void RunCoordinator::report_state_change(const Controller& c, const CanopenMaster& master) {
   const fw::State state = c.state();
   out_ << "delta_fw: " << fw::state_name(state);
   if (state == fw::State::kFault) {
     out_ << ", fault " << static_cast<int>(c.fault()) << " (" << fw::fault_name(c.fault()) << ")";
     if (!master.last_problem().empty()) out_ << ": " << master.last_problem();
+    if (c.fault() == fw::Fault::kJointLimit) out_ << ": " << joint_outside_limits(c);
     out_ << " at cycle " << c.cycles();
     // Newest first; one record per entry into the fault state.
     for (std::size_t i = history_.size() - 1; i > 0; --i) history_[i] = history_[i - 1];

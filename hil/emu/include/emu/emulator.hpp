@@ -33,6 +33,7 @@
 #include "delta/robot_description.hpp"
 #include "delta/splitmix.hpp"
 #include "emu/arm_tracking.hpp"
+#include "emu/drive_settings.hpp"
 
 namespace emu {
 
@@ -195,6 +196,9 @@ class Emulator {
   // where it gives them). Objects without an emulated behaviour keep their
   // values. Returns how many of the EDS's objects have one.
   std::size_t use_eds(const delta::canopen::Eds& eds);
+  // The values the user commissioned the drives with (after use_eds: they
+  // take the place of its defaults), and their torque unit where given.
+  void commission(const CommissionedDrives& c);
   // A line per drive: node, NMT state, CiA 402 state; then a line per EMCY
   // the drives sent (the first kEmergenciesKept).
   std::string describe() const;
