@@ -30,7 +30,8 @@ std::ostream& operator<<(std::ostream& os, const VendorDrive& d) {
   return os << d.file;
 }
 
-PortConfig vendor_config(const VendorDrive& v) {
+// The configuration file of a controller with three such drives.
+std::string vendor_config_file(const VendorDrive& v) {
   std::string text = "mode = lockstep\n";
   for (char n : {'1', '2', '3'}) {
     text += std::string("jointN.eds = ") + DELTA_DRIVES_DIR + "/" + v.file + "\n" + v.keys;
@@ -38,7 +39,11 @@ PortConfig vendor_config(const VendorDrive& v) {
   }
   const std::string path = testsupport::process_scratch("vendor_drive_test").file("drive.conf");
   std::ofstream(path) << text;
-  return read_port_config(path);
+  return path;
+}
+
+PortConfig vendor_config(const VendorDrive& v) {
+  return read_port_config(vendor_config_file(v));
 }
 
 class VendorDriveTest : public ::testing::TestWithParam<VendorDrive> {};
@@ -56,6 +61,11 @@ TEST_P(VendorDriveTest, ComesUpByItsPlanAndRunsAnExcitation) {
   const std::string eds_path = std::string(DELTA_DRIVES_DIR) + "/" + v.file;
   const std::size_t emulated = rig.bus.emulator_.use_eds(delta::canopen::read_eds(eds_path));
   EXPECT_GT(emulated, 20u);
+  // The drives as the user commissioned them: the controller's own file
+  // (delta_drive_emu --config).
+  emu::CommissionedDrives commissioned;
+  commissioned.read_config(vendor_config_file(v));
+  rig.bus.emulator_.commission(commissioned);
   std::size_t sdo_requests = 0;
   int cycles = 0;
   for (; cycles < 200 && rig.controller.state() != fw::State::kReady; ++cycles) {
@@ -104,11 +114,13 @@ TEST_P(VendorDriveTest, ComesUpByItsPlanAndRunsAnExcitation) {
 INSTANTIATE_TEST_SUITE_P(
     Corpus, VendorDriveTest,
     ::testing::Values(
-        VendorDrive{"epos4.eds", "jointN.rated_torque_Nm = 0.2\njointN.counts_per_rev = 131072\n",
+        // A user's motors, not the emulated one's (0.2 N m, 2 A, 131072
+        // counts): each drive is commissioned with the same values.
+        VendorDrive{"epos4.eds", "jointN.rated_torque_Nm = 0.5\njointN.counts_per_rev = 4096\n",
                     emu::TorqueUnit::kPerMille, 10, Feedback::kTorque},
-        VendorDrive{"tmcm_bldc.eds", "jointN.torque_unit = mA\njointN.rated_torque_Nm = 0.2\n",
+        VendorDrive{"tmcm_bldc.eds", "jointN.torque_unit = mA\njointN.rated_torque_Nm = 0.35\n",
                     emu::TorqueUnit::kMilliamp, 4, Feedback::kTorque},
-        VendorDrive{"ipos.eds", "jointN.rated_current_A = 2\njointN.rated_torque_Nm = 0.2\n",
+        VendorDrive{"ipos.eds", "jointN.rated_current_A = 3.2\njointN.rated_torque_Nm = 0.32\n",
                     emu::TorqueUnit::kPerMille, 10, Feedback::kCurrent},
         VendorDrive{"fixed_mapping.eds", "", emu::TorqueUnit::kPerMille, 10, Feedback::kTorque}));
 
