@@ -152,8 +152,8 @@ void deflection_lines(Line& l, std::uint32_t& lines) {
     pnp.reference(tick, r);
     Joint3Q12_19 tau{};
     delta::fx::model_torque(m, r, tau);
-    const JointReference motor =
-        compensation.motor_reference(p.gearbox_compliance_rad_per_Nm, tau, 500, r);
+    JointReference motor = r;
+    compensation.shift(p.gearbox_compliance_rad_per_Nm, tau, 500, true, motor);
     if (tick % 97 != 5) continue;
     l.word("deflection").num(tick);
     for (unsigned j = 0; j < 3; ++j) l.num(motor.q_rad[j].raw()).num(motor.qd_rad_s[j].raw());

@@ -6,21 +6,22 @@ namespace fw {
 
 using delta::fx::mul;
 
-JointReference DeflectionCompensation::motor_reference(
-    const std::array<Q1_30, 3>& compliance_rad_per_Nm, const std::array<Q12_19, 3>& tau_Nm,
-    std::uint32_t ticks_per_s, const JointReference& arm) {
-  JointReference motor = arm;
+void DeflectionCompensation::shift(const std::array<Q1_30, 3>& compliance_rad_per_Nm,
+                                   const std::array<Q12_19, 3>& tau_Nm, std::uint32_t ticks_per_s,
+                                   bool follow_velocity, JointReference& reference) {
+  const bool velocity = primed_ && follow_velocity;
   for (unsigned j = 0; j < 3; ++j) {
     const Q3_28 shift = mul<Q3_28>(compliance_rad_per_Nm[j], tau_Nm[j]);
-    const Q3_28 change = primed_ ? shift - shift_rad_[j] : Q3_28::zero();
-    // Q3.28 per tick times ticks per second into Q10.21 rad/s.
-    const std::int64_t v = delta::fx::shift_round(std::int64_t{change.raw()} * ticks_per_s, 7);
-    motor.q_rad[j] = arm.q_rad[j] + shift;
-    motor.qd_rad_s[j] = arm.qd_rad_s[j] + Q10_21::from_raw(delta::fx::saturate32(v));
+    reference.q_rad[j] = reference.q_rad[j] + shift;
+    if (velocity) {
+      // Q3.28 per tick times ticks per second into Q10.21 rad/s.
+      const std::int64_t v =
+          delta::fx::shift_round(std::int64_t{(shift - shift_rad_[j]).raw()} * ticks_per_s, 7);
+      reference.qd_rad_s[j] = reference.qd_rad_s[j] + Q10_21::from_raw(delta::fx::saturate32(v));
+    }
     shift_rad_[j] = shift;
   }
   primed_ = true;
-  return motor;
 }
 
 Q3_28 arm_angle(Q1_30 compliance_rad_per_Nm, Q12_19 tau_Nm, Q3_28 motor_rad) {

@@ -2,7 +2,9 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <numbers>
 #include <stdexcept>
 
 namespace emu {
@@ -15,11 +17,18 @@ std::string trimmed(const std::string& s) {
   return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
 }
 
-double positive(const std::string& v, const std::string& what) {
+// A number in (0, most] (or [least, most] where least is given), as the
+// controller's keys take it (docs/firmware.md).
+double number_in(const std::string& v, const std::string& what, double most,
+                 std::optional<double> least = std::nullopt) {
   double x = 0;
   const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (r.ec != std::errc() || r.ptr != v.data() + v.size() || !std::isfinite(x) || x <= 0) {
-    throw std::invalid_argument(what + ": '" + v + "' is not a positive number");
+  const bool above = least ? x >= *least : x > 0;
+  if (r.ec != std::errc() || r.ptr != v.data() + v.size() || !std::isfinite(x) || !above ||
+      x > most) {
+    char range[64];
+    std::snprintf(range, sizeof range, least ? "[%g, %g]" : "(0, %g]", least ? *least : most, most);
+    throw std::invalid_argument(what + ": '" + v + "' is not a number in " + range);
   }
   return x;
 }
@@ -33,6 +42,11 @@ bool CommissionedDrives::set(const std::string& assignment, const std::string& w
   }
   const std::string key = trimmed(assignment.substr(0, eq));
   const std::string value = trimmed(assignment.substr(eq + 1));
+  if (key == "approach_s" || key == "stop_s") {  // the arm tracking line's span
+    (key == "approach_s" ? approach_s : stop_s) = number_in(value, where + ": " + key, 3600.0);
+    taken.push_back(key + "=" + value);
+    return true;
+  }
   if (key.size() < 8 || key.compare(0, 5, "joint") != 0 || key[6] != '.' || key[5] < '1' ||
       key[5] > '3') {
     return false;  // the controller's
@@ -41,31 +55,27 @@ bool CommissionedDrives::set(const std::string& assignment, const std::string& w
   const std::string name = key.substr(7);
   const std::string what = where + ": " + key;
   if (name == "rated_torque_Nm") {
-    d.rated_torque_Nm = positive(value, what);
+    d.rated_torque_Nm = number_in(value, what, 10000.0);
   } else if (name == "rated_current_A") {
-    d.rated_current_A = positive(value, what);
+    d.rated_current_A = number_in(value, what, 1000.0);
   } else if (name == "counts_per_rev") {
-    const double c = positive(value, what);
-    if (c != std::floor(c) || c > 4294967295.0) {
+    const double c = number_in(value, what, 1073741824.0, 4.0);
+    if (c != std::floor(c)) {
       throw std::invalid_argument(what + ": '" + value + "' is not a whole number of counts");
     }
     d.counts_per_rev = static_cast<std::uint32_t>(c);
   } else if (name == "gear_ratio") {
-    d.gear_ratio = positive(value, what);
+    d.gear_ratio = number_in(value, what, 4000.0);
   } else if (name == "gearbox_efficiency") {
-    d.gearbox_efficiency = positive(value, what);
+    d.gearbox_efficiency = number_in(value, what, 1.0);
   } else if (name == "inverted") {
-    if (value != "true" && value != "false") {
+    const bool yes = value == "true" || value == "yes" || value == "1";
+    if (!yes && value != "false" && value != "no" && value != "0") {
       throw std::invalid_argument(what + ": '" + value + "' is neither true nor false");
     }
-    d.inverted = value == "true";
+    d.inverted = yes;
   } else if (name == "zero_rad") {
-    double z = 0;
-    const auto r = std::from_chars(value.data(), value.data() + value.size(), z);
-    if (r.ec != std::errc() || r.ptr != value.data() + value.size() || !std::isfinite(z)) {
-      throw std::invalid_argument(what + ": '" + value + "' is not a number");
-    }
-    d.zero_rad = z;
+    d.zero_rad = number_in(value, what, std::numbers::pi, -std::numbers::pi);
   } else if (name == "torque_unit") {
     if (value != "per_mille" && value != "mA" && value != "mNm") {
       throw std::invalid_argument(what + ": '" + value + "' is not per_mille, mA or mNm");

@@ -95,6 +95,8 @@ struct EmulatorArguments {
   std::string torque_unit{"per_mille"};
   std::vector<std::string> sets;  // --set jointN.KEY=VALUE
   std::string config_path;        // --config: the controller's configuration
+  CLI::Option* approach_given{nullptr};
+  CLI::Option* stop_given{nullptr};
 };
 
 void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
@@ -136,15 +138,17 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
                  "the controller's configuration file (delta_fw --config): its jointN drive "
                  "values, as --set; its other keys are the controller's")
       ->check(CLI::ExistingFile);
-  app.add_option("--approach-s", config.approach_s,
-                 "the controller's approach_s: the `arm tracking` line after each run covers "
-                 "the span of delta_fw's `tracking` line, after the approach")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  app.add_option("--stop-s", config.stop_s,
-                 "the controller's stop_s: the `arm tracking` line leaves out the stop")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  a.approach_given =
+      app.add_option("--approach-s", config.approach_s,
+                     "the controller's approach_s: the `arm tracking` line after each run covers "
+                     "the span of delta_fw's `tracking` line, after the approach")
+          ->check(CLI::PositiveNumber)
+          ->capture_default_str();
+  a.stop_given =
+      app.add_option("--stop-s", config.stop_s,
+                     "the controller's stop_s: the `arm tracking` line leaves out the stop")
+          ->check(CLI::PositiveNumber)
+          ->capture_default_str();
   app.add_option("--eds", a.eds_path,
                  "the drives' EDS or DCF (CiA 306): the drives then behave as it describes, "
                  "with exactly its objects, access types, sizes, defaults (transmission types "
@@ -162,6 +166,9 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
 void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
                      std::optional<delta::canopen::Eds>& eds, emu::CommissionedDrives& drives) {
   if (!a.config_path.empty()) drives.read_config(a.config_path);
+  // The file's span, unless the options give one.
+  if (drives.approach_s && !a.approach_given->count()) config.approach_s = *drives.approach_s;
+  if (drives.stop_s && !a.stop_given->count()) config.stop_s = *drives.stop_s;
   for (const std::string& s : a.sets) {
     if (!drives.set(s, "--set")) {
       throw std::invalid_argument("--set " + s +

@@ -460,37 +460,32 @@ CollisionConfig detector(double base_Nm) {
   return c;
 }
 
-// With the gearboxes' compliance in the model, the motors track past the
-// arms' reference by the model's deflection c tau_ff (fw/deflection.hpp).
-// On this rigid plant the joints then sit at reference + c tau_ff: the
-// controller's tracking measures them against that, the drives get the
-// arms' reference, and the approach starts where the joints are (no step).
+// With the gearboxes' compliance in the model (fw/deflection.hpp), this
+// rigid plant's joints sit at reference + c tau_ff, which the controller's
+// tracking measures them against; the drives get the arms' reference, and
+// the approach starts where the joints are (no step).
 TEST_F(ControllerTest, DeflectionCompensationTracksTheMotorsPastTheArmsReference) {
   delta::fx::ModelParametersQ m = lumped_truth_q(true);
   m.gearbox_compliance_rad_per_Nm = {Q1_30::from(1.0 / 3000), Q1_30::from(1.0 / 2000),
                                      Q1_30::from(1.0 / 4000)};
-  FeedForwardConfig f;
-  f.mode = FeedForwardMode::kModel;
-  f.model = delta::fx::prepare_model(config.geometry, m);
+  const FeedForwardConfig f{
+      FeedForwardMode::kModel, {}, delta::fx::prepare_model(config.geometry, m)};
   ASSERT_TRUE(compensates_deflection(f));
   to_ready();
   ASSERT_TRUE(ctl.set_feed_forward(f));
-  std::array<double, 3> at_rest{};  // as the encoders see it
-  for (unsigned j = 0; j < 3; ++j)
-    at_rest[j] =
-        std::round(hw.plant.q[j] / FakeHardware::kEncoderStep) * FakeHardware::kEncoderStep;
+  const std::array<double, 3> at_rest = hw.plant.q;
   ASSERT_TRUE(ctl.start(excitation()).accepted);
   tick(2);  // begin the run, then its first controlled tick
   std::array<double, 3> shift_sq{}, off_sq{};
   int n = 0;
-  for (unsigned j = 0; j < 3; ++j) {
+  for (unsigned j = 0; j < 3; ++j) {  // the first motor reference: where the joint rested
     EXPECT_EQ(hw.reference[j], ctl.reference().q_rad[j]);
-    // The first motor reference is where the joint rested.
+    const double step = FakeHardware::kEncoderStep;  // as the encoder saw it
     Joint3Q12_19 tau{};
     ASSERT_EQ(feed_forward_torque(f, ctl.reference(), tau), delta::KinematicsStatus::kOk);
     const double motor_ref = to_double(ctl.reference().q_rad[j]) +
                              to_double(m.gearbox_compliance_rad_per_Nm[j]) * to_double(tau[j]);
-    EXPECT_NEAR(motor_ref, at_rest[j], 2e-7) << j;
+    EXPECT_NEAR(motor_ref, std::round(at_rest[j] / step) * step, 2e-7) << j;
   }
   while (ctl.state() == State::kRunning && n < 20000) {
     const std::array<double, 3> q_seen = hw.plant.q;
@@ -507,13 +502,15 @@ TEST_F(ControllerTest, DeflectionCompensationTracksTheMotorsPastTheArmsReference
     ++n;
   }
   ASSERT_GT(n, 10000);
+  const fw::TrackingStats& t = ctl.tracking();  // the motors' against their reference
   for (unsigned j = 0; j < 3; ++j) {
-    const double shift_rms = std::sqrt(shift_sq[j] / n);
-    const double off_rms = std::sqrt(off_sq[j] / n);
-    std::printf("joint %u: deflection shift rms %.3g rad, the joint off the motor reference %.3g\n",
-                j + 1, shift_rms, off_rms);
+    const double shift_rms = std::sqrt(shift_sq[j] / n), off_rms = std::sqrt(off_sq[j] / n);
+    const double tracking_rms = std::sqrt(std::ldexp(t.sum_sq_rad2_q40[j], -40) / t.ticks);
+    std::printf("joint %u: shift rms %.3g rad, off the motor reference %.3g, tracking %.3g\n",
+                j + 1, shift_rms, off_rms, tracking_rms);
     EXPECT_GT(shift_rms, 1e-4) << j;
     EXPECT_LT(off_rms, 0.1 * shift_rms) << j;
+    EXPECT_LT(tracking_rms, 0.1 * shift_rms) << j;
   }
 }
 

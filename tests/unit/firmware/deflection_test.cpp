@@ -17,6 +17,16 @@ namespace {
 using delta::to_double;
 using delta::to_q_saturated;
 
+// The motors' reference for arm reference `arm`, following the shift's
+// velocity unless `stopping`.
+JointReference motor_reference(DeflectionCompensation& d, const std::array<Q1_30, 3>& c,
+                               const std::array<Q12_19, 3>& tau, std::uint32_t rate_hz,
+                               const JointReference& arm, bool stopping = false) {
+  JointReference motor = arm;
+  d.shift(c, tau, rate_hz, !stopping, motor);
+  return motor;
+}
+
 // Within 0.1 % of the configured max torque's deflection (the bar for
 // fixed point against double), and in fact to the formats' rounding.
 TEST(DeflectionTest, ShiftAndVelocityAgainstDouble) {
@@ -39,7 +49,7 @@ TEST(DeflectionTest, ShiftAndVelocityAgainstDouble) {
         arm.q_rad[j] = to_q_saturated<Q3_28>(0.3 * j);
         arm.qd_rad_s[j] = to_q_saturated<Q10_21>(0.5 - 0.2 * j);
       }
-      const JointReference m = d.motor_reference(c, tau, rate_hz, arm);
+      const JointReference m = motor_reference(d, c, tau, rate_hz, arm);
       for (unsigned j = 0; j < 3; ++j) {
         const double shift = to_double(c[j]) * to_double(tau[j]);
         const double velocity = tick == 0 ? 0.0 : (shift - last[j]) * rate_hz;
@@ -59,25 +69,30 @@ TEST(DeflectionTest, ShiftAndVelocityAgainstDouble) {
   std::printf("worst against double: shift %.3g rad, velocity %.3g rad/s\n", worst_shift,
               worst_velocity);
   EXPECT_LT(worst_shift, 1e-8);
+  EXPECT_LT(worst_velocity, 1e-5);
 }
 
-// A run starts without a velocity step: the first shift has none; the
-// arm's angle at rest is the motor's less the deflection.
-TEST(DeflectionTest, TheFirstTickHasNoVelocityAndTheArmIsBehindTheMotor) {
+// A run starts without a velocity step: the first shift has none, nor has
+// a stop's; the arm's angle at rest is the motor's less the deflection.
+TEST(DeflectionTest, TheFirstTickAndAStopHaveNoVelocityAndTheArmIsBehindTheMotor) {
   DeflectionCompensation d;
   const std::array<Q1_30, 3> c{Q1_30::from(1.0 / 2000), Q1_30::from(1.0 / 2000),
                                Q1_30::from(1.0 / 2000)};
   const std::array<Q12_19, 3> tau{Q12_19::from(2.0), Q12_19::from(-1.0), Q12_19::from(0.0)};
   JointReference arm;
-  const JointReference m = d.motor_reference(c, tau, 1000, arm);
+  const JointReference m = motor_reference(d, c, tau, 1000, arm);
   EXPECT_EQ(m.qd_rad_s[0].raw(), 0);
   EXPECT_NEAR(to_double(m.q_rad[0]), 1e-3, 1e-8);
   EXPECT_NEAR(to_double(m.q_rad[1]), -5e-4, 1e-8);
   EXPECT_NEAR(to_double(arm_angle(c[0], tau[0], Q3_28::from(0.5))), 0.499, 1e-8);
-  const JointReference second = d.motor_reference(c, {}, 1000, arm);
+  const JointReference second = motor_reference(d, c, {}, 1000, arm);
   EXPECT_NEAR(to_double(second.qd_rad_s[0]), -1.0, 1e-5);  // 1 mrad back in 1 ms
+  // A stop: the shift follows the torque, its step is no velocity.
+  const JointReference stopped = motor_reference(d, c, tau, 1000, arm, true);
+  EXPECT_NEAR(to_double(stopped.q_rad[0]), 1e-3, 1e-8);
+  EXPECT_EQ(stopped.qd_rad_s[0].raw(), 0);
   d.reset();
-  EXPECT_EQ(d.motor_reference(c, tau, 1000, arm).qd_rad_s[0].raw(), 0);
+  EXPECT_EQ(motor_reference(d, c, tau, 1000, arm).qd_rad_s[0].raw(), 0);
 }
 
 }  // namespace

@@ -506,7 +506,8 @@ TEST(EmulatedVendorDriveTest, TakesTheValuesItWasCommissionedWith) {
     std::ofstream out(conf);
     out << "# the controller's configuration\nperiod_us = 2000\njoint1.eds = epos4.eds\n"
            "joint1.rated_torque_Nm = 0.5   # the motor's\njoint2.counts_per_rev = 4096\n"
-           "joint1.max_rad = 1.2\njoint3.torque_unit = mA\n";
+           "joint1.max_rad = 1.2\njoint3.torque_unit = mA\njoint2.inverted = yes\n"
+           "approach_s = 3\n";
   }
   CommissionedDrives drives;
   drives.read_config(conf);
@@ -514,7 +515,10 @@ TEST(EmulatedVendorDriveTest, TakesTheValuesItWasCommissionedWith) {
   EXPECT_FALSE(drives.set("limits.max_velocity_rad_s=3", "--set"));  // the controller's
   EXPECT_EQ(drives.taken,
             (std::vector<std::string>{"joint1.rated_torque_Nm=0.5", "joint2.counts_per_rev=4096",
-                                      "joint3.torque_unit=mA", "joint1.rated_current_A=3"}));
+                                      "joint3.torque_unit=mA", "joint2.inverted=yes",
+                                      "approach_s=3", "joint1.rated_current_A=3"}));
+  EXPECT_EQ(drives.approach_s, 3.0);
+  EXPECT_TRUE(drives.applied(1, {}).inverted);
   Bus bus;
   bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/epos4.eds"));
   EXPECT_EQ(bus.read(0x6076, 0), 200u);  // the emulation's own, the EDS's default being 0
@@ -530,13 +534,16 @@ TEST(EmulatedVendorDriveTest, TakesTheValuesItWasCommissionedWith) {
     return std::string();
   };
   EXPECT_EQ(refused("joint2.rated_torque_Nm = -1"),
-            "robot.conf:4: joint2.rated_torque_Nm: '-1' is not a positive number");
+            "robot.conf:4: joint2.rated_torque_Nm: '-1' is not a number in (0, 10000]");
+  EXPECT_EQ(refused("joint2.zero_rad = 4"),
+            "robot.conf:4: joint2.zero_rad: '4' is not a number in [-3.14159, 3.14159]");
   EXPECT_EQ(refused("joint1.counts_per_rev=4096.5"),
             "robot.conf:4: joint1.counts_per_rev: '4096.5' is not a whole number of counts");
   EXPECT_EQ(refused("joint1.torque_unit=Nm"),
             "robot.conf:4: joint1.torque_unit: 'Nm' is not per_mille, mA or mNm");
 }
 
+// Transmission type 255 (event-driven): a TPDO goes when its data change,
 // not on every SYNC; type 1 on every SYNC.
 TEST(EmulatedVendorDriveTest, TransmissionTypesDecideWhenATpdoGoes) {
   Bus bus;

@@ -558,6 +558,8 @@ TEST_F(CliTest, ElasticGearboxesAreFittedFromTheArmsEncoders) {
       << err_.str();
   EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "1500", "--elastic"}), 2);
   EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "-5"}), 2);
+  EXPECT_EQ(run({"fit", path("e.csv"), "--gearbox-stiffness", "50"}), 2);
+  EXPECT_NE(err_.str().find("softer than the controller runs"), std::string::npos) << err_.str();
   ASSERT_EQ(run({"fit", path("e.csv"), "--elastic", "--method", "ls", "-o", path("r.json")}), 0)
       << err_.str();
   EXPECT_NE(out_.str().find("gearbox stiffness K = 1 / c from the arm's encoders"),

@@ -252,7 +252,8 @@ class Controller {
     joint_.reset();
     detector_.reset();
     deflection_.reset();
-    if (compensates_deflection(config_.feed_forward)) start_at_the_arm();
+    compensate_ = compensates_deflection(config_.feed_forward);  // the run's
+    if (compensate_) start_at_the_arm();
     hw_.enable_drives(true);
     state_ = State::kRunning;
     state_ticks_ = 0;
@@ -325,12 +326,13 @@ class Controller {
       return;
     }
     // What the motors track: the reference, or past it by the deflection.
-    const JointReference motor =
-        compensates_deflection(config_.feed_forward)
-            ? deflection_.motor_reference(
-                  config_.feed_forward.model.parameters.gearbox_compliance_rad_per_Nm, feed_forward,
-                  ticks_per_s_, reference_)
-            : reference_;
+    JointReference motor = reference_;
+    if (compensate_) {
+      // A stop holds the reference still at once: the shift's step (the
+      // inertia the model no longer sees) is no motion to follow.
+      deflection_.shift(config_.feed_forward.model.parameters.gearbox_compliance_rad_per_Nm,
+                        feed_forward, ticks_per_s_, state_ != State::kStopping, motor);
+    }
     JointAnglesQ q{};
     std::array<Q10_21, 3> qd{};
     if (!read_joints(motor, q, qd)) return;
@@ -439,6 +441,7 @@ class Controller {
   std::array<Q12_19, 3> command_{};
   CollisionDetector detector_{};
   DeflectionCompensation deflection_{};
+  bool compensate_{false};  // this run's feed-forward compensates the deflection
   std::uint32_t ticks_per_s_;
   CollisionEvent collision_{};
   std::uint32_t collision_run_tick_{0};

@@ -31,12 +31,13 @@ class DeflectionCompensation {
   // A run starts: the first shift has no velocity.
   void reset() { primed_ = false; }
 
-  // The motor's reference for arm reference `arm`, with each joint's
-  // compliance [rad/(N m)] and the model's torque at `arm`; ticks_per_s the
-  // control rate.
-  JointReference motor_reference(const std::array<Q1_30, 3>& compliance_rad_per_Nm,
-                                 const std::array<Q12_19, 3>& tau_Nm, std::uint32_t ticks_per_s,
-                                 const JointReference& arm);
+  // The motor's reference from `reference`, the arm's on entry, with each
+  // joint's compliance [rad/(N m)] and the model's torque at the arm's
+  // reference; ticks_per_s the control rate. With follow_velocity false
+  // (a stop, which holds the reference still at once) the shift's step is
+  // not followed as a velocity.
+  void shift(const std::array<Q1_30, 3>& compliance_rad_per_Nm, const std::array<Q12_19, 3>& tau_Nm,
+             std::uint32_t ticks_per_s, bool follow_velocity, JointReference& reference);
 
   // The last shift q_m - q_ref.
   const JointAnglesQ& shift_rad() const { return shift_rad_; }

@@ -315,6 +315,8 @@ void announce(const PortConfig& config, const RunOptions& options,
     out << "delta_fw: " << describe_feed_forward(config) << "\n";
   } else {
     out << "delta_fw: feed-forward: " << feed_forward.startup_note() << "\n";
+    const std::string deflection = describe_deflection(feed_forward.current());
+    if (!deflection.empty()) out << "delta_fw: " << deflection << "\n";
   }
   out << "delta_fw: " << describe_collision(collision) << "\n";
 }

@@ -289,8 +289,13 @@ ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c,
 sdo::AbortCode ControllerNode::model_piece(std::uint32_t offset, std::span<const std::uint8_t> data,
                                            bool last) {
   if (offset == 0) model_download_bytes_ = 0;
-  if (offset != model_download_bytes_ || offset + data.size() > model_download_.size()) {
+  const bool out_of_order = offset != model_download_bytes_;
+  if (out_of_order || offset + data.size() > model_download_.size()) {
     model_download_bytes_ = 0;
+    feed_forward_.note_refused_download(out_of_order ? "a piece out of order, abort 0x06070012"
+                                                     : "longer than a record (" +
+                                                           std::to_string(model_download_.size()) +
+                                                           " bytes), abort 0x06070012");
     return sdo::kAbortLengthTooHigh;
   }
   std::copy(data.begin(), data.end(), model_download_.begin() + offset);

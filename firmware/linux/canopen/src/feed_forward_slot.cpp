@@ -131,19 +131,30 @@ void FeedForwardSlot::report_load(Fault f, std::uint32_t fit_id) const {
 }
 
 FeedForwardSlot::Fault FeedForwardSlot::set_mode(std::uint32_t mode, bool between_runs) {
-  if (mode > static_cast<std::uint32_t>(fw::FeedForwardMode::kModel)) return Fault::kValue;
+  const bool known = mode <= static_cast<std::uint32_t>(fw::FeedForwardMode::kModel);
   fw::FeedForwardConfig next = current_;
-  next.mode = static_cast<fw::FeedForwardMode>(mode);
-  if (next.mode == fw::FeedForwardMode::kModel && record_bytes_ == 0) return Fault::kKind;
-  Fault f = check_ ? check_(next, thresholds_) : Fault::kOk;
+  next.mode = known ? static_cast<fw::FeedForwardMode>(mode) : current_.mode;
+  Fault f = known ? Fault::kOk : Fault::kValue;
+  if (f == Fault::kOk && next.mode == fw::FeedForwardMode::kModel && record_bytes_ == 0) {
+    f = Fault::kKind;  // no model to run
+  }
+  if (f == Fault::kOk && check_) f = check_(next, thresholds_);
   if (f == Fault::kOk) f = apply(next, thresholds_, between_runs);
   if (report_) {
-    report_(std::string("feed-forward ") + fw::feed_forward_mode_name(next.mode) +
-            " asked over the bus (0x2200:3): " +
+    const std::string asked =
+        known ? fw::feed_forward_mode_name(next.mode) : std::to_string(mode) + " (no such mode)";
+    report_("feed-forward " + asked + " asked over the bus (0x2200:3): " +
             (f == Fault::kOk ? "from the next run on"
                              : std::string("refused, ") + mc::model_record_fault_name(f)));
   }
   return f;
+}
+
+void FeedForwardSlot::note_refused_download(const std::string& why) const {
+  if (report_) {
+    report_("a model load over the bus (SDO download to node 16, 0x2200:1) was refused: " + why +
+            "; the model in use stays");
+  }
 }
 
 }  // namespace fw_linux

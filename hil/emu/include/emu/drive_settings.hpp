@@ -1,7 +1,9 @@
 // The values a commissioned drive holds, given to the emulator as the
 // controller has them (delta_drive_emu --set jointN.KEY=VALUE, --config
 // FILE: the controller's own configuration, docs/drives.md): rated torque
-// and current, encoder resolution, gear, mounting and torque unit. An EDS
+// and current, encoder resolution, gear, mounting and torque unit, each in
+// the controller's range; and the run's approach_s and stop_s, the span of
+// the `arm tracking` line. An EDS
 // (--eds) gives a drive's defaults; these are what the user set on it, so
 // they win.
 #pragma once
@@ -29,7 +31,10 @@ struct DriveSettings {
 struct CommissionedDrives {
   std::array<DriveSettings, 3> joints;
   std::optional<std::string> torque_unit;  // per_mille, mA or mNm: one for all three
-  std::vector<std::string> taken;          // KEY=VALUE of each value set, in order
+  // The controller's approach_s and stop_s: the arm tracking line's span.
+  std::optional<double> approach_s;
+  std::optional<double> stop_s;
+  std::vector<std::string> taken;  // KEY=VALUE of each value set, in order
 
   // One `jointN.KEY=VALUE` (or `jointN.KEY = VALUE`); `where` names it in
   // errors (std::invalid_argument: the key, the value and what is taken).

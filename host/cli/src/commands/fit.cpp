@@ -255,6 +255,13 @@ delta::Joint3 given_compliance(const FitArguments& a) {
   if (k.size() == 2) {
     throw UsageError("--gearbox-stiffness: give one stiffness for all joints or three, K1,K2,K3");
   }
+  for (const double stiffness : k) {
+    if (!(stiffness > 64.0)) {
+      throw UsageError("--gearbox-stiffness: " + std::to_string(stiffness) +
+                       " N m/rad is softer than the controller runs (above 64 N m/rad; gearboxes "
+                       "are thousands): give the joint's stiffness in N m/rad");
+    }
+  }
   return k.size() == 1 ? delta::Joint3{1 / k[0], 1 / k[0], 1 / k[0]}
                        : delta::Joint3{1 / k[0], 1 / k[1], 1 / k[2]};
 }

@@ -59,6 +59,8 @@ class FeedForwardSlot {
   Fault load(std::span<const std::uint8_t> bytes, bool between_runs);
   // 0x2200:3: 0 off, 1 nominal, 2 model (needs a model); until restart.
   Fault set_mode(std::uint32_t mode, bool between_runs);
+  // A download refused before it became a record (longer than any).
+  void note_refused_download(const std::string& why) const;
 
  private:
   Fault apply(const fw::FeedForwardConfig& next,
