@@ -60,6 +60,18 @@ void drive_train_problems(const DriveTrainTerms& d, std::vector<std::string>& pr
   }
 }
 
+// The gearboxes' compliances within what the record holds: [0, 1/64).
+void compliance_problems(const Joint3& compliance, std::vector<std::string>& problems) {
+  for (unsigned j = 0; j < 3; ++j) {
+    if (!(compliance[j] >= 0.0 && compliance[j] < 1.0 / 64.0)) {
+      problems.push_back("model.gearbox_compliance_rad_per_Nm[" + std::to_string(j) +
+                         "] = " + number(compliance[j]) +
+                         " rad/(N m) is outside what the controller runs: 0 (rigid) to 1/64 "
+                         "(a stiffness of 64 N m/rad)");
+    }
+  }
+}
+
 }  // namespace
 
 fx::GeometryQ geometry_q(const Geometry& g) {
@@ -181,15 +193,7 @@ std::vector<std::string> model_problems(const IdentifiedModel& m, const Geometry
   c.joints<Q12_19>("stribeck_friction", p.stribeck_friction_Nm, true, "N m");
   c.joints<Q12_19>("torque_offset", p.torque_offset_Nm, false, "N m");
   drive_train_problems(m.drive_train, problems);
-  for (unsigned j = 0; j < 3; ++j) {
-    const double compliance = m.gearbox_compliance_rad_per_Nm[j];
-    if (!(compliance >= 0.0 && compliance < 1.0 / 64.0)) {
-      problems.push_back("model.gearbox_compliance_rad_per_Nm[" + std::to_string(j) +
-                         "] = " + number(compliance) +
-                         " rad/(N m) is outside what the controller runs: 0 (rigid) to 1/64 "
-                         "(a stiffness of 64 N m/rad)");
-    }
-  }
+  compliance_problems(m.gearbox_compliance_rad_per_Nm, problems);
   if (m.collision_thresholds) {
     const CollisionThresholds& t = *m.collision_thresholds;
     c.joints<Q12_19>("collision_thresholds.base", t.base_Nm, true, "N m");

@@ -472,6 +472,35 @@ std::pair<std::string, int> split_host_port(const std::string& text, const std::
   return {text.substr(0, colon), static_cast<int>(p)};
 }
 
+namespace {
+
+// The feed-forward of configuration c on geometry g: the nominal one of
+// the default robot (the arm plus a third of the platform at each elbow)
+// unless its keys are given, the mode, and the model where there is one.
+fw::FeedForwardConfig feed_forward_config(const PortConfig& c, const fw::GeometryQ& g) {
+  using namespace delta::fx;
+  fw::FeedForwardConfig f;
+  const delta::LumpedParameters p = delta::default_lumped_parameters();
+  const double a = c.geometry.upper_arm_length_m;
+  const double inertia = c.nominal_arm_inertia_kg_m2 >= 0
+                             ? c.nominal_arm_inertia_kg_m2
+                             : p.arm_inertia_kg_m2[0] + p.platform_mass_kg * a * a / 3.0;
+  const double gravity =
+      c.nominal_gravity_moment_Nm >= 0
+          ? c.nominal_gravity_moment_Nm
+          : p.arm_gravity_moment_Nm[0] + p.platform_mass_kg * p.gravity_m_s2 * a / 3.0;
+  f.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
+  f.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
+  f.mode = c.feed_forward;
+  f.deflection_compensation = c.deflection_compensation;
+  if (c.feed_forward_model) {
+    f.model = prepare_model(g, delta::model_parameters_q(*c.feed_forward_model));
+  }
+  return f;
+}
+
+}  // namespace
+
 fw::ControllerConfig controller_config(const PortConfig& c) {
   using namespace delta::fx;
   fw::ControllerConfig out;
@@ -492,30 +521,12 @@ fw::ControllerConfig controller_config(const PortConfig& c) {
   out.gains.ki_Nm_per_rad_s = to_q<Q16_15>(c.ki_Nm_per_rad_s, "gains.ki_Nm_per_rad_s");
   out.gains.max_torque_Nm = to_q<Q12_19>(c.max_torque_Nm, "gains.max_torque_Nm");
   out.gains.integral_limit_Nm = to_q<Q12_19>(c.integral_limit_Nm, "gains.integral_limit_Nm");
-  // Nominal feed-forward of the default robot: the arm plus a third of the
-  // platform at each elbow.
-  const delta::LumpedParameters p = delta::default_lumped_parameters();
-  const double a = c.geometry.upper_arm_length_m;
-  const double inertia = c.nominal_arm_inertia_kg_m2 >= 0
-                             ? c.nominal_arm_inertia_kg_m2
-                             : p.arm_inertia_kg_m2[0] + p.platform_mass_kg * a * a / 3.0;
-  const double gravity =
-      c.nominal_gravity_moment_Nm >= 0
-          ? c.nominal_gravity_moment_Nm
-          : p.arm_gravity_moment_Nm[0] + p.platform_mass_kg * p.gravity_m_s2 * a / 3.0;
-  out.feed_forward.nominal.arm_inertia_kg_m2 = to_q<Q12_19>(inertia, "nominal.arm_inertia_kg_m2");
-  out.feed_forward.nominal.gravity_moment_Nm = to_q<Q12_19>(gravity, "nominal.gravity_moment_Nm");
-  out.feed_forward.mode = c.feed_forward;
-  out.feed_forward.deflection_compensation = c.deflection_compensation;
+  out.feed_forward = feed_forward_config(c, out.geometry);
   out.collision =
       collision_setting(
           c, c.feed_forward == fw::FeedForwardMode::kModel && c.feed_forward_model.has_value(),
           model_thresholds(c))
           .config;
-  if (c.feed_forward_model) {
-    out.feed_forward.model =
-        prepare_model(out.geometry, delta::model_parameters_q(*c.feed_forward_model));
-  }
   for (unsigned j = 0; j < 3; ++j) {
     const delta::DriveModel& m = c.joints[j].model;
     fw::JointTorqueConfig& t = out.torque[j];

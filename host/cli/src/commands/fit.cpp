@@ -69,6 +69,26 @@ std::vector<std::string> model_names_and_auto() {
   return names;
 }
 
+// The gearboxes' stiffness: searched (--elastic) or given (--gearbox-stiffness).
+void add_gearbox_options(CLI::App& c, FitArguments& a) {
+  c.add_flag("--elastic", a.fit.fit_elasticity,
+             "delta, lumped: search each joint's gearbox stiffness (encoders on the motor) by "
+             "PSO, the other parameters solved exactly for each candidate, and take it where the "
+             "held-out error says so; where the log has qa1..qa3 (arm-side encoders), those "
+             "(docs/model.md, 'Elastic gearboxes')")
+      ->group("model");
+  c.add_option("--gearbox-stiffness", a.gearbox_stiffness_Nm_per_rad,
+               "delta, lumped: the gearboxes' torsional stiffness in N m/rad at the joint, from "
+               "their datasheets (one for all joints, or K1,K2,K3): the model is fitted at the "
+               "arms' angles and carries it, and the controller compensates the deflection "
+               "(docs/model.md, 'Elastic gearboxes')")
+      ->delimiter(',')
+      ->expected(1, 3)
+      ->check(CLI::PositiveNumber)
+      ->excludes("--elastic")
+      ->group("model");
+}
+
 void add_model_options(CLI::App& c, FitArguments& a) {
   a.model_given =
       c.add_option("--model", a.models,
@@ -102,22 +122,7 @@ void add_model_options(CLI::App& c, FitArguments& a) {
       ->check(kPositive)
       ->capture_default_str()
       ->group("model");
-  c.add_flag("--elastic", a.fit.fit_elasticity,
-             "delta, lumped: search each joint's gearbox stiffness (encoders on the motor) by "
-             "PSO, the other parameters solved exactly for each candidate, and take it where the "
-             "held-out error says so; where the log has qa1..qa3 (arm-side encoders), those "
-             "(docs/model.md, 'Elastic gearboxes')")
-      ->group("model");
-  c.add_option("--gearbox-stiffness", a.gearbox_stiffness_Nm_per_rad,
-               "delta, lumped: the gearboxes' torsional stiffness in N m/rad at the joint, from "
-               "their datasheets (one for all joints, or K1,K2,K3): the model is fitted at the "
-               "arms' angles and carries it, and the controller compensates the deflection "
-               "(docs/model.md, 'Elastic gearboxes')")
-      ->delimiter(',')
-      ->expected(1, 3)
-      ->check(CLI::PositiveNumber)
-      ->excludes("--elastic")
-      ->group("model");
+  add_gearbox_options(c, a);
   c.add_flag("--fit-friction-shape", a.fit.fit_friction_shape,
              "search the Coulomb smoothing (and, with --stribeck-velocity, the Stribeck "
              "velocity) by PSO, the other parameters solved exactly for each candidate; the "
