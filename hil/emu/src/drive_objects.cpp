@@ -234,7 +234,7 @@ sdo::AbortCode Emulator::DriveObjects::transmission_set(DriveContext& c, std::ui
 }
 
 // What vendors' drives have beyond the built-in drive (delta_drive_emu
-// --eds only): writable transmission types, TPDO4, max torque (0x6072),
+// --eds only): writable transmission types, TPDO4, RPDO5 and TPDO5, max torque (0x6072),
 // torque actual value (0x6077), torque slope (0x6087), the interpolation
 // time period (0x60C2, which sets the cycle like 0x1006).
 auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Scalar> {
@@ -246,6 +246,10 @@ auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Sca
       {0x1802, 2, 1, &transmission_get<3>, &transmission_set<3>},
       {0x1803, 1, 4, &cob_id_get<4>, &cob_id_set<4>},
       {0x1803, 2, 1, &transmission_get<4>, &transmission_set<4>},
+      {0x1404, 1, 4, &cob_id_get<5>, &cob_id_set<5>},
+      {0x1404, 2, 1, &transmission_get<5>, &transmission_set<5>},
+      {0x1804, 1, 4, &cob_id_get<6>, &cob_id_set<6>},
+      {0x1804, 2, 1, &transmission_get<6>, &transmission_set<6>},
       {0x6072, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.max_torque_pm}; },
        [](DriveContext& c, std::uint32_t v) {
          c.d.max_torque_pm = static_cast<std::uint16_t>(v);
@@ -297,8 +301,11 @@ auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Sca
   };
   static const std::vector<DriveTable::Scalar> kObjects = [] {
     std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
-    const auto mapping = mapping_objects<4>(0x1A03, std::make_index_sequence<9>());
-    all.insert(all.end(), mapping.begin(), mapping.end());
+    for (const auto& mapping : {mapping_objects<4>(0x1A03, std::make_index_sequence<9>()),
+                                mapping_objects<5>(0x1604, std::make_index_sequence<9>()),
+                                mapping_objects<6>(0x1A04, std::make_index_sequence<9>())}) {
+      all.insert(all.end(), mapping.begin(), mapping.end());
+    }
     std::sort(all.begin(), all.end(), DriveTable::before);  // as the table wants them
     return all;
   }();
@@ -324,21 +331,26 @@ EmulatedProduct product_of(const delta::canopen::Eds& eds) {
     id.device_name = name->default_text;
   }
   // The PDOs' defaults; what the EDS leaves out keeps the built-in value.
-  const std::uint16_t communication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802, 0x1803};
-  const std::uint16_t mapping[kPdoCount] = {0x1600, 0x1A00, 0x1A01, 0x1A02, 0x1A03};
   for (unsigned pdo = 0; pdo < kPdoCount; ++pdo) {
     PdoMapping& m = id.pdos[pdo];
-    if (const auto* cob = eds.find(communication[pdo], 1)) {
+    const std::uint16_t communication = kPdoCommunication[pdo];
+    const auto mapping = static_cast<std::uint16_t>(communication + 0x200);
+    if (const auto* cob = eds.find(communication, 1)) {
       if (const auto v = cob->default_value(1)) m.valid = (*v & od::kPdoInvalid) == 0;
+      const auto at0 = cob->default_value(0);
+      if (at0 && pdo >= 5) {
+        m.id = static_cast<std::uint16_t>(*at0 & 0x7FF);
+        m.id_plus_node = cob->default_value(1) != at0;
+      }
     }
-    if (const auto* type = eds.find(communication[pdo], 2)) {
+    if (const auto* type = eds.find(communication, 2)) {
       if (const auto v = type->value(1)) m.transmission = static_cast<std::uint8_t>(*v);
     }
-    if (const auto* count = eds.find(mapping[pdo], 0)) {
+    if (const auto* count = eds.find(mapping, 0)) {
       if (const auto v = count->default_value(1)) m.count = static_cast<std::uint8_t>(*v);
     }
     for (unsigned sub = 1; sub <= m.entries.size(); ++sub) {
-      if (const auto* entry = eds.find(mapping[pdo], static_cast<std::uint8_t>(sub))) {
+      if (const auto* entry = eds.find(mapping, static_cast<std::uint8_t>(sub))) {
         if (const auto v = entry->default_value(1))
           m.entries[sub - 1] = static_cast<std::uint32_t>(*v);
       }

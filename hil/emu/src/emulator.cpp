@@ -188,17 +188,11 @@ void Emulator::on_frame(const Frame& f) {
   if (p::function_code(f.id) == p::kHeartbeat.base_id && f.dlc == 1) {
     return handle_consumed_heartbeat(p::node_id(f.id));
   }
+  if (take_rpdo(f)) return;
   const std::uint8_t node = p::node_id(f.id);
   if (node < p::kFirstDriveNode || node >= p::kFirstDriveNode + p::kDriveCount) return;
   const unsigned j = node - p::kFirstDriveNode;
-  Drive& d = drives_[j];
-  if (d.silent) return;
-  const std::uint32_t function = p::function_code(f.id);
-  if (function == p::kSdoRx.base_id) {
-    handle_sdo(j, f);
-  } else if (function == p::kRpdo1.base_id) {
-    handle_rpdo(j, f);
-  }
+  if (!drives_[j].silent && p::function_code(f.id) == p::kSdoRx.base_id) handle_sdo(j, f);
 }
 
 void Emulator::handle_nmt(const Frame& f) {
@@ -360,6 +354,7 @@ void Emulator::handle_sync(const Frame& f) {
     send_tpdo(j, 1);
     send_tpdo(j, 2);
     send_tpdo(j, 4);
+    send_tpdo(j, 6);
     send_tpdo(j, 3);  // last: it tells which SYNC the others answer
   }
 }

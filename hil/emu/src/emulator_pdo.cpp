@@ -18,12 +18,27 @@ namespace sdo = delta::can::sdo;
 namespace cia = delta::can::cia402;
 using delta::can::Frame;
 
-// RPDO1 as mapped: each entry written to its object, in order (the
+// A frame that is a drive's RPDO (RPDO1, or RPDO5 where the EDS has it),
+// taken; false if it is none.
+bool Emulator::take_rpdo(const Frame& f) {
+  bool taken = false;
+  for (unsigned j = 0; j < 3; ++j) {
+    for (const unsigned pdo : {0u, 5u}) {
+      if (drives_[j].pdos[pdo].valid && !drives_[j].silent && f.id == pdo_cob_id(drives_[j], pdo)) {
+        handle_rpdo(j, pdo, f);
+        taken = true;
+      }
+    }
+  }
+  return taken;
+}
+
+// An RPDO as mapped: each entry written to its object, in order (the
 // controlword applies its transition). A frame shorter than the mapping is
 // not processed: EMCY 0x8210 (CiA 301).
-void Emulator::handle_rpdo(unsigned j, const Frame& f) {
+void Emulator::handle_rpdo(unsigned j, unsigned pdo, const Frame& f) {
   Drive& d = drives_[j];
-  const PdoMapping& m = d.pdos[0];
+  const PdoMapping& m = d.pdos[pdo];
   if (d.nmt != p::kNmtStateOperational || !m.valid) return;
   unsigned bytes = 0;
   for (unsigned i = 0; i < m.count; ++i) bytes += (m.entries[i] & 0xFF) / 8;
@@ -41,13 +56,12 @@ void Emulator::handle_rpdo(unsigned j, const Frame& f) {
                         std::span<const std::uint8_t>(f.data).subspan(at, n), true);
     at += n;
   }
-  track_arm(j);
+  track_arm(j, m);
 }
 
-void Emulator::track_arm(unsigned j) {
+void Emulator::track_arm(unsigned j, const PdoMapping& m) {
   const Drive& d = drives_[j];
   if (d.state != cia::State::kOperationEnabled) return end_arm_run(j);
-  const PdoMapping& m = d.pdos[0];
   const bool reference = std::any_of(m.entries.begin(), m.entries.begin() + m.count,
                                      [](std::uint32_t e) { return e >> 16 == 0x607A; });
   if (!reference) return;
@@ -110,6 +124,7 @@ bool Emulator::tpdo_due(Drive& d, unsigned pdo, const std::array<std::uint8_t, 9
 }
 
 std::uint32_t Emulator::pdo_cob_id(const Drive& d, unsigned pdo) const {
+  if (pdo >= 5) return d.pdos[pdo].id + (d.pdos[pdo].id_plus_node ? d.node : 0u);
   if (pdo == 4) return 0x480u + d.node;  // TPDO4, CiA 301's predefined connection set
   static constexpr const p::Message* kMessageOf[kPdoCount - 1] = {&p::kRpdo1, &p::kTpdo1,
                                                                   &p::kTpdo2, &p::kTpdo3};
@@ -158,9 +173,15 @@ void Emulator::commission(const CommissionedDrives& c) {
   }
 }
 
-// The COB-ID's ID is the predefined one (it cannot move); bit 31 turns the
-// PDO off and on; bit 30 (no remote request) is taken either way.
+// The COB-ID's ID is the predefined one (it cannot move), RPDO5's and
+// TPDO5's any 11-bit ID, moved while the PDO is off (CiA 301); bit 31
+// turns the PDO off and on; bit 30 (no remote request) is taken either way.
 sdo::AbortCode Emulator::set_pdo_cob_id(Drive& d, unsigned pdo, std::uint32_t v) {
+  if (pdo >= 5 && (v & 0x3FFFF800) == 0 && (v & 0x7FF) != 0 &&
+      (!d.pdos[pdo].valid || (v & 0x7FF) == pdo_cob_id(d, pdo))) {
+    d.pdos[pdo].id = static_cast<std::uint16_t>(v & 0x7FF);
+    d.pdos[pdo].id_plus_node = false;
+  }
   if ((v & 0x3FFFFFFF) != pdo_cob_id(d, pdo)) return sdo::kAbortValueRange;
   d.pdos[pdo].valid = (v & od::kPdoInvalid) == 0;
   return sdo::kNoAbort;
@@ -199,7 +220,7 @@ sdo::AbortCode Emulator::check_mapping_entry(const Drive& d, unsigned pdo, std::
   const unsigned j = d.node - p::kFirstDriveNode;
   sdo::ObjectInfo info;
   if (const sdo::AbortCode c = dictionary(j).find(index, sub, info); c != sdo::kNoAbort) return c;
-  const bool usable = pdo == 0 ? info.writable : info.readable;
+  const bool usable = receive_pdo(pdo) ? info.writable : info.readable;
   if (!mappable(j, index, sub) || !usable) return sdo::kAbortNotMappable;
   if ((entry & 0xFF) != info.size * 8) return sdo::kAbortParameterIncompatible;
   return sdo::kNoAbort;

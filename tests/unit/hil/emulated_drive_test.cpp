@@ -496,6 +496,39 @@ TEST(EmulatedVendorDriveTest, AnswersForExactlyTheObjectsOfItsEds) {
   EXPECT_EQ(bus.read(0x1006, 0), 4000u);
 }
 
+// A vendor's fixed PDO5s (tests/data/drives/fixed_pdo5.eds): read-only
+// mappings; a COB-ID of its own (none predefined: RPDO5's default has
+// none, TPDO5's is $NODEID+0x680, off) that moves only while the PDO is
+// off (CiA 301); RPDO5 applied at its COB-ID, TPDO5 sent there at a SYNC.
+TEST(EmulatedVendorDriveTest, FixedPdo5sMoveTheirCobIdOnlyWhileOff) {
+  Bus bus;
+  bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/fixed_pdo5.eds"));
+  EXPECT_EQ(bus.read(0x1804, 1), 0x80000681u);
+  EXPECT_EQ(bus.read(0x1A04, 2), 0x60770010u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1A04, 0, 0, 1)), sdo::kAbortReadOnly);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1804, 1, 0x80000481, 4)), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1804, 1, 0x481, 4)), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1804, 1, 0x482, 4)), sdo::kAbortValueRange);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1804, 2, 1, 1)), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1404, 1, 0x80000201, 4)), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1404, 1, 0x201, 4)), 0u);
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x1400, 1, 0x80000201, 4)), 0u);  // RPDO1 off
+  EXPECT_EQ(bus.abort_code(sdo::download_request(0x6060, 0, 10, 1)), 0u);
+  bus.nmt(p::kNmtStart, 1);
+  bus.send(0x201, 4, {0x06, 0x00, 0x00, 0x00});  // controlword: shutdown
+  bus.out.clear();
+  bus.send(p::cob_id(p::kSync, 0), 0, {});
+  bool tpdo5 = false;
+  for (const Frame& f : bus.out) {
+    if (f.id == 0x481) {
+      tpdo5 = true;
+      EXPECT_EQ(f.dlc, 4);
+      EXPECT_EQ(f.data[0] & 0x6F, 0x21) << "ready to switch on, after RPDO5's controlword";
+    }
+  }
+  EXPECT_TRUE(tpdo5);
+}
+
 // A drive as the user commissioned it (delta_drive_emu --set, --config:
 // the controller's own keys): its values take the place of the EDS's
 // defaults, the controller's other keys are left to it, and a wrong value

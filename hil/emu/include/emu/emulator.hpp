@@ -85,15 +85,29 @@ struct PdoMapping {
   // CiA 301: 0 synchronous when changed, 1 to 240 every that many SYNCs,
   // 254 and 255 when changed (event-driven), 252 and 253 on request only.
   std::uint8_t transmission{1};
+  // RPDO5 and TPDO5, which CiA 301 gives no predefined COB-ID: theirs
+  // (11 bits), plus the node ID where the EDS's default adds $NODEID.
+  std::uint16_t id{0};
+  bool id_plus_node{false};
 };
 
-// RPDO1, TPDO1 to TPDO4: TPDO1 to TPDO3 as docs/protocol.md's table lays
-// them out; TPDO4 only where a drive's EDS has it (--eds).
-inline constexpr unsigned kPdoCount = 5;
+// RPDO1, TPDO1 to TPDO4, RPDO5, TPDO5: TPDO1 to TPDO3 as
+// docs/protocol.md's table lays them out; TPDO4, RPDO5 and TPDO5 only
+// where a drive's EDS has them (--eds: a vendor's fixed PDOs).
+inline constexpr unsigned kPdoCount = 7;
+inline constexpr std::uint16_t kPdoCommunication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802,
+                                                               0x1803, 0x1404, 0x1804};
+inline constexpr bool receive_pdo(unsigned pdo) {
+  return pdo == 0 || pdo == 5;
+}
 inline constexpr std::array<PdoMapping, kPdoCount> kDefaultPdos{
     PdoMapping{true, 3, {0x60400010, 0x60710010, 0x607A0020}},
-    PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}}, PdoMapping{false, 1, {0x606C0020}},
-    PdoMapping{false, 1, {0x20190008}}, PdoMapping{false, 0, {}}};
+    PdoMapping{true, 3, {0x60410010, 0x60640020, 0x60780010}},
+    PdoMapping{false, 1, {0x606C0020}},
+    PdoMapping{false, 1, {0x20190008}},
+    PdoMapping{false, 0, {}},
+    PdoMapping{false, 0, {}},
+    PdoMapping{false, 0, {}}};
 
 // The CiA 402 modes a drive takes in 0x6060 (bits of 0x6502): cyclic
 // synchronous torque (bit 9) and profile torque (bit 3) are emulated.
@@ -108,7 +122,7 @@ struct EmulatedProduct {
   std::uint32_t product_code{kEmulatorProductCode};
   std::uint32_t revision{kEmulatorRevision};
   std::string device_name{"Delta emulated CiA 402 drive"};
-  std::array<PdoMapping, kPdoCount> pdos{kDefaultPdos};  // RPDO1, TPDO1 to TPDO4
+  std::array<PdoMapping, kPdoCount> pdos{kDefaultPdos};  // as kPdoCommunication
   std::uint32_t supported_modes{kModeBitCst};            // 0x6502
   // The serial number is 0x00010000 + the node ID.
 };
@@ -217,7 +231,7 @@ class Emulator {
     std::int8_t mode{0};
     std::uint32_t cycle_us{0};
     std::uint16_t heartbeat_ms{0};
-    std::array<PdoMapping, kPdoCount> pdos{};  // RPDO1, TPDO1 to TPDO4
+    std::array<PdoMapping, kPdoCount> pdos{};  // as kPdoCommunication
     // What each TPDO sent last (event-driven and type 0 send on change),
     // and the SYNCs since (types 2 to 240).
     std::array<std::array<std::uint8_t, 9>, kPdoCount> last_sent{};
@@ -273,10 +287,11 @@ class Emulator {
   void flush_sdo(unsigned j);
   void reset_application(Drive& d);
   void apply_controlword(Drive& d, std::uint16_t controlword);
-  void handle_rpdo(unsigned j, const delta::can::Frame& f);
+  void handle_rpdo(unsigned j, unsigned pdo, const delta::can::Frame& f);
+  bool take_rpdo(const delta::can::Frame& f);
   // The arm's tracking error at this RPDO's reference (0x607A), or the end
   // of the drive's run once it is no longer enabled.
-  void track_arm(unsigned j);
+  void track_arm(unsigned j, const PdoMapping& m);
   void end_arm_run(unsigned j);
   void send_tpdo(unsigned j, unsigned pdo);
   std::uint32_t pdo_cob_id(const Drive& d, unsigned pdo) const;
