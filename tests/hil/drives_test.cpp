@@ -100,7 +100,11 @@ INSTANTIATE_TEST_SUITE_P(
                     {"jointN.torque_unit=mA", "jointN.rated_torque_Nm=0.2"},
                     {"--torque-unit", "mA"}},
         CorpusDrive{"ipos.eds", {"jointN.rated_current_A=2", "jointN.rated_torque_Nm=0.2"}, {}},
-        CorpusDrive{"fixed_mapping.eds", {}, {}}));
+        CorpusDrive{"fixed_mapping.eds", {}, {}},
+        CorpusDrive{"fixed_pdo5.eds",
+                    {"jointN.rated_torque_Nm=0.2", "jointN.counts_per_rev=65536"},
+                    {"--set", "joint1.rated_torque_Nm=0.2", "--set", "joint2.rated_torque_Nm=0.2",
+                     "--set", "joint3.rated_torque_Nm=0.2"}}));
 
 TEST(DrivesUsersOwnRefused, ADriveWithoutATorqueModeIsRefusedBeforeTheBus) {
   const std::string file = kSource + "/tests/data/drives/epos2.eds";

@@ -174,6 +174,49 @@ TEST(DrivePlanTest, AFixedMappingIsUsedAsItIsAndAContradictionIsNamed) {
                   .empty());
 }
 
+// Where target torque and torque actual value are PDO-mappable only in
+// fixed PDOs above PDO4 (fixed_pdo5.eds), those are searched and used: the
+// control in RPDO5, the sample split over TPDO5 (statusword, torque) and
+// TPDO1 (position). PDO5 has no predefined COB-ID: each takes that of a
+// PDO turned off first (RPDO1's, TPDO4's).
+TEST(DrivePlanTest, FixedPdosAbovePdo1AreSearchedAndASampleSplitOverTwo) {
+  const std::string keys = "joint1.eds = " + drive("fixed_pdo5.eds") +
+                           "\njoint1.rated_torque_Nm = 0.5\njoint1.counts_per_rev = 65536\n";
+  const DrivePlans plans = plan_drives(config(keys));
+  ASSERT_TRUE(plans.problems.empty()) << joined(plans.problems);
+  const DrivePlan& plan = plans.drives[0];
+  EXPECT_EQ(plan.feedback, Feedback::kTorque);
+  EXPECT_EQ(plan.rpdo.number, 5u);
+  EXPECT_EQ(plan.rpdo.cob_id, 0x201u);
+  EXPECT_FALSE(plan.rpdo.mapping_written);
+  EXPECT_EQ(plan.sample.number, 5u);
+  EXPECT_EQ(plan.sample.cob_id, 0x481u);
+  EXPECT_EQ(plan.sample.layout.offset_of({0x6077, 0}), 2);
+  ASSERT_TRUE(plan.sample_rest.used);
+  EXPECT_EQ(plan.sample_rest.number, 1u);
+  EXPECT_EQ(plan.sample_rest.layout.count, 1u);
+  EXPECT_EQ(plan.sample_rest.layout.offset_of({0x6064, 0}), 0);
+  // RPDO1 off before RPDO5 takes its COB-ID; TPDO4 off before TPDO5.
+  const auto step = [&](std::uint16_t index, std::uint32_t value) {
+    for (std::size_t i = 0; i < plan.actions.size(); ++i) {
+      if (plan.actions[i].object.index == index && plan.actions[i].object.subindex == 1 &&
+          plan.actions[i].value == value)
+        return static_cast<int>(i);
+    }
+    return -1;
+  };
+  ASSERT_GE(step(0x1400, 0x80000201), 0);
+  EXPECT_LT(step(0x1400, 0x80000201), step(0x1404, 0x201));
+  ASSERT_GE(step(0x1803, 0x80000481), 0);
+  EXPECT_LT(step(0x1803, 0x80000481), step(0x1804, 0x481));
+  EXPECT_TRUE(writes(plan, 0x1804, 2, 1));  // TPDO5 on every SYNC
+  EXPECT_NE(describe_plan(plan).find("TPDO5:    COB-ID 0x481"), std::string::npos)
+      << describe_plan(plan);
+  // Without TPDO1 free for the position (velocity_pdo and the SYNC counter
+  // take TPDO2 and TPDO3 only), still the same split.
+  EXPECT_TRUE(plan_drives(config(keys + "velocity_pdo = true\n")).problems.empty());
+}
+
 // A drive without an object the PDOs need (the statusword) is refused,
 // naming it: tmcm_bldc.eds with 0x6041 renamed 0x6042.
 TEST(DrivePlanTest, AMissingStatuswordIsNamed) {

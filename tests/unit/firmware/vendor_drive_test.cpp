@@ -122,7 +122,12 @@ INSTANTIATE_TEST_SUITE_P(
                     emu::TorqueUnit::kMilliamp, 4, Feedback::kTorque},
         VendorDrive{"ipos.eds", "jointN.rated_current_A = 3.2\njointN.rated_torque_Nm = 0.32\n",
                     emu::TorqueUnit::kPerMille, 10, Feedback::kCurrent},
-        VendorDrive{"fixed_mapping.eds", "", emu::TorqueUnit::kPerMille, 10, Feedback::kTorque}));
+        VendorDrive{"fixed_mapping.eds", "", emu::TorqueUnit::kPerMille, 10, Feedback::kTorque},
+        // Target torque and torque actual value only in the fixed RPDO5 and
+        // TPDO5: the sample comes in two TPDOs (TPDO5 and TPDO1).
+        VendorDrive{"fixed_pdo5.eds",
+                    "jointN.rated_torque_Nm = 0.5\njointN.counts_per_rev = 65536\n",
+                    emu::TorqueUnit::kPerMille, 10, Feedback::kTorque}));
 
 // A configured value that the drive contradicts fails the bring-up, naming
 // both: the iPOS-like drive reports 2000 mA (0x6075), configured 3 A.

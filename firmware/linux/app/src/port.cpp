@@ -21,6 +21,7 @@
 #include "fw/controller.hpp"
 #include "fw_linux/collision_setting.hpp"
 #include "fw_linux/controller_node.hpp"
+#include "fw_linux/drive_plan.hpp"
 #include "fw_linux/linux_hardware.hpp"
 #include "fw_linux/run_coordinator.hpp"
 #include "fw_linux/trajectories.hpp"
@@ -136,21 +137,24 @@ std::optional<int> checked_runs(const PortConfig& config, const fw::ControllerCo
   return std::nullopt;
 }
 
-// What the drives send: TPDO1-3, SDO responses, EMCY and heartbeats (and
-// error frames, which need no filter).
-delta::can::Socket open_drive_socket(const std::string& iface) {
-  return delta::can::Socket::open(
-      iface,
-      {{p::kTpdo1.base_id, p::kFunctionCodeMask, false},
-       {p::kTpdo2.base_id, p::kFunctionCodeMask, false},
-       {p::kTpdo3.base_id, p::kFunctionCodeMask, false},
-       {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
-       {p::kEmcy.base_id, p::kFunctionCodeMask, false},
-       {p::kHeartbeat.base_id, p::kFunctionCodeMask, false},
-       // and what comes to the controller's own node
-       {p::cob_id(p::kNmt, 0), p::kStandardIdMask, false},
-       {p::cob_id(p::kSdoRx, p::kControllerNode), p::kStandardIdMask, false}},
-      1 << 20);
+// What the drives send: the TPDOs their plans use (each by its COB-ID: a
+// drive's fixed PDO may have one outside CiA 301's predefined set), SDO
+// responses, EMCY and heartbeats (and error frames, which need no filter).
+delta::can::Socket open_drive_socket(const std::string& iface, const PortConfig& config) {
+  std::vector<delta::can::Filter> filters{
+      {p::kSdoTx.base_id, p::kFunctionCodeMask, false},
+      {p::kEmcy.base_id, p::kFunctionCodeMask, false},
+      {p::kHeartbeat.base_id, p::kFunctionCodeMask, false},
+      // and what comes to the controller's own node
+      {p::cob_id(p::kNmt, 0), p::kStandardIdMask, false},
+      {p::cob_id(p::kSdoRx, p::kControllerNode), p::kStandardIdMask, false}};
+  for (const DrivePlan& plan : plan_drives(config).drives) {
+    for (const PlannedPdo* pdo : {&plan.sample, &plan.sample_rest, &plan.velocity, &plan.echo}) {
+      if (pdo->used)
+        filters.push_back({pdo->cob_id & p::kStandardIdMask, p::kStandardIdMask, false});
+    }
+  }
+  return delta::can::Socket::open(iface, filters, 1 << 20);
 }
 
 // The real-time tick: a timerfd every period, and the wake-up latencies in
@@ -220,7 +224,7 @@ struct Loop {
   Loop(const PortConfig& config, const RunOptions& options, SafetyIo& io,
        const fw::ControllerConfig& core, FeedForwardSlot& slot, std::vector<NamedRun> runs,
        std::ostream& out)
-      : socket(open_drive_socket(options.iface)),
+      : socket(open_drive_socket(options.iface, config)),
         sink(socket),
         master(config, sink),
         hw(master, io, sink),

@@ -343,7 +343,8 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, const PlannedPdo& pdo)
   const auto number = static_cast<std::uint8_t>(pdo.number);
   if (f.dlc != expected) {
     d.malformed = true;
-    if (&pdo == &plan.sample) d.got_tpdo1 = true;  // answered, if badly
+    if (&pdo == &plan.sample || &pdo == &plan.sample_rest)
+      d.got_tpdo1 = true;  // answered, if badly
     if (&pdo == &plan.velocity) d.got_tpdo2 = true;
     record({.kind = CyclicProblem::Kind::kMalformedPdo,
             .node = d.node,
@@ -365,17 +366,31 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, const PlannedPdo& pdo)
         static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x606C, 0}, 4, true));
     d.held.tpdo2 = true;
   } else {
-    const od::Object feedback =
-        plan.feedback == Feedback::kCurrent ? od::Object{0x6078, 0} : od::Object{0x6077, 0};
-    d.held.statusword =
-        static_cast<std::uint16_t>(pdo_field(f.data, pdo.layout, od::kStatusword, 2, false));
-    d.held.position_counts =
-        static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x6064, 0}, 4, true));
-    d.held.current_per_mille =
-        static_cast<std::int16_t>(pdo_field(f.data, pdo.layout, feedback, 2, true));
-    d.held.tpdo1 = true;
+    hold_sample(d, f, pdo);
   }
   if (!counted()) take_held(d);
+}
+
+// The sample's fields the PDO carries (all, or with a split sample its
+// part): the sample is whole once each of its PDOs came this cycle.
+void CanopenMaster::hold_sample(Drive& d, const Frame& f, const PlannedPdo& pdo) {
+  const DrivePlan& plan = *d.plan;
+  const od::Object feedback =
+      plan.feedback == Feedback::kCurrent ? od::Object{0x6078, 0} : od::Object{0x6077, 0};
+  if (pdo.layout.offset_of(od::kStatusword) >= 0) {
+    d.held.statusword =
+        static_cast<std::uint16_t>(pdo_field(f.data, pdo.layout, od::kStatusword, 2, false));
+  }
+  if (pdo.layout.offset_of({0x6064, 0}) >= 0) {
+    d.held.position_counts =
+        static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x6064, 0}, 4, true));
+  }
+  if (pdo.layout.offset_of(feedback) >= 0) {
+    d.held.current_per_mille =
+        static_cast<std::int16_t>(pdo_field(f.data, pdo.layout, feedback, 2, true));
+  }
+  d.held.parts |= &pdo == &plan.sample ? 1u : 2u;
+  d.held.tpdo1 = d.held.parts == (plan.sample_rest.used ? 3u : 1u);
 }
 
 // TPDO3: the counter of the SYNC the drive's held TPDOs answer. Another
@@ -395,7 +410,7 @@ void CanopenMaster::take_sync_echo(Drive& d, const Frame& f) {
           .sync_counter = sync_counter_});
 }
 
-void CanopenMaster::take_held(Drive& d) {
+void CanopenMaster::take_held(Drive& d) const {
   if (d.held.tpdo1) {
     d.statusword = d.held.statusword;
     d.state = delta::can::cia402::decode_statusword(d.statusword);
@@ -407,7 +422,15 @@ void CanopenMaster::take_held(Drive& d) {
     d.velocity_counts_s = d.held.velocity_counts_s;
     d.got_tpdo2 = true;
   }
+  // A split sample's first part waits for the other within the cycle
+  // (begin_cycle drops it); with a SYNC counter the echo ends the cycle's.
+  const Drive::Sample part = d.held;
   d.held = {};
+  if (!counted() && !part.tpdo1)
+    d.held = {.statusword = part.statusword,
+              .position_counts = part.position_counts,
+              .current_per_mille = part.current_per_mille,
+              .parts = part.parts};
 }
 
 void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us) {
@@ -432,6 +455,8 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
     handle_sdo_response(*d, f);
   } else if (f.id == plan.sample.cob_id) {
     if (cyclic()) handle_tpdo(*d, f, plan.sample);
+  } else if (plan.sample_rest.used && f.id == plan.sample_rest.cob_id) {
+    if (cyclic()) handle_tpdo(*d, f, plan.sample_rest);
   } else if (plan.velocity.used && f.id == plan.velocity.cob_id) {
     if (cyclic()) handle_tpdo(*d, f, plan.velocity);
   } else if (plan.echo.used && f.id == plan.echo.cob_id) {

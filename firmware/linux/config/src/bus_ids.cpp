@@ -43,8 +43,11 @@ std::vector<Frame> drive_frames(const DrivePlan& plan) {
   const struct {
     const PlannedPdo& pdo;
     const char* kind;
-  } pdos[] = {
-      {plan.rpdo, "RPDO"}, {plan.sample, "TPDO"}, {plan.velocity, "TPDO"}, {plan.echo, "TPDO"}};
+  } pdos[] = {{plan.rpdo, "RPDO"},
+              {plan.sample, "TPDO"},
+              {plan.sample_rest, "TPDO"},
+              {plan.velocity, "TPDO"},
+              {plan.echo, "TPDO"}};
   for (const auto& [pdo, kind] : pdos) {
     if (!pdo.used) continue;
     out.push_back({pdo.cob_id & p::kStandardIdMask, j + kind + std::to_string(pdo.number),

@@ -44,10 +44,13 @@ constexpr std::uint32_t kSupportsCst = 1u << 9;
 constexpr std::uint32_t kNoRtr = 1u << 30;
 
 // One PDO's objects: its communication (0x1400/0x1800 + n - 1) and
-// mapping (0x1600/0x1A00 + n - 1) indices.
+// mapping (0x1600/0x1A00 + n - 1) indices. CiA 301's predefined COB-IDs
+// are PDO1 to PDO4's: a PDO above them takes the COB-ID of one of those
+// that the controller turns off (`id_of`).
 struct PdoObjects {
   bool receive;
   unsigned number;
+  unsigned id_of{0};  // the predefined PDO whose COB-ID it takes; 0: its own
   std::uint16_t communication() const {
     return static_cast<std::uint16_t>((receive ? 0x1400 : 0x1800) + number - 1);
   }
@@ -55,7 +58,8 @@ struct PdoObjects {
     return static_cast<std::uint16_t>((receive ? 0x1600 : 0x1A00) + number - 1);
   }
   std::uint32_t cob_id(std::uint8_t node) const {
-    return (receive ? 0x200u : 0x180u) + 0x100u * (number - 1) + node;
+    const unsigned n = id_of != 0 ? id_of : number;
+    return (receive ? 0x200u : 0x180u) + 0x100u * (n - 1) + node;
   }
   std::string name() const { return (receive ? "RPDO" : "TPDO") + std::to_string(number); }
 };
@@ -166,6 +170,17 @@ class Planner {
     return writable({which.mapping(), 0}) && writable({which.mapping(), 1});
   }
   PdoLayout default_layout(PdoObjects which) const;
+  bool fixed(PdoObjects which) const {
+    return has({which.mapping(), 0}) && !mapping_writable(which);
+  }
+  bool carries(PdoObjects which, const std::vector<Wanted>& wanted) const;
+  std::optional<unsigned> fixed_pdo(bool receive, const std::vector<Wanted>& wanted,
+                                    unsigned skip = 0) const;
+  bool carried(od::Object o) const;
+  std::optional<unsigned> free_id(bool receive, const std::vector<unsigned>& used);
+  PdoObjects numbered(bool receive, unsigned n, std::vector<unsigned>& used);
+  PdoObjects control_pdo(const std::vector<Wanted>& control);
+  bool split_sample(const std::vector<Wanted>& sample);
   void decide_feedback();
   void identity();
   void scaling();
@@ -189,6 +204,9 @@ class Planner {
   DrivePlan& plan_;
   std::vector<std::string>& problems_;
   std::string key_;
+  bool tpdo4_taken_{false};  // its COB-ID is a fixed TPDO's
 };
+
+bool controller_fills(std::uint32_t entry);
 
 }  // namespace fw_linux::planning

@@ -1,12 +1,22 @@
 // A drive's PDOs in its bring-up plan: the feedback TPDO1 carries, each
 // PDO's COB-ID, mapping (written, or the drive's fixed one) and
 // transmission type, and the TPDOs the controller does not use turned off.
+#include <algorithm>
+#include <array>
+
 #include "delta/can/protocol.hpp"
 #include "drive_planner.hpp"
 
 namespace fw_linux::planning {
 
 namespace p = delta::can::protocol;
+
+// Whether the controller fills a mapping entry of an RPDO: dummy entries
+// (0x0001-0x0007), the controlword, target torque and position, the mode.
+bool controller_fills(std::uint32_t entry) {
+  const auto index = static_cast<std::uint16_t>(entry >> 16);
+  return index < 0x0008 || index == 0x6040 || index == 0x6071 || index == 0x607A || index == 0x6060;
+}
 
 // A PDO's mapping as the EDS gives it by default.
 PdoLayout Planner::default_layout(PdoObjects which) const {
@@ -20,41 +30,146 @@ PdoLayout Planner::default_layout(PdoObjects which) const {
   return layout;
 }
 
-// Current actual value (0x6078) where the drive can send it, else torque
-// actual value (0x6077); with a fixed TPDO1, what it carries.
+// Whether the PDO can carry `wanted` (the optional ones aside): its fixed
+// mapping has each (and, an RPDO, nothing the controller cannot fill), or
+// the controller can map each.
+bool Planner::carries(PdoObjects which, const std::vector<Wanted>& wanted) const {
+  if (eds_ == nullptr) return true;
+  if (!has({which.mapping(), 0})) return false;
+  const bool is_fixed = fixed(which);
+  const PdoLayout layout = is_fixed ? default_layout(which) : PdoLayout{};
+  for (const Wanted& w : wanted) {
+    if (w.optional) continue;
+    if (is_fixed ? layout.offset_of(w.object) < 0 : !mappable(w.object)) return false;
+  }
+  for (unsigned i = 0; is_fixed && which.receive && i < layout.count; ++i) {
+    if (!controller_fills(layout.entries[i])) return false;
+  }
+  return true;
+}
+
+// The first PDO with a fixed mapping that carries `wanted` (CiA 301's
+// whole range: 0x1600-0x17FF, 0x1A00-0x1BFF), `skip` and the TPDOs the
+// controller has other uses for aside.
+std::optional<unsigned> Planner::fixed_pdo(bool receive, const std::vector<Wanted>& wanted,
+                                           unsigned skip) const {
+  if (eds_ == nullptr) return std::nullopt;
+  for (unsigned n = 1; n <= 512; ++n) {
+    const bool taken =
+        !receive && ((n == 2 && c_.velocity_pdo) || (n == 3 && c_.sync_counter_overflow != 0));
+    if (n == skip || taken) continue;
+    if (fixed({receive, n}) && carries({receive, n}, wanted)) return n;
+  }
+  return std::nullopt;
+}
+
+// Whether a TPDO can carry `o`: TPDO1 as the controller maps it, or a
+// fixed TPDO that has it.
+bool Planner::carried(od::Object o) const {
+  if (!fixed({false, 1}) && mappable(o)) return true;
+  return fixed_pdo(false, {{o, 16, ""}}).has_value();
+}
+
+// Current actual value (0x6078) where a TPDO can carry it, else torque
+// actual value (0x6077).
 void Planner::decide_feedback() {
   if (eds_ == nullptr) return;
-  const PdoObjects tpdo1{false, 1};
-  bool current = mappable(kCurrentActual);
-  bool torque = mappable(kTorqueActual);
-  if (has({tpdo1.mapping(), 0}) && !mapping_writable(tpdo1)) {
-    const PdoLayout fixed = default_layout(tpdo1);
-    current = fixed.offset_of(kCurrentActual) >= 0;
-    torque = fixed.offset_of(kTorqueActual) >= 0;
-  }
+  const bool current = carried(kCurrentActual);
+  const bool torque = carried(kTorqueActual);
   plan_.feedback = current || !torque ? Feedback::kCurrent : Feedback::kTorque;
   if (!current && !torque) {
     problems_.push_back(where(kCurrentActual) +
                         ": neither 0x6078 (current actual value) nor 0x6077 (torque actual "
-                        "value) can be in TPDO1: the controller could not log the drive's torque");
+                        "value) can be in a TPDO: the controller could not log the drive's torque");
   }
 }
 
-// RPDO1 (controlword, target torque[, target position]), TPDO1
-// (statusword, position, the feedback), TPDO2 (velocity, velocity_pdo
-// only), TPDO3 (the SYNC counter, sync_counter_overflow > 0 only); the
-// drive's other TPDOs off.
+// A predefined PDO (1 to 4) whose COB-ID a PDO above them may take: one
+// the drive does not have, or one the controller can turn off (and does).
+std::optional<unsigned> Planner::free_id(bool receive, const std::vector<unsigned>& used) {
+  for (const unsigned k : receive ? std::array{1u, 2u, 3u, 4u} : std::array{4u, 3u, 2u, 1u}) {
+    const bool taken =
+        std::find(used.begin(), used.end(), k) != used.end() ||
+        (!receive && ((k == 2 && c_.velocity_pdo) || (k == 3 && c_.sync_counter_overflow != 0)));
+    if (taken) continue;
+    const PdoObjects pdo{receive, k};
+    if (!has({pdo.communication(), 1})) return k;
+    if (writable({pdo.communication(), 1})) {
+      turn_off(pdo);
+      return k;
+    }
+  }
+  return std::nullopt;
+}
+
+// Where a PDO above PDO4 has its COB-ID: one of PDO1 to PDO4's where the
+// controller sets it (`used` those it has other uses for).
+PdoObjects Planner::numbered(bool receive, unsigned n, std::vector<unsigned>& used) {
+  PdoObjects which{receive, n};
+  if (n <= 4 || !writable({which.communication(), 1})) return which;
+  if (const auto k = free_id(receive, used)) {
+    which.id_of = *k;
+    used.push_back(*k);
+  }
+  return which;
+}
+
+// RPDO1, or where it cannot carry the control a fixed RPDO that does.
+PdoObjects Planner::control_pdo(const std::vector<Wanted>& control) {
+  const PdoObjects rpdo1{true, 1};
+  if (carries(rpdo1, control)) return rpdo1;
+  const auto n = fixed_pdo(true, control, 1);
+  if (!n) return rpdo1;  // its problems say why
+  std::vector<unsigned> used{*n};
+  const PdoObjects which = numbered(true, *n, used);  // off, if it takes RPDO1's COB-ID
+  if (which.id_of != 1) turn_off(rpdo1);
+  return which;
+}
+
+// Where TPDO1 cannot carry the sample: a fixed TPDO with the feedback,
+// and what it lacks in a TPDO the controller maps (TPDO1, else TPDO4) or
+// in another fixed one. False where there is none: TPDO1's problems then
+// say why.
+bool Planner::split_sample(const std::vector<Wanted>& sample) {
+  const auto first = fixed_pdo(false, {sample.back()});
+  if (!first) return false;
+  const PdoLayout layout = default_layout({false, *first});
+  std::vector<Wanted> own;
+  std::vector<Wanted> rest;
+  for (const Wanted& w : sample) (layout.offset_of(w.object) >= 0 ? own : rest).push_back(w);
+  std::optional<unsigned> second;
+  for (const unsigned k : {1u, 4u}) {
+    if (!rest.empty() && !second && k != *first && !fixed({false, k}) && carries({false, k}, rest))
+      second = k;
+  }
+  if (!rest.empty() && !second) second = fixed_pdo(false, rest, *first);
+  if (!rest.empty() && !second) return false;
+  std::vector<unsigned> used{*first};
+  if (second) used.push_back(*second);
+  pdo(plan_.sample, numbered(false, *first, used), own);
+  if (second) pdo(plan_.sample_rest, numbered(false, *second, used), rest);
+  tpdo4_taken_ = std::find(used.begin(), used.end(), 4u) != used.end();
+  if (std::find(used.begin(), used.end(), 1u) == used.end()) turn_off({false, 1});
+  return true;
+}
+
+// RPDO1 (controlword, target torque[, target position]) or a fixed RPDO
+// that carries them; TPDO1 (statusword, position, the feedback) or a fixed
+// TPDO with the feedback and a second TPDO with the rest; TPDO2
+// (velocity, velocity_pdo only), TPDO3 (the SYNC counter,
+// sync_counter_overflow > 0 only); the drive's other TPDOs off.
 void Planner::pdos() {
   const od::Object feedback = plan_.feedback == Feedback::kCurrent ? kCurrentActual : kTorqueActual;
-  pdo(plan_.rpdo, {true, 1},
-      {{od::kControlword, 16, "controlword"},
-       {kTargetTorque, 16, "target torque"},
-       {kTargetPosition, 32, "target position", true}});
-  pdo(plan_.sample, {false, 1},
-      {{od::kStatusword, 16, "statusword"},
-       {kPositionActual, 32, "position actual value"},
-       {feedback, 16,
-        plan_.feedback == Feedback::kCurrent ? "current actual value" : "torque actual value"}});
+  const std::vector<Wanted> control{{od::kControlword, 16, "controlword"},
+                                    {kTargetTorque, 16, "target torque"},
+                                    {kTargetPosition, 32, "target position", true}};
+  pdo(plan_.rpdo, control_pdo(control), control);
+  const std::vector<Wanted> sample{
+      {od::kStatusword, 16, "statusword"},
+      {kPositionActual, 32, "position actual value"},
+      {feedback, 16,
+       plan_.feedback == Feedback::kCurrent ? "current actual value" : "torque actual value"}};
+  if (carries({false, 1}, sample) || !split_sample(sample)) pdo(plan_.sample, {false, 1}, sample);
   if (c_.velocity_pdo) {
     pdo(plan_.velocity, {false, 2}, {{kVelocityActual, 32, "velocity actual value"}});
   } else {
@@ -65,7 +180,7 @@ void Planner::pdos() {
   } else if (eds_ != nullptr) {
     turn_off({false, 3});
   }
-  if (eds_ != nullptr) turn_off({false, 4});
+  if (eds_ != nullptr && !tpdo4_taken_) turn_off({false, 4});
 }
 
 // A PDO the controller uses: its COB-ID, its mapping (written, or the
@@ -154,9 +269,7 @@ void Planner::fixed_layout(PlannedPdo& planned, PdoObjects which,
   for (unsigned i = 0; which.receive && i < planned.layout.count; ++i) {
     const od::Object o{static_cast<std::uint16_t>(planned.layout.entries[i] >> 16),
                        static_cast<std::uint8_t>(planned.layout.entries[i] >> 8)};
-    const bool known = o.index < 0x0008 || o.index == 0x6040 || o.index == 0x6071 ||
-                       o.index == 0x607A || o.index == 0x6060;
-    if (!known) {
+    if (!controller_fills(planned.layout.entries[i])) {
       problem({which.mapping(), 0}, which.name() + " mapping",
               "it carries " + object_text(o) + ", which the controller does not send",
               "is read-only");
@@ -172,6 +285,13 @@ void Planner::pdo_writes(const PlannedPdo& planned, PdoObjects which, bool cob_w
   // Bit 30 (no remote request) as the drive has it by default: drives
   // without RTR refuse a COB-ID that clears it.
   const std::uint32_t rtr = static_cast<std::uint32_t>(value(cob).value_or(0)) & kNoRtr;
+  // CiA 301 moves a COB-ID only while the PDO is off: a PDO above PDO4
+  // that is on by default goes off at its own first.
+  const auto own = value(cob);
+  if (cob_writable && which.id_of != 0 && own && (*own & od::kPdoInvalid) == 0) {
+    write(cob, 4, static_cast<std::uint32_t>(*own) | od::kPdoInvalid, name + " COB-ID",
+          "off (at its own COB-ID)");
+  }
   if (cob_writable) {
     write(cob, 4, planned.cob_id | rtr | od::kPdoInvalid, name + " COB-ID", "off");
   }

@@ -114,7 +114,8 @@ class CanopenMaster {
       std::int32_t position_counts{0};
       std::int16_t current_per_mille{0};
       std::int32_t velocity_counts_s{0};
-      bool tpdo1{false};
+      unsigned parts{0};  // the sample's PDOs come: bit 0 `sample`, bit 1 `sample_rest`
+      bool tpdo1{false};  // the sample is whole
       bool tpdo2{false};
     };
     Sample held{};
@@ -152,7 +153,8 @@ class CanopenMaster {
   bool counted() const { return config_.sync_counter_overflow != 0; }
   void handle_tpdo(Drive& d, const delta::can::Frame& f, const PlannedPdo& pdo);
   void take_sync_echo(Drive& d, const delta::can::Frame& f);
-  static void take_held(Drive& d);
+  void take_held(Drive& d) const;
+  static void hold_sample(Drive& d, const delta::can::Frame& f, const PlannedPdo& pdo);
   void fail(const std::string& why);
   Drive* drive_for(std::uint8_t node);
   const JointDrive& joint(const Drive& d) const {

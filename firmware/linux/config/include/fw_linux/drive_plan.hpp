@@ -80,9 +80,12 @@ struct DrivePlan {
   // (non-zero), or read from the drive at bring-up (0 here).
   std::uint32_t rated_current_mA{0};
   std::uint32_t rated_torque_mNm{0};
-  std::string cycle;    // how the drive learns the cycle period, in words
-  PlannedPdo rpdo;      // controlword, target torque[, target position]
-  PlannedPdo sample;    // TPDO: statusword, position actual, the feedback
+  std::string cycle;  // how the drive learns the cycle period, in words
+  PlannedPdo rpdo;    // controlword, target torque[, target position]
+  PlannedPdo sample;  // TPDO: statusword, position actual, the feedback
+  // A second TPDO with what `sample`'s does not carry: a drive whose fixed
+  // TPDO has the feedback, and another TPDO the position (not used: all in one).
+  PlannedPdo sample_rest;
   PlannedPdo velocity;  // TPDO: velocity actual (velocity_pdo only)
   PlannedPdo echo;      // TPDO: the SYNC counter of the sample (sync_counter_overflow > 0 only)
   std::vector<SdoAction> actions;
