@@ -154,6 +154,21 @@ void read_geometry(Section s, RobotDescription& d) {
   s.done();
 }
 
+// "limits": each key optional.
+RobotLimits read_limits(Section s) {
+  RobotLimits l;
+  const auto optional = [&s](const char* key) {
+    return s.has(key) ? std::optional<double>(s.number(key)) : std::nullopt;
+  };
+  l.min_rad = optional("min_rad");
+  l.max_rad = optional("max_rad");
+  l.max_velocity_rad_s = optional("max_velocity_rad_s");
+  l.max_acceleration_rad_s2 = optional("max_acceleration_rad_s2");
+  l.max_torque_Nm = optional("max_torque_Nm");
+  s.done();
+  return l;
+}
+
 void read_joints(Section& top, RobotDescription& d, const std::string& file) {
   const nlohmann::json& j = top.at("joints");
   if (j.is_object()) {  // one drive side for all three joints
@@ -192,6 +207,7 @@ RobotDescription parse(const nlohmann::json& root, const std::string& file) {
   d.platform = read_platform_mass(top.section("platform"));
   d.payload = top.has("payload") ? read_platform_mass(top.section("payload")) : PlatformMass{};
   read_joints(top, d, file);
+  if (top.has("limits")) d.limits = read_limits(top.section("limits"));
   top.done();
   return d;
 }
@@ -282,6 +298,25 @@ void validate_joint(const std::string& where, const std::string& key, const Join
   }
 }
 
+void validate_limits(const std::string& where, const RobotLimits& l) {
+  const auto positive = [&where](const char* key, const std::optional<double>& v) {
+    if (v) require_positive(where, std::string("limits.") + key, *v);
+  };
+  positive("max_velocity_rad_s", l.max_velocity_rad_s);
+  positive("max_acceleration_rad_s2", l.max_acceleration_rad_s2);
+  positive("max_torque_Nm", l.max_torque_Nm);
+  if (l.min_rad && l.max_rad && !(*l.min_rad < *l.max_rad)) {
+    throw InputError(where + ": limits.min_rad: must be below limits.max_rad (" +
+                     number_text(*l.min_rad) + " >= " + number_text(*l.max_rad) + ")");
+  }
+  for (const auto& [key, v] : {std::pair{"min_rad", l.min_rad}, std::pair{"max_rad", l.max_rad}}) {
+    if (v && !(std::abs(*v) < std::numbers::pi)) {
+      throw InputError(where + ": limits." + key + ": must lie within (-pi, pi) rad (got " +
+                       number_text(*v) + ")");
+    }
+  }
+}
+
 }  // namespace
 
 void validate_robot_description(const RobotDescription& d, const std::string& where) {
@@ -320,6 +355,7 @@ void validate_robot_description(const RobotDescription& d, const std::string& wh
                      ": joints: gearbox_stiffness_Nm_per_rad: give all three joints an elastic "
                      "gearbox or none (a robot's gearboxes are of one kind)");
   }
+  validate_limits(where, d.limits);
   // The model is built in its home pose, all arms horizontal.
   if (forward_kinematics(d.geometry, Joint3{0.0, 0.0, 0.0}).status != KinematicsStatus::kOk) {
     throw InputError(where + ": geometry: the robot cannot be assembled with its arms horizontal");

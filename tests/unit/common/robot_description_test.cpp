@@ -158,6 +158,32 @@ TEST(RobotDescriptionTest, TheDriveTrainKeysAreReadAndChecked) {
             "robot.json: joints[0].current_filter_time_constant_s: must not be negative (got -1)");
 }
 
+// "limits": the controller's motion limits for this robot, each key
+// optional; none in the example; checked as the controller checks them.
+TEST(RobotDescriptionTest, TheLimitsAreOptionalAndChecked) {
+  EXPECT_FALSE(read_robot_description(kExample).limits.any());
+  EXPECT_EQ(error_with([](auto& j) {
+              j["limits"] = {{"max_torque_Nm", 40}, {"min_rad", -1.0}};
+            }),
+            "");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["limits"] = {{"max_torque_nm", 40}};
+            }),
+            "robot.json: limits.max_torque_nm: unknown key");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["limits"] = {{"max_torque_Nm", 0}};
+            }),
+            "robot.json: limits.max_torque_Nm: must be positive (got 0)");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["limits"] = {{"min_rad", 0.5}, {"max_rad", 0.5}};
+            }),
+            "robot.json: limits.min_rad: must be below limits.max_rad (0.5 >= 0.5)");
+  EXPECT_EQ(error_with([](auto& j) {
+              j["limits"] = {{"max_rad", 4}};
+            }),
+            "robot.json: limits.max_rad: must lie within (-pi, pi) rad (got 4)");
+}
+
 // Arms that differ: upper_arms gives arm i its own body (null: upper_arm's),
 // which the truth follows per joint; its errors name the entry.
 TEST(RobotDescriptionTest, ArmsThatDifferHaveTheirOwnBodiesAndTruths) {

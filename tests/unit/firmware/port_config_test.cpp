@@ -47,6 +47,50 @@ TEST(PortConfigTest, ReadsKeysOverTheDefaults) {
   EXPECT_EQ(c.joints[0].node, 1);  // default kept
 }
 
+// robot = FILE: the robot description gives the geometry, the gear
+// ratios, the limits it has and the nominal feed-forward; a key also set
+// in the configuration must agree, else both places are named.
+TEST(PortConfigTest, TheRobotDescriptionIsTheOneSourceOfGeometryAndLimits) {
+  std::ifstream in("docs/examples/robot.json");  // tests run in the repository
+  std::string robot((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  robot.replace(robot.find("\"upper_arm_length_m\": 0.2"), 25, "\"upper_arm_length_m\": 0.22");
+  robot.replace(robot.rfind('}'), 1, ", \"limits\": {\"min_rad\": -1.0, \"max_torque_Nm\": 40}}");
+  for (std::size_t at = 0; (at = robot.find("\"gear_ratio\": 10", at)) != std::string::npos;)
+    robot.replace(at, 16, "\"gear_ratio\": 12");
+  const std::string file = scratch_file("robot.json");
+  std::ofstream(file) << robot;
+  const PortConfig c = read_port_config(write_temp("robot = " + file + "\n"));
+  EXPECT_DOUBLE_EQ(c.geometry.upper_arm_length_m, 0.22);
+  EXPECT_DOUBLE_EQ(c.geometry.forearm_length_m, 0.46);
+  EXPECT_DOUBLE_EQ(c.min_rad, -1.0);
+  EXPECT_DOUBLE_EQ(c.max_rad, 1.4);  // the file has none: the controller's default
+  EXPECT_DOUBLE_EQ(c.max_torque_Nm, 40.0);
+  EXPECT_DOUBLE_EQ(c.joints[2].model.gear_ratio, 12.0);
+  EXPECT_NE(describe_robot(c).find("arms 0.22 and 0.46 m"), std::string::npos) << describe_robot(c);
+  // The nominal feed-forward is the description's robot's: a longer arm
+  // carries a third of the platform further out.
+  const double a = 0.22;
+  const delta::LumpedParameters p = delta::lumped_truth(*c.robot);
+  const fw::ControllerConfig core = controller_config(c);
+  EXPECT_NEAR(std::ldexp(core.feed_forward.nominal.arm_inertia_kg_m2.raw(), -19),
+              p.arm_inertia_kg_m2[0] + p.platform_mass_kg * a * a / 3.0, 1e-5);
+  // The same value in both places is taken; another is refused, naming both.
+  EXPECT_EQ(config_error("robot = " + file + "\ngains.max_torque_Nm = 40\n"), "");
+  const std::string e = config_error("robot = " + file + "\ngeometry.upper_arm_length_m = 0.2\n");
+  EXPECT_NE(e.find(":2:31: geometry.upper_arm_length_m = 0.2, but the robot description " + file),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("has geometry.upper_arm_length_m = 0.22: give it in one place"),
+            std::string::npos)
+      << e;
+  EXPECT_NE(config_error("robot = " + file + "\njoint2.gear_ratio = 10\n")
+                .find("has joints[1].gear_ratio = 12"),
+            std::string::npos);
+  EXPECT_NE(config_error("robot = nowhere.json\n").find(":1:9: robot: nowhere.json"),
+            std::string::npos)
+      << config_error("robot = nowhere.json\n");
+}
+
 // trajectory_file fills the custom trajectory's registers: `--run custom`
 // (and trajectory 3 over Modbus) runs the file's excitation.
 TEST(PortConfigTest, ATrajectoryFileBecomesTheCustomTrajectory) {

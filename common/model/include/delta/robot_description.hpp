@@ -85,6 +85,19 @@ struct JointDrive {
   bool elastic() const { return gearbox_stiffness_Nm_per_rad > 0.0; }
 };
 
+// The controller's motion limits for this robot (its limits.* and
+// gains.max_torque_Nm, docs/firmware.md), where the description gives
+// them: delta_fw's `robot = FILE` takes them, `host_id design` designs
+// within them and `host_id simulate` checks its paths against them.
+struct RobotLimits {
+  std::optional<double> min_rad, max_rad;
+  std::optional<double> max_velocity_rad_s, max_acceleration_rad_s2;
+  std::optional<double> max_torque_Nm;  // joint torque
+  bool any() const {
+    return min_rad || max_rad || max_velocity_rad_s || max_acceleration_rad_s2 || max_torque_Nm;
+  }
+};
+
 struct RobotDescription {
   std::string name{"default-delta"};
   Geometry geometry{kDefaultGeometry};
@@ -98,6 +111,7 @@ struct RobotDescription {
   PlatformMass platform{};
   PlatformMass payload{};
   std::array<JointDrive, 3> joints{};
+  RobotLimits limits{};
 
   const UpperArmBody& arm(unsigned i) const { return arm_bodies[i] ? *arm_bodies[i] : upper_arm; }
 };

@@ -130,6 +130,7 @@ int check_config(const Arguments& a) {
     std::cerr << "delta_fw --check-config: 1 problem:\n  " << collision.problem << "\n";
     return fw_linux::kExitUsage;
   }
+  if (config.robot) std::cout << fw_linux::describe_robot(config) << "\n";
   std::cout << fw_linux::describe_feed_forward(config) << "\n";
   std::cout << fw_linux::describe_collision(collision) << "\n";
   const fw_linux::DrivePlans plans = fw_linux::plan_drives(config);

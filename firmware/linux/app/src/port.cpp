@@ -315,6 +315,7 @@ void announce(const PortConfig& config, const RunOptions& options,
               std::ostream& out) {
   out << "delta_fw: " << options.iface << ", " << (realtime ? "real time" : "lock-step") << ", "
       << 1000000 / config.period_us << " Hz\n";
+  if (config.robot) out << "delta_fw: " << describe_robot(config) << "\n";
   if (feed_forward.startup_note().empty()) {
     out << "delta_fw: " << describe_feed_forward(config) << "\n";
   } else {

@@ -128,6 +128,7 @@ void set_config_value(PortConfig& c, const std::string& key, const std::string& 
                       " (docs/firmware.md lists the keys)");
   }
   it->second(c, value, where);
+  c.set_where[key] = where;
 }
 
 // The EDS's non-zero defaults of 0x6075, 0x6076 and 0x608F:1 where the
@@ -196,6 +197,11 @@ PortConfig read_port_config(const std::string& path, std::vector<std::string>* p
 }
 
 void finish_config(PortConfig& c, std::vector<std::string>* problems) {
+  std::vector<std::string> robot_problems;
+  adopt_robot(c, robot_problems);
+  if (problems == nullptr && !robot_problems.empty()) throw ConfigError(robot_problems.front());
+  if (problems != nullptr)
+    problems->insert(problems->end(), robot_problems.begin(), robot_problems.end());
   adopt_eds_values(c);
   if (c.feed_forward_model && !c.feed_forward_set) c.feed_forward = fw::FeedForwardMode::kModel;
   if (problems == nullptr) return validate(c);
@@ -475,12 +481,14 @@ std::pair<std::string, int> split_host_port(const std::string& text, const std::
 namespace {
 
 // The feed-forward of configuration c on geometry g: the nominal one of
-// the default robot (the arm plus a third of the platform at each elbow)
-// unless its keys are given, the mode, and the model where there is one.
+// the robot description (robot = FILE) or else the default robot (the arm
+// plus a third of the platform at each elbow) unless its keys are given,
+// the mode, and the model where there is one.
 fw::FeedForwardConfig feed_forward_config(const PortConfig& c, const fw::GeometryQ& g) {
   using namespace delta::fx;
   fw::FeedForwardConfig f;
-  const delta::LumpedParameters p = delta::default_lumped_parameters();
+  const delta::LumpedParameters p =
+      c.robot ? delta::lumped_truth(*c.robot) : delta::default_lumped_parameters();
   const double a = c.geometry.upper_arm_length_m;
   const double inertia = c.nominal_arm_inertia_kg_m2 >= 0
                              ? c.nominal_arm_inertia_kg_m2

@@ -142,6 +142,17 @@ void read_feed_forward_model(PortConfig& c, const std::string& v, const std::str
   }
 }
 
+// robot = FILE: the robot description, adopted once the whole
+// configuration is read (adopt_robot).
+void read_robot(PortConfig& c, const std::string& v, const std::string& w) {
+  try {
+    c.robot = delta::read_robot_description(v);
+    c.robot_file = v;
+  } catch (const delta::InputError& e) {
+    throw ConfigError(w + ": robot: " + e.what());
+  }
+}
+
 // The custom trajectory's registers, filled from a delta-trajectory/1 file.
 void read_custom_trajectory(PortConfig& c, const std::string& v, const std::string& w) {
   try {
@@ -247,6 +258,7 @@ void add_cycle_keys(Setters& s) {
 
 // The robot's geometry, its limits, the gains and the nominal feed-forward.
 void add_motion_keys(Setters& s) {
+  s["robot"] = read_robot;
   add_geometry(s, "geometry.upper_arm_length_m", &delta::Geometry::upper_arm_length_m);
   add_geometry(s, "geometry.forearm_length_m", &delta::Geometry::forearm_length_m);
   add_geometry(s, "geometry.base_radius_m", &delta::Geometry::base_radius_m);

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -17,6 +18,7 @@
 #include "delta/drive_model.hpp"
 #include "delta/geometry.hpp"
 #include "delta/identified_model.hpp"
+#include "delta/robot_description.hpp"
 #include "fw/controller.hpp"
 #include "fw_linux/allow_list.hpp"
 
@@ -115,6 +117,13 @@ struct PortConfig {
   std::uint16_t controller_heartbeat_timeout_ms{150};
   std::uint32_t sdo_timeout_ms{100};
   std::uint32_t sdo_retries{2};
+  // robot = FILE: the robot description (docs/robot-description.md) gives
+  // the geometry, the gear ratios, the limits it has and the nominal
+  // feed-forward (adopt_robot); a key set here as well must agree.
+  std::string robot_file;
+  std::optional<delta::RobotDescription> robot;
+  // Where each key was set (file:line:column, or "--set KEY").
+  std::map<std::string, std::string> set_where;
   std::array<JointDrive, 3> joints{joint_on_node(1), joint_on_node(2), joint_on_node(3)};
   delta::Geometry geometry{delta::kDefaultGeometry};
 
@@ -184,6 +193,13 @@ void read_config_lines(PortConfig& c, const std::string& path,
 // what the configuration does not set, then validate() (or, with
 // `problems`, every problem added there).
 void finish_config(PortConfig& c, std::vector<std::string>* problems = nullptr);
+
+// robot = FILE's values where the configuration does not set their keys;
+// a key it sets to another value is a problem naming both places.
+void adopt_robot(PortConfig& c, std::vector<std::string>& problems);
+// "robot: FILE (NAME): arms ..., gear ratios ...; joint range ..." as the
+// controller runs it; "" without robot = FILE.
+std::string describe_robot(const PortConfig& c);
 
 // Applies one `key = value` (the file's lines and --set on the command line
 // use it). `where` prefixes error messages ("file:line:column").
