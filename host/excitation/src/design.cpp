@@ -44,9 +44,10 @@ class Evaluator {
     return e;
   }
 
-  // The samples t0, t0 + dt, ... below t1, against the limits times margin.
-  void add(const delta::BlendedFourierTrajectory& t, double t0, double t1, double dt, double margin,
-           Evaluation& e) const {
+  // The samples t0, t0 + dt, ... below t1 of a path (anything with
+  // at(time)), against the limits times margin.
+  template <class Path>
+  void add(const Path& t, double t0, double t1, double dt, double margin, Evaluation& e) const {
     for (double time = t0; time < t1; time += dt) sample(t.at(time), time, margin, e);
   }
 
@@ -228,6 +229,29 @@ ExcitationQuality excitation_quality(const delta::BlendedFourierTrajectory& t,
     }
   }
   return q;
+}
+
+DesignLimits with_robot_limits(DesignLimits base, const delta::RobotLimits& robot) {
+  base.min_rad = robot.min_rad.value_or(base.min_rad);
+  base.max_rad = robot.max_rad.value_or(base.max_rad);
+  base.max_velocity_rad_s = robot.max_velocity_rad_s.value_or(base.max_velocity_rad_s);
+  base.max_acceleration_rad_s2 =
+      robot.max_acceleration_rad_s2.value_or(base.max_acceleration_rad_s2);
+  base.max_torque_Nm = robot.max_torque_Nm.value_or(base.max_torque_Nm);
+  return base;
+}
+
+std::string limit_violation(const std::function<delta::JointState(double)>& path, double duration_s,
+                            const DesignOptions& options, const delta::RobotDescription& robot,
+                            double check_rate_hz) {
+  struct At {
+    const std::function<delta::JointState(double)>& f;
+    delta::JointState at(double t) const { return f(t); }
+  };
+  const Evaluator ev(options, robot);
+  Evaluation e = ev.start();
+  ev.add(At{path}, 0.0, duration_s + 0.5 / check_rate_hz, 1.0 / check_rate_hz, 1.0, e);
+  return e.first_violation;
 }
 
 DesignResult design_excitation(const DesignOptions& options, const delta::RobotDescription& robot) {

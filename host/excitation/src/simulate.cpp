@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -260,13 +261,25 @@ void add_measurement_effects(const SimulateOptions& o, DeltaLog& log) {
 
 }  // namespace
 
-DeltaLog simulate_log(const SimulateOptions& options) {
+// The options as the simulation runs them: a multibody plant's geometry
+// and gravity are its robot's.
+SimulateOptions as_run(const SimulateOptions& options) {
   SimulateOptions o = options;
   if (o.plant == SimulatedPlant::kMujoco) {
     o.geometry = o.robot.geometry;
     o.parameters.gravity_m_s2 = o.robot.gravity_m_s2;
   }
   check_options(o);
+  return o;
+}
+
+std::function<delta::JointState(double)> simulated_path(const SimulateOptions& options) {
+  const auto path = std::make_shared<const Path>(as_run(options));
+  return [path](double t) { return path->at(t); };
+}
+
+DeltaLog simulate_log(const SimulateOptions& options) {
+  const SimulateOptions o = as_run(options);
   const Path path(o);
   DeltaLog log = o.plant == SimulatedPlant::kMujoco ? followed_log(o, path) : exact_log(o, path);
   add_measurement_effects(o, log);

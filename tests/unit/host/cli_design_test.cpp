@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -120,6 +121,45 @@ TEST_F(CliTest, DesignKeepsAJointRangeAboveZero) {
   for (unsigned j = 0; j < 3; ++j) {
     EXPECT_GE(*std::min_element(log.q[j].begin(), log.q[j].end()), 0.1) << "joint " << j + 1;
   }
+}
+
+// The robot description's limits (its "limits") are the controller's
+// (robot = FILE): design designs within them where no option says
+// otherwise and records them, and simulate checks its built-in paths
+// against them (a path without them is not checked, as before).
+TEST_F(CliTest, DesignAndSimulateTakeTheRobotDescriptionsLimits) {
+  auto robot = nlohmann::json::parse(delta::read_whole_file("docs/examples/robot.json"));
+  robot["limits"] = {{"min_rad", -0.4}, {"max_torque_Nm", 40.0}};
+  std::ofstream(path("robot.json")) << robot.dump();
+  ASSERT_EQ(run({"design", "-o", path("t.json"), "--robot", path("robot.json"), "--max-rad", "1.3",
+                 "--iterations", "20", "--json"}),
+            0)
+      << err_.str();
+  const auto limits = nlohmann::json::parse(out_.str())["limits"];
+  EXPECT_EQ(limits["min_rad"].get<double>(), -0.4);            // the file's
+  EXPECT_EQ(limits["max_torque_Nm"].get<double>(), 40.0);      // the file's
+  EXPECT_EQ(limits["max_rad"].get<double>(), 1.3);             // the option's
+  EXPECT_EQ(limits["max_velocity_rad_s"].get<double>(), 6.0);  // the controller's default
+  ASSERT_EQ(run({"simulate", "--trajectory-file", path("t.json"), "--with-derivatives", "-o",
+                 path("d.csv")}),
+            0)
+      << err_.str();
+  const DeltaLog log = read_delta_log(path("d.csv"));
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_GE(*std::min_element(log.q[j].begin(), log.q[j].end()), -0.4) << "joint " << j + 1;
+  }
+  // The built-in Fourier path at 0.8 rad leaves [-0.4, 1.4]: refused with
+  // the file's limits, simulated without them.
+  EXPECT_EQ(
+      run({"simulate", "--robot", path("robot.json"), "--amplitude", "0.8", "-o", path("f.csv")}),
+      1);
+  EXPECT_NE(err_.str().find("the fourier path: the trajectory breaks the controller's limits "
+                            "(joint range at t = "),
+            std::string::npos)
+      << err_.str();
+  EXPECT_NE(err_.str().find(path("robot.json") + "'s limits)"), std::string::npos) << err_.str();
+  EXPECT_FALSE(exists("f.csv"));
+  EXPECT_EQ(run({"simulate", "--amplitude", "0.8", "-o", path("f.csv")}), 0) << err_.str();
 }
 
 TEST_F(CliTest, DesignRefusesWhatTheControllerCannotRun) {

@@ -27,6 +27,9 @@ struct DesignArguments {
   bool json{false};
   bool quiet{false};
   DesignOptions design{default_design_options()};
+  // Each limit's option, given or not: the robot description's limits
+  // (--robot) hold where the option is not given.
+  std::vector<CLI::Option*> limit_options;
 };
 
 void add_trajectory_options(CLI::App& c, DesignArguments& a) {
@@ -60,29 +63,32 @@ void add_trajectory_options(CLI::App& c, DesignArguments& a) {
       ->group(g);
 }
 
-void add_limit_options(CLI::App& c, DesignLimits& l) {
-  const char* g = "limits (the controller's defaults)";
-  c.add_option("--min-rad", l.min_rad, "joint range, lower end")
-      ->check(kFinite)
-      ->capture_default_str()
-      ->group(g);
-  c.add_option("--max-rad", l.max_rad, "joint range, upper end")
-      ->check(kFinite)
-      ->capture_default_str()
-      ->group(g);
-  c.add_option("--max-velocity", l.max_velocity_rad_s, "rad/s")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group(g);
-  c.add_option("--max-acceleration", l.max_acceleration_rad_s2, "rad/s^2")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group(g);
-  c.add_option("--max-torque", l.max_torque_Nm,
-               "joint torque with the robot's nominal parameters, N m")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group(g);
+void add_limit_options(CLI::App& c, DesignArguments& a) {
+  DesignLimits& l = a.design.limits;
+  const char* g =
+      "limits (the robot description's where --robot gives them, else the controller's "
+      "defaults)";
+  a.limit_options = {
+      c.add_option("--min-rad", l.min_rad, "joint range, lower end")->check(kFinite),
+      c.add_option("--max-rad", l.max_rad, "joint range, upper end")->check(kFinite),
+      c.add_option("--max-velocity", l.max_velocity_rad_s, "rad/s")->check(kPositive),
+      c.add_option("--max-acceleration", l.max_acceleration_rad_s2, "rad/s^2")->check(kPositive),
+      c.add_option("--max-torque", l.max_torque_Nm,
+                   "joint torque with the robot's nominal parameters, N m")
+          ->check(kPositive)};
+  for (CLI::Option* o : a.limit_options) o->capture_default_str()->group(g);
+}
+
+// The robot description's limits where no option gives them.
+void adopt_robot_limits(DesignArguments& a, const delta::RobotLimits& robot) {
+  DesignLimits& l = a.design.limits;
+  const DesignLimits from_robot = with_robot_limits(l, robot);
+  double DesignLimits::*const fields[] = {
+      &DesignLimits::min_rad, &DesignLimits::max_rad, &DesignLimits::max_velocity_rad_s,
+      &DesignLimits::max_acceleration_rad_s2, &DesignLimits::max_torque_Nm};
+  for (std::size_t i = 0; i < a.limit_options.size(); ++i) {
+    if (a.limit_options[i]->count() == 0) l.*fields[i] = from_robot.*fields[i];
+  }
 }
 
 void add_search_options(CLI::App& c, DesignArguments& a) {
@@ -186,14 +192,16 @@ int run_design(DesignArguments a, std::ostream& out) {
       << delta::controller::kMaxTrajectoryTicks << " ticks of 1 ms, docs/modbus.md)";
     throw UsageError(m.str());
   }
-  if (const DesignLimits& l = a.design.limits; !(l.min_rad < l.max_rad)) {
-    std::ostringstream m;
-    m << "--min-rad (" << l.min_rad << ") must be below --max-rad (" << l.max_rad << ")";
-    throw UsageError(m.str());
-  }
   const delta::RobotDescription robot = a.robot_path.empty()
                                             ? delta::default_robot_description()
                                             : delta::read_robot_description(a.robot_path);
+  adopt_robot_limits(a, robot.limits);
+  if (const DesignLimits& l = a.design.limits; !(l.min_rad < l.max_rad)) {
+    std::ostringstream m;
+    m << "--min-rad (" << l.min_rad << ") must be below --max-rad (" << l.max_rad
+      << ") (with the robot description's limits where an option is not given)";
+    throw UsageError(m.str());
+  }
   ProgressBar bar("design", a.quiet);
   a.design.pso.progress = [&bar](std::size_t it, std::size_t max, double c) {
     char cost[48];
@@ -210,6 +218,12 @@ int run_design(DesignArguments a, std::ostream& out) {
                            {"model", a.design.model.name},
                            {"criterion", a.criterion},
                            {"designed", quality_json(d.quality, *model)},
+                           {"limits",
+                            {{"min_rad", a.design.limits.min_rad},
+                             {"max_rad", a.design.limits.max_rad},
+                             {"max_velocity_rad_s", a.design.limits.max_velocity_rad_s},
+                             {"max_acceleration_rad_s2", a.design.limits.max_acceleration_rad_s2},
+                             {"max_torque_Nm", a.design.limits.max_torque_Nm}}},
                            {"compared_with", a.compare},
                            {"preset", quality_json(preset, *model)}};
   delta::write_file_atomically(a.out_path, delta::format_trajectory(d.trajectory, design.dump()));
@@ -241,7 +255,7 @@ void add_design_command(CLI::App& command, CommandContext& context) {
   c->add_flag("--json", a->json, "print the design's summary as JSON");
   c->add_flag("--quiet", a->quiet, "no progress bar");
   add_trajectory_options(*c, *a);
-  add_limit_options(*c, a->design.limits);
+  add_limit_options(*c, *a);
   add_search_options(*c, *a);
   c->callback([a, &context] { context.exit_code = run_design(*a, context.out); });
 }

@@ -74,15 +74,24 @@ void add_measurement_options(CLI::App& c, SimulateOptions& s) {
   c.add_option("--name", s.name, "the log's trajectory name");
 }
 
-// A trajectory file the controller would refuse (the limits design keeps:
-// docs/firmware.md, limits.* and gains.max_torque_Nm, on the robot simulated)
-// is an error, or with --ignore-limits a warning.
-void check_limits(const SimulateArguments& a, const delta::BlendedFourierTrajectory& t,
-                  const delta::RobotDescription& robot, std::ostream& err) {
-  const ExcitationQuality q = excitation_quality(t, default_design_options(), robot);
-  if (q.feasible) return;
-  const std::string what = a.trajectory_file + ": the trajectory breaks the controller's limits (" +
-                           q.violation + "; docs/firmware.md, limits and gains.max_torque_Nm)";
+// A path the controller would refuse (the limits design keeps:
+// docs/firmware.md, limits.* and gains.max_torque_Nm, or those the robot
+// description gives, on the robot simulated) is an error, or with
+// --ignore-limits a warning: a trajectory file always, a built-in path
+// where the robot description gives limits.
+void check_limits(const SimulateArguments& a, const SimulateOptions& s, std::ostream& err) {
+  const bool file = s.trajectory_file.has_value();
+  if (!file && !s.robot.limits.any()) return;
+  DesignOptions o = default_design_options();
+  o.limits = with_robot_limits(o.limits, s.robot.limits);
+  const std::string violation = limit_violation(simulated_path(s), s.duration_s, o, s.robot);
+  if (violation.empty()) return;
+  const std::string path = file ? a.trajectory_file : "the " + s.trajectory + " path";
+  const std::string limits = s.robot.limits.any()
+                                 ? a.robot_path + "'s limits"
+                                 : "docs/firmware.md, limits and gains.max_torque_Nm";
+  const std::string what =
+      path + ": the trajectory breaks the controller's limits (" + violation + "; " + limits + ")";
   if (!a.ignore_limits) {
     throw delta::InputError(what +
                             ": delta_fw would refuse it. Design one within them (host_id design), "
@@ -115,7 +124,7 @@ SimulateOptions simulate_options(const SimulateArguments& a, std::ostream& err) 
     s.plant = SimulatedPlant::kMujoco;
   }
   if (!a.params_path.empty()) s.parameters = delta::read_lumped_parameters(a.params_path);
-  if (s.trajectory_file) check_limits(a, *s.trajectory_file, s.robot, err);
+  check_limits(a, s, err);
   return s;
 }
 

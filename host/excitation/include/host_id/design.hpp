@@ -9,6 +9,7 @@
 // the robot's nominal parameters.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct DesignLimits {
   double max_acceleration_rad_s2{150.0};
   double max_torque_Nm{8.0};
 };
+
+// `base` with the limits the robot description gives (its "limits").
+DesignLimits with_robot_limits(DesignLimits base, const delta::RobotLimits& robot);
 
 enum class DesignCriterion { kConditionNumber, kLogDet };
 
@@ -73,6 +77,13 @@ ExcitationQuality excitation_quality(const delta::BlendedFourierTrajectory& t,
                                      const DesignOptions& options,
                                      const delta::RobotDescription& robot,
                                      double check_rate_hz = 1000.0);
+
+// The first of the options' limits a path breaks over [0, duration_s]
+// (joint range, velocity, acceleration, workspace, the torque with the
+// robot's nominal parameters), checked every 1 / check_rate_hz; "" if none.
+std::string limit_violation(const std::function<delta::JointState(double)>& path, double duration_s,
+                            const DesignOptions& options, const delta::RobotDescription& robot,
+                            double check_rate_hz = 1000.0);
 
 struct DesignResult {
   delta::BlendedFourierTrajectory trajectory;

@@ -56,4 +56,8 @@ struct SimulateOptions {
 // the workspace.
 DeltaLog simulate_log(const SimulateOptions& options);
 
+// The joint states the simulation follows, as a function of time (for a
+// check of its limits before it runs). Throws as simulate_log does.
+std::function<delta::JointState(double)> simulated_path(const SimulateOptions& options);
+
 }  // namespace host_id
