@@ -42,6 +42,11 @@ bool CommissionedDrives::set(const std::string& assignment, const std::string& w
   }
   const std::string key = trimmed(assignment.substr(0, eq));
   const std::string value = trimmed(assignment.substr(eq + 1));
+  if (key == "robot") {  // the robot description the controller takes (robot = FILE)
+    robot = value;
+    taken.push_back(key + "=" + value);
+    return true;
+  }
   if (key == "approach_s" || key == "stop_s") {  // the arm tracking line's span
     (key == "approach_s" ? approach_s : stop_s) = number_in(value, where + ": " + key, 3600.0);
     taken.push_back(key + "=" + value);

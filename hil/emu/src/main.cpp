@@ -54,6 +54,9 @@ void configure_plant(const std::string& plant, const std::string& robot_path,
                      const std::string& truth_path, emu::EmulatorConfig& config) {
   if (!robot_path.empty()) config.robot = delta::read_robot_description(robot_path);
   config.geometry = config.robot.geometry;
+  // The drives turn the motors by the robot's gear ratios (the controller
+  // takes them from the same file: robot = FILE).
+  for (unsigned j = 0; j < 3; ++j) config.drives[j].gear_ratio = config.robot.joints[j].gear_ratio;
   if (plant == "mujoco") {
     if (!truth_path.empty()) throw CLI::ValidationError("--truth", "only with --plant lumped");
     config.plant = emu::PlantKind::kMujoco;
@@ -166,6 +169,14 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
 void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
                      std::optional<delta::canopen::Eds>& eds, emu::CommissionedDrives& drives) {
   if (!a.config_path.empty()) drives.read_config(a.config_path);
+  // The controller's robot = FILE is the emulated robot, unless --robot
+  // says otherwise (the same file, or an error).
+  std::string robot_path = a.robot_path;
+  if (drives.robot && !robot_path.empty() && *drives.robot != robot_path) {
+    throw std::invalid_argument("--robot " + robot_path + " and " + a.config_path +
+                                "'s robot = " + *drives.robot + " differ: which robot is it?");
+  }
+  if (drives.robot) robot_path = *drives.robot;
   // The file's span, unless the options give one.
   if (drives.approach_s && !a.approach_given->count()) config.approach_s = *drives.approach_s;
   if (drives.stop_s && !a.stop_given->count()) config.stop_s = *drives.stop_s;
@@ -184,7 +195,7 @@ void apply_arguments(const EmulatorArguments& a, emu::EmulatorConfig& config,
   config.torque_unit = a.torque_unit == "mA"    ? emu::TorqueUnit::kMilliamp
                        : a.torque_unit == "mNm" ? emu::TorqueUnit::kMilliNewtonMetre
                                                 : emu::TorqueUnit::kPerMille;
-  configure_plant(a.plant, a.robot_path, a.truth->count() ? a.truth_path : std::string(), config);
+  configure_plant(a.plant, robot_path, a.truth->count() ? a.truth_path : std::string(), config);
   for (const std::string& f : a.faults) config.faults.push_back(emu::parse_fault(f));
   config.report = [](const std::string& line) { std::cout << line << std::endl; };
 }

@@ -551,6 +551,9 @@ TEST(EmulatedVendorDriveTest, TakesTheValuesItWasCommissionedWith) {
                                       "joint3.torque_unit=mA", "joint2.inverted=yes",
                                       "approach_s=3", "joint1.rated_current_A=3"}));
   EXPECT_EQ(drives.approach_s, 3.0);
+  // robot = FILE is the robot the emulator moves (its --robot).
+  EXPECT_TRUE(drives.set("robot = robot.json", "delta.conf:9"));
+  EXPECT_EQ(drives.robot, std::optional<std::string>("robot.json"));
   EXPECT_TRUE(drives.applied(1, {}).inverted);
   Bus bus;
   bus.emulator.use_eds(delta::canopen::read_eds(DELTA_DRIVES_DIR "/epos4.eds"));

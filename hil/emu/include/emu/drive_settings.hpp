@@ -34,6 +34,8 @@ struct CommissionedDrives {
   // The controller's approach_s and stop_s: the arm tracking line's span.
   std::optional<double> approach_s;
   std::optional<double> stop_s;
+  // The controller's robot = FILE: the robot the emulator moves (--robot).
+  std::optional<std::string> robot;
   std::vector<std::string> taken;  // KEY=VALUE of each value set, in order
 
   // One `jointN.KEY=VALUE` (or `jointN.KEY = VALUE`); `where` names it in
