@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -105,6 +106,23 @@ class Flashing : public ::testing::Test {
     return boot_->err();
   }
   std::string path(const std::string& name) const { return dir_ + "/" + name; }
+  // Key pairs WHO.key and WHO.pub.
+  void keygen(std::initializer_list<const char*> who) {
+    for (const std::string w : who) {
+      ASSERT_EQ(
+          host_id({"image", "keygen", "--secret", path(w + ".key"), "--public", path(w + ".pub")})
+              .code,
+          0);
+    }
+  }
+  // The build's delta_fw image, signed with `key`, is the one installed.
+  void install_signed_with(const std::string& key) {
+    ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw.img", "--key", path(key), "-o",
+                       path("installed.img")})
+                  .code,
+              0);
+    install_ = path("installed.img");
+  }
 
   const testsupport::ScratchDirectory scratch_{"delta_flash"};
   const std::string dir_ = scratch_.path();
@@ -192,22 +210,12 @@ TEST_F(Flashing, AnImageForAnotherProductIsRefusedHereAndByTheController) {
 }
 
 TEST_F(Flashing, ASignedControllerRefusesUnsignedAndWronglySignedImages) {
-  for (const char* who : {"ours", "theirs"}) {
-    ASSERT_EQ(host_id({"image", "keygen", "--secret", path(std::string(who) + ".key"), "--public",
-                       path(std::string(who) + ".pub")})
-                  .code,
-              0);
-  }
+  keygen({"ours", "theirs"});
   const std::string next = wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion);
   ASSERT_EQ(
       host_id({"image", "sign", next, "--key", path("theirs.key"), "-o", path("theirs.img")}).code,
       0);
-  // The installed program is signed with our key too.
-  ASSERT_EQ(host_id({"image", "sign", kBin + "/delta_fw.img", "--key", path("ours.key"), "-o",
-                     path("installed.img")})
-                .code,
-            0);
-  install_ = path("installed.img");
+  install_signed_with("ours.key");  // the installed program is signed with our key too
   start({"--public-key", path("ours.pub")});
   const ToolRun unsigned_run = host_id({"flash", next, "--can", kIface});
   EXPECT_EQ(unsigned_run.code, 3) << unsigned_run.err;
@@ -220,6 +228,56 @@ TEST_F(Flashing, ASignedControllerRefusesUnsignedAndWronglySignedImages) {
       host_id({"image", "sign", next, "--key", path("ours.key"), "-o", path("ours.img")}).code, 0);
   const ToolRun ours = host_id({"flash", path("ours.img"), "--can", kIface});
   EXPECT_EQ(ours.code, 0) << ours.err << log();
+  EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
+}
+
+// A key image (docs/security.md) replaces the installed key over the bus
+// only when it is signed with it: signed with another key or unsigned, the
+// controller refuses it as it arrives; signed with the installed key, the
+// new key is installed, delta_fw restarts with it (0x2F00:3), the running
+// program still runs, and from then on an image signed with the old key
+// is refused and one signed with the new key is flashed.
+TEST_F(Flashing, AKeyImageSignedWithTheInstalledKeyReplacesItOverTheBus) {
+  keygen({"ours", "theirs", "next"});
+  install_signed_with("ours.key");
+  start({"--public-key", path("ours.pub")});
+  ASSERT_EQ(
+      host_id({"image", "key", path("next.pub"), "-o", path("key.img"), "--version", "1.0.0"}).code,
+      0);
+  const ToolRun unsigned_run = host_id({"flash", path("key.img"), "--can", kIface});
+  EXPECT_EQ(unsigned_run.code, 3) << unsigned_run.err;
+  EXPECT_NE(unsigned_run.err.find("image is not signed"), std::string::npos) << unsigned_run.err;
+  ASSERT_EQ(host_id({"image", "sign", path("key.img"), "--key", path("theirs.key"), "-o",
+                     path("key-theirs.img")})
+                .code,
+            0);
+  const ToolRun theirs = host_id({"flash", path("key-theirs.img"), "--can", kIface});
+  EXPECT_EQ(theirs.code, 3) << theirs.err;
+  EXPECT_NE(theirs.err.find("signature"), std::string::npos) << theirs.err;
+  ASSERT_EQ(host_id({"image", "sign", path("key.img"), "--key", path("ours.key")}).code, 0);
+  const ToolRun ours = host_id({"flash", path("key.img"), "--can", kIface});
+  ASSERT_EQ(ours.code, 0) << ours.err << log();
+  const std::string next_key = bytes_of(path("next.pub")).size() >= 8
+                                   ? std::string(bytes_of(path("next.pub")).data(), 8)
+                                   : std::string();
+  std::string upper = next_key;
+  for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  EXPECT_NE(ours.out.find("replaced its public key ("), std::string::npos) << ours.out;
+  EXPECT_NE(ours.out.find(" by " + upper + "...)"), std::string::npos) << ours.out;
+  EXPECT_NE(log().find("by a key image signed with the old key"), std::string::npos) << log();
+  EXPECT_EQ(read_text("0x100A"), kVersion + "\n");  // the same program runs on
+  const std::string next = wrapper_image(dir_, "next", kBin + "/delta_fw_next", kNextVersion);
+  ASSERT_EQ(
+      host_id({"image", "sign", next, "--key", path("ours.key"), "-o", path("old-key.img")}).code,
+      0);
+  const ToolRun old_key = host_id({"flash", path("old-key.img"), "--can", kIface});
+  EXPECT_EQ(old_key.code, 3) << old_key.err;
+  EXPECT_NE(old_key.err.find("signature"), std::string::npos) << old_key.err;
+  ASSERT_EQ(
+      host_id({"image", "sign", next, "--key", path("next.key"), "-o", path("new-key.img")}).code,
+      0);
+  const ToolRun new_key = host_id({"flash", path("new-key.img"), "--can", kIface});
+  EXPECT_EQ(new_key.code, 0) << new_key.err << log();
   EXPECT_EQ(read_text("0x100A"), kNextVersion + "\n");
 }
 

@@ -224,6 +224,62 @@ with tempfile.TemporaryDirectory() as work:
     check(code == 7 and "started slot 0" not in log,
           "an image signed with the old key no longer starts: %r\n%s" % (code, log))
 
+def key_image(work, name, public, secret=None):
+    """A key image of `public` (host_id image key), signed with `secret`."""
+    image = os.path.join(work, name + ".img")
+    subprocess.run([HOST_ID, "image", "key", public, "-o", image, "--version", "1.0.0"],
+                   check=True, capture_output=True)
+    if secret:
+        subprocess.run([HOST_ID, "image", "sign", image, "--key", secret], check=True,
+                       capture_output=True)
+    return image
+
+
+# A key image (docs/security.md) replaces the installed key only when it is
+# signed with it: one signed with another key and an unsigned one are
+# refused, the key stays; one signed with the installed key installs its
+# key, the program restarts, the slot the old key vouched for still starts
+# (also after a restart), and from then on only images signed with the new
+# key are taken.
+with tempfile.TemporaryDirectory() as work:
+    os.mkdir(os.path.join(work, "state"))
+    os.mkfifo(os.path.join(work, "fifo"))
+    secret_a, public_a = keys(work, "a")
+    secret_b, public_b = keys(work, "b")
+    secret_c, _ = keys(work, "c")
+    v1 = make_image(work, "v1", V1, "1.0.0")
+    subprocess.run([HOST_ID, "image", "sign", v1, "--key", secret_a], check=True,
+                   capture_output=True)
+    installed = os.path.join(work, "state", "public.key")
+    boot = Boot(work, ["--install", v1, "--public-key", public_a, "--trial-timeout", "2"])
+    check(boot.wait_for("started slot 0 (version 1.0.0"), "key image: v1 starts\n" + boot.log)
+    for name, secret, why in (("by-c", secret_c, "image signature does not verify"),
+                              ("unsigned", None, "image is not signed")):
+        command(work, "stage " + key_image(work, name, public_b, secret))
+        check(boot.wait_for("refused the key image: " + why),
+              "key image %s refused\n%s" % (name, boot.log))
+        with open(installed) as f, open(public_a) as g:
+            check(f.read() == g.read(), "key image %s: the installed key stays" % name)
+    command(work, "stage " + key_image(work, "by-a", public_b, secret_a))
+    check(boot.wait_for("by a key image signed with the old key"), "key image taken\n" + boot.log)
+    check(boot.wait_for("restarting the program\ndelta_boot: started slot 0 (version 1.0.0"),
+          "the program restarts, the old key's slot still starts\n" + boot.log)
+    with open(installed) as f, open(public_b) as g:
+        check(f.read() == g.read(), "state/public.key is the key image's")
+    v2_old = make_image(work, "v2-old", CONFIRMS, "1.1.0")
+    subprocess.run([HOST_ID, "image", "sign", v2_old, "--key", secret_a], check=True,
+                   capture_output=True)
+    command(work, "stage " + v2_old)
+    check(boot.wait_for("refused the downloaded image: "), "old key's image refused\n" + boot.log)
+    v2_new = make_image(work, "v2-new", CONFIRMS, "1.1.0")
+    subprocess.run([HOST_ID, "image", "sign", v2_new, "--key", secret_b], check=True,
+                   capture_output=True)
+    command(work, "stage " + v2_new)
+    check(boot.wait_for("staged slot 1 (version 1.1.0"), "new key's image staged\n" + boot.log)
+    boot.stop()
+    log = boot_until(work, [], "started slot 0")
+    check("started slot 0 (version 1.0.0" in log, "after a restart slot 0 still starts\n" + log)
+
 with tempfile.TemporaryDirectory() as work:
     os.mkdir(os.path.join(work, "state"))
     p = subprocess.run([DELTA_BOOT, "--state-dir", os.path.join(work, "state")],
@@ -239,5 +295,5 @@ with tempfile.TemporaryDirectory() as work:
 
 if failures:
     sys.exit("%d check(s) failed" % len(failures))
-print("delta_boot: confirm, crash, power loss, the public key installed once, empty folder and "
-      "corrupt record behave as documented")
+print("delta_boot: confirm, crash, power loss, the public key installed once and replaced by a "
+      "key image signed with it, empty folder and corrupt record behave as documented")

@@ -27,6 +27,7 @@ std::vector<std::uint8_t> make_image(const ImageFields& fields,
   }
   h.identity = fields.identity;
   h.version = fields.version;
+  if (fields.public_key) h.flags = kFlagPublicKey;
   h.payload_bytes = static_cast<std::uint32_t>(program.size());
   h.payload_crc32 = crc32(program);
   h.payload_sha256 = sha256(program);
@@ -36,6 +37,21 @@ std::vector<std::uint8_t> make_image(const ImageFields& fields,
   std::copy(raw.begin(), raw.end(), out.begin());
   std::copy(program.begin(), program.end(), out.begin() + kHeaderBytes);
   return out;
+}
+
+std::vector<std::uint8_t> make_key_image(ImageFields fields, const PublicKey& key) {
+  fields.public_key = true;
+  return make_image(fields, key);
+}
+
+std::optional<PublicKey> key_of(const CheckedImage& image) {
+  if (image.verdict != Verdict::kOk || !image.header || !image.header->is_public_key() ||
+      image.header->payload_bytes != 32 || image.bytes.size() != kHeaderBytes + 32) {
+    return std::nullopt;
+  }
+  PublicKey key;
+  std::copy(image.bytes.begin() + kHeaderBytes, image.bytes.end(), key.begin());
+  return key;
 }
 
 CheckedImage check_image(std::vector<std::uint8_t> bytes) {

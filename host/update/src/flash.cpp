@@ -217,6 +217,53 @@ up::CheckedImage checked_image(const FlashOptions& o, std::ostream& err) {
   return image;
 }
 
+// The first 4 bytes of a key, as 0x2F00:3 shows them.
+std::uint32_t key_prefix(const up::PublicKey& k) {
+  return std::uint32_t{k[0]} << 24 | std::uint32_t{k[1]} << 16 | std::uint32_t{k[2]} << 8 | k[3];
+}
+
+// A key image (docs/security.md): delta_boot takes it as soon as it is in,
+// then restarts the program, which shows the new key in 0x2F00:3. Nothing
+// is started; the version is not compared.
+FlashReport flash_key_image(ControllerSession& session, const up::CheckedImage& image,
+                            const TargetCheck& target, const FlashOptions& o, std::ostream& err) {
+  const up::PublicKey next = *up::key_of(image);
+  const std::uint32_t before = session.read_u32(0x2F00, 3);
+  if (before == 0) {
+    throw FlashError{"node " + std::to_string(o.node) +
+                         " has no public key installed (0x2F00:3 = 0): a key image replaces one, "
+                         "signed with it; the first key is installed on the controller "
+                         "(delta_boot --public-key, docs/security.md)",
+                     kExitFlashRefusedHere};
+  }
+  const delta::can::SdoOutcome sent = download(session, image.bytes, o, err);
+  if (!sent.ok()) throw session.failure(0x1F50, 1, sent);
+  const auto until =
+      Clock::now() + std::chrono::milliseconds(static_cast<long>(o.confirm_timeout_s * 1000));
+  if (session.await_boot_up(until)) {
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      try {
+        if (session.read_u32(0x2F00, 3) == key_prefix(next)) {
+          return {target.running,
+                  target.running,
+                  std::pair{before, key_prefix(next)},
+                  image.bytes.size(),
+                  static_cast<double>(sent.elapsed_us) * 1e-6,
+                  sent.frames_sent};
+        }
+      } catch (const FlashError&) {  // not answering yet while it starts
+      }
+      session.await_boot_up(Clock::now() + std::chrono::milliseconds(100));  // paces the polling
+    }
+  }
+  throw FlashError{"node " + std::to_string(o.node) +
+                       " did not take the key (its program did not restart with it within " +
+                       std::to_string(o.confirm_timeout_s) +
+                       " s): delta_boot's log says why, e.g. an image not signed with the "
+                       "installed key",
+                   kExitFlashNotConfirmed};
+}
+
 }  // namespace
 
 FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
@@ -229,8 +276,17 @@ FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
   const NodeIdentity node{
       {session.read_u32(0x1018, 1), session.read_u32(0x1018, 2), session.read_u32(0x1018, 3)},
       session.read_text(0x100A)};
-  const TargetCheck target = check_target(h, node, o);
+  FlashOptions as_checked = o;
+  as_checked.allow_downgrade = o.allow_downgrade || h.is_public_key();  // a key has no version
+  const TargetCheck target = check_target(h, node, as_checked);
   if (target.warning) err << "host_id flash: warning: " << *target.warning << "\n";
+  if (h.is_public_key()) {
+    if (!up::key_of(image)) {
+      throw FlashError{o.image + ": a key image whose payload is not a 32-byte key",
+                       kExitFlashRefusedHere};
+    }
+    return flash_key_image(session, image, target, o, err);
+  }
   if (!o.quiet) {
     err << "host_id: node " << o.node << " runs " << up::version_text(target.running)
         << "; sending " << o.image << " (version " << up::version_text(h.version) << ", "
@@ -249,8 +305,12 @@ FlashReport flash_image(const FlashOptions& o, std::ostream& err) {
     err << "host_id: verified (CRC-32 " << hex32(crc) << "); started; waiting for it to confirm\n";
   }
   await_confirmation(session, h, o);
-  return {target.running, h.version, image.bytes.size(),
-          static_cast<double>(sent.elapsed_us) * 1e-6, sent.frames_sent};
+  return {target.running,
+          h.version,
+          std::nullopt,
+          image.bytes.size(),
+          static_cast<double>(sent.elapsed_us) * 1e-6,
+          sent.frames_sent};
 }
 
 }  // namespace host_id

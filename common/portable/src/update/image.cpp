@@ -134,7 +134,7 @@ Verdict decode_header(const HeaderBytes& in, ImageHeader& out) {
   }
   if (!all_zero(in, kOffsetReservedA, kOffsetSignature) ||
       !all_zero(in, kOffsetReservedB, kOffsetHeaderCrc) ||
-      (get_le16(in, kOffsetFlags) & ~kFlagSigned) != 0) {
+      (get_le16(in, kOffsetFlags) & ~(kFlagSigned | kFlagPublicKey)) != 0) {
     return Verdict::kReservedNotZero;
   }
   out.identity = {get_le32(in, kOffsetIdentity), get_le32(in, kOffsetIdentity + 4),

@@ -227,7 +227,7 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
        },
        nullptr},
       // How this program runs under delta_boot, and the last roll-back's reason.
-      {0x2F00, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x2F00, 0, 1, [](const Context&) { return 3u; }, nullptr},
       {0x2F00, 1, 1,
        [](const Context& c) {
          return std::uint32_t{static_cast<std::uint8_t>(c.node.program_.boot_status())};
@@ -238,6 +238,7 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
          return std::uint32_t{static_cast<std::uint8_t>(c.node.program_.reverted())};
        },
        nullptr},
+      {0x2F00, 3, 4, [](const Context& c) { return c.node.program_.key_fingerprint(); }, nullptr},
   };
   return kScalars;
 }

@@ -217,4 +217,10 @@ fw::update::RevertReason ProgramDownload::reverted() const {
   return supervision_ ? supervision_->reverted : fw::update::RevertReason::kNone;
 }
 
+std::uint32_t ProgramDownload::key_fingerprint() const {
+  if (!supervision_ || !supervision_->public_key) return 0;
+  const auto& k = *supervision_->public_key;
+  return std::uint32_t{k[0]} << 24 | std::uint32_t{k[1]} << 16 | std::uint32_t{k[2]} << 8 | k[3];
+}
+
 }  // namespace fw_linux

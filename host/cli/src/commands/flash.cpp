@@ -17,6 +17,19 @@ namespace {
 
 // The flash's outcome: as JSON (--json) or one line.
 void print_flashed(const FlashOptions& o, const FlashReport& r, bool json, std::ostream& out) {
+  if (r.key_replaced) {
+    char keys[64];
+    std::snprintf(keys, sizeof keys, "%08X... by %08X...", r.key_replaced->first,
+                  r.key_replaced->second);
+    if (json) {
+      out << nlohmann::json{{"image", o.image}, {"node", o.node}, {"key_replaced", keys}}.dump(2)
+          << "\n";
+    } else {
+      out << "flashed " << o.image << ": node " << o.node << " replaced its public key (" << keys
+          << "); images must be signed with the new key's secret from now on\n";
+    }
+    return;
+  }
   if (json) {
     out << nlohmann::json{{"image", o.image},
                           {"node", o.node},

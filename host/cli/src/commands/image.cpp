@@ -31,6 +31,7 @@ struct MakeOptions {
   std::string vendor{hex32(delta::can::protocol::kControllerVendorId)};
   std::string product{hex32(delta::can::protocol::kControllerProductCode)};
   std::string revision;  // default: MAJOR << 16 | MINOR, as delta_fw reports it
+  bool key{false};       // `program` is a public key file: a key image
 };
 
 std::uint32_t parse_u32(const std::string& option, const std::string& text) {
@@ -55,6 +56,18 @@ void run_make(const MakeOptions& o, CommandContext& context) {
                             ? (std::uint32_t{f.version.major} << 16) | f.version.minor
                             : parse_u32("--revision", o.revision);
   f.build_id = o.build_id;
+  if (o.key) {
+    const up::PublicKey key = up::read_public_key(o.program);
+    const std::vector<std::uint8_t> image = up::make_key_image(f, key);
+    delta::write_file_atomically(o.out,
+                                 {reinterpret_cast<const char*>(image.data()), image.size()});
+    context.out << o.out << ": a key image of public key " << up::key_text(key).substr(0, 16)
+                << "..., version " << up::version_text(f.version)
+                << "; sign it with the installed key's secret (host_id image sign IMAGE --key "
+                   "OLD.key) and flash it (docs/security.md)\n";
+    context.exit_code = 0;
+    return;
+  }
   const delta::FileBytes program = delta::read_file_bytes(o.program);
   const std::string_view p = program.view();
   const std::vector<std::uint8_t> image =
@@ -87,6 +100,12 @@ void run_info(const std::string& path, const std::string& key_path, bool json,
       << "version:      " << up::version_text(h.version) << "\n"
       << "build id:     " << up::build_id_text(h) << "\n"
       << "program:      " << h.payload_bytes << " bytes, CRC-32 " << hex32(h.payload_crc32) << "\n"
+      << "kind:         "
+      << (!h.is_public_key() ? std::string("firmware")
+          : up::key_of(c)
+              ? "key image: public key " + up::key_text(*up::key_of(c)).substr(0, 16) + "..."
+              : std::string("key image, but not a 32-byte key"))
+      << "\n"
       << "SHA-256:      " << sha_text(h.payload_sha256) << "\n";
   std::optional<up::PublicKey> key;
   if (!key_path.empty()) key = up::read_public_key(key_path);
@@ -110,6 +129,7 @@ void run_info(const std::string& path, const std::string& key_path, bool json,
                                   {"program_bytes", h.payload_bytes},
                                   {"program_crc32", hex32(h.payload_crc32)},
                                   {"program_sha256", sha_text(h.payload_sha256)},
+                                  {"key_image", h.is_public_key()},
                                   {"signature", !h.is_signed() ? "none"
                                                 : !key         ? "not verified"
                                                 : signature == up::Verdict::kOk
@@ -185,6 +205,23 @@ void add_image_command(CLI::App& command, CommandContext& context) {
   m->add_option("--revision", make->revision,
                 "the revision the program reports (0x1018:3); default MAJOR<<16 | MINOR");
   m->callback([make, &context] { run_make(*make, context); });
+
+  auto key = std::make_shared<MakeOptions>();
+  key->key = true;
+  CLI::App* ki = c->add_subcommand(
+      "key",
+      "write a key image: the controller's next public key, to be signed with the "
+      "installed key's secret (docs/security.md)");
+  ki->add_option("PUBLIC_KEY", key->program, "the next public key file (host_id image keygen)")
+      ->required();
+  ki->add_option("-o,--out", key->out, "the image to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
+  ki->add_option("--version", key->version, "a version for the record, MAJOR.MINOR.PATCH")
+      ->required();
+  ki->add_option("--vendor", key->vendor, "the vendor ID (0x1018:1)")->capture_default_str();
+  ki->add_option("--product", key->product, "the product code (0x1018:2)")->capture_default_str();
+  ki->callback([key, &context] { run_make(*key, context); });
 
   auto info_path = std::make_shared<std::string>();
   auto info_key = std::make_shared<std::string>();

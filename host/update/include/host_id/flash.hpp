@@ -69,6 +69,8 @@ TargetCheck check_target(const delta::update::ImageHeader& image, const NodeIden
 struct FlashReport {
   delta::update::Version running_before;
   delta::update::Version flashed;
+  // A key image: the installed key's first 4 bytes before and after (0x2F00:3).
+  std::optional<std::pair<std::uint32_t, std::uint32_t>> key_replaced;
   std::size_t bytes{0};
   double seconds{0};
   std::uint64_t frames_sent{0};

@@ -8,7 +8,8 @@
 //   16  4  product code (0x1018:2)    128 64  Ed25519 signature of bytes 0-127
 //   20  4  revision    (0x1018:3)     192 60  reserved, zero
 //   24  6  version major, minor, patch (3 x u16)
-//   30  2  flags (bit 0: signed)      252  4  CRC-32 of bytes 0-251
+//   30  2  flags (bit 0: signed,      252  4  CRC-32 of bytes 0-251
+//           bit 1: a public key)
 //   32 32  build id (ASCII, NUL-padded)
 //
 // The signature covers the header's first 128 bytes, the payload's SHA-256
@@ -30,6 +31,9 @@ inline constexpr std::uint32_t kSignedBytes = 128;
 inline constexpr std::uint16_t kHeaderVersion = 1;
 inline constexpr std::array<std::uint8_t, 8> kMagic = {'D', 'E', 'L', 'T', 'A', 'I', 'M', 'G'};
 inline constexpr std::uint16_t kFlagSigned = 0x0001;
+// A key image: its payload is the next public key (32 bytes), signed with
+// the installed one (docs/security.md).
+inline constexpr std::uint16_t kFlagPublicKey = 0x0002;
 
 using HeaderBytes = std::array<std::uint8_t, kHeaderBytes>;
 using Signature = std::array<std::uint8_t, 64>;
@@ -60,6 +64,7 @@ struct ImageHeader {
   Sha256Digest payload_sha256{};
   Signature signature{};
   bool is_signed() const { return (flags & kFlagSigned) != 0; }
+  bool is_public_key() const { return (flags & kFlagPublicKey) != 0; }
 };
 
 // Why an image is refused; each maps to a CiA 302-3 flash status (0x1F57).

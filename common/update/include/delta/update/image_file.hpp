@@ -17,7 +17,8 @@ namespace delta::update {
 struct ImageFields {
   Identity identity;
   Version version;
-  std::string build_id;  // at most 32 ASCII characters
+  std::string build_id;    // at most 32 ASCII characters
+  bool public_key{false};  // a key image: the program is the next public key
 };
 
 // The image's bytes: the header, then the program. InputError for a build
@@ -33,6 +34,13 @@ struct CheckedImage {
 CheckedImage check_image(std::vector<std::uint8_t> bytes);
 // InputError when the file cannot be read; a bad image is a verdict.
 CheckedImage read_image(const std::string& path);
+
+// A key image (kFlagPublicKey): its payload is `key`. Signed with the
+// installed key, it replaces it on a controller (docs/security.md).
+std::vector<std::uint8_t> make_key_image(ImageFields fields, const PublicKey& key);
+// The next public key a valid key image carries: nothing for another
+// image or a payload that is not 32 bytes.
+std::optional<PublicKey> key_of(const CheckedImage& image);
 
 // The signed image: the signed flag set, the signature of the header's first
 // 128 bytes written, the header's CRC-32 recomputed. The image must be valid.

@@ -51,6 +51,9 @@ class ProgramDownload {
   std::uint32_t capacity_bytes() const;
   BootStatus boot_status() const;
   fw::update::RevertReason reverted() const;
+  // 0x2F00:3: the installed public key's first four bytes, big-endian (the
+  // first 8 hex digits of its key file; 0: none), which a key image changes.
+  std::uint32_t key_fingerprint() const;
 
  private:
   delta::can::sdo::AbortCode begin(bool safe);

@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
     options.trial_timeout =
         std::chrono::milliseconds(static_cast<std::int64_t>(a.trial_timeout_s * 1000));
     options.capacity_bytes = a.capacity_mib << 20;
-    const boot::SlotStore store(folder, options.public_key);
+    boot::SlotStore store(folder, options.public_key);
     const auto record = record_to_boot(store, a);
     if (!record) return boot::kExitNoProgram;
     boot::Supervisor supervisor(store, *record, options, std::cerr);

@@ -9,18 +9,13 @@ namespace fw_linux::boot {
 
 namespace up = delta::update;
 
-namespace {
-
-// The key's first 16 hexadecimal digits: enough to tell two apart in a log.
 std::string fingerprint(const up::PublicKey& k) {
   return up::key_text(k).substr(0, 16);
 }
 
-void install(const std::string& path, const up::PublicKey& k) {
-  delta::write_file_atomically(path, up::key_text(k), 0644);
+void install_public_key(const std::string& state_folder, const up::PublicKey& k) {
+  delta::write_file_atomically(state_folder + "/public.key", up::key_text(k), 0644);
 }
-
-}  // namespace
 
 std::optional<up::PublicKey> settle_public_key(const std::string& state_folder,
                                                const KeyArguments& a, std::ostream& log) {
@@ -33,7 +28,7 @@ std::optional<up::PublicKey> settle_public_key(const std::string& state_folder,
       throw delta::InputError("--public-key " + a.given + " and --replace-public-key " +
                               a.replacement + " are different keys: give the new key once");
     }
-    install(path, next);
+    install_public_key(state_folder, next);
     log << "delta_boot: " << path << ": public key "
         << (installed ? "replaced (" + fingerprint(*installed) + "... by " : "installed (")
         << fingerprint(next) << "...) from " << a.replacement
@@ -50,7 +45,7 @@ std::optional<up::PublicKey> settle_public_key(const std::string& state_folder,
           "--replace-public-key FILE (docs/security.md)");
     }
     if (!installed) {
-      install(path, given);
+      install_public_key(state_folder, given);
       log << "delta_boot: installed public key " << fingerprint(given) << "... in " << path
           << ": from now on every image must be signed with its secret key, with or without "
              "--public-key (replacing it: docs/security.md)\n";

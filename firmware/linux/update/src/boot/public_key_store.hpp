@@ -1,8 +1,9 @@
 // The controller's public key, installed once in delta_boot's state folder
 // as `public.key` (docs/security.md). Once it is there every image must be
 // signed with its secret key, whether delta_boot is given --public-key or
-// not; another key is refused, and only the local procedure
-// (--replace-public-key, run on the controller) replaces it.
+// not; another key is refused, and it is replaced only by a key image
+// signed with it (Supervisor) or by the local procedure
+// (--replace-public-key, run on the controller).
 #pragma once
 
 #include <optional>
@@ -25,5 +26,10 @@ struct KeyArguments {
 // --public-key, and an unreadable key file.
 std::optional<delta::update::PublicKey> settle_public_key(const std::string& state_folder,
                                                           const KeyArguments& a, std::ostream& log);
+
+// `key` into STATE_FOLDER/public.key (atomically).
+void install_public_key(const std::string& state_folder, const delta::update::PublicKey& key);
+// The key's first 16 hexadecimal digits: enough to tell two apart in a log.
+std::string fingerprint(const delta::update::PublicKey& key);
 
 }  // namespace fw_linux::boot

@@ -7,6 +7,8 @@
 //   slot-1.img     the image in slot 1
 //   incoming.img   where the running program puts a download (staging)
 //   program        the program of the slot that runs, extracted
+//   vouched.sha256 the SHA-256 of each slot image a replaced key had
+//                  vouched for when a key image replaced it: they start
 #pragma once
 
 #include <optional>
@@ -42,6 +44,11 @@ class SlotStore {
   // SHA-256, this controller's vendor and product, the signature when a
   // key is configured.
   SlotImage check(const std::string& image_path) const;
+  // The key images are checked with from now on (a key image's).
+  void set_key(const delta::update::PublicKey& key) { key_ = key; }
+  // Before a key image replaces the key: the slots' images that check out
+  // with the old one are recorded as vouched for, so that they still start.
+  void vouch_for_slots() const;
   // Checks the staged download and moves it into `slot`.
   SlotImage accept_staged(std::uint8_t slot) const;
   // Copies an image file into `slot` (a first installation).
@@ -51,6 +58,8 @@ class SlotStore {
   SlotImage extract(std::uint8_t slot) const;
 
  private:
+  bool vouched(const std::string& image_bytes) const;
+
   std::string folder_;
   std::optional<delta::update::PublicKey> key_;
 };

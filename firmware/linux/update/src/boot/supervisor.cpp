@@ -14,6 +14,7 @@
 #include <ostream>
 
 #include "delta/input_error.hpp"
+#include "public_key_store.hpp"
 
 extern char** environ;
 
@@ -50,8 +51,8 @@ sigset_t stop_signals() {
 
 }  // namespace
 
-Supervisor::Supervisor(const SlotStore& store, fw::update::BootRecord record,
-                       SupervisorOptions options, std::ostream& log)
+Supervisor::Supervisor(SlotStore& store, fw::update::BootRecord record, SupervisorOptions options,
+                       std::ostream& log)
     : store_(store), slots_(record), options_(std::move(options)), log_(log) {
   const sigset_t set = stop_signals();
   sigprocmask(SIG_BLOCK, &set, nullptr);
@@ -141,6 +142,7 @@ void Supervisor::on_message(Message m) {
   const std::uint8_t spare = slots_.spare();
   switch (m) {
     case Message::kStaged: {
+      if (take_key_image()) return;
       if (slots_.begin_download() != fw::update::Refusal::kNone) {
         log_ << "delta_boot: a download during a trial is refused\n";
         std::remove(store_.staging_path().c_str());
@@ -187,6 +189,54 @@ void Supervisor::on_message(Message m) {
       }
       return;
   }
+}
+
+// A staged key image (docs/security.md): signed with the installed key,
+// its key takes the installed one's place. The slots' images, which the
+// old key vouched for, still start (SlotStore::vouch_for_slots); the
+// program restarts, to check downloads with the new key. It never goes
+// into a slot. False when the staged download is no key image.
+bool Supervisor::take_key_image() {
+  up::CheckedImage image;
+  try {
+    image = up::read_image(store_.staging_path());
+  } catch (const delta::InputError&) {
+    return false;
+  }
+  if (!image.header || !image.header->is_public_key()) return false;
+  const std::string refusal = key_image_refusal(image);
+  std::remove(store_.staging_path().c_str());
+  if (!refusal.empty()) {
+    log_ << "delta_boot: refused the key image: " << refusal << "\n";
+    return true;
+  }
+  const up::PublicKey next = *up::key_of(image);
+  store_.vouch_for_slots();
+  install_public_key(store_.folder(), next);
+  log_ << "delta_boot: public key replaced (" << fingerprint(*options_.public_key) << "... by "
+       << fingerprint(next)
+       << "...) by a key image signed with the old key; images must be signed with the new "
+          "one, the slots' images still start; restarting the program\n";
+  store_.set_key(next);
+  options_.public_key = next;
+  stop_program();
+  if (!launch()) done_ = kExitNoProgram;
+  return true;
+}
+
+// Why a key image is not taken; "" when it is.
+std::string Supervisor::key_image_refusal(const up::CheckedImage& image) const {
+  if (!options_.public_key) {
+    return "no public key is installed to vouch for it (the first one is installed on the "
+           "controller: delta_boot --public-key, docs/security.md)";
+  }
+  if (slots_.in_trial()) return "a program is on trial";
+  const SlotImage s = store_.check(store_.staging_path());
+  if (s.verdict != up::Verdict::kOk) {
+    return std::string(up::describe(s.verdict)) + " (it must be signed with the installed key)";
+  }
+  if (!up::key_of(image)) return "its payload is not a 32-byte public key";
+  return "";
 }
 
 void Supervisor::on_exit(int status) {

@@ -35,7 +35,7 @@ inline constexpr int kExitNoProgram = 7;  // no slot holds a program that starts
 
 class Supervisor {
  public:
-  Supervisor(const SlotStore& store, fw::update::BootRecord record, SupervisorOptions options,
+  Supervisor(SlotStore& store, fw::update::BootRecord record, SupervisorOptions options,
              std::ostream& log);
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
@@ -54,12 +54,14 @@ class Supervisor {
   void forget_child();
   void read_messages();
   void on_message(Message m);
+  bool take_key_image();  // a staged key image, taken or refused; false: none
+  std::string key_image_refusal(const delta::update::CheckedImage& image) const;
   void on_exit(int status);  // the program ended by itself
   void trial_failed(fw::update::RevertReason why);
   void save();
   std::string describe_slot(std::uint8_t slot) const;
 
-  const SlotStore& store_;
+  SlotStore& store_;
   fw::update::Slots slots_;
   SupervisorOptions options_;
   std::ostream& log_;
