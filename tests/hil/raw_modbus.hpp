@@ -20,8 +20,16 @@ namespace hil {
 
 class RawModbus {
  public:
-  explicit RawModbus(int port) {
+  // `from`: the loopback source address to connect from (127.0.0.0/8),
+  // else the kernel's choice.
+  explicit RawModbus(int port, const char* from = nullptr) {
     fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (from != nullptr) {
+      sockaddr_in source{};
+      source.sin_family = AF_INET;
+      ::inet_pton(AF_INET, from, &source.sin_addr);
+      ::bind(fd_, reinterpret_cast<const sockaddr*>(&source), sizeof source);
+    }
     sockaddr_in a{};
     a.sin_family = AF_INET;
     a.sin_port = htons(static_cast<std::uint16_t>(port));
@@ -67,6 +75,43 @@ class RawModbus {
       std::this_thread::sleep_for(gap);  // the client's pace, not synchronisation
     }
     return answer(count);
+  }
+
+  // Write single register (function 6): the answer's function code and its
+  // first data byte (the exception code after 0x86), nothing without one.
+  std::optional<std::array<std::uint8_t, 2>> write(std::uint16_t address, std::uint16_t value) {
+    ++transaction_;
+    const std::array<std::uint8_t, 12> req{static_cast<std::uint8_t>(transaction_ >> 8),
+                                           static_cast<std::uint8_t>(transaction_),
+                                           0,
+                                           0,
+                                           0,
+                                           6,
+                                           1,
+                                           6,
+                                           static_cast<std::uint8_t>(address >> 8),
+                                           static_cast<std::uint8_t>(address),
+                                           static_cast<std::uint8_t>(value >> 8),
+                                           static_cast<std::uint8_t>(value)};
+    if (::send(fd_, req.data(), req.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(req.size())) {
+      return std::nullopt;
+    }
+    std::array<std::uint8_t, 9> in{};  // MBAP, function, and a byte: an exception's whole answer
+    std::size_t got = 0;
+    while (got < in.size()) {
+      const ssize_t n = ::recv(fd_, in.data() + got, in.size() - got, 0);
+      if (n <= 0) return std::nullopt;
+      got += static_cast<std::size_t>(n);
+    }
+    if (in[7] == 6) {  // the echo's last 3 bytes
+      std::array<std::uint8_t, 3> rest{};
+      for (std::size_t r = 0; r < rest.size();) {
+        const ssize_t n = ::recv(fd_, rest.data() + r, rest.size() - r, 0);
+        if (n <= 0) return std::nullopt;
+        r += static_cast<std::size_t>(n);
+      }
+    }
+    return std::array<std::uint8_t, 2>{in[7], in[8]};
   }
 
  private:
