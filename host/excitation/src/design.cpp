@@ -22,6 +22,19 @@ struct Evaluation {
   double violation{0};  // sum of the relative excesses; 0: every sample inside
   std::string first_violation;
   double largest_torque_Nm{0};
+  std::array<double, 3> payload_sq{};  // per joint: the sum of (payload torque per kg)^2
+  std::size_t samples{0};
+  // Each joint's RMS payload torque per kg; the smallest.
+  std::array<double, 3> payload_rms() const {
+    std::array<double, 3> r{};
+    for (unsigned j = 0; j < 3; ++j)
+      r[j] = samples > 0 ? std::sqrt(payload_sq[j] / static_cast<double>(samples)) : 0.0;
+    return r;
+  }
+  double weakest_payload() const {
+    const auto r = payload_rms();
+    return std::min({r[0], r[1], r[2]});
+  }
 };
 
 class Evaluator {
@@ -32,7 +45,15 @@ class Evaluator {
         geometry_(robot.geometry),
         gravity_(robot.gravity_m_s2),
         nominal_(model_->parameter_vector(delta::high_fidelity_truth(robot))),
-        rows_(3 * model_->size()) {}
+        rows_(3 * model_->size()) {
+    const auto& p = model_->parameters();
+    for (std::size_t c = 0; c < p.size(); ++c) {
+      if (p[c].name == "platform_mass" || p[c].name == "platform_inertial_mass" ||
+          p[c].name == "platform_weight_mass") {
+        platform_.push_back(c);  // the columns a payload's mass adds to
+      }
+    }
+  }
 
   const Model& model() const { return *model_; }
   const std::vector<double>& nominal() const { return nominal_; }
@@ -101,7 +122,11 @@ class Evaluator {
     const Eigen::Map<const Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>> rows(
         rows_.data(), 3, static_cast<Eigen::Index>(p));
     e.gram.noalias() += rows.transpose() * rows;
+    ++e.samples;
     for (unsigned j = 0; j < 3; ++j) {
+      double payload = 0.0;
+      for (const std::size_t c : platform_) payload += rows_[j * p + c];
+      e.payload_sq[j] += payload * payload;
       double tau = 0.0;
       for (std::size_t c = 0; c < p; ++c) tau += rows_[j * p + c] * nominal_[c];
       e.largest_torque_Nm = std::max(e.largest_torque_Nm, std::abs(tau));
@@ -115,6 +140,7 @@ class Evaluator {
   delta::Geometry geometry_;
   double gravity_;
   std::vector<double> nominal_;
+  std::vector<std::size_t> platform_;
   mutable std::vector<double> rows_;
 };
 
@@ -210,6 +236,7 @@ ExcitationQuality excitation_quality(const delta::BlendedFourierTrajectory& t,
   q.feasible = e.violation == 0.0;
   q.violation = e.first_violation;
   q.largest_torque_Nm = e.largest_torque_Nm;
+  q.payload_torque_rms_Nm_per_kg = e.payload_rms();
   const Conditioning c = conditioning(e.gram);
   q.condition_number_scaled = c.condition_number;
   q.log_det_scaled = c.log_det;
@@ -268,14 +295,23 @@ DesignResult design_excitation(const DesignOptions& options, const delta::RobotD
   const auto n = static_cast<Eigen::Index>(6 * options.harmonics);
   const Eigen::VectorXd upper = Eigen::VectorXd::Constant(n, w * options.max_amplitude_rad);
   const Eigen::VectorXd lower = -upper;
-  const bool by_condition = options.criterion == DesignCriterion::kConditionNumber;
   const auto cost = [&](const Eigen::VectorXd& x) {
     const Evaluation e = evaluate_design(ev, trajectory_of(x, options, ik.theta_rad),
                                          options.evaluation_rate_hz, options.margin);
     if (e.violation > 0.0) return 1e6 * (1.0 + e.violation);
     const Conditioning c = conditioning(e.gram);
     if (!std::isfinite(c.condition_number)) return 1e6;
-    return by_condition ? c.condition_number : -c.log_det;
+    switch (options.criterion) {
+      case DesignCriterion::kConditionNumber:
+        return c.condition_number;
+      case DesignCriterion::kLogDet:
+        return -c.log_det;
+      case DesignCriterion::kCalibration: {
+        const double weakest = e.weakest_payload();
+        return weakest > 0.0 ? std::min(1e6, c.condition_number / (weakest * weakest)) : 1e6;
+      }
+    }
+    return 1e6;
   };
   DesignResult r;
   r.pso = run_pso(cost, lower, upper, options.pso);

@@ -100,8 +100,10 @@ void add_search_options(CLI::App& c, DesignArguments& a) {
       ->group(g);
   c.add_option("--criterion", a.criterion,
                "cond: minimise the condition number of the column-scaled regressor; logdet: "
-               "maximise the log determinant of its information matrix")
-      ->check(CLI::IsMember({"cond", "logdet"}))
+               "maximise the log determinant of its information matrix; calibration: a run for "
+               "fit --calibrate-torque (run it empty and with the payload): the condition "
+               "number over the square of the weakest joint's RMS payload torque")
+      ->check(CLI::IsMember({"cond", "logdet", "calibration"}))
       ->capture_default_str()
       ->group(g);
   c.add_option("--particles", d.pso.particles, "PSO particles")
@@ -141,6 +143,7 @@ nlohmann::json quality_json(const ExcitationQuality& q, const Model& model) {
   return {{"condition_number_scaled", q.condition_number_scaled},
           {"log_det_scaled", q.log_det_scaled},
           {"largest_torque_Nm", q.largest_torque_Nm},
+          {"payload_torque_rms_Nm_per_kg", q.payload_torque_rms_Nm_per_kg},
           {"parameters", params}};
 }
 
@@ -161,6 +164,13 @@ void print_text(std::ostream& out, const DesignArguments& a, const DesignResult&
                 d.quality.condition_number_scaled, preset.condition_number_scaled,
                 a.compare.c_str());
   out << buf;
+  const auto& pd = d.quality.payload_torque_rms_Nm_per_kg;
+  const auto& pp = preset.payload_torque_rms_Nm_per_kg;
+  std::snprintf(buf, sizeof buf,
+                "  RMS payload torque per kg (N m/kg, joints 1-3): %.3g, %.3g, %.3g designed, "
+                "%.3g, %.3g, %.3g %s\n",
+                pd[0], pd[1], pd[2], pp[0], pp[1], pp[2], a.compare.c_str());
+  out << buf;
   std::snprintf(buf, sizeof buf,
                 "  expected relative std dev [%%] at %.3g N m torque noise, %.0f Hz "
                 "(white noise):\n  %-24s %10s %10s\n",
@@ -176,8 +186,9 @@ void print_text(std::ostream& out, const DesignArguments& a, const DesignResult&
 
 int run_design(DesignArguments a, std::ostream& out) {
   a.design.centre_m = {a.centre[0], a.centre[1], a.centre[2]};
-  a.design.criterion =
-      a.criterion == "cond" ? DesignCriterion::kConditionNumber : DesignCriterion::kLogDet;
+  a.design.criterion = a.criterion == "cond"          ? DesignCriterion::kConditionNumber
+                       : a.criterion == "calibration" ? DesignCriterion::kCalibration
+                                                      : DesignCriterion::kLogDet;
   const double mHz = a.design.base_frequency_hz * 1000.0;
   if (std::abs(mHz - std::round(mHz)) > 1e-9 * mHz) {
     throw UsageError("--base-hz: must be a whole number of mHz (the controller's unit)");

@@ -9,6 +9,7 @@
 // the robot's nominal parameters.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -32,7 +33,12 @@ struct DesignLimits {
 // `base` with the limits the robot description gives (its "limits").
 DesignLimits with_robot_limits(DesignLimits base, const delta::RobotLimits& robot);
 
-enum class DesignCriterion { kConditionNumber, kLogDet };
+// kCalibration: a torque-scale calibration run (fit --calibrate-torque,
+// docs/payload.md): the condition number over the square of the smallest
+// joint's RMS payload torque per kilogram, so that a payload's torque
+// stands out of what no model holds (cogging) on every joint while the
+// robot's parameters stay identified.
+enum class DesignCriterion { kConditionNumber, kLogDet, kCalibration };
 
 struct DesignOptions {
   ModelOptions model;  // whose regressor is conditioned
@@ -64,6 +70,8 @@ struct ExcitationQuality {
   double condition_number_scaled{0};
   double log_det_scaled{0};  // log det of the column-scaled information matrix
   double largest_torque_Nm{0};
+  // Each joint's RMS torque per kilogram of payload at the platform (N m/kg).
+  std::array<double, 3> payload_torque_rms_Nm_per_kg{};
   // Per parameter of the model: the expected standard deviation at the
   // options' noise and rate, and relative to the nominal value (NaN where
   // the nominal value is 0).
