@@ -27,8 +27,10 @@ class RawModbus {
     if (from != nullptr) {
       sockaddr_in source{};
       source.sin_family = AF_INET;
-      ::inet_pton(AF_INET, from, &source.sin_addr);
-      ::bind(fd_, reinterpret_cast<const sockaddr*>(&source), sizeof source);
+      const bool bound =
+          ::inet_pton(AF_INET, from, &source.sin_addr) == 1 &&
+          ::bind(fd_, reinterpret_cast<const sockaddr*>(&source), sizeof source) == 0;
+      if (!bound) return;  // not connected: the test says so
     }
     sockaddr_in a{};
     a.sin_family = AF_INET;

@@ -279,6 +279,17 @@ with tempfile.TemporaryDirectory() as work:
     boot.stop()
     log = boot_until(work, [], "started slot 0")
     check("started slot 0 (version 1.0.0" in log, "after a restart slot 0 still starts\n" + log)
+    # A service file written before still gives the old key: taken as the
+    # installed one's, with a note; a key image is no program to install.
+    log = boot_until(work, ["--public-key", public_a], "started slot 0")
+    check("was replaced by the installed key" in log and "started slot 0 (version 1.0.0" in log,
+          "the old --public-key still starts\n" + log)
+    rotate = key_image(work, "by-a2", public_b, secret_a)
+    with tempfile.TemporaryDirectory() as fresh:
+        os.mkdir(os.path.join(fresh, "state"))
+        code, log = boot_ends(fresh, ["--install", rotate])
+        check(code == 7 and "is a key image, not a program" in log,
+              "a key image is no program to install: %r\n%s" % (code, log))
 
 with tempfile.TemporaryDirectory() as work:
     os.mkdir(os.path.join(work, "state"))

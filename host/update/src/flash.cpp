@@ -236,8 +236,12 @@ FlashReport flash_key_image(ControllerSession& session, const up::CheckedImage& 
                          "(delta_boot --public-key, docs/security.md)",
                      kExitFlashRefusedHere};
   }
-  const delta::can::SdoOutcome sent = download(session, image.bytes, o, err);
-  if (!sent.ok()) throw session.failure(0x1F50, 1, sent);
+  // No retry: the program restarts as soon as the key is in, and may not
+  // answer the transfer's end; a retry would reach it under the new key.
+  FlashOptions once = o;
+  once.retries = 0;
+  const delta::can::SdoOutcome sent = download(session, image.bytes, once, err);
+  if (!sent.ok() && sent.by_server) throw session.failure(0x1F50, 1, sent);
   const auto until =
       Clock::now() + std::chrono::milliseconds(static_cast<long>(o.confirm_timeout_s * 1000));
   if (session.await_boot_up(until)) {
@@ -256,6 +260,7 @@ FlashReport flash_key_image(ControllerSession& session, const up::CheckedImage& 
       session.await_boot_up(Clock::now() + std::chrono::milliseconds(100));  // paces the polling
     }
   }
+  if (!sent.ok()) throw session.failure(0x1F50, 1, sent);  // nor did it take the key
   throw FlashError{"node " + std::to_string(o.node) +
                        " did not take the key (its program did not restart with it within " +
                        std::to_string(o.confirm_timeout_s) +

@@ -212,9 +212,21 @@ TEST(DrivePlanTest, FixedPdosAbovePdo1AreSearchedAndASampleSplitOverTwo) {
   EXPECT_TRUE(writes(plan, 0x1804, 2, 1));  // TPDO5 on every SYNC
   EXPECT_NE(describe_plan(plan).find("TPDO5:    COB-ID 0x481"), std::string::npos)
       << describe_plan(plan);
-  // Without TPDO1 free for the position (velocity_pdo and the SYNC counter
-  // take TPDO2 and TPDO3 only), still the same split.
-  EXPECT_TRUE(plan_drives(config(keys + "velocity_pdo = true\n")).problems.empty());
+  // With the velocity in TPDO2 the split is the same.
+  const DrivePlans with_velocity = plan_drives(config(keys + "velocity_pdo = true\n"));
+  ASSERT_TRUE(with_velocity.problems.empty()) << joined(with_velocity.problems);
+  EXPECT_EQ(with_velocity.drives[0].sample.number, 5u);
+  EXPECT_EQ(with_velocity.drives[0].sample_rest.number, 1u);
+  EXPECT_EQ(with_velocity.drives[0].velocity.number, 2u);
+  // The SYNC counter's echo must follow the sample on the bus: a sample in
+  // two TPDOs is refused with it, naming both and what to set.
+  const auto echo = problems_of(keys + "sync_counter_overflow = 10\n");
+  ASSERT_FALSE(echo.empty());
+  EXPECT_NE(joined(echo).find("sync_counter_overflow = 10 needs the sample in one TPDO before "
+                              "TPDO3's 0x381 on the bus, and this drive's comes in TPDO5 (0x481) "
+                              "and TPDO1: set sync_counter_overflow = 0"),
+            std::string::npos)
+      << joined(echo);
 }
 
 // A drive without an object the PDOs need (the statusword) is refused,

@@ -175,6 +175,33 @@ TEST(ProgramDownloadTest, AControllerWithAKeyTakesOnlyImagesSignedWithIt) {
   EXPECT_EQ(boot_side.messages(), "staged\n");
 }
 
+// A key image replaces an installed key: on a controller with none it is
+// refused as soon as its header is in (flash secured, check 15), and
+// 0x2F00:3 shows the installed key's first four bytes (0: none).
+TEST(ProgramDownloadTest, AKeyImageWithoutAnInstalledKeyIsRefused) {
+  Supervisor boot_side;
+  NodeRig rig(boot_side.supervision());
+  rig.step();
+  EXPECT_EQ(rig.read(0x2F00, 3), 0u);
+  const up::KeyPair next = up::generate_key_pair();
+  up::ImageFields f;
+  f.identity = controller_identity(rig.version);
+  f.version = {1, 0, 0};
+  const auto key_image = up::make_key_image(f, next.public_key);
+  EXPECT_EQ(download(rig, key_image), sdo::kAbortCannotStore);
+  EXPECT_EQ(rig.read(0x1F57, 1) >> 8, static_cast<unsigned>(up::Verdict::kNoKeyToVouch));
+  EXPECT_EQ(status_code(rig.read(0x1F57, 1)), 7) << "secured";
+  EXPECT_EQ(boot_side.messages(), "");
+  const up::KeyPair ours = up::generate_key_pair();
+  auto supervision = boot_side.supervision();
+  supervision.public_key = ours.public_key;
+  NodeRig keyed(supervision);
+  keyed.step();
+  const auto& k = ours.public_key;
+  EXPECT_EQ(keyed.read(0x2F00, 3), std::uint32_t{k[0]} << 24 | std::uint32_t{k[1]} << 16 |
+                                       std::uint32_t{k[2]} << 8 | k[3]);
+}
+
 TEST(ProgramDownloadTest, NothingIsAcceptedWhileTheControllerIsNotSafeToUpdate) {
   Supervisor boot_side;
   NodeRig rig(boot_side.supervision());

@@ -58,6 +58,7 @@ std::uint8_t cia302_error_code(Verdict v) {
       return 6;
     case Verdict::kUnsigned:
     case Verdict::kBadSignature:
+    case Verdict::kNoKeyToVouch:
       return 7;
   }
   return 63;  // unspecified
@@ -95,6 +96,9 @@ const char* describe(Verdict v) {
       return "no valid program staged";
     case Verdict::kInterrupted:
       return "download interrupted before its last byte";
+    case Verdict::kNoKeyToVouch:
+      return "a key image, and this controller has no public key installed to vouch for it "
+             "(the first key is installed on the controller: delta_boot --public-key)";
   }
   return "unknown verdict";
 }

@@ -572,6 +572,19 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
   bus_error_ = false;
 }
 
+// "TPDO1 0x181", or both of a split sample's PDOs.
+std::string CanopenMaster::sample_text(std::uint8_t node) const {
+  for (const Drive& d : drives_) {
+    if (d.node != node || d.plan == nullptr) continue;
+    const auto text = [](const PlannedPdo& pdo) {
+      return "TPDO" + std::to_string(pdo.number) + " " + hex(pdo.cob_id, 3);
+    };
+    return text(d.plan->sample) +
+           (d.plan->sample_rest.used ? " and " + text(d.plan->sample_rest) : "");
+  }
+  return "TPDO1";
+}
+
 std::string CanopenMaster::last_problem() const {
   using Kind = CyclicProblem::Kind;
   const CyclicProblem& p = cyclic_problem_;
@@ -601,9 +614,10 @@ std::string CanopenMaster::last_problem() const {
       return node + ": no heartbeat for " + std::to_string(p.cycle * config_.period_us / 1000) +
              " ms (timeout " + std::to_string(config_.heartbeat_timeout_ms) + " ms)";
     case Kind::kNoTpdo1:
-      return node + ": no TPDO1 answered the SYNC of cycle " + std::to_string(p.cycle);
+      return node + ": no sample (" + sample_text(p.node) + ") answered the SYNC of cycle " +
+             std::to_string(p.cycle);
     case Kind::kSilentAfterStart:
-      return node + " sends no TPDO1 after the NMT start";
+      return node + " sends no sample (" + sample_text(p.node) + ") after the NMT start";
     case Kind::kStaysInFault:
       return node + " stays in fault after a fault reset";
   }

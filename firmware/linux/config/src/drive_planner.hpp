@@ -5,6 +5,7 @@
 // drive_planner_pdos.cpp.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -197,6 +198,7 @@ class Planner {
   void fixed_layout(PlannedPdo& planned, PdoObjects which, const std::vector<Wanted>& wanted);
   void pdo_writes(const PlannedPdo& planned, PdoObjects which, bool cob_writable);
   void turn_off(PdoObjects which);
+  void echo_last();
 
   const PortConfig& c_;
   const JointDrive& jd_;
@@ -204,7 +206,12 @@ class Planner {
   DrivePlan& plan_;
   std::vector<std::string>& problems_;
   std::string key_;
-  bool tpdo4_taken_{false};  // its COB-ID is a fixed TPDO's
+  // The TPDOs (1 to 4) a split sample uses or whose COB-ID it took: not
+  // turned off.
+  std::vector<unsigned> tpdos_taken_;
+  bool taken(unsigned n) const {
+    return std::find(tpdos_taken_.begin(), tpdos_taken_.end(), n) != tpdos_taken_.end();
+  }
 };
 
 bool controller_fills(std::uint32_t entry);

@@ -110,7 +110,14 @@ PdoObjects Planner::numbered(bool receive, unsigned n, std::vector<unsigned>& us
   if (const auto k = free_id(receive, used)) {
     which.id_of = *k;
     used.push_back(*k);
+    return which;
   }
+  const std::string kind = receive ? "RPDO" : "TPDO";
+  problem({which.communication(), 1}, which.name() + " COB-ID",
+          "CiA 301 predefines the COB-IDs of " + kind + "1 to " + kind +
+              "4 only, and none of those can give it theirs (each is in use or has a read-only "
+              "COB-ID)",
+          "is writable");
   return which;
 }
 
@@ -148,8 +155,8 @@ bool Planner::split_sample(const std::vector<Wanted>& sample) {
   if (second) used.push_back(*second);
   pdo(plan_.sample, numbered(false, *first, used), own);
   if (second) pdo(plan_.sample_rest, numbered(false, *second, used), rest);
-  tpdo4_taken_ = std::find(used.begin(), used.end(), 4u) != used.end();
-  if (std::find(used.begin(), used.end(), 1u) == used.end()) turn_off({false, 1});
+  tpdos_taken_ = used;
+  if (!taken(1)) turn_off({false, 1});
   return true;
 }
 
@@ -172,15 +179,31 @@ void Planner::pdos() {
   if (carries({false, 1}, sample) || !split_sample(sample)) pdo(plan_.sample, {false, 1}, sample);
   if (c_.velocity_pdo) {
     pdo(plan_.velocity, {false, 2}, {{kVelocityActual, 32, "velocity actual value"}});
-  } else {
+  } else if (!taken(2)) {
     turn_off({false, 2});
   }
   if (c_.sync_counter_overflow != 0) {
     pdo(plan_.echo, {false, 3}, {{od::kSyncCounterOfSample, 8, "SYNC counter of the sample"}});
-  } else if (eds_ != nullptr) {
+    echo_last();
+  } else if (eds_ != nullptr && !taken(3)) {
     turn_off({false, 3});
   }
-  if (eds_ != nullptr && !tpdo4_taken_) turn_off({false, 4});
+  if (eds_ != nullptr && !taken(4)) turn_off({false, 4});
+}
+
+// The SYNC counter's echo (TPDO3) tells the master that a cycle's sample
+// is in: the sample must come first on the bus, in one TPDO with a lower
+// COB-ID (CAN arbitration sends the lowest first).
+void Planner::echo_last() {
+  const std::uint32_t sample = plan_.sample.cob_id & 0x7FF;
+  if (!plan_.sample_rest.used && sample < plan_.echo.cob_id) return;
+  problems_.push_back(
+      key_ + "eds (" + jd_.eds_path + "): sync_counter_overflow = " +
+      std::to_string(c_.sync_counter_overflow) + " needs the sample in one TPDO before TPDO3's " +
+      hex(plan_.echo.cob_id, 3) + " on the bus, and this drive's comes in " +
+      PdoObjects{false, plan_.sample.number}.name() + " (" + hex(sample, 3) + ")" +
+      (plan_.sample_rest.used ? " and " + PdoObjects{false, plan_.sample_rest.number}.name() : "") +
+      ": set sync_counter_overflow = 0");
 }
 
 // A PDO the controller uses: its COB-ID, its mapping (written, or the

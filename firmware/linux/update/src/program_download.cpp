@@ -90,6 +90,10 @@ sdo::AbortCode ProgramDownload::begin(bool safe) {
 bool ProgramDownload::check_header() {
   header_checked_ = true;
   verdict_ = up::check_identity(check_->header(), identity_);
+  if (verdict_ == up::Verdict::kOk && check_->header().is_public_key() &&
+      !supervision_->public_key) {
+    verdict_ = up::Verdict::kNoKeyToVouch;  // a key image replaces a key, signed with it
+  }
   if (verdict_ == up::Verdict::kOk) {
     verdict_ =
         up::check_signature(check_->header_bytes(), check_->header(), supervision_->public_key);

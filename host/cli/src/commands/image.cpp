@@ -83,6 +83,29 @@ std::string sha_text(const up::Sha256Digest& d) {
   return up::key_text(d).substr(0, 64);
 }
 
+// image info --json: the header and the checks.
+nlohmann::json info_json(const std::string& path, const up::CheckedImage& c, bool key,
+                         up::Verdict signature, up::Verdict verdict) {
+  const up::ImageHeader& h = *c.header;
+  return {{"image", path},
+          {"bytes", c.bytes.size()},
+          {"vendor_id", h.identity.vendor_id},
+          {"product_code", h.identity.product_code},
+          {"revision", h.identity.revision},
+          {"version", up::version_text(h.version)},
+          {"build_id", up::build_id_text(h)},
+          {"program_bytes", h.payload_bytes},
+          {"program_crc32", hex32(h.payload_crc32)},
+          {"program_sha256", sha_text(h.payload_sha256)},
+          {"key_image", h.is_public_key()},
+          {"signature", !h.is_signed()                  ? "none"
+                        : !key                          ? "not verified"
+                        : signature == up::Verdict::kOk ? "verified"
+                                                        : "does not verify"},
+          {"check", up::describe(verdict)},
+          {"ok", verdict == up::Verdict::kOk}};
+}
+
 void run_info(const std::string& path, const std::string& key_path, bool json,
               CommandContext& context) {
   const up::CheckedImage c = up::read_image(path);
@@ -119,26 +142,7 @@ void run_info(const std::string& path, const std::string& key_path, bool json,
       << "\n";
   const up::Verdict verdict = c.verdict != up::Verdict::kOk ? c.verdict : signature;
   if (json) {
-    context.out << nlohmann::json{{"image", path},
-                                  {"bytes", c.bytes.size()},
-                                  {"vendor_id", h.identity.vendor_id},
-                                  {"product_code", h.identity.product_code},
-                                  {"revision", h.identity.revision},
-                                  {"version", up::version_text(h.version)},
-                                  {"build_id", up::build_id_text(h)},
-                                  {"program_bytes", h.payload_bytes},
-                                  {"program_crc32", hex32(h.payload_crc32)},
-                                  {"program_sha256", sha_text(h.payload_sha256)},
-                                  {"key_image", h.is_public_key()},
-                                  {"signature", !h.is_signed() ? "none"
-                                                : !key         ? "not verified"
-                                                : signature == up::Verdict::kOk
-                                                    ? "verified"
-                                                    : "does not verify"},
-                                  {"check", up::describe(verdict)},
-                                  {"ok", verdict == up::Verdict::kOk}}
-                       .dump(2)
-                << "\n";
+    context.out << info_json(path, c, key.has_value(), signature, verdict).dump(2) << "\n";
   } else {
     out << "check:        " << up::describe(verdict) << "\n";
     context.out << text.str();
@@ -184,6 +188,26 @@ void run_keygen(const std::string& secret_path, const std::string& public_path,
 
 }  // namespace
 
+// image key: a key image of the next public key.
+void add_key_subcommand(CLI::App& c, CommandContext& context) {
+  auto key = std::make_shared<MakeOptions>();
+  key->key = true;
+  CLI::App* ki =
+      c.add_subcommand("key",
+                       "write a key image: the controller's next public key, to be signed with the "
+                       "installed key's secret (docs/security.md)");
+  ki->add_option("PUBLIC_KEY", key->program, "the next public key file (host_id image keygen)")
+      ->required();
+  ki->add_option("-o,--out", key->out, "the image to write (atomically)")
+      ->check(kOutputPath)
+      ->required();
+  ki->add_option("--version", key->version, "a version for the record, MAJOR.MINOR.PATCH")
+      ->required();
+  ki->add_option("--vendor", key->vendor, "the vendor ID (0x1018:1)")->capture_default_str();
+  ki->add_option("--product", key->product, "the product code (0x1018:2)")->capture_default_str();
+  ki->callback([key, &context] { run_make(*key, context); });
+}
+
 void add_image_command(CLI::App& command, CommandContext& context) {
   CLI::App* c = &command;
   c->description(
@@ -206,22 +230,7 @@ void add_image_command(CLI::App& command, CommandContext& context) {
                 "the revision the program reports (0x1018:3); default MAJOR<<16 | MINOR");
   m->callback([make, &context] { run_make(*make, context); });
 
-  auto key = std::make_shared<MakeOptions>();
-  key->key = true;
-  CLI::App* ki = c->add_subcommand(
-      "key",
-      "write a key image: the controller's next public key, to be signed with the "
-      "installed key's secret (docs/security.md)");
-  ki->add_option("PUBLIC_KEY", key->program, "the next public key file (host_id image keygen)")
-      ->required();
-  ki->add_option("-o,--out", key->out, "the image to write (atomically)")
-      ->check(kOutputPath)
-      ->required();
-  ki->add_option("--version", key->version, "a version for the record, MAJOR.MINOR.PATCH")
-      ->required();
-  ki->add_option("--vendor", key->vendor, "the vendor ID (0x1018:1)")->capture_default_str();
-  ki->add_option("--product", key->product, "the product code (0x1018:2)")->capture_default_str();
-  ki->callback([key, &context] { run_make(*key, context); });
+  add_key_subcommand(*c, context);
 
   auto info_path = std::make_shared<std::string>();
   auto info_key = std::make_shared<std::string>();

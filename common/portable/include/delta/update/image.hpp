@@ -84,8 +84,9 @@ enum class Verdict : std::uint8_t {
   kWriteError,            // the slot could not be written
   kNoValidProgram,        // start asked with nothing staged
   kInterrupted,           // the download ended before its last byte
+  kNoKeyToVouch,          // a key image on a node with no key installed to vouch for it
 };
-inline constexpr unsigned kVerdictCount = 15;
+inline constexpr unsigned kVerdictCount = 16;
 
 // CiA 302-3's error code for 0x1F57 bits 1-7 (0 no error, 1 no valid
 // program, 2 data format unknown, 3 data format error or CRC error,

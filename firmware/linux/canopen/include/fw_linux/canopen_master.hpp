@@ -157,6 +157,7 @@ class CanopenMaster {
   static void hold_sample(Drive& d, const delta::can::Frame& f, const PlannedPdo& pdo);
   void fail(const std::string& why);
   Drive* drive_for(std::uint8_t node);
+  std::string sample_text(std::uint8_t node) const;
   const JointDrive& joint(const Drive& d) const {
     return config_.joints[static_cast<std::size_t>(&d - drives_.data())];
   }

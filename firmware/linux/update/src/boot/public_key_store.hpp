@@ -29,6 +29,11 @@ std::optional<delta::update::PublicKey> settle_public_key(const std::string& sta
 
 // `key` into STATE_FOLDER/public.key (atomically).
 void install_public_key(const std::string& state_folder, const delta::update::PublicKey& key);
+// A key the installed one replaced (STATE_FOLDER/retired.keys): a
+// --public-key that names it is taken as the installed key's, with a note,
+// so that a service file written before the replacement still starts.
+void retire_public_key(const std::string& state_folder, const delta::update::PublicKey& key);
+bool is_retired(const std::string& state_folder, const delta::update::PublicKey& key);
 // The key's first 16 hexadecimal digits: enough to tell two apart in a log.
 std::string fingerprint(const delta::update::PublicKey& key);
 

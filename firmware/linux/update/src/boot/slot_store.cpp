@@ -60,6 +60,10 @@ void SlotStore::save_record(const fw::update::BootRecord& r) const {
 }
 
 SlotImage SlotStore::check(const std::string& image_path) const {
+  return check(image_path, false);
+}
+
+SlotImage SlotStore::check(const std::string& image_path, bool vouching) const {
   SlotImage s;
   up::CheckedImage image;
   try {
@@ -78,6 +82,7 @@ SlotImage SlotStore::check(const std::string& image_path) const {
     s.verdict = up::check_signature(header, h, key_);
   }
   const bool vouched_for =
+      vouching &&
       (s.verdict == up::Verdict::kBadSignature || s.verdict == up::Verdict::kUnsigned) &&
       vouched(std::string(image.bytes.begin(), image.bytes.end()));
   if (vouched_for) s.verdict = up::Verdict::kOk;
@@ -97,7 +102,7 @@ void SlotStore::vouch_for_slots() const {
   std::string list = std::filesystem::exists(path) ? delta::read_whole_file(path) : "";
   for (std::uint8_t slot = 0; slot < 2; ++slot) {
     if (!std::filesystem::exists(slot_path(slot)) ||
-        check(slot_path(slot)).verdict != up::Verdict::kOk)
+        check(slot_path(slot), true).verdict != up::Verdict::kOk)
       continue;
     list += hex_digest(delta::read_whole_file(slot_path(slot))) + "\n";
   }
@@ -115,6 +120,11 @@ SlotImage SlotStore::accept_staged(std::uint8_t slot) const {
 }
 
 SlotImage SlotStore::install(const std::string& image_path, std::uint8_t slot) const {
+  if (const auto h = up::read_image(image_path).header; h && h->is_public_key()) {
+    throw delta::InputError(image_path +
+                            " is a key image, not a program: it is flashed to replace the "
+                            "installed key (docs/security.md)");
+  }
   const SlotImage s = check(image_path);
   if (s.verdict != up::Verdict::kOk) return s;
   delta::write_file_atomically(slot_path(slot), delta::read_whole_file(image_path));
@@ -126,7 +136,7 @@ void SlotStore::clear(std::uint8_t slot) const {
 }
 
 SlotImage SlotStore::extract(std::uint8_t slot) const {
-  const SlotImage s = check(slot_path(slot));
+  const SlotImage s = check(slot_path(slot), true);
   if (s.verdict != up::Verdict::kOk) return s;
   const std::string bytes = delta::read_whole_file(slot_path(slot));
   delta::write_file_atomically(program_path(), std::string_view(bytes).substr(up::kHeaderBytes),

@@ -58,6 +58,9 @@ class SlotStore {
   SlotImage extract(std::uint8_t slot) const;
 
  private:
+  // With `vouching`, an image a replaced key vouched for passes too (a
+  // slot's, at start; never a download).
+  SlotImage check(const std::string& image_path, bool vouching) const;
   bool vouched(const std::string& image_bytes) const;
 
   std::string folder_;

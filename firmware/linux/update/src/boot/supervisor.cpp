@@ -212,6 +212,7 @@ bool Supervisor::take_key_image() {
   }
   const up::PublicKey next = *up::key_of(image);
   store_.vouch_for_slots();
+  retire_public_key(store_.folder(), *options_.public_key);
   install_public_key(store_.folder(), next);
   log_ << "delta_boot: public key replaced (" << fingerprint(*options_.public_key) << "... by "
        << fingerprint(next)
