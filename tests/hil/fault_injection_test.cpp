@@ -207,7 +207,7 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         // heartbeat timeout 150 ms = 75 cycles after the last heartbeat (50 ms period)
         FaultCase{"heartbeat_drop", "heartbeat-drop:2", 3, 75 + 2, {}, "node 2: no heartbeat"},
-        FaultCase{"silent_drive", "silent:2", 3, 3, {}, "node 2: no TPDO1", 2},
+        FaultCase{"silent_drive", "silent:2", 3, 3, {}, "node 2: no sample (TPDO1 0x182)", 2},
         FaultCase{"error_frames", "error-frame", 12, 1, {}, "CAN bus error"},
         FaultCase{"corrupted_pdo", "corrupt-pdo:1", 11, 1, {}, "node 1: TPDO1 0x181 has 5 bytes"},
         FaultCase{"overcurrent",

@@ -114,7 +114,7 @@ TEST(CanopenMasterAllocationTest, CyclicProblemsAreRecordedWithoutAllocatingAndW
             0);
   EXPECT_EQ(rig.master.last_problem(), "node 1: TPDO1 0x181 arrived after the cycle's deadline");
 
-  // Node 3 falls silent: no TPDO1 first, then no heartbeat for longer than
+  // Node 3 falls silent: no sample (TPDO1) first, then no heartbeat for longer than
   // the timeout (150 ms at 500 Hz: 75 cycles).
   const auto silence_node_3 = [](auto& answers, auto&) {
     std::erase_if(answers, [](const delta::can::Frame& f) { return (f.id & 0x7F) == 3; });
