@@ -56,9 +56,16 @@ bool CommissionedDrives::set(const std::string& assignment, const std::string& w
       key[5] > '3') {
     return false;  // the controller's
   }
-  DriveSettings& d = joints[static_cast<unsigned>(key[5] - '1')];
-  const std::string name = key.substr(7);
-  const std::string what = where + ": " + key;
+  if (!set_joint(joints[static_cast<unsigned>(key[5] - '1')], key.substr(7), value,
+                 where + ": " + key)) {
+    return false;  // a controller's joint key (limits, EDS, torque offset): not the drive's
+  }
+  taken.push_back(key + "=" + value);
+  return true;
+}
+
+bool CommissionedDrives::set_joint(DriveSettings& d, const std::string& name,
+                                   const std::string& value, const std::string& what) {
   if (name == "rated_torque_Nm") {
     d.rated_torque_Nm = number_in(value, what, 10000.0);
   } else if (name == "rated_current_A") {
@@ -91,9 +98,8 @@ bool CommissionedDrives::set(const std::string& assignment, const std::string& w
     }
     torque_unit = value;
   } else {
-    return false;  // a controller's joint key (limits, EDS, torque offset): not the drive's
+    return false;
   }
-  taken.push_back(key + "=" + value);
   return true;
 }
 

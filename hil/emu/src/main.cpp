@@ -139,7 +139,8 @@ void add_options(CLI::App& app, std::string& iface, emu::EmulatorConfig& config,
                  "the EDS's default (repeatable)");
   app.add_option("--config", a.config_path,
                  "the controller's configuration file (delta_fw --config): its jointN drive "
-                 "values, as --set; its other keys are the controller's")
+                 "values, as --set, and its robot = FILE, as --robot; its other keys are the "
+                 "controller's")
       ->check(CLI::ExistingFile);
   a.approach_given =
       app.add_option("--approach-s", config.approach_s,

@@ -47,6 +47,12 @@ struct CommissionedDrives {
   void read_config(const std::string& path);
   // The drive model with these values in place of `model`'s.
   delta::DriveModel applied(unsigned joint, delta::DriveModel model) const;
+
+ private:
+  // One joint's NAME = VALUE (`what` names it in errors); false: not a
+  // drive's value.
+  bool set_joint(DriveSettings& d, const std::string& name, const std::string& value,
+                 const std::string& what);
 };
 
 }  // namespace emu

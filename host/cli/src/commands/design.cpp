@@ -184,16 +184,13 @@ void print_text(std::ostream& out, const DesignArguments& a, const DesignResult&
   }
 }
 
-int run_design(DesignArguments a, std::ostream& out) {
-  a.design.centre_m = {a.centre[0], a.centre[1], a.centre[2]};
-  a.design.criterion = a.criterion == "cond"          ? DesignCriterion::kConditionNumber
-                       : a.criterion == "calibration" ? DesignCriterion::kCalibration
-                                                      : DesignCriterion::kLogDet;
-  const double mHz = a.design.base_frequency_hz * 1000.0;
+// What the controller cannot run: a frequency that is not whole mHz, a
+// trajectory longer than it walks.
+void check_timing(const DesignOptions& o) {
+  const double mHz = o.base_frequency_hz * 1000.0;
   if (std::abs(mHz - std::round(mHz)) > 1e-9 * mHz) {
     throw UsageError("--base-hz: must be a whole number of mHz (the controller's unit)");
   }
-  const DesignOptions& o = a.design;
   if (const double s = 2.0 * o.blend_s + o.periods / o.base_frequency_hz;
       s * 1000.0 > delta::controller::kMaxTrajectoryTicks) {
     std::ostringstream m;
@@ -203,6 +200,33 @@ int run_design(DesignArguments a, std::ostream& out) {
       << delta::controller::kMaxTrajectoryTicks << " ticks of 1 ms, docs/modbus.md)";
     throw UsageError(m.str());
   }
+}
+
+// The design's summary, also the trajectory file's metadata.
+nlohmann::json design_json(const DesignArguments& a, const DesignResult& d,
+                           const ExcitationQuality& preset, const Model& model) {
+  const DesignLimits& l = a.design.limits;
+  return {{"by", "host_id design"},
+          {"robot", a.robot_path.empty() ? "built-in default" : a.robot_path},
+          {"model", a.design.model.name},
+          {"criterion", a.criterion},
+          {"designed", quality_json(d.quality, model)},
+          {"limits",
+           {{"min_rad", l.min_rad},
+            {"max_rad", l.max_rad},
+            {"max_velocity_rad_s", l.max_velocity_rad_s},
+            {"max_acceleration_rad_s2", l.max_acceleration_rad_s2},
+            {"max_torque_Nm", l.max_torque_Nm}}},
+          {"compared_with", a.compare},
+          {"preset", quality_json(preset, model)}};
+}
+
+int run_design(DesignArguments a, std::ostream& out) {
+  a.design.centre_m = {a.centre[0], a.centre[1], a.centre[2]};
+  a.design.criterion = a.criterion == "cond"          ? DesignCriterion::kConditionNumber
+                       : a.criterion == "calibration" ? DesignCriterion::kCalibration
+                                                      : DesignCriterion::kLogDet;
+  check_timing(a.design);
   const delta::RobotDescription robot = a.robot_path.empty()
                                             ? delta::default_robot_description()
                                             : delta::read_robot_description(a.robot_path);
@@ -224,19 +248,7 @@ int run_design(DesignArguments a, std::ostream& out) {
   const ExcitationQuality preset =
       excitation_quality(preset_trajectory(a.compare, robot, a.design.blend_s), a.design, robot);
   const auto model = make_model(a.design.model);
-  nlohmann::json design = {{"by", "host_id design"},
-                           {"robot", a.robot_path.empty() ? "built-in default" : a.robot_path},
-                           {"model", a.design.model.name},
-                           {"criterion", a.criterion},
-                           {"designed", quality_json(d.quality, *model)},
-                           {"limits",
-                            {{"min_rad", a.design.limits.min_rad},
-                             {"max_rad", a.design.limits.max_rad},
-                             {"max_velocity_rad_s", a.design.limits.max_velocity_rad_s},
-                             {"max_acceleration_rad_s2", a.design.limits.max_acceleration_rad_s2},
-                             {"max_torque_Nm", a.design.limits.max_torque_Nm}}},
-                           {"compared_with", a.compare},
-                           {"preset", quality_json(preset, *model)}};
+  const nlohmann::json design = design_json(a, d, preset, *model);
   delta::write_file_atomically(a.out_path, delta::format_trajectory(d.trajectory, design.dump()));
   if (a.json) {
     out << design.dump(2) << "\n";
