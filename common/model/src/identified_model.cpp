@@ -1,6 +1,7 @@
 #include "delta/identified_model.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <span>
 
 #include "delta/input_error.hpp"
@@ -114,6 +115,34 @@ Joint3 compliance_of(const nlohmann::json& model, const std::string& path) {
   return c;
 }
 
+// Each joint's cogging, periods and amplitude, where the fit has it
+// (cogging_sin_j, cogging_cos_j; null counts as 0).
+void cogging_of(const nlohmann::json& model, const nlohmann::json& params, IdentifiedModel& m,
+                const std::string& path) {
+  if (!model.contains("cogging_periods_per_rev")) return;
+  const auto& v = model["cogging_periods_per_rev"];
+  if (!v.is_array() || v.size() != 3) {
+    throw InputError(path + ": model.cogging_periods_per_rev must be three numbers");
+  }
+  for (unsigned j = 0; j < 3; ++j) {
+    if (!v[j].is_number() || !(v[j].get<double>() >= 0.0)) {
+      throw InputError(path + ": model.cogging_periods_per_rev must be three numbers >= 0");
+    }
+    m.cogging_periods_per_rev[j] = v[j].get<double>();
+    if (m.cogging_periods_per_rev[j] == 0.0) continue;
+    double a[2]{};
+    for (unsigned k = 0; k < 2; ++k) {
+      const std::string name =
+          std::string(k == 0 ? "cogging_sin_" : "cogging_cos_") + std::to_string(j + 1);
+      if (!params.is_object() || !params.contains(name)) {
+        throw InputError(path + ": parameters." + name + " is missing (the model has cogging)");
+      }
+      if (params[name].is_number()) a[k] = params[name].get<double>();
+    }
+    m.cogging_amplitude_Nm[j] = std::hypot(a[0], a[1]);
+  }
+}
+
 // The drive train's terms of a fit that has them (torque_gain_gap_2, _3;
 // load_friction_1 to _3); null counts as 0, as for every parameter.
 DriveTrainTerms drive_train_of(const nlohmann::json& params, bool gains, bool load,
@@ -137,6 +166,21 @@ DriveTrainTerms drive_train_of(const nlohmann::json& params, bool gains, bool lo
 }
 
 }  // namespace
+
+std::string left_out_by_controller(const IdentifiedModel& m) {
+  std::string joints;
+  for (unsigned j = 0; j < 3; ++j) {
+    if (m.cogging_periods_per_rev[j] == 0.0) continue;
+    char text[64];
+    std::snprintf(text, sizeof text, "%sjoint %u: %.3g N m at %.4g periods per revolution",
+                  joints.empty() ? "" : ", ", j + 1, m.cogging_amplitude_Nm[j],
+                  m.cogging_periods_per_rev[j]);
+    joints += text;
+  }
+  if (joints.empty()) return "";
+  return "the controller's feed-forward leaves out the fit's cogging (" + joints +
+         "): it has no cogging term; the collision thresholds were derived without it";
+}
 
 IdentifiedModel read_identified_model(const std::string& path) {
   const std::string text = read_whole_file(path);
@@ -180,6 +224,7 @@ IdentifiedModel read_identified_model(const std::string& path) {
           return v.get<double>();
         });
     m.drive_train = drive_train_of(params, gains, load, path);
+    cogging_of(model, params, m, path);
   } catch (const nlohmann::json::type_error& e) {
     throw InputError(path + ": a model value has the wrong type: " + e.what());
   } catch (const InputError& e) {

@@ -490,18 +490,44 @@ void note_torque_lag(const Prediction& fitted, FitResult& r) {
   r.doubts.push_back(m.str());
 }
 
-// What the fit's own log's prediction tells: the collision thresholds and
-// the torque's lag.
+// The controller's prediction of the fit log, where the model has terms
+// the controller does not run (cogging): without them.
+Prediction controller_prediction(const Model& model, const Regression& all_rows,
+                                 const std::string& log_name, const FitResult& r) {
+  Eigen::VectorXd beta = r.beta;
+  for (const std::size_t c : model.cogging_columns()) beta(static_cast<Eigen::Index>(c)) = 0.0;
+  return prediction_of(model, all_rows, beta, log_name);
+}
+
+// What the fit's own log's prediction tells: the collision thresholds, the
+// torque's lag, and cogging the model lacks (searched where `angles` has
+// the log's angles).
 void note_fit_prediction(const Model& model, const Regression& all_rows,
-                         const std::string& log_name, FitResult& r) {
-  if (!r.predictions.empty()) {
-    note_collision_thresholds(r.predictions.front(), r);
-    note_torque_lag(r.predictions.front(), r);
-    return;
+                         const std::string& log_name, const AngleTrack& angles, double cutoff_hz,
+                         FitResult& r) {
+  std::optional<Prediction> own;
+  if (r.predictions.empty()) own = prediction_of(model, all_rows, r.beta, log_name);
+  const Prediction& fitted = own ? *own : r.predictions.front();
+  if (model.cogging_columns().empty()) {
+    note_collision_thresholds(fitted, r);
+  } else {
+    note_collision_thresholds(controller_prediction(model, all_rows, log_name, r), r);
   }
-  const Prediction fitted = prediction_of(model, all_rows, r.beta, log_name);
-  note_collision_thresholds(fitted, r);
   note_torque_lag(fitted, r);
+  if (!angles.t_s.empty()) r.cogging = find_cogging(fitted, angles, cutoff_hz);
+}
+
+// A model with cogging terms: its held-out error with and without them.
+void note_cogging_support(const Model& model, const Regression& all_rows, std::size_t fast_rows,
+                          unsigned threads, FitResult& r) {
+  const std::vector<std::size_t> columns = model.cogging_columns();
+  if (columns.empty() || all_rows.samples() < 20 * kSupportFolds) return;
+  CoggingSupport s;
+  s.held_out_with_Nm = held_out_rmse(model, all_rows, fast_rows, kSupportFolds, threads);
+  s.held_out_without_Nm =
+      held_out_rmse(model, all_rows, fast_rows, kSupportFolds, threads, columns);
+  s.supported = s.held_out_with_Nm < s.held_out_without_Nm * (1.0 - kDriveTrainMargin);
+  r.cogging_support = s;
 }
 
 // The fitted parameters' RMSE on each validation log, and their
@@ -533,6 +559,10 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   PrepareOptions prepare = options.prepare;
   prepare.slow_rows_last_below_rad_s = r.min_speed_rad_s;
   const std::array<double, 3> spans = angle_spans(log);
+  const bool search_cogging =
+      options.search_cogging && options.model.name != "paper14" && !options.model.cogging();
+  const AngleTrack angles =
+      search_cogging ? angle_track(log, options.prepare.cutoff_hz) : AngleTrack{};
   // From here on the log is only its name and gaps.
   Preprocessed pre = preprocess_releasing(*model, log, prepare, options.threads);
   Regression& all_rows = pre.regression;
@@ -545,6 +575,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
     r.support = judge_support(*model, options.model, all_rows, pre.fast_rows, kSupportFolds,
                               options.threads);
   }
+  note_cogging_support(*model, all_rows, pre.fast_rows, options.threads, r);
 
   const auto te = std::chrono::steady_clock::now();
   Box box;
@@ -560,7 +591,7 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   }
   r.doubts = doubts_of(r);
   note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
-  note_fit_prediction(*model, all_rows, log.name, r);
+  note_fit_prediction(*model, all_rows, log.name, angles, options.prepare.cutoff_hz, r);
   validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;

@@ -47,8 +47,23 @@ class PhysicalModel final : public Model {
         out[j * p + load_first_ + j] = std::abs(tau_Nm[j]) * load_shape(s.qd_rad_s[j]);
       }
       if (gain_first_ != kNone && j > 0) out[j * p + gain_first_ + j - 1] = tau_Nm[j];
+      if (cogging_first_[j] != kNone) {
+        const double phase = options_.cogging_periods_per_rev[j] * s.q_rad[j];
+        out[j * p + cogging_first_[j]] = std::sin(phase);
+        out[j * p + cogging_first_[j] + 1] = std::cos(phase);
+      }
     }
     return delta::KinematicsStatus::kOk;
+  }
+
+  std::vector<std::size_t> cogging_columns() const override {
+    std::vector<std::size_t> out;
+    for (const std::size_t first : cogging_first_) {
+      if (first == kNone) continue;
+      out.push_back(first);
+      out.push_back(first + 1);
+    }
+    return out;
   }
 
   std::vector<std::size_t> torque_columns() const override {
@@ -139,7 +154,7 @@ class PhysicalModel final : public Model {
     }
   }
   // The drive train's columns, after the basis's: load friction per joint,
-  // then joints 2 and 3's torque gains.
+  // then joints 2 and 3's torque gains, then each joint's cogging.
   void add_drive_train_terms() {
     if (options_.load_friction) {
       load_first_ = parameters_.size();
@@ -158,6 +173,16 @@ class PhysicalModel final : public Model {
                                    "'s torque constant over joint 1's (delta tau in its row)"});
       }
     }
+    for (unsigned j = 0; j < 3; ++j) {
+      if (options_.cogging_periods_per_rev[j] == 0.0) continue;
+      cogging_first_[j] = parameters_.size();
+      const std::string joint = std::to_string(j + 1);
+      for (const char* part : {"sin", "cos"}) {
+        parameters_.push_back({std::string("cogging_") + part + "_" + joint, "N m", false,
+                               std::string("cogging: coefficient of ") + part +
+                                   "(n q), n its periods per revolution, joint " + joint});
+      }
+    }
   }
   double load_shape(double qd_rad_s) const {
     return std::tanh(qd_rad_s / options_.coulomb_smoothing_rad_s);
@@ -170,6 +195,7 @@ class PhysicalModel final : public Model {
   std::vector<Entry> entries_;
   std::vector<std::size_t> ones_;
   std::size_t load_first_{kNone}, gain_first_{kNone};
+  std::array<std::size_t, 3> cogging_first_{kNone, kNone, kNone};
 };
 
 // The paper's regressor (its eq. 1.2), in this project's conventions:
@@ -227,6 +253,14 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
       !std::isfinite(options.stribeck_velocity_rad_s)) {
     throw delta::InputError("--stribeck-velocity must be a speed in rad/s, 0 for no Stribeck term");
   }
+  for (const double n : options.cogging_periods_per_rev) {
+    if (!(n >= 0.0 && n <= kMaxCoggingPeriodsPerRev)) {
+      throw delta::InputError(
+          "--cogging-periods: each joint's periods per revolution must be 0 (none) to " +
+          std::to_string(static_cast<int>(kMaxCoggingPeriodsPerRev)) + ", got " +
+          std::to_string(n));
+    }
+  }
   if (options.name == "delta" || options.name == "lumped") {
     return std::make_unique<PhysicalModel>(options);
   }
@@ -243,6 +277,9 @@ std::unique_ptr<Model> make_model(const ModelOptions& options) {
     if (options.load_friction || options.torque_gains) {
       throw delta::InputError(
           "--load-friction and --torque-gains apply to --model delta and lumped only");
+    }
+    if (options.cogging()) {
+      throw delta::InputError("--cogging-periods applies to --model delta and lumped only");
     }
     return std::make_unique<Paper14Model>(options);
   }

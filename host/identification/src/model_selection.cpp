@@ -446,7 +446,7 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
 }
 
 double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
-                     unsigned threads) {
+                     unsigned threads, const std::vector<std::size_t>& left_out) {
   if (r.samples() < 20 * folds) {
     throw delta::InputError("too short to judge the model on " + std::to_string(folds) +
                             " time blocks");
@@ -458,9 +458,17 @@ double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, 
       block_moments(r, rows, folds, model.options().coulomb_smoothing_rad_s, threads), own, folds);
   std::size_t all_rows = 0;
   for (const FoldMoments& m : moments) all_rows += m.rows;
+  // The columns kept, each its own parameter.
   std::vector<bool> nonnegative;
-  for (const ParameterInfo& info : model.parameters()) nonnegative.push_back(info.nonnegative);
-  const double sse = held_out_sse(moments, Eigen::MatrixXd::Identity(p, p), nonnegative);
+  std::vector<Eigen::Index> kept;
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    if (std::find(left_out.begin(), left_out.end(), c) != left_out.end()) continue;
+    kept.push_back(static_cast<Eigen::Index>(c));
+    nonnegative.push_back(model.parameters()[c].nonnegative);
+  }
+  Eigen::MatrixXd map = Eigen::MatrixXd::Zero(p, static_cast<Eigen::Index>(kept.size()));
+  for (std::size_t k = 0; k < kept.size(); ++k) map(kept[k], static_cast<Eigen::Index>(k)) = 1.0;
+  const double sse = held_out_sse(moments, map, nonnegative);
   return std::sqrt(sse / static_cast<double>(all_rows));
 }
 

@@ -32,6 +32,39 @@ void text_torque_lag(const FitResult& r, std::ostream& s) {
     << "\n";
 }
 
+std::string three(const delta::Joint3& v, const char* format) {
+  return fmt(format, v[0]) + ", " + fmt(format, v[1]) + ", " + fmt(format, v[2]);
+}
+
+// Cogging the residual shows, and the terms' judgement where a fit had them.
+void text_cogging(const FitResult& r, std::ostream& s) {
+  const bool found = r.cogging && r.cogging->found();
+  if (found) {
+    s << "  cogging   the residual repeats " << three(r.cogging->periods_per_rev, "%.4g")
+      << " times per joint revolution (0: not), amplitude "
+      << three(r.cogging->amplitude_Nm, "%.3g") << " N m";
+  }
+  if (r.cogging_support) {
+    const CoggingSupport& c = *r.cogging_support;
+    s << (found ? "\n            " : "  cogging   ") << "held-out torque error "
+      << fmt("%.4g", c.held_out_with_Nm) << " N m with the cogging terms, "
+      << fmt("%.4g", c.held_out_without_Nm) << " N m without (" << kSupportFolds
+      << " time blocks): "
+      << (c.supported ? "the log supports them" : "they do not lower it by 10 %")
+      << (r.options.model.cogging() ? ", fitted" : ", left out") << "\n";
+    return;
+  }
+  if (found) {
+    s << ": cogging the model lacks; --model auto takes it in where it lowers the held-out "
+         "error, --cogging-periods gives it\n";
+  } else if (r.cogging) {
+    s << "  cogging   none in the residual (its spectrum over each joint's angle peaks at "
+      << three(r.cogging->peak_ratio, "%.3g") << " times its median; cogging is a peak of "
+      << fmt("%.0f", kCoggingPeakRatio) << " or more that holds " << fmt("%.1f", kLeastCoggingShare)
+      << " of the residual's RMS)\n";
+  }
+}
+
 // The collision detector's thresholds the model carries, or why none.
 void text_collision(const FitResult& r, std::ostream& s) {
   if (!r.collision) {
@@ -106,6 +139,9 @@ std::string model_summary(const ModelOptions& m, std::size_t p) {
         s << (j == 0 ? " " : ", ") << (c > 0.0 ? fmt("%.0f", 1.0 / c) : std::string("rigid"));
       }
       s << " N m/rad";
+    }
+    if (m.cogging()) {
+      s << ", cogging at " << three(m.cogging_periods_per_rev, "%.6g") << " periods per revolution";
     }
     s << ")";
   } else {
@@ -313,6 +349,7 @@ void text_method(const FitResult& r, std::ostream& s) {
   }
   if (r.elasticity) text_elasticity(*r.elasticity, s);
   text_torque_lag(r, s);
+  text_cogging(r, s);
   text_collision(r, s);
   s << "  time      " << fmt("%.3f", r.seconds_estimator) << " s estimator, "
     << fmt("%.3f", r.seconds_total) << " s in all\n\n";
@@ -514,8 +551,25 @@ nlohmann::json json_model_options(const ModelOptions& m) {
           {"load_friction", m.load_friction},
           {"torque_gains", m.torque_gains},
           {"gearbox_compliance_rad_per_Nm", m.gearbox_compliance_rad_per_Nm},
+          {"cogging_periods_per_rev", m.cogging_periods_per_rev},
           {"coulomb_smoothing_rad_s", m.coulomb_smoothing_rad_s},
           {"stribeck_velocity_rad_s", m.stribeck_velocity_rad_s}};
+}
+
+nlohmann::json json_cogging(const FitResult& r) {
+  nlohmann::json out = nullptr;
+  if (r.cogging) {
+    out = {{"periods_per_rev", r.cogging->periods_per_rev},
+           {"amplitude_Nm", r.cogging->amplitude_Nm},
+           {"peak_ratio", r.cogging->peak_ratio}};
+  }
+  if (r.cogging_support) {
+    if (out.is_null()) out = nlohmann::json::object();
+    out["held_out_with_Nm"] = r.cogging_support->held_out_with_Nm;
+    out["held_out_without_Nm"] = r.cogging_support->held_out_without_Nm;
+    out["supported"] = r.cogging_support->supported;
+  }
+  return out;
 }
 
 nlohmann::json json_geometry(const delta::Geometry& g) {
@@ -585,6 +639,7 @@ nlohmann::json json_report(const FitResult& r) {
       {"seconds", {{"estimator", r.seconds_estimator}, {"total", r.seconds_total}}},
       {"friction_shape", json_friction_shape(r)},
       {"elasticity", json_elasticity(r)},
+      {"cogging", json_cogging(r)},
       {"collision_thresholds", json_collision(r)},
       {"torque_lag", r.torque_lag ? nlohmann::json{{"lag_s", r.torque_lag->lag_s},
                                                    {"error_drop", r.torque_lag->error_drop}}

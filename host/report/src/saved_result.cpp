@@ -2,6 +2,7 @@
 // back for validate, predict, simulate --params and a payload's base fit.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -28,6 +29,24 @@ struct ResultFile {
   }
 };
 
+// Three numbers from 0 to `most` under model.KEY, or zeros where an older
+// result has no key.
+delta::Joint3 read_joint3(const ResultFile& f, const json& m, const char* key, double most,
+                          const char* what) {
+  delta::Joint3 out{};
+  if (!m.contains(key)) return out;
+  const json& c = m[key];
+  const auto bad = [most](const json& v) {
+    return !v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0 ||
+           v.get<double>() > most;
+  };
+  if (!c.is_array() || c.size() != 3 || std::any_of(c.begin(), c.end(), bad)) {
+    throw delta::InputError(f.path + ": model." + key + " must be " + what);
+  }
+  for (unsigned k = 0; k < 3; ++k) out[k] = c[k].get<double>();
+  return out;
+}
+
 ModelOptions read_model_options(const ResultFile& f, const json& j) {
   const json& m = f.need(j, "model", "");
   ModelOptions model;
@@ -40,18 +59,12 @@ ModelOptions read_model_options(const ResultFile& f, const json& j) {
   // Results saved before the drive train's terms have no keys: none.
   model.load_friction = m.value("load_friction", false);
   model.torque_gains = m.value("torque_gains", false);
-  if (m.contains("gearbox_compliance_rad_per_Nm")) {
-    const json& c = m["gearbox_compliance_rad_per_Nm"];
-    const auto bad = [](const json& v) {
-      return !v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0.0;
-    };
-    if (!c.is_array() || c.size() != 3 || std::any_of(c.begin(), c.end(), bad)) {
-      throw delta::InputError(f.path +
-                              ": model.gearbox_compliance_rad_per_Nm must be three compliances "
-                              ">= 0 in rad/(N m), one per joint (0: rigid)");
-    }
-    for (unsigned k = 0; k < 3; ++k) model.gearbox_compliance_rad_per_Nm[k] = c[k].get<double>();
-  }
+  model.gearbox_compliance_rad_per_Nm =
+      read_joint3(f, m, "gearbox_compliance_rad_per_Nm", std::numeric_limits<double>::infinity(),
+                  "three compliances >= 0 in rad/(N m), one per joint (0: rigid)");
+  model.cogging_periods_per_rev =
+      read_joint3(f, m, "cogging_periods_per_rev", kMaxCoggingPeriodsPerRev,
+                  "three cogging periods per joint revolution, 0 (none) to 5000");
   return model;
 }
 

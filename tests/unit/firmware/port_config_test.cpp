@@ -235,6 +235,32 @@ TEST(PortConfigTest, AFittedModelBecomesTheFeedForward) {
       << config_error("feed_forward.model = " + file + "\n");
 }
 
+// A fit with cogging terms loads, but the controller has none: the
+// feed-forward line says it leaves the cogging out.
+TEST(PortConfigTest, AFitsCoggingIsNamedAsLeftOut) {
+  const std::string file = scratch_file("cogging.json");
+  std::string json = result_json(
+      "lumped", kDefaultGeometryJson,
+      std::string(kLumpedParameters) + ", \"cogging_sin_1\": 0.03, \"cogging_cos_1\": -0.04");
+  const std::string smoothing = "\"coulomb_smoothing_rad_s\": 0.01";
+  json.insert(json.find(smoothing) + smoothing.size(), ", \"cogging_periods_per_rev\": [60, 0, 0]");
+  std::ofstream(file) << json;
+  const PortConfig c = read_port_config(write_temp("feed_forward.model = " + file + "\n"));
+  ASSERT_TRUE(c.feed_forward_model.has_value());
+  EXPECT_NEAR(c.feed_forward_model->cogging_amplitude_Nm[0], 0.05, 1e-12);
+  const std::string line = describe_feed_forward(c);
+  EXPECT_NE(line.find("note: the controller's feed-forward leaves out the fit's cogging (joint 1: "
+                      "0.05 N m at 60 periods per revolution)"),
+            std::string::npos)
+      << line;
+  // Without the terms, nothing is said.
+  std::ofstream(file) << result_json("lumped", kDefaultGeometryJson, kLumpedParameters);
+  EXPECT_EQ(
+      describe_feed_forward(read_port_config(write_temp("feed_forward.model = " + file + "\n")))
+          .find("leaves out"),
+      std::string::npos);
+}
+
 TEST(PortConfigTest, ErrorsNameFileLineColumnAndKey) {
   EXPECT_NE(config_error("period_us = 2ms\n")
                 .find("port_test.conf:1:13: period_us needs a decimal number, got '2ms'"),

@@ -47,6 +47,12 @@ struct IdentifiedModel {
   // (`host_id fit --elastic` or --gearbox-stiffness; docs/model.md); all 0:
   // rigid. The controller compensates the deflection with it.
   Joint3 gearbox_compliance_rad_per_Nm{};
+  // The fit's cogging terms (docs/model.md, "Cogging"): each joint's
+  // periods per revolution and amplitude; 0: none. The controller does not
+  // run them: its feed-forward leaves them out, and the fit derived the
+  // collision thresholds without them.
+  Joint3 cogging_periods_per_rev{};
+  Joint3 cogging_amplitude_Nm{};
   // None in results saved before they were derived, and for models the fit
   // derives none for (paper14; elastic, whose states are the arm's).
   std::optional<CollisionThresholds> collision_thresholds;
@@ -56,6 +62,10 @@ struct IdentifiedModel {
 // what to do) for anything else: not a result, paper14, a missing or
 // non-numeric parameter.
 IdentifiedModel read_identified_model(const std::string& path);
+
+// What the controller leaves out of m (its cogging terms), to say where
+// the model is loaded; "" where nothing.
+std::string left_out_by_controller(const IdentifiedModel& m);
 
 // The physical parameters of a model of `kind` from its parameters' values
 // by name (`value` returns nullopt for a name it does not have: the error

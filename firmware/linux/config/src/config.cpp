@@ -432,7 +432,10 @@ std::string describe_feed_forward(const PortConfig& c) {
                      (c.feed_forward_model ? c.feed_forward_model->kind : "none") + ", fit " + id +
                      ", " + c.feed_forward_model_file + ")";
   const std::string deflection = describe_deflection(controller_config(c).feed_forward);
-  return deflection.empty() ? line : line + "; " + deflection;
+  if (!deflection.empty()) line += "; " + deflection;
+  const std::string left_out =
+      c.feed_forward_model ? delta::left_out_by_controller(*c.feed_forward_model) : "";
+  return left_out.empty() ? line : line + "; note: " + left_out;
 }
 
 std::string describe_deflection(const fw::FeedForwardConfig& f) {

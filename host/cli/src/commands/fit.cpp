@@ -58,6 +58,7 @@ struct FitArguments {
   std::string calibrate_path;                        // --calibrate-torque: the loaded log
   double payload_mass_kg{0};                         // --payload-mass, with --calibrate-torque
   std::vector<double> gearbox_stiffness_Nm_per_rad;  // --gearbox-stiffness: 1 or 3 values
+  std::vector<double> cogging_periods;               // --cogging-periods: 1 or 3 values
   CLI::Option* model_given{nullptr};
   CLI::Option* trim_given{nullptr};
   CLI::Option* min_speed_given{nullptr};
@@ -86,6 +87,15 @@ void add_gearbox_options(CLI::App& c, FitArguments& a) {
       ->expected(1, 3)
       ->check(CLI::PositiveNumber)
       ->excludes("--elastic")
+      ->group("model");
+  c.add_option("--cogging-periods", a.cogging_periods,
+               "delta, lumped: a cogging term per joint, a sin(n q) + b cos(n q), with n its "
+               "periods per joint revolution (the motor's cogging periods per revolution times "
+               "the gear ratio; one for all joints, or N1,N2,N3; 0: none at that joint). "
+               "--model auto finds n in the residual itself (docs/model.md, 'Cogging')")
+      ->delimiter(',')
+      ->expected(1, 3)
+      ->check(CLI::Range(0.0, kMaxCoggingPeriodsPerRev))
       ->group("model");
 }
 
@@ -284,6 +294,12 @@ FitOptions fit_options(const FitArguments& a) {
   if (a.state_cutoff != "auto") f.prepare.state_cutoff_hz = std::stod(a.state_cutoff);
   if (a.min_speed_given->count()) f.min_speed_rad_s = a.min_speed_rad_s;
   f.model.gearbox_compliance_rad_per_Nm = given_compliance(a);
+  const std::vector<double>& n = a.cogging_periods;
+  f.search_cogging = n.empty();
+  if (!n.empty()) {
+    f.model.cogging_periods_per_rev =
+        n.size() == 1 ? delta::Joint3{n[0], n[0], n[0]} : delta::Joint3{n[0], n[1], n[2]};
+  }
   return f;
 }
 
@@ -298,6 +314,7 @@ FitOptions options_for_model(FitOptions f, const std::string& name) {
     f.model.load_friction = false;
     f.model.torque_gains = false;
     f.model.gearbox_compliance_rad_per_Nm = {};
+    f.model.cogging_periods_per_rev = {};
     f.fit_elasticity = false;
     f.model.stribeck_velocity_rad_s = 0.0;
     f.fit_friction_shape = false;
@@ -425,6 +442,7 @@ nlohmann::json calibration_json(const FitArguments& a, const Model& model,
           {"payload_mass_kg", a.payload_mass_kg},
           {"model", model.options().name},
           {"model_terms", "per-joint arms, load friction"},
+          {"cogging_periods_per_rev", model.options().cogging_periods_per_rev},
           {"torque_scale", s.scale},
           {"torque_scale_std", s.scale_std},
           {"torque_scale_ls_std", s.scale_ls_std},
@@ -451,10 +469,29 @@ void print_calibration(const FitArguments& a, const Model& model, const TorqueSc
   }
   out << "  std dev   with model error: the scales' spread over the logs' motions, at least the "
          "noise's (docs/trust.md)\n";
+  if (model.options().cogging()) {
+    const delta::Joint3& n = model.options().cogging_periods_per_rev;
+    std::snprintf(line, sizeof line,
+                  "  cogging   %.5g, %.5g, %.5g periods per revolution (0: none), taken in%s\n",
+                  n[0], n[1], n[2],
+                  a.cogging_periods.empty() ? " (found in the unloaded log's residual)" : "");
+    out << line;
+  }
   std::snprintf(line, sizeof line, "  torque RMSE [N m, true units] %.5f %.5f %.5f\n", s.rmse_Nm[0],
                 s.rmse_Nm[1], s.rmse_Nm[2]);
   out << line;
   if (!a.out_path.empty()) out << "  saved     " << a.out_path << "\n";
+}
+
+// Cogging in the residual of the calibration's model fitted to the
+// unloaded log (zeros: none), for the calibration to take in: its share of
+// a joint's torque is largest where the payload's is small.
+delta::Joint3 cogging_in(const DeltaLog& unloaded, FitOptions f) {
+  f.method = Method::kLeastSquares;
+  f.fit_elasticity = false;
+  f.fit_friction_shape = false;
+  const FitResult r = fit_log(unloaded, f, {}, false);
+  return r.cogging && r.cogging->found() ? r.cogging->periods_per_rev : delta::Joint3{};
 }
 
 // fit LOG.csv --calibrate-torque LOADED.csv --payload-mass KG: each joint's
@@ -473,9 +510,10 @@ int run_calibration(const FitArguments& a, std::ostream& out, std::ostream& err)
   // +-1.5 %, 5 % load friction by up to 1.2 %).
   f.model.per_joint = true;
   f.model.load_friction = true;
-  const auto model = make_model(f.model);
   const DeltaLog unloaded = read_delta_log(a.log);
   const DeltaLog loaded = read_delta_log(a.calibrate_path);
+  if (f.search_cogging) f.model.cogging_periods_per_rev = cogging_in(unloaded, f);
+  const auto model = make_model(f.model);
   check_geometry(a.calibrate_path, loaded.geometry, a.log + " has", unloaded.geometry,
                  a.allow_other_geometry, err);
   warn_about_log(err, unloaded, f.prepare.time_steps);
@@ -563,8 +601,20 @@ FitInputs read_fit_inputs(const FitArguments& a, const FitOptions& f, std::ostre
   return in;
 }
 
-// --model auto: the shared arms' fit judges the variants on its own rows;
-// another variant the log supports is fitted from the file again.
+// The fit of f.model again, from the file, keeping the first fit's
+// cogging search.
+FitResult fit_again(const FitArguments& a, const FitOptions& f, const FitInputs& in,
+                    const std::optional<CoggingSearch>& search) {
+  FitResult r =
+      fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());
+  if (search) r.cogging = search;
+  return r;
+}
+
+// --model auto: the shared arms' fit judges the variants on its own rows
+// and searches its residual for cogging; another variant the log
+// supports, or cogging found, is fitted from the file again, and the
+// cogging terms are kept only where they lower the held-out error.
 std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInputs& in,
                                           std::ostream& err) {
   std::vector<FitResult> results;
@@ -576,12 +626,27 @@ std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInpu
         << " samples are too few to judge the model's variants on " << kSupportFolds
         << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
   }
-  if (a.selection && a.selection->chosen != variant_index(*a.selection, f.model)) {
-    const delta::Joint3 compliance = f.model.gearbox_compliance_rad_per_Nm;
-    f.model = a.selection->variants[a.selection->chosen].model;
-    f.model.gearbox_compliance_rad_per_Nm = compliance;
-    results.back() =
-        fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());
+  const std::optional<CoggingSearch> search = results.back().cogging;
+  const bool cogging = search && search->found();
+  if ((a.selection && a.selection->chosen != variant_index(*a.selection, f.model)) || cogging) {
+    const ModelOptions given = f.model;
+    if (a.selection) f.model = a.selection->variants[a.selection->chosen].model;
+    f.model.gearbox_compliance_rad_per_Nm = given.gearbox_compliance_rad_per_Nm;
+    if (cogging) f.model.cogging_periods_per_rev = search->periods_per_rev;
+    results.back() = fit_again(a, f, in, search);
+    // With the cogging terms in, the arms and offsets are chosen again.
+    const std::optional<ModelSelection>& again = results.back().support;
+    if (cogging && again && again->chosen != variant_index(*again, f.model)) {
+      f.model = again->variants[again->chosen].model;
+      a.selection = again;
+      results.back() = fit_again(a, f, in, search);
+    }
+    const std::optional<CoggingSupport> judged = results.back().cogging_support;
+    if (cogging && judged && !judged->supported) {
+      f.model.cogging_periods_per_rev = given.cogging_periods_per_rev;
+      results.back() = fit_again(a, f, in, search);
+      results.back().cogging_support = judged;
+    }
   }
   if (in.robot) results.back().truth = parameter_truth(f.model, *in.robot);
   return results;

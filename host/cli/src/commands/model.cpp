@@ -39,6 +39,9 @@ void run_load(const ModelCommandOptions& o, CommandContext& context) {
   context.err << "host_id model: loaded " << o.result << " (" << m.kind << ", fit "
               << hex32(m.fit_id) << ") into node " << o.link.node
               << "; it is the feed-forward from the next run on, and kept across restarts\n";
+  if (const std::string left_out = delta::left_out_by_controller(m); !left_out.empty()) {
+    context.err << "host_id model: note: " << left_out << "\n";
+  }
   context.exit_code = 0;
 }
 

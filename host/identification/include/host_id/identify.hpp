@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "host_id/cogging.hpp"
 #include "host_id/collision_thresholds.hpp"
 #include "host_id/delta_log.hpp"
 #include "host_id/least_squares.hpp"
@@ -54,6 +55,9 @@ struct FitOptions {
   // Search each joint's gearbox compliance (elasticity.hpp) and take it
   // where the held-out error says so.
   bool fit_elasticity{false};
+  // Search the fit's residual for cogging where the model has no cogging
+  // term (cogging.hpp; FitResult::cogging).
+  bool search_cogging{true};
 };
 
 // What fit_elasticity found: each joint's compliance c = 1 / K with its
@@ -204,6 +208,11 @@ struct FitResult {
   std::string collision_unavailable;
   // The logged torque's lag behind the motion (torque_lag.hpp).
   std::optional<TorqueLag> torque_lag;
+  // Cogging in the residual of a model without the term (cogging.hpp); a
+  // fit with the term carries the search that found it (fit --model auto)
+  // and its held-out judgement.
+  std::optional<CoggingSearch> cogging;
+  std::optional<CoggingSupport> cogging_support;
 };
 
 // Fits log; result.validation gets the RMSE of each validation log. With

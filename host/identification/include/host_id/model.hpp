@@ -45,11 +45,24 @@ struct ModelOptions {
   // With it the model is the arm's at q - c tau (elasticity.hpp): the fit
   // and a prediction move the log's angles there first.
   delta::Joint3 gearbox_compliance_rad_per_Nm{};
+  // delta, lumped: each joint's cogging, a torque periodic in the joint's
+  // angle, a sin(n q) + b cos(n q) with n its periods per joint revolution
+  // (the motor's periods per revolution times the gear ratio); 0: no
+  // term at that joint (docs/model.md, "Cogging").
+  delta::Joint3 cogging_periods_per_rev{};
+  bool cogging() const {
+    return cogging_periods_per_rev[0] != 0.0 || cogging_periods_per_rev[1] != 0.0 ||
+           cogging_periods_per_rev[2] != 0.0;
+  }
   bool elastic() const {
     return gearbox_compliance_rad_per_Nm[0] != 0.0 || gearbox_compliance_rad_per_Nm[1] != 0.0 ||
            gearbox_compliance_rad_per_Nm[2] != 0.0;
   }
 };
+
+// The most cogging periods per joint revolution a model takes (a motor's
+// 50 periods through a 100:1 gear).
+inline constexpr double kMaxCoggingPeriodsPerRev = 5000.0;
 
 // The names --model takes, in the order the help lists them.
 inline const std::vector<std::string>& model_names() {
@@ -71,6 +84,8 @@ class Model {
   virtual delta::KinematicsStatus rows(const delta::Geometry& g, double gravity_m_s2,
                                        const delta::JointState& s, const delta::Joint3& tau_Nm,
                                        double* out) const = 0;
+  // The columns of the cogging terms (none: empty).
+  virtual std::vector<std::size_t> cogging_columns() const { return {}; }
   // The columns of rows()'s terms in the logged torque (none: empty).
   virtual std::vector<std::size_t> torque_columns() const { return {}; }
   // The model's torque at joint j, given y = the joint's row written with a

@@ -37,8 +37,9 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
 // The held-out torque RMSE of one model over `folds` time blocks of its
 // regression's first `rows` rows (each block predicted by the bounded fit
 // of the others), on `threads` threads. Throws InputError for too short a
-// regression.
+// regression. left_out: columns the fits leave out (the model without
+// those terms).
 double held_out_rmse(const Model& model, const Regression& r, std::size_t rows, unsigned folds,
-                     unsigned threads = 0);
+                     unsigned threads = 0, const std::vector<std::size_t>& left_out = {});
 
 }  // namespace host_id
