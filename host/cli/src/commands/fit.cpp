@@ -14,6 +14,7 @@
 #include "delta/atomic_file.hpp"
 #include "delta/read_file.hpp"
 #include "host_id/delta_log.hpp"
+#include "host_id/fit_auto.hpp"
 #include "host_id/geometry_check.hpp"
 #include "host_id/identify.hpp"
 #include "host_id/joint_signs.hpp"
@@ -601,55 +602,20 @@ FitInputs read_fit_inputs(const FitArguments& a, const FitOptions& f, std::ostre
   return in;
 }
 
-// The fit of f.model again, from the file, keeping the first fit's
-// cogging search.
-FitResult fit_again(const FitArguments& a, const FitOptions& f, const FitInputs& in,
-                    const std::optional<CoggingSearch>& search) {
-  FitResult r =
-      fit_log(read_delta_log(a.log), f, pointers(in.validation_logs), !a.plot_path.empty());
-  if (search) r.cogging = search;
-  return r;
-}
-
-// --model auto: the shared arms' fit judges the variants on its own rows
-// and searches its residual for cogging; another variant the log
-// supports, or cogging found, is fitted from the file again, and the
-// cogging terms are kept only where they lower the held-out error.
-std::vector<FitResult> fit_chosen_variant(FitArguments& a, FitOptions f, FitInputs& in,
+// --model auto (fit_auto.hpp): further fits read the file again.
+std::vector<FitResult> fit_chosen_variant(FitArguments& a, const FitOptions& f, FitInputs& in,
                                           std::ostream& err) {
-  std::vector<FitResult> results;
-  results.push_back(
-      fit_log(std::move(in.log), f, pointers(in.validation_logs), !a.plot_path.empty()));
-  a.selection = results.back().support;
+  AutoFit fit = fit_auto(
+      std::move(in.log), [&a] { return read_delta_log(a.log); }, f, pointers(in.validation_logs),
+      !a.plot_path.empty());
+  a.selection = fit.selection;
   if (!a.selection) {
-    err << a.log << ": warning: --model auto: " << results.back().fit.samples
+    err << a.log << ": warning: --model auto: " << fit.result.fit.samples
         << " samples are too few to judge the model's variants on " << kSupportFolds
         << " time blocks (at least " << 20 * kSupportFolds << "); the shared arms are fitted\n";
   }
-  const std::optional<CoggingSearch> search = results.back().cogging;
-  const bool cogging = search && search->found();
-  if ((a.selection && a.selection->chosen != variant_index(*a.selection, f.model)) || cogging) {
-    const ModelOptions given = f.model;
-    if (a.selection) f.model = a.selection->variants[a.selection->chosen].model;
-    f.model.gearbox_compliance_rad_per_Nm = given.gearbox_compliance_rad_per_Nm;
-    if (cogging) f.model.cogging_periods_per_rev = search->periods_per_rev;
-    results.back() = fit_again(a, f, in, search);
-    // With the cogging terms in, the arms and offsets are chosen again.
-    const std::optional<ModelSelection>& again = results.back().support;
-    if (cogging && again && again->chosen != variant_index(*again, f.model)) {
-      f.model = again->variants[again->chosen].model;
-      a.selection = again;
-      results.back() = fit_again(a, f, in, search);
-    }
-    const std::optional<CoggingSupport> judged = results.back().cogging_support;
-    if (cogging && judged && !judged->supported) {
-      f.model.cogging_periods_per_rev = given.cogging_periods_per_rev;
-      results.back() = fit_again(a, f, in, search);
-      results.back().cogging_support = judged;
-    }
-  }
-  if (in.robot) results.back().truth = parameter_truth(f.model, *in.robot);
-  return results;
+  if (in.robot) fit.result.truth = parameter_truth(fit.result.options.model, *in.robot);
+  return {std::move(fit.result)};
 }
 
 // Each --model given, fitted on the same log; the first is plotted.
