@@ -101,7 +101,15 @@ void CliCoggingTest::check_the_fit() {
             << error[1] << " % without\n";
   EXPECT_LT(error[0], 2.0);
   EXPECT_LT(error[0], 0.4 * error[1]);
-  // The controller does not run the term, and says so where it is loaded.
+  // The controller does not run the term: its collision thresholds come
+  // from the residual without it, as large as a fit without the term has.
+  const auto without = nlohmann::json::parse(delta::read_whole_file(path("without.json")));
+  for (unsigned j = 0; j < 3; ++j) {
+    EXPECT_GT(with["collision_thresholds"]["peak_residual_Nm"][j].get<double>(),
+              0.8 * without["collision_thresholds"]["peak_residual_Nm"][j].get<double>())
+        << "joint " << j + 1;
+  }
+  // And says so where it is loaded.
   const delta::IdentifiedModel m = delta::read_identified_model(path("with.json"));
   EXPECT_NEAR(m.cogging_amplitude_Nm[0], 0.03, 0.01);
   EXPECT_NE(delta::left_out_by_controller(m).find("leaves out the fit's cogging (joint 1: "),
