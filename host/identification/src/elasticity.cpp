@@ -10,6 +10,7 @@
 #include "delta/input_error.hpp"
 #include "host_id/least_squares.hpp"
 #include "host_id/model_selection.hpp"
+#include "host_id/motion_spread.hpp"
 #include "host_id/predict.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/pso.hpp"
@@ -80,11 +81,24 @@ Series3 torque_everywhere(const PredictedLog& p, std::size_t samples) {
   return out;
 }
 
+// The parameters with the joint's friction left out: it acts on the
+// motor's side of the gearbox (docs/robot-description.md), so the gear
+// carries the drive's torque less it.
+Eigen::VectorXd gear_side(const Model& model, Eigen::VectorXd beta) {
+  for (std::size_t c = 0; c < model.size(); ++c) {
+    const std::string& name = model.parameters()[c].name;
+    for (const char* friction : {"viscous_friction", "coulomb_friction", "stribeck_friction"}) {
+      if (name.rfind(friction, 0) == 0) beta(static_cast<Eigen::Index>(c)) = 0.0;
+    }
+  }
+  return beta;
+}
+
 }  // namespace
 
 Series3 deflection_torque(const Model& model, const Eigen::VectorXd& beta, const DeltaLog& log,
                           const PrepareOptions& prepare) {
-  const PredictedLog p = predict_log_as_is(model, beta, log, prepare, "");
+  const PredictedLog p = predict_log_as_is(model, gear_side(model, beta), log, prepare, "");
   Series3 tau = torque_everywhere(p, log.size());
   const double rate = p.report.sample_rate_hz;
   if (rate > 2.0 * prepare.cutoff_hz) {
@@ -232,10 +246,13 @@ delta::Joint3 compliance_std(const ComplianceColumns& cc, const Model& model,
     aug.joint.push_back(cc.base.joint[static_cast<std::size_t>(row)]);
     aug.sample.push_back(cc.base.sample[static_cast<std::size_t>(row)]);
   }
-  const LeastSquaresResult full = solve_least_squares(
-      Equations(aug), infos, LsSolver::kQr, LsWeights::kNone, log_name,
-      correlation_lags_for(cc.sample_rate_hz, options.prepare.cutoff_hz), options.threads);
-  return {full.std_dev(p), full.std_dev(p + 1), full.std_dev(p + 2)};
+  const std::size_t lags = correlation_lags_for(cc.sample_rate_hz, options.prepare.cutoff_hz);
+  LeastSquaresResult full = solve_least_squares(Equations(aug), infos, LsSolver::kQr,
+                                                LsWeights::kNone, log_name, lags, options.threads);
+  // With model error: the spread over the log's motions where it is the
+  // larger (trust.md), as every other parameter's.
+  add_model_error(Equations(aug), lags, full);
+  return {full.honest_std_dev(p), full.honest_std_dev(p + 1), full.honest_std_dev(p + 2)};
 }
 
 // The held-out torque error of the rigid model and of the elastic one at

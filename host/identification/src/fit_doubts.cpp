@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "host_id/elasticity.hpp"
 #include "host_id/friction_shape.hpp"
 #include "host_id/identify.hpp"
 
@@ -41,6 +42,24 @@ std::string implausible_masses(const FitResult& r) {
          format_number(r.geometry.upper_arm_length_m) +
          " m arms): a torque logged in mN m instead of N m gives a thousand times the true "
          "values; check the log's torque unit (docs/log-format.md)";
+}
+
+// A gearbox stiffness searched from the motor's encoders (--elastic) that
+// ended on the search's bound; "" where none did.
+std::string stiffness_doubt(const FitResult& r) {
+  if (!r.elasticity || r.elasticity->from_arm_encoders) return "";
+  std::string joints;
+  for (unsigned j = 0; j < 3; ++j) {
+    if (r.elasticity->compliance_rad_per_Nm[j] > kComplianceMaxRadPerNm / 1.02) {
+      joints += (joints.empty() ? "" : ", ") + std::to_string(j + 1);
+    }
+  }
+  if (joints.empty()) return "";
+  return "the gearbox stiffness search ended on its bound (" +
+         format_number(1.0 / kComplianceMaxRadPerNm) + " N m/rad) at joint(s) " + joints +
+         ": the drive train is softer than the search covers, or the log explains something "
+         "else by it; log the arm's encoders (qa1..qa3) or give the stiffness "
+         "(--gearbox-stiffness)";
 }
 
 // The friction's shape: a search that ended on its bound, or a residual
@@ -156,6 +175,9 @@ std::vector<std::string> doubts_of(const FitResult& r) {
                      "): the log cannot tell them from 0");
   }
   if (const std::string shape = friction_shape_doubt(r); !shape.empty()) doubts.push_back(shape);
+  if (const std::string stiffness = stiffness_doubt(r); !stiffness.empty()) {
+    doubts.push_back(stiffness);
+  }
   for (const std::string& d : {changing_doubt(r), support_doubt(r)}) {
     if (!d.empty()) doubts.push_back(d);
   }

@@ -372,5 +372,27 @@ TEST(TrustTest, DoubtsNameTheLooseAndThePinnedParameters) {
   EXPECT_EQ(d[1], "3 parameters sit at their bound 0 (a, b, c): the log cannot tell them from 0");
 }
 
+// A gearbox stiffness searched from the motor's encoders that ended on the
+// search's bound is a doubt naming the joints; the arm's encoders measure
+// it, and are no search.
+TEST(TrustTest, AStiffnessOnTheSearchsBoundIsADoubt) {
+  FitResult r;
+  r.condition_number_scaled = 30;
+  r.elasticity = ElasticityResult{};
+  r.elasticity->compliance_rad_per_Nm = {1.0 / 3000.0, 1.0 / 101.0, 1.0 / 100.0};
+  const std::vector<std::string> d = doubts_of(r);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].rfind("the gearbox stiffness search ended on its bound (100 N m/rad) at "
+                       "joint(s) 2, 3: the drive train is softer than the search covers",
+                       0),
+            0u)
+      << d[0];
+  r.elasticity->compliance_rad_per_Nm[1] = r.elasticity->compliance_rad_per_Nm[2] = 1.0 / 200.0;
+  EXPECT_TRUE(doubts_of(r).empty());
+  r.elasticity->compliance_rad_per_Nm[2] = 1.0 / 100.0;
+  r.elasticity->from_arm_encoders = true;
+  EXPECT_TRUE(doubts_of(r).empty());
+}
+
 }  // namespace
 }  // namespace host_id

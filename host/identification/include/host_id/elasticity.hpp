@@ -2,8 +2,9 @@
 // gearboxes"). The encoder sits on the motor, so the logged angle is the
 // motor side's, θ_m; the arm is at q_a = θ_m − c τ_gear, c = 1 / K the
 // gearbox's compliance. The fit takes the gear's torque as the model's own
-// (the rotor's inertia and the motor side's friction are a small part of
-// it) and fits the arm's dynamics at q_a: the model stays linear in
+// without the joint's friction, which acts on the motor's side (the
+// rotor's inertia, a small part of it, is left in) and fits the arm's
+// dynamics at q_a: the model stays linear in
 // its parameters for a given c, and c (one per joint) is searched by PSO
 // with the linear parameters solved exactly for each candidate (variable
 // projection). A prediction has no measured torque: it solves for its own
@@ -19,9 +20,12 @@
 
 namespace host_id {
 
-// The search box, rad/(N m): rigid (0) to a stiffness of 500 N m/rad,
-// softer than any gearbox a delta is built with.
-constexpr double kComplianceMaxRadPerNm = 1.0 / 500.0;
+// The search box, rad/(N m): rigid (0) to a stiffness of 100 N m/rad, as
+// soft as a belt reduction (a strain-wave gearbox at a delta's joint is a
+// few thousand). A stiffness found at the bound is a doubt (fit_doubts):
+// the drive train is softer than the search covers, or the log explains
+// something else by it.
+constexpr double kComplianceMaxRadPerNm = 1.0 / 100.0;
 
 // The log with the arm's angle q_j − c_j τ_j, τ the given torque (the
 // logged one, or a prediction). Throws delta::InputError for a log with qd
