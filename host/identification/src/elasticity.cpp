@@ -281,6 +281,31 @@ void judge_elasticity(const Model& model, const DeltaLog& log, const FitOptions&
       r.held_out_elastic_Nm > 0.0 && r.held_out_elastic_Nm < r.held_out_rigid_Nm * (1.0 - margin);
 }
 
+// The standard deviation of the first coefficient of y = x b with model
+// error: least squares' own, or the spread over the log's motions where
+// larger (motion_spread.hpp, as every fitted parameter's; trust.md).
+double motion_spread_std(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                         const PreparedStates& prepared, const DeltaLog& log,
+                         const FitOptions& options) {
+  Regression r;
+  r.psi = x;
+  r.tau = y;
+  for (std::size_t i = 0; i < prepared.states.size(); ++i) {
+    r.t_s.push_back(log.t[prepared.log_index[i]]);
+    r.joint.push_back(0);
+    r.sample.push_back(i);
+  }
+  // Named for messages only: the first is the compliance.
+  std::vector<ParameterInfo> infos(static_cast<std::size_t>(x.cols()));
+  infos[0].name = "gearbox_compliance";
+  const std::size_t lags =
+      correlation_lags_for(prepared.report.sample_rate_hz, options.prepare.cutoff_hz);
+  LeastSquaresResult ls = solve_least_squares(Equations(r), infos, LsSolver::kQr, LsWeights::kNone,
+                                              log.name, lags, options.threads);
+  add_model_error(Equations(r), lags, ls);
+  return ls.honest_std_dev(0);
+}
+
 // The standard deviation of the first coefficient of y = x b from its
 // spread over kSupportFolds consecutive time blocks, each fitted alone
 // (std / sqrt(blocks)): the residual is correlated over many samples and
@@ -328,7 +353,8 @@ void compliance_from_arm_encoders(const DeltaLog& log, const FitOptions& options
     }
     const Eigen::VectorXd fit = x.colPivHouseholderQr().solve(y);
     r.compliance_rad_per_Nm[j] = std::max(0.0, fit(0));
-    r.compliance_std[j] = block_spread(x, y);
+    r.compliance_std[j] =
+        std::max(block_spread(x, y), motion_spread_std(x, y, prepared, log, options));
   }
 }
 
