@@ -244,8 +244,10 @@ CollisionRun pick_and_place_with_detector(const std::string& model,
 }
 
 // Collision detection on vcan (docs/safety.md), with the model fitted from
-// the recorded path1 and the thresholds it carries: five clean
-// pick-and-place runs reach their end with no detection; a 10 N contact on
+// the recorded path1 and the thresholds it carries: two clean
+// pick-and-place runs (the emulator's current noise seeded apart: in
+// lockstep a run with the same seed is the same run) reach their end with
+// no detection; a 10 N contact on
 // the platform for 200 ms, in each of five directions at each of three
 // moments (2 s: holding; 3 s: at 2 rad/s; 5 s: accelerating at 5-7
 // rad/s^2), is detected within 10 ms of its onset (delta_fw's `collision`
@@ -256,9 +258,9 @@ TEST(HostExcite, ContactsWithTheRobotAreDetectedWithinTenMilliseconds) {
   MultibodySession& s = multibody_session();
   const std::string model = s.dir + "/fit.json";
   ASSERT_TRUE(std::ifstream(model).good()) << "the fitted model of the test before";
-  for (int run = 1; run <= 5; ++run) {
-    SCOPED_TRACE("clean run " + std::to_string(run));
-    const CollisionRun clean = pick_and_place_with_detector(model, {});
+  for (const char* seed : {"2", "3"}) {
+    SCOPED_TRACE(std::string("clean run, noise seed ") + seed);
+    const CollisionRun clean = pick_and_place_with_detector(model, {"--seed", seed});
     EXPECT_EQ(clean.exit, 0) << clean.fw;
     EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
     EXPECT_NE(clean.fw.find("collision detection on: the model's thresholds (fit 0x"),

@@ -125,8 +125,10 @@ void cogging_of(const nlohmann::json& model, const nlohmann::json& params, Ident
     throw InputError(path + ": model.cogging_periods_per_rev must be three numbers");
   }
   for (unsigned j = 0; j < 3; ++j) {
-    if (!v[j].is_number() || !(v[j].get<double>() >= 0.0)) {
-      throw InputError(path + ": model.cogging_periods_per_rev must be three numbers >= 0");
+    if (!v[j].is_number() || !(v[j].get<double>() >= 0.0 && v[j].get<double>() <= 5000.0)) {
+      throw InputError(path +
+                       ": model.cogging_periods_per_rev must be three numbers from 0 (none) to "
+                       "5000 periods per joint revolution");
     }
     m.cogging_periods_per_rev[j] = v[j].get<double>();
     if (m.cogging_periods_per_rev[j] == 0.0) continue;
@@ -137,7 +139,11 @@ void cogging_of(const nlohmann::json& model, const nlohmann::json& params, Ident
       if (!params.is_object() || !params.contains(name)) {
         throw InputError(path + ": parameters." + name + " is missing (the model has cogging)");
       }
-      if (params[name].is_number()) a[k] = params[name].get<double>();
+      if (params[name].is_number()) {
+        a[k] = params[name].get<double>();
+      } else if (!params[name].is_null()) {
+        throw InputError(path + ": parameters." + name + " must be a number or null");
+      }
     }
     m.cogging_amplitude_Nm[j] = std::hypot(a[0], a[1]);
   }

@@ -131,6 +131,9 @@ std::pair<std::size_t, double> highest_peak(const std::vector<double>& power, do
   std::size_t& g = best.first;
   while (g + 1 < power.size() && power[g + 1] > power[g]) ++g;
   while (g > 0 && power[g - 1] > power[g]) --g;
+  // The ratio at the top, where it was found below it.
+  const double b = background(power, n0, step, n0 + step * static_cast<double>(g), lobe);
+  if (b > 0.0) best.second = std::max(best.second, power[g] / b);
   return best;
 }
 
@@ -170,7 +173,7 @@ double rms_of(const std::vector<double>& v) {
 }
 
 // The n within a grid step of n_grid whose component explains most, to a
-// 64th of the step (three passes of 8ths), and that component.
+// 64th of the step (two passes of 8ths), and that component.
 std::pair<double, Component> refined(const JointResidual& r, double n_grid, double step) {
   double best_n = n_grid;
   Component best = component_at(r, n_grid);

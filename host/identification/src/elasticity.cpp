@@ -81,14 +81,16 @@ Series3 torque_everywhere(const PredictedLog& p, std::size_t samples) {
   return out;
 }
 
-// The parameters with the joint's friction left out: it acts on the
-// motor's side of the gearbox (docs/robot-description.md), so the gear
-// carries the drive's torque less it.
+// The parameters with what the gear does not carry left out: the joint's
+// friction, load friction and cogging act on the motor's side of the
+// gearbox (docs/robot-description.md), and a torque offset is the
+// measurement's, as the arm encoders' regression takes them out.
 Eigen::VectorXd gear_side(const Model& model, Eigen::VectorXd beta) {
   for (std::size_t c = 0; c < model.size(); ++c) {
     const std::string& name = model.parameters()[c].name;
-    for (const char* friction : {"viscous_friction", "coulomb_friction", "stribeck_friction"}) {
-      if (name.rfind(friction, 0) == 0) beta(static_cast<Eigen::Index>(c)) = 0.0;
+    for (const char* motor_side : {"viscous_friction", "coulomb_friction", "stribeck_friction",
+                                   "load_friction", "cogging_", "torque_offset"}) {
+      if (name.rfind(motor_side, 0) == 0) beta(static_cast<Eigen::Index>(c)) = 0.0;
     }
   }
   return beta;

@@ -559,8 +559,10 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   PrepareOptions prepare = options.prepare;
   prepare.slow_rows_last_below_rad_s = r.min_speed_rad_s;
   const std::array<double, 3> spans = angle_spans(log);
-  const bool search_cogging =
-      options.search_cogging && options.model.name != "paper14" && !options.model.cogging();
+  // Not behind an elastic gearbox: the model's angles are the arm's, and
+  // the cogging's are the motor's, tens of mrad apart on a soft one.
+  const bool search_cogging = options.search_cogging && options.model.name != "paper14" &&
+                              !options.model.cogging() && !options.model.elastic();
   const AngleTrack angles =
       search_cogging ? angle_track(log, options.prepare.cutoff_hz) : AngleTrack{};
   // From here on the log is only its name and gaps.

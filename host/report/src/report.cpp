@@ -58,8 +58,13 @@ void text_cogging(const FitResult& r, std::ostream& s) {
     s << ": cogging the model lacks; --model auto takes it in where it lowers the held-out "
          "error, --cogging-periods gives it\n";
   } else if (r.cogging) {
-    s << "  cogging   none in the residual (its spectrum over each joint's angle peaks at "
-      << three(r.cogging->peak_ratio, "%.3g") << " times its median; cogging is a peak of "
+    std::string peaks;
+    for (unsigned j = 0; j < 3; ++j) {
+      const double ratio = r.cogging->peak_ratio[j];
+      peaks += (j == 0 ? "" : ", ") + (ratio > 0.0 ? fmt("%.3g", ratio) : std::string("-"));
+    }
+    s << "  cogging   none in the residual (its spectrum over each joint's angle peaks at " << peaks
+      << " times its median, -: the joint not searched; cogging is a peak of "
       << fmt("%.0f", kCoggingPeakRatio) << " or more that holds " << fmt("%.1f", kLeastCoggingShare)
       << " of the residual's RMS)\n";
   }

@@ -115,6 +115,16 @@ void CliCoggingTest::check_the_fit() {
   EXPECT_NE(delta::left_out_by_controller(m).find("leaves out the fit's cogging (joint 1: "),
             std::string::npos);
   EXPECT_EQ(delta::left_out_by_controller(delta::read_identified_model(path("without.json"))), "");
+  // An elastic model is not searched (its angles are the arm's); two
+  // values are neither one for all joints nor three.
+  ASSERT_EQ(run({"fit", path("f.csv"), "--method", "ls", "--gearbox-stiffness", "3000", "--json"}),
+            0)
+      << err_.str();
+  EXPECT_TRUE(nlohmann::json::parse(out_.str())["cogging"].is_null());
+  EXPECT_EQ(run({"fit", path("f.csv"), "--cogging-periods", "60,60"}), 2);
+  EXPECT_NE(err_.str().find("--cogging-periods: give one n for all joints or three"),
+            std::string::npos)
+      << err_.str();
   // A result whose periods are not numbers of 0 to 5000 is refused, naming the key.
   auto bad = with;
   bad["model"]["cogging_periods_per_rev"][1] = -60.0;

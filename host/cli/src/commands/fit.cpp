@@ -297,6 +297,9 @@ FitOptions fit_options(const FitArguments& a) {
   f.model.gearbox_compliance_rad_per_Nm = given_compliance(a);
   const std::vector<double>& n = a.cogging_periods;
   f.search_cogging = n.empty();
+  if (n.size() == 2) {
+    throw UsageError("--cogging-periods: give one n for all joints or three, N1,N2,N3");
+  }
   if (!n.empty()) {
     f.model.cogging_periods_per_rev =
         n.size() == 1 ? delta::Joint3{n[0], n[0], n[0]} : delta::Joint3{n[0], n[1], n[2]};
@@ -485,14 +488,19 @@ void print_calibration(const FitArguments& a, const Model& model, const TorqueSc
 }
 
 // Cogging in the residual of the calibration's model fitted to the
-// unloaded log (zeros: none), for the calibration to take in: its share of
-// a joint's torque is largest where the payload's is small.
+// unloaded log, where the fit with its terms lowers the held-out error as
+// --model auto asks (zeros: none), for the calibration to take in: its
+// share of a joint's torque is largest where the payload's is small.
 delta::Joint3 cogging_in(const DeltaLog& unloaded, FitOptions f) {
   f.method = Method::kLeastSquares;
   f.fit_elasticity = false;
   f.fit_friction_shape = false;
   const FitResult r = fit_log(unloaded, f, {}, false);
-  return r.cogging && r.cogging->found() ? r.cogging->periods_per_rev : delta::Joint3{};
+  if (!r.cogging || !r.cogging->found()) return {};
+  f.model.cogging_periods_per_rev = r.cogging->periods_per_rev;
+  const FitResult with = fit_log(unloaded, f, {}, false);
+  const bool supported = with.cogging_support && with.cogging_support->supported;
+  return supported ? r.cogging->periods_per_rev : delta::Joint3{};
 }
 
 // fit LOG.csv --calibrate-torque LOADED.csv --payload-mass KG: each joint's
