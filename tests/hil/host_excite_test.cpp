@@ -245,8 +245,8 @@ CollisionRun pick_and_place_with_detector(const std::string& model,
 
 // Collision detection on vcan (docs/safety.md), with the model fitted from
 // the recorded path1 and the thresholds it carries: two clean
-// pick-and-place runs (the emulator's current noise seeded apart: in
-// lockstep a run with the same seed is the same run) reach their end with
+// pick-and-place runs (the emulator's current noise seeded apart, so that
+// they differ) reach their end with
 // no detection; a 10 N contact on
 // the platform for 200 ms, in each of five directions at each of three
 // moments (2 s: holding; 3 s: at 2 rad/s; 5 s: accelerating at 5-7
