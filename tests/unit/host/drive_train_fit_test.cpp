@@ -11,6 +11,7 @@
 
 #include "fit_fixtures.hpp"
 #include "host_id/elasticity.hpp"
+#include "host_id/fit_auto.hpp"
 #include "host_id/model_selection.hpp"
 #include "host_id/predict.hpp"
 #include "host_id/simulate.hpp"
@@ -216,6 +217,37 @@ TEST(DriveTrainFitTest, SoftGearboxesAreFoundFromTheMotorsEncoders) {
     EXPECT_NEAR(1.0 / c, stiffness[j], 0.25 * stiffness[j]) << "joint " << j + 1;
     EXPECT_LT(std::abs(c - truth), 2.0 * e.compliance_std[j]) << "joint " << j + 1;
   }
+}
+
+// --model auto's refusal of cogging the log does not support: on the
+// default multibody robot with a cogging of 1.7 mN m (60 periods per
+// joint revolution), the search finds it in the residual, the fit with its
+// terms lowers the held-out error by less than 10 % (8.8 % measured), and
+// the result is the first choice without the terms, under the first
+// judgement, saying why.
+TEST(DriveTrainFitTest, CoggingTheLogDoesNotSupportIsLeftOut) {
+  delta::RobotDescription robot = delta::default_robot_description();
+  for (auto& joint : robot.joints) {
+    joint.cogging_amplitude_Nm = 0.0017;
+    joint.cogging_periods_per_motor_rev = 6.0;
+  }
+  const DeltaLog log = test::multibody_log(robot, 0.4);
+  const AutoFit fit = fit_auto(
+      log, [&log] { return log; }, test::least_squares());
+  ASSERT_TRUE(fit.result.cogging && fit.result.cogging->found());
+  for (const double n : fit.result.cogging->periods_per_rev) {
+    if (n > 0.0) {
+      EXPECT_NEAR(n, 60.0, 1.5);
+    }
+  }
+  ASSERT_TRUE(fit.result.cogging_support);
+  EXPECT_FALSE(fit.result.cogging_support->supported);
+  EXPECT_GT(fit.result.cogging_support->held_out_with_Nm,
+            0.9 * fit.result.cogging_support->held_out_without_Nm);
+  EXPECT_FALSE(fit.result.options.model.cogging());
+  ASSERT_TRUE(fit.selection && fit.result.support);
+  EXPECT_EQ(fit.selection->variants.size(), fit.result.support->variants.size());
+  EXPECT_EQ(variant_index(*fit.selection, fit.result.options.model), fit.selection->chosen);
 }
 
 // On a robot with rigid gearboxes the search finds no stiffness the log
