@@ -19,11 +19,15 @@ TEST(ProtocolTest, EveryCobIdOnTheBusIsUnique) {
       ++count;
     }
   }
-  EXPECT_EQ(count, 32u);
+  EXPECT_EQ(count, 37u);
   // The log frames are TPDO1..3 of the controller's node 16, the collision
   // frame its TPDO4, its emergency and heartbeat those of node 16 too.
   EXPECT_EQ(kLogA.base_id, 0x180 + kControllerNode);
   EXPECT_EQ(kCollision.base_id, 0x480 + kControllerNode);
+  // The arm-encoder log frames are its TPDO5 and TPDO6, which CiA 301 gives
+  // no COB-ID: those of TPDO1 and TPDO2 of node 16 + 64.
+  EXPECT_EQ(kLogD.base_id, 0x180 + kControllerNode + 64);
+  EXPECT_EQ(kLogE.base_id, 0x280 + kControllerNode + 64);
   EXPECT_EQ(kControllerEmcy.base_id, kEmcy.base_id + kControllerNode);
   EXPECT_EQ(kControllerHeartbeat.base_id, kHeartbeat.base_id + kControllerNode);
 }
@@ -82,6 +86,16 @@ TEST(ProtocolTest, PackAndUnpackRoundTripWithSignExtension) {
     EXPECT_EQ(unpack(logp.data[i], kMessages[9 + i].signals[3]), 1);
   }
   EXPECT_EQ(unpack(pack_log(7, false, {}, {}).data[2], kMessages[11].signals[3]), 0);
+  // pack_arm_log: the same seq and stale mark, the arm angles saturated.
+  const ArmLogPayloads arm = pack_arm_log(32768 + 9, true, {-5, 1 << 25, 77});
+  EXPECT_EQ(unpack(arm.data[0], kLogDSeq), 9);
+  EXPECT_EQ(unpack(arm.data[1], kLogESeq), 9);
+  EXPECT_EQ(unpack(arm.data[0], kLogDStale), 1);
+  EXPECT_EQ(unpack(arm.data[1], kLogEStale), 1);
+  EXPECT_EQ(unpack(arm.data[0], kLogDQa1), -5);
+  EXPECT_EQ(unpack(arm.data[0], kLogDQa2), (1 << 23) - 1);
+  EXPECT_EQ(unpack(arm.data[1], kLogEQa3), 77);
+  EXPECT_EQ(unpack(pack_arm_log(3, false, {}).data[1], kLogEStale), 0);
   const Message& emcy = kMessages[2];
   pack(d, emcy.signals[2], 0xABCDEF0123);  // 40-bit vendor field
   EXPECT_EQ(unpack(d, emcy.signals[2]), 0xABCDEF0123);
@@ -118,6 +132,12 @@ TEST(ProtocolTest, BusLoadDecidesTheCycleRate) {
   EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, true), 400, kMbit), 590u);
   EXPECT_GT(bus_load_per_mille(cycle_bits(true, true, true), 400, kMbit), 700u);
   EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true, true), 250, kMbit), 440u);
+  // Arm-side encoders: a 4-byte TPDO4 per drive, LOG_D (8 bytes) and LOG_E
+  // (5 bytes), 285 + 135 + 105 bits; 400 Hz no longer fits, 333 Hz does.
+  EXPECT_EQ(cycle_bits(false, true, false, true), 1795u);
+  EXPECT_GT(bus_load_per_mille(cycle_bits(false, true, false, true), 400, kMbit), 700u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, false, true), 333, kMbit), 597u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, false, true), 250, kMbit), 448u);
 }
 
 }  // namespace

@@ -62,7 +62,7 @@ inline constexpr Scale kPerMille{1, 1000, 0};  // of the drive's rated value
 inline constexpr Scale kLogAngle{1, 1, -20};   // 2^-20 rad (9.5e-7 rad), +/- 8 rad
 inline constexpr Scale kLogTorque{1, 1, -16};  // 2^-16 N m (1.5e-5 N m), +/- 128 N m
 
-inline constexpr std::array<Message, 16> kMessages{{
+inline constexpr std::array<Message, 19> kMessages{{
     {"NMT",
      0x000,
      false,
@@ -251,6 +251,43 @@ inline constexpr std::array<Message, 16> kMessages{{
        {"threshold", 40, 24, false, kLogTorque, "N m", "the joint's threshold at that tick"}}},
      "a collision detected (TPDO4 of node 16, 0x1803/0x1A03 onto 0x2103): three frames, "
      "joints 1, 2, 3, right after the EMCY of fault 14"},
+    {"TPDO4",
+     0x480,
+     true,
+     4,
+     Sender::kDrive,
+     Receiver::kController,
+     1,
+     {{{"arm_position_actual", 0, 32, true, kRaw, "counts",
+        "object 0x60E4:1, the arm-side encoder in 0x6064's position units"}}},
+     "the arm-side encoder on SYNC; only with arm_encoders = true"},
+    {"LOG_D",
+     0x1D0,
+     false,
+     8,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     4,
+     {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
+       {"qa1", 16, 24, true, kLogAngle, "rad", "joint 1 arm angle (arm-side encoder)"},
+       {"qa2", 40, 24, true, kLogAngle, "rad", "joint 2 arm angle (arm-side encoder)"},
+       {"stale", 15, 1, false, kRaw, "",
+        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
+     "controller log of the arm-side encoders, part 1 of 2 (TPDO5 of node 16); only with "
+     "arm_encoders = true"},
+    {"LOG_E",
+     0x2D0,
+     false,
+     5,
+     Sender::kController,
+     Receiver::kRecorderOnly,
+     3,
+     {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
+       {"qa3", 16, 24, true, kLogAngle, "rad", "joint 3 arm angle (arm-side encoder)"},
+       {"stale", 15, 1, false, kRaw, "",
+        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
+     "controller log of the arm-side encoders, part 2 of 2 (TPDO6 of node 16); only with "
+     "arm_encoders = true"},
 }};
 
 // The messages by name.
@@ -270,6 +307,9 @@ inline constexpr const Message& kControllerEmcy = kMessages[12];
 inline constexpr const Message& kControllerHeartbeat = kMessages[13];
 inline constexpr const Message& kTpdo3 = kMessages[14];
 inline constexpr const Message& kCollision = kMessages[15];
+inline constexpr const Message& kTpdo4 = kMessages[16];
+inline constexpr const Message& kLogD = kMessages[17];
+inline constexpr const Message& kLogE = kMessages[18];
 
 // The signals by name: a wrong name does not compile.
 namespace detail {
@@ -293,6 +333,8 @@ inline constexpr const Signal& kTpdo1PositionActual = signal_named(kTpdo1, "posi
 inline constexpr const Signal& kTpdo1CurrentActual = signal_named(kTpdo1, "current_actual");
 inline constexpr const Signal& kTpdo2VelocityActual = signal_named(kTpdo2, "velocity_actual");
 inline constexpr const Signal& kTpdo3SyncCounter = signal_named(kTpdo3, "sync_counter");
+inline constexpr const Signal& kTpdo4ArmPositionActual =
+    signal_named(kTpdo4, "arm_position_actual");
 // The SYNC's one byte when the controller counts its SYNCs (CiA 301,
 // 0x1019 > 0): 1, 2, ... up to the overflow value, then 1 again. The SYNC
 // message above has none by default (0x1019 = 0), so it is not in the table.
@@ -323,6 +365,13 @@ inline constexpr const Signal& kLogCSeq = signal_named(kLogC, "seq");
 inline constexpr const Signal& kLogCTau2 = signal_named(kLogC, "tau2");
 inline constexpr const Signal& kLogCTau3 = signal_named(kLogC, "tau3");
 inline constexpr const Signal& kLogCStale = signal_named(kLogC, "stale");
+inline constexpr const Signal& kLogDSeq = signal_named(kLogD, "seq");
+inline constexpr const Signal& kLogDQa1 = signal_named(kLogD, "qa1");
+inline constexpr const Signal& kLogDQa2 = signal_named(kLogD, "qa2");
+inline constexpr const Signal& kLogDStale = signal_named(kLogD, "stale");
+inline constexpr const Signal& kLogESeq = signal_named(kLogE, "seq");
+inline constexpr const Signal& kLogEQa3 = signal_named(kLogE, "qa3");
+inline constexpr const Signal& kLogEStale = signal_named(kLogE, "stale");
 inline constexpr const Signal& kControllerEmcyErrorCode =
     signal_named(kControllerEmcy, "error_code");
 inline constexpr const Signal& kControllerEmcyErrorRegister =
@@ -426,6 +475,25 @@ constexpr LogPayloads pack_log(std::uint32_t seq, bool stale,
   return p;
 }
 
+// The two arm-encoder log frames of a cycle (LOG_D, LOG_E), from the arm
+// angles in 2^-20 rad: the same seq and stale mark as its LOG_A..C.
+struct ArmLogPayloads {
+  std::array<std::array<std::uint8_t, 8>, 2> data{};
+};
+
+constexpr ArmLogPayloads pack_arm_log(std::uint32_t seq, bool stale,
+                                      const std::array<std::int32_t, 3>& qa_raw20) {
+  ArmLogPayloads p;
+  pack(p.data[0], kLogDSeq, seq % kLogSeqModulo);
+  pack(p.data[1], kLogESeq, seq % kLogSeqModulo);
+  pack(p.data[0], kLogDStale, stale ? 1 : 0);
+  pack(p.data[1], kLogEStale, stale ? 1 : 0);
+  pack(p.data[0], kLogDQa1, saturate_signal(kLogDQa1, qa_raw20[0]));
+  pack(p.data[0], kLogDQa2, saturate_signal(kLogDQa2, qa_raw20[1]));
+  pack(p.data[1], kLogEQa3, saturate_signal(kLogEQa3, qa_raw20[2]));
+  return p;
+}
+
 // Worst-case length of a classical CAN data frame with bit stuffing,
 // interframe space included: 47 + 8 n + floor((33 + 8 n) / 4) bits with an
 // 11-bit ID, 67 + 8 n + floor((53 + 8 n) / 4) with a 29-bit ID.
@@ -436,14 +504,19 @@ constexpr std::uint32_t worst_case_frame_bits(std::uint8_t dlc, bool extended = 
 
 // The frames of one control cycle: SYNC, an RPDO1 and a TPDO1 per drive,
 // a TPDO2 per drive when velocity is mapped, and the three log frames; with
-// the SYNC counter, its byte in the SYNC and a TPDO3 per drive.
+// the SYNC counter, its byte in the SYNC and a TPDO3 per drive; with
+// arm-side encoders a TPDO4 per drive and the log's LOG_D and LOG_E.
 constexpr std::uint32_t cycle_bits(bool with_velocity_pdo, bool with_log,
-                                   bool with_sync_counter = false) {
+                                   bool with_sync_counter = false, bool with_arm_encoders = false) {
   std::uint32_t bits = worst_case_frame_bits(with_sync_counter ? 1 : kSync.dlc);
   bits += kDriveCount * (worst_case_frame_bits(kRpdo1.dlc) + worst_case_frame_bits(kTpdo1.dlc));
   if (with_velocity_pdo) bits += kDriveCount * worst_case_frame_bits(kTpdo2.dlc);
   if (with_sync_counter) bits += kDriveCount * worst_case_frame_bits(kTpdo3.dlc);
   if (with_log) bits += 3 * worst_case_frame_bits(8);
+  if (with_arm_encoders) {
+    bits += kDriveCount * worst_case_frame_bits(kTpdo4.dlc);
+    if (with_log) bits += worst_case_frame_bits(kLogD.dlc) + worst_case_frame_bits(kLogE.dlc);
+  }
   return bits;
 }
 
