@@ -32,8 +32,8 @@ constexpr std::uint16_t kMappable[] = {0x1001, 0x2019, 0x6040, 0x6041, 0x6060, 0
 
 }  // namespace
 
-// A PDO's COB-ID (0x1400:1, 0x1800:1 to 0x1802:1) and mapping (0x1600,
-// 0x1A00 to 0x1A02): PDO 0 is RPDO1, 1 to 3 TPDO1 to TPDO3.
+// A PDO's COB-ID (0x1400:1, 0x1800:1 to 0x1803:1) and mapping (0x1600,
+// 0x1A00 to 0x1A03): PDO 0 is RPDO1, 1 to 4 TPDO1 to TPDO4.
 template <unsigned Pdo>
 std::uint32_t Emulator::DriveObjects::cob_id_get(const DriveContext& c) {
   return c.e.pdo_cob_id(c.d, Pdo) | (c.d.pdos[Pdo].valid ? 0u : od::kPdoInvalid);
@@ -121,6 +121,9 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x1802, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
       {0x1802, 1, 4, &cob_id_get<3>, &cob_id_set<3>},
       {0x1802, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
+      {0x1803, 0, 1, [](const DriveContext&) { return 2u; }, nullptr},
+      {0x1803, 1, 4, &cob_id_get<4>, &cob_id_set<4>},
+      {0x1803, 2, 1, [](const DriveContext&) { return 1u; }, nullptr},
       {0x2019, 0, 1, [](const DriveContext& c) { return std::uint32_t{c.d.sync_counter}; },
        nullptr},
       {0x6040, 0, 2, [](const DriveContext& c) { return std::uint32_t{c.d.controlword}; },
@@ -159,6 +162,17 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
              c.e.velocity_counts_s(c.d, c.e.plant_->state().qd_rad_s[j]));
        },
        nullptr},
+      // The arm-side encoder (CiA 402's first additional position actual
+      // value) in 0x6064's position units: the arm's angle, behind an
+      // elastic gearbox not the motor side's.
+      {0x60E4, 0, 1, [](const DriveContext&) { return 1u; }, nullptr},
+      {0x60E4, 1, 4,
+       [](const DriveContext& c) {
+         const unsigned j = c.d.node - p::kFirstDriveNode;
+         return static_cast<std::uint32_t>(
+             c.e.position_counts(c.d, c.e.plant_->arm_state().q_rad[j]));
+       },
+       nullptr, true},
       {0x6071, 0, 2,
        [](const DriveContext& c) {
          return std::uint32_t{static_cast<std::uint16_t>(c.d.target_torque_pm)};
@@ -199,14 +213,15 @@ auto Emulator::DriveObjects::scalars() -> std::span<const DriveTable::Scalar> {
       {0x608F, 2, 4, [](const DriveContext&) { return 1u; }, nullptr},
       {0x6502, 0, 4, [](const DriveContext& c) { return c.e.product_.supported_modes; }, nullptr},
   };
-  // The mapping objects of RPDO1, TPDO1 to TPDO3: sub-index 0 the count,
+  // The mapping objects of RPDO1, TPDO1 to TPDO4: sub-index 0 the count,
   // 1 to 8 the entries.
   static const std::vector<DriveTable::Scalar> kObjects = [] {
     std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
     for (const auto& mapping : {mapping_objects<0>(0x1600, std::make_index_sequence<9>()),
                                 mapping_objects<1>(0x1A00, std::make_index_sequence<9>()),
                                 mapping_objects<2>(0x1A01, std::make_index_sequence<9>()),
-                                mapping_objects<3>(0x1A02, std::make_index_sequence<9>())}) {
+                                mapping_objects<3>(0x1A02, std::make_index_sequence<9>()),
+                                mapping_objects<4>(0x1A03, std::make_index_sequence<9>())}) {
       all.insert(all.end(), mapping.begin(), mapping.end());
     }
     for (DriveTable::Scalar& o : all) {
@@ -234,7 +249,7 @@ sdo::AbortCode Emulator::DriveObjects::transmission_set(DriveContext& c, std::ui
 }
 
 // What vendors' drives have beyond the built-in drive (delta_drive_emu
-// --eds only): writable transmission types, TPDO4, RPDO5 and TPDO5, max torque (0x6072),
+// --eds only): writable transmission types, RPDO5 and TPDO5, max torque (0x6072),
 // torque actual value (0x6077), torque slope (0x6087), the interpolation
 // time period (0x60C2, which sets the cycle like 0x1006).
 auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Scalar> {
@@ -244,7 +259,6 @@ auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Sca
       {0x1800, 2, 1, &transmission_get<1>, &transmission_set<1>},
       {0x1801, 2, 1, &transmission_get<2>, &transmission_set<2>},
       {0x1802, 2, 1, &transmission_get<3>, &transmission_set<3>},
-      {0x1803, 1, 4, &cob_id_get<4>, &cob_id_set<4>},
       {0x1803, 2, 1, &transmission_get<4>, &transmission_set<4>},
       {0x1404, 1, 4, &cob_id_get<5>, &cob_id_set<5>},
       {0x1404, 2, 1, &transmission_get<5>, &transmission_set<5>},
@@ -301,8 +315,7 @@ auto Emulator::DriveObjects::vendor_scalars() -> std::span<const DriveTable::Sca
   };
   static const std::vector<DriveTable::Scalar> kObjects = [] {
     std::vector<DriveTable::Scalar> all(std::begin(kFixed), std::end(kFixed));
-    for (const auto& mapping : {mapping_objects<4>(0x1A03, std::make_index_sequence<9>()),
-                                mapping_objects<5>(0x1604, std::make_index_sequence<9>()),
+    for (const auto& mapping : {mapping_objects<5>(0x1604, std::make_index_sequence<9>()),
                                 mapping_objects<6>(0x1A04, std::make_index_sequence<9>())}) {
       all.insert(all.end(), mapping.begin(), mapping.end());
     }

@@ -342,7 +342,7 @@ TEST(PortConfigTest, AnEdsThatCannotServeTheBringUpIsRefusedWithItsReason) {
       edited_eds("DataType=0x0002\nAccessType=rw", "DataType=0x0002\nAccessType=ro", "ro_mode.eds");
   e = config_error("joint3.eds = " + path + "\n");
   EXPECT_NE(e.find("joint3.eds (" + path +
-                   ":355): 0x6060:00 (modes of operation) is not "
+                   ":358): 0x6060:00 (modes of operation) is not "
                    "writable: the controller cannot select a torque mode"),
             std::string::npos)
       << e;
@@ -381,7 +381,7 @@ TEST(PortConfigTest, ASyncCounterNeedsCiA301sRangeAndDrivesThatCanEchoIt) {
       "no_echo.eds");
   const std::string e = config_error("joint3.eds = " + unmapped + "\nsync_counter_overflow = 16\n");
   EXPECT_NE(e.find("joint3.eds (" + unmapped +
-                   ":783): 0x2019:00 (SYNC counter of the sample) is not PDO-mappable: "
+                   ":912): 0x2019:00 (SYNC counter of the sample) is not PDO-mappable: "
                    "sync_counter_overflow = 16 needs it in TPDO3"),
             std::string::npos)
       << e;

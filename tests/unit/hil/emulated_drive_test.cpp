@@ -441,19 +441,19 @@ TEST(EmulatedDriveTest, AnEdsThatDoesNotDescribeTheDriveIsNamedWhereItDiffers) {
   EXPECT_EQ(
       bus.emulator.eds_mismatch(eds_text("DataType=0x0006\nAccessType=rw\nDefaultValue=3000",
                                          "DataType=0x0007\nAccessType=rw\nDefaultValue=3000")),
-      "x.eds:392: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
+      "x.eds:395: 0x6073:00 (Max current) has 4 bytes; the emulated drive's has 2");
   EXPECT_EQ(bus.emulator.eds_mismatch(eds_text(
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=rw",
                 "ParameterName=Max current\nObjectType=0x7\nDataType=0x0006\nAccessType=ro")),
-            "x.eds:392: 0x6073:00 (Max current) is writable in the emulated drive");
-  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=29\n", "SupportedObjects=28\n")),
-            "x.eds: the emulated drive has object 0x1A02:00, which the EDS does not list");
+            "x.eds:395: 0x6073:00 (Max current) is writable in the emulated drive");
+  EXPECT_EQ(bus.emulator.eds_mismatch(eds_text("SupportedObjects=32\n", "SupportedObjects=31\n")),
+            "x.eds: the emulated drive has object 0x60E4:00, which the EDS does not list");
   EXPECT_EQ(bus.emulator.eds_mismatch(
                 eds_text("[ManufacturerObjects]\nSupportedObjects=1\n1=0x2019\n",
                          "[ManufacturerObjects]\nSupportedObjects=2\n1=0x2019\n2=0x2000\n"
                          "[2000]\nParameterName=Extra\nDataType=0x0007\n"
                          "AccessType=rw")),
-            "x.eds:783: 0x2000:00 (Extra) is not an object of the emulated drive");
+            "x.eds:912: 0x2000:00 (Extra) is not an object of the emulated drive");
 }
 
 }  // namespace

@@ -91,9 +91,10 @@ struct PdoMapping {
   bool id_plus_node{false};
 };
 
-// RPDO1, TPDO1 to TPDO4, RPDO5, TPDO5: TPDO1 to TPDO3 as
-// docs/protocol.md's table lays them out; TPDO4, RPDO5 and TPDO5 only
-// where a drive's EDS has them (--eds: a vendor's fixed PDOs).
+// RPDO1, TPDO1 to TPDO4, RPDO5, TPDO5: TPDO1 to TPDO4 as
+// docs/protocol.md's table lays them out (TPDO4 off and empty until the
+// controller maps the arm-side encoder); RPDO5 and TPDO5 only where a
+// drive's EDS has them (--eds: a vendor's fixed PDOs).
 inline constexpr unsigned kPdoCount = 7;
 inline constexpr std::uint16_t kPdoCommunication[kPdoCount] = {0x1400, 0x1800, 0x1801, 0x1802,
                                                                0x1803, 0x1404, 0x1804};
