@@ -403,3 +403,44 @@ TEST(CheckConfigTest, PrintsEachDrivesPlanOrEveryProblem) {
 
 }  // namespace
 }  // namespace fw_linux
+
+namespace fw_linux {
+namespace {
+
+// arm_encoders = true maps each drive's arm-side encoder, CiA 402's first
+// additional position actual value (0x60E4:1), into TPDO4: on the emulated
+// drive's EDS and the generic profile. A drive whose EDS cannot carry it
+// (epos4.eds has no 0x60E4), or the SYNC counter, whose echo in TPDO3
+// would come before TPDO4 on the bus, is refused, naming what to set.
+TEST(DrivePlanTest, ArmEncodersAreMappedIntoTpdo4OrRefusedWithTheReason) {
+  for (const std::string& eds :
+       {std::string(), std::string(DELTA_EDS_DIR "/delta_drive_emu.eds")}) {
+    const std::string keys = eds.empty() ? "" : "joint2.eds = " + eds + "\n";
+    const DrivePlans plans = plan_drives(config(keys + "arm_encoders = true\n"));
+    ASSERT_TRUE(plans.problems.empty()) << joined(plans.problems);
+    const DrivePlan& plan = plans.drives[1];
+    ASSERT_TRUE(plan.arm.used) << eds;
+    EXPECT_EQ(plan.arm.number, 4u);
+    EXPECT_EQ(plan.arm.cob_id, 0x482u);
+    ASSERT_EQ(plan.arm.layout.count, 1u);
+    EXPECT_EQ(plan.arm.layout.entries[0], 0x60E40120u);
+    EXPECT_TRUE(writes(plan, 0x1A03, 1, 0x60E40120u)) << describe_plan(plan);
+    EXPECT_NE(describe_plan(plan).find("TPDO4:    COB-ID 0x482"), std::string::npos)
+        << describe_plan(plan);
+  }
+  EXPECT_FALSE(plan_drives(config("")).drives[0].arm.used);
+  const auto no_object = problems_of("joint1.eds = " + drive("epos4.eds") +
+                                     "\njoint1.rated_torque_Nm = 1\narm_encoders = true\n");
+  EXPECT_NE(joined(no_object).find("0x60E4:01 (additional position actual value)"),
+            std::string::npos)
+      << joined(no_object);
+  const auto echo = problems_of("arm_encoders = true\nsync_counter_overflow = 10\n");
+  EXPECT_NE(joined(echo).find("joint1.arm_encoders = true puts the arm-side encoder in TPDO4 "
+                              "(0x481), after the SYNC counter's echo in TPDO3: set "
+                              "sync_counter_overflow = 0 or arm_encoders = false"),
+            std::string::npos)
+      << joined(echo);
+}
+
+}  // namespace
+}  // namespace fw_linux

@@ -395,6 +395,7 @@ class Controller {
     rec.seq = log_seq_++;
     rec.q_rad = q;
     rec.tau_Nm = measured_torque_;
+    for (unsigned j = 0; j < 3; ++j) rec.qa_rad[j] = feedback_[j].arm_position_rad;
     rec.stale = !feedback_fresh_;
     if (rec.stale) ++stale_log_records_;
     if (!hw_.log(rec)) {

@@ -37,11 +37,12 @@ enum class FeedbackProblem : std::uint8_t {
 };
 
 struct DriveFeedback {
-  Q3_28 position_rad{};     // at the joint
-  Q10_21 velocity_rad_s{};  // at the joint
-  Q12_19 current_A{};       // motor current
-  bool fresh{false};        // a new sample arrived this cycle (heartbeat/PDO alive)
-  bool fault{false};        // the drive reports a fault
+  Q3_28 position_rad{};      // at the joint
+  Q10_21 velocity_rad_s{};   // at the joint
+  Q12_19 current_A{};        // motor current
+  Q3_28 arm_position_rad{};  // the arm-side encoder at the joint (arm_encoders only)
+  bool fresh{false};         // a new sample arrived this cycle (heartbeat/PDO alive)
+  bool fault{false};         // the drive reports a fault
   FeedbackProblem problem{FeedbackProblem::kNone};
 };
 
@@ -56,6 +57,7 @@ struct LogRecord {
   std::uint32_t seq{0};
   JointAnglesQ q_rad{};
   std::array<Q12_19, 3> tau_Nm{};
+  JointAnglesQ qa_rad{};  // the arm-side encoders (logged with arm_encoders only)
   // A drive's feedback was missing this cycle: q and tau hold its last
   // values, so the record is not a sample (its seq is still used).
   bool stale{false};

@@ -82,6 +82,26 @@ p::LogPayloads log_payloads(const fw::LogRecord& r) {
   return p::pack_log(r.seq, r.stale, q, tau);
 }
 
+p::ArmLogPayloads arm_log_payloads(const fw::LogRecord& r) {
+  std::array<std::int32_t, 3> qa{};
+  for (unsigned j = 0; j < 3; ++j)
+    qa[j] = static_cast<std::int32_t>(delta::fx::shift_round(r.qa_rad[j].raw(), 8));
+  return p::pack_arm_log(r.seq, r.stale, qa);
+}
+
+bool send_arm_log_frames(FrameSink& bus, const p::ArmLogPayloads& payloads) {
+  const p::Message* messages[2] = {&p::kLogD, &p::kLogE};
+  bool ok = true;
+  for (unsigned i = 0; i < 2; ++i) {
+    delta::can::Frame f;
+    f.id = messages[i]->base_id;
+    f.dlc = messages[i]->dlc;
+    f.data = payloads.data[i];
+    ok = bus.send(f) && ok;
+  }
+  return ok;
+}
+
 bool send_log_frames(FrameSink& bus, const p::LogPayloads& payloads) {
   const p::Message* messages[3] = {&p::kLogA, &p::kLogB, &p::kLogC};
   bool ok = true;
@@ -149,7 +169,7 @@ delta::can::Socket open_drive_socket(const std::string& iface, const PortConfig&
       {p::cob_id(p::kNmt, 0), p::kStandardIdMask, false},
       {p::cob_id(p::kSdoRx, p::kControllerNode), p::kStandardIdMask, false}};
   for (const DrivePlan& plan : plan_drives(config).drives) {
-    for (const PlannedPdo* pdo : {&plan.sample, &plan.sample_rest, &plan.velocity, &plan.echo}) {
+    for (const PlannedPdo* pdo : plan.tpdos()) {
       if (pdo->used)
         filters.push_back({pdo->cob_id & p::kStandardIdMask, p::kStandardIdMask, false});
     }

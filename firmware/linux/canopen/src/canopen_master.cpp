@@ -346,6 +346,7 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, const PlannedPdo& pdo)
     if (&pdo == &plan.sample || &pdo == &plan.sample_rest)
       d.got_tpdo1 = true;  // answered, if badly
     if (&pdo == &plan.velocity) d.got_tpdo2 = true;
+    if (&pdo == &plan.arm) d.got_tpdo4 = true;
     record({.kind = CyclicProblem::Kind::kMalformedPdo,
             .node = d.node,
             .pdo = number,
@@ -365,6 +366,10 @@ void CanopenMaster::handle_tpdo(Drive& d, const Frame& f, const PlannedPdo& pdo)
     d.held.velocity_counts_s =
         static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x606C, 0}, 4, true));
     d.held.tpdo2 = true;
+  } else if (&pdo == &plan.arm) {
+    d.held.arm_counts =
+        static_cast<std::int32_t>(pdo_field(f.data, pdo.layout, {0x60E4, 1}, 4, true));
+    d.held.tpdo4 = true;
   } else {
     hold_sample(d, f, pdo);
   }
@@ -422,6 +427,10 @@ void CanopenMaster::take_held(Drive& d) const {
     d.velocity_counts_s = d.held.velocity_counts_s;
     d.got_tpdo2 = true;
   }
+  if (d.held.tpdo4) {
+    d.arm_counts = d.held.arm_counts;
+    d.got_tpdo4 = true;
+  }
   // A split sample's first part waits for the other within the cycle
   // (begin_cycle drops it); with a SYNC counter the echo ends the cycle's.
   const Drive::Sample part = d.held;
@@ -459,6 +468,8 @@ void CanopenMaster::on_frame(const delta::can::Received& r, std::uint64_t now_us
     if (cyclic()) handle_tpdo(*d, f, plan.sample_rest);
   } else if (plan.velocity.used && f.id == plan.velocity.cob_id) {
     if (cyclic()) handle_tpdo(*d, f, plan.velocity);
+  } else if (plan.arm.used && f.id == plan.arm.cob_id) {
+    if (cyclic()) handle_tpdo(*d, f, plan.arm);
   } else if (plan.echo.used && f.id == plan.echo.cob_id) {
     if (cyclic() && counted()) handle_tpdo(*d, f, plan.echo);
   } else if (function == p::kEmcy.base_id) {
@@ -481,7 +492,7 @@ void CanopenMaster::begin_cycle(std::uint64_t now_us) {
   now_us_ = now_us;
   ++cycle_;
   for (Drive& d : drives_) {
-    d.got_tpdo1 = d.got_tpdo2 = false;
+    d.got_tpdo1 = d.got_tpdo2 = d.got_tpdo4 = false;
     d.held = {};
   }
   window_open_ = cyclic();
@@ -507,7 +518,9 @@ bool CanopenMaster::exchange_complete() const {
   }
   if (!window_open_) return true;
   for (const Drive& d : drives_) {
-    if (!d.got_tpdo1 || (config_.velocity_pdo && !d.got_tpdo2)) return false;
+    if (!d.got_tpdo1 || (config_.velocity_pdo && !d.got_tpdo2) ||
+        (config_.arm_encoders && !d.got_tpdo4))
+      return false;
   }
   return true;
 }
@@ -559,7 +572,9 @@ void CanopenMaster::read_feedback(std::array<fw::DriveFeedback, 3>& out) {
     fb.current_A = d.plan->feedback == Feedback::kCurrent
                        ? d.units.current(d.current_per_mille)
                        : d.units.current_from_torque(d.current_per_mille);
-    fb.fresh = sample && (!config_.velocity_pdo || d.got_tpdo2) && heartbeat_ok;
+    fb.arm_position_rad = d.units.joint_angle(d.arm_counts);
+    fb.fresh = sample && (!config_.velocity_pdo || d.got_tpdo2) &&
+               (!config_.arm_encoders || d.got_tpdo4) && heartbeat_ok;
     fb.fault = d.emergency || d.rebooted || d.state == State::kFault ||
                d.state == State::kFaultReactionActive;
     fb.problem = d.malformed             ? fw::FeedbackProblem::kMalformed

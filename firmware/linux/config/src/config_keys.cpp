@@ -254,6 +254,9 @@ void add_cycle_keys(Setters& s) {
   s["velocity_pdo"] = [](PortConfig& c, const std::string& v, const std::string& w) {
     c.velocity_pdo = parse_bool(v, w, "velocity_pdo");
   };
+  s["arm_encoders"] = [](PortConfig& c, const std::string& v, const std::string& w) {
+    c.arm_encoders = parse_bool(v, w, "arm_encoders");
+  };
 }
 
 // The robot's geometry, its limits, the gains and the nominal feed-forward.

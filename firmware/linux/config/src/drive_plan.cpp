@@ -82,11 +82,9 @@ std::string describe_plan(const DrivePlan& plan) {
     out << " of the rated torque, " << rated_text(plan.rated_torque_mNm, "0x6076", "mN m");
   }
   out << "\n  cycle:    " << plan.cycle << "\n";
-  const std::pair<const PlannedPdo*, const char*> pdos[] = {{&plan.rpdo, "RPDO"},
-                                                            {&plan.sample, "TPDO"},
-                                                            {&plan.sample_rest, "TPDO"},
-                                                            {&plan.velocity, "TPDO"},
-                                                            {&plan.echo, "TPDO"}};
+  const std::pair<const PlannedPdo*, const char*> pdos[] = {
+      {&plan.rpdo, "RPDO"},     {&plan.sample, "TPDO"}, {&plan.sample_rest, "TPDO"},
+      {&plan.velocity, "TPDO"}, {&plan.echo, "TPDO"},   {&plan.arm, "TPDO"}};
   for (const auto& [pdo, kind] : pdos) {
     if (!pdo->used) continue;
     out << "  " << kind << pdo->number << ":    COB-ID " << hex(pdo->cob_id, 3);

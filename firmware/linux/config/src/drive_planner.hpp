@@ -31,6 +31,9 @@ constexpr od::Object kTargetTorque{0x6071, 0};
 constexpr od::Object kTargetPosition{0x607A, 0};
 constexpr od::Object kPositionActual{0x6064, 0};
 constexpr od::Object kVelocityActual{0x606C, 0};
+// CiA 402's additional position actual value: the first additional (here
+// arm-side) encoder, in the position units of 0x6064.
+constexpr od::Object kArmPositionActual{0x60E4, 1};
 constexpr od::Object kTorqueActual{0x6077, 0};
 constexpr od::Object kCurrentActual{0x6078, 0};
 constexpr od::Object kMaxTorque{0x6072, 0};
@@ -175,6 +178,7 @@ class Planner {
     return has({which.mapping(), 0}) && !mapping_writable(which);
   }
   bool carries(PdoObjects which, const std::vector<Wanted>& wanted) const;
+  bool own_use(unsigned n) const;
   std::optional<unsigned> fixed_pdo(bool receive, const std::vector<Wanted>& wanted,
                                     unsigned skip = 0) const;
   bool carried(od::Object o) const;
@@ -199,6 +203,7 @@ class Planner {
   void pdo_writes(const PlannedPdo& planned, PdoObjects which, bool cob_writable);
   void turn_off(PdoObjects which);
   void echo_last();
+  void arm_pdo();
 
   const PortConfig& c_;
   const JointDrive& jd_;

@@ -30,6 +30,13 @@ PdoLayout Planner::default_layout(PdoObjects which) const {
   return layout;
 }
 
+// Whether the controller has a use of its own for TPDO n: TPDO2 the
+// velocity, TPDO3 the SYNC counter, TPDO4 the arm-side encoder.
+bool Planner::own_use(unsigned n) const {
+  return (n == 2 && c_.velocity_pdo) || (n == 3 && c_.sync_counter_overflow != 0) ||
+         (n == 4 && c_.arm_encoders);
+}
+
 // Whether the PDO can carry `wanted` (the optional ones aside): its fixed
 // mapping has each (and, an RPDO, nothing the controller cannot fill), or
 // the controller can map each.
@@ -55,8 +62,7 @@ std::optional<unsigned> Planner::fixed_pdo(bool receive, const std::vector<Wante
                                            unsigned skip) const {
   if (eds_ == nullptr) return std::nullopt;
   for (unsigned n = 1; n <= 512; ++n) {
-    const bool taken =
-        !receive && ((n == 2 && c_.velocity_pdo) || (n == 3 && c_.sync_counter_overflow != 0));
+    const bool taken = !receive && own_use(n);
     if (n == skip || taken) continue;
     if (fixed({receive, n}) && carries({receive, n}, wanted)) return n;
   }
@@ -89,8 +95,7 @@ void Planner::decide_feedback() {
 std::optional<unsigned> Planner::free_id(bool receive, const std::vector<unsigned>& used) {
   for (const unsigned k : receive ? std::array{1u, 2u, 3u, 4u} : std::array{4u, 3u, 2u, 1u}) {
     const bool taken =
-        std::find(used.begin(), used.end(), k) != used.end() ||
-        (!receive && ((k == 2 && c_.velocity_pdo) || (k == 3 && c_.sync_counter_overflow != 0)));
+        std::find(used.begin(), used.end(), k) != used.end() || (!receive && own_use(k));
     if (taken) continue;
     const PdoObjects pdo{receive, k};
     if (!has({pdo.communication(), 1})) return k;
@@ -164,7 +169,8 @@ bool Planner::split_sample(const std::vector<Wanted>& sample) {
 // that carries them; TPDO1 (statusword, position, the feedback) or a fixed
 // TPDO with the feedback and a second TPDO with the rest; TPDO2
 // (velocity, velocity_pdo only), TPDO3 (the SYNC counter,
-// sync_counter_overflow > 0 only); the drive's other TPDOs off.
+// sync_counter_overflow > 0 only), TPDO4 (the arm-side encoder,
+// arm_encoders only); the drive's other TPDOs off.
 void Planner::pdos() {
   const od::Object feedback = plan_.feedback == Feedback::kCurrent ? kCurrentActual : kTorqueActual;
   const std::vector<Wanted> control{{od::kControlword, 16, "controlword"},
@@ -188,7 +194,31 @@ void Planner::pdos() {
   } else if (eds_ != nullptr && !taken(3)) {
     turn_off({false, 3});
   }
-  if (eds_ != nullptr && !taken(4)) turn_off({false, 4});
+  if (c_.arm_encoders) {
+    arm_pdo();
+  } else if (eds_ != nullptr && !taken(4)) {
+    turn_off({false, 4});
+  }
+}
+
+// TPDO4: the arm-side encoder (0x60E4:1), arm_encoders only. It comes
+// after TPDO3 on the bus, so the SYNC counter's echo could not end the
+// cycle's TPDOs.
+void Planner::arm_pdo() {
+  if (c_.sync_counter_overflow != 0) {
+    problems_.push_back(key_ + "arm_encoders = true puts the arm-side encoder in TPDO4 (" +
+                        hex(PdoObjects{false, 4}.cob_id(jd_.node), 3) +
+                        "), after the SYNC counter's echo in TPDO3: set sync_counter_overflow "
+                        "= 0 or arm_encoders = false");
+    return;
+  }
+  if (taken(4)) {
+    problems_.push_back(key_ + "eds (" + jd_.eds_path +
+                        "): TPDO4 carries part of the sample on this drive, so it cannot "
+                        "carry the arm-side encoder: set arm_encoders = false");
+    return;
+  }
+  pdo(plan_.arm, {false, 4}, {{kArmPositionActual, 32, "additional position actual value"}});
 }
 
 // The SYNC counter's echo (TPDO3) tells the master that a cycle's sample

@@ -33,6 +33,9 @@ class SocketSink : public FrameSink {
 delta::can::protocol::LogPayloads log_payloads(const fw::LogRecord& r);
 // The three log frames on the bus.
 bool send_log_frames(FrameSink& bus, const delta::can::protocol::LogPayloads& payloads);
+// The arm-side encoders' log frames (LOG_D, LOG_E), with arm_encoders.
+delta::can::protocol::ArmLogPayloads arm_log_payloads(const fw::LogRecord& r);
+bool send_arm_log_frames(FrameSink& bus, const delta::can::protocol::ArmLogPayloads& payloads);
 
 class LinuxHardware {
  public:
@@ -61,7 +64,9 @@ class LinuxHardware {
     if (node_ != nullptr) node_->note_log_frames(payloads.data);
     if (log_enabled_ != nullptr && !log_enabled_->load(std::memory_order_relaxed)) return true;
     if (node_ != nullptr && !node_->pdos_allowed()) return true;  // NMT: not operational
-    return send_log_frames(log_bus_, payloads);
+    const bool sent = send_log_frames(log_bus_, payloads);
+    if (!drives_.arm_encoders()) return sent;
+    return send_arm_log_frames(log_bus_, arm_log_payloads(r)) && sent;
   }
   void gate_log(const std::atomic<bool>* enabled) { log_enabled_ = enabled; }
   // The log frames are the controller node's TPDOs: sent while it is operational.

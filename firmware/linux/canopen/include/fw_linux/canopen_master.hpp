@@ -86,6 +86,7 @@ class CanopenMaster {
   // SYNC, as the emulator counts it.
   std::uint64_t syncs_sent() const { return syncs_sent_; }
   std::uint32_t period_us() const { return config_.period_us; }
+  bool arm_encoders() const { return config_.arm_encoders; }
 
  private:
   // kStarting: the drives are operational (cyclic exchange running) and any
@@ -107,6 +108,7 @@ class CanopenMaster {
     // cyclic
     bool got_tpdo1{false};
     bool got_tpdo2{false};
+    bool got_tpdo4{false};  // the arm-side encoder (arm_encoders only)
     // With a SYNC counter, a cycle's TPDO1/TPDO2 are held until TPDO3 says
     // they answer this cycle's SYNC.
     struct Sample {
@@ -114,9 +116,11 @@ class CanopenMaster {
       std::int32_t position_counts{0};
       std::int16_t current_per_mille{0};
       std::int32_t velocity_counts_s{0};
+      std::int32_t arm_counts{0};
       unsigned parts{0};  // the sample's PDOs come: bit 0 `sample`, bit 1 `sample_rest`
       bool tpdo1{false};  // the sample is whole
       bool tpdo2{false};
+      bool tpdo4{false};
     };
     Sample held{};
     bool late{false};
@@ -129,6 +133,7 @@ class CanopenMaster {
     std::int32_t previous_counts{0};
     std::uint64_t previous_cycle{0};  // of the last good sample; 0: none yet
     std::int32_t velocity_counts_s{0};
+    std::int32_t arm_counts{0};  // 0x60E4:1, in 0x6064's units
     std::int16_t current_per_mille{0};
     std::uint64_t last_heartbeat_cycle{0};
     bool heartbeat_seen{false};

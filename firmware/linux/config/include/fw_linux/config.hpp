@@ -106,6 +106,9 @@ struct PortConfig {
   std::uint32_t response_window_us{0};      // real time: wait for the TPDOs; 0 = half the period
   std::uint32_t lockstep_timeout_ms{1000};  // lock-step: give up on a response after this
   bool velocity_pdo{false};                 // map TPDO2 (velocity); else differences of position
+  // Map each drive's arm-side encoder (0x60E4:1, in 0x6064's position
+  // units) into its TPDO4 and log the arm angles (LOG_D, LOG_E).
+  bool arm_encoders{false};
   // CiA 301's 0x1019: 0, SYNC without data; 2..240, SYNC carries a counter
   // that wraps after this value, the drives' TPDO3 echoes it, and a cycle's
   // TPDOs count only with this cycle's counter (docs/protocol.md).

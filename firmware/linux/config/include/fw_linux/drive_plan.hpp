@@ -88,6 +88,12 @@ struct DrivePlan {
   PlannedPdo sample_rest;
   PlannedPdo velocity;  // TPDO: velocity actual (velocity_pdo only)
   PlannedPdo echo;      // TPDO: the SYNC counter of the sample (sync_counter_overflow > 0 only)
+  PlannedPdo arm;       // TPDO4: the arm-side encoder, 0x60E4:1 (arm_encoders only)
+  // Every TPDO the controller may receive from the drive (those not used
+  // have used = false).
+  std::array<const PlannedPdo*, 5> tpdos() const {
+    return {&sample, &sample_rest, &velocity, &echo, &arm};
+  }
   std::vector<SdoAction> actions;
   std::vector<std::string> warnings;
 };
