@@ -50,6 +50,8 @@ delta::can::Socket open_socket(const RecordOptions& o) {
       filters = {{kLogA.base_id, p::kStandardIdMask, false},
                  {kLogB.base_id, p::kStandardIdMask, false},
                  {kLogC.base_id, p::kStandardIdMask, false},
+                 {p::kLogD.base_id, p::kStandardIdMask, false},
+                 {p::kLogE.base_id, p::kStandardIdMask, false},
                  {p::kTpdo1.base_id, p::kFunctionCodeMask, false},
                  {p::kEmcy.base_id, p::kFunctionCodeMask, false},
                  {p::kCollision.base_id, p::kStandardIdMask, false}};
@@ -158,6 +160,7 @@ class Session {
     return sample_currents_;
   }
   bool currents_seen() const { return currents_.any_seen(); }
+  bool arm_encoders() const { return assembler_.arm_encoders(); }
   std::string& raw() { return raw_; }
 
  private:
@@ -254,6 +257,16 @@ DeltaLog session_log(const RecordOptions& o, const Session& session, RecordSumma
     }
   }
   if (!session.currents_seen()) summary.samples_without_currents = 0;
+  summary.arm_encoders = session.arm_encoders();
+  if (summary.arm_encoders) {
+    const char* names[] = {"qa1", "qa2", "qa3"};
+    for (unsigned j = 0; j < 3; ++j) {
+      Series column;
+      column.reserve(samples.size());
+      for (const LogSample& s : samples) column.push_back(s.qa_rad[j]);
+      log.extra_columns.emplace_back(names[j], std::move(column));
+    }
+  }
   const std::uint64_t first = samples.front().seq;
   for (const LogSample& s : samples) {
     log.seq.push_back(s.seq - first);

@@ -1,4 +1,4 @@
-// The recorder's frame assembly: LOG_A..C frames paired into samples, the
+// The recorder's frame assembly: LOG_A..E frames paired into samples, the
 // drives' currents matched to them, and the emergencies seen.
 #include <algorithm>
 #include <cmath>
@@ -55,13 +55,21 @@ std::uint64_t LogAssembler::unwrap(std::uint32_t seq15) {
   return candidate;
 }
 
+// The log frame's part (0 to 4: LOG_A to LOG_E), -1 for any other frame.
+int log_part(const delta::can::Frame& f) {
+  const p::Message* parts[] = {&kLogA, &kLogB, &kLogC, &p::kLogD, &p::kLogE};
+  for (int i = 0; i < 5; ++i) {
+    if (f.id == parts[i]->base_id && f.dlc == parts[i]->dlc) return i;
+  }
+  return -1;
+}
+
 bool LogAssembler::feed(const delta::can::Frame& f) {
-  if (f.extended || f.dlc != 8) return false;
-  int part = -1;
-  if (f.id == kLogA.base_id) part = 0;
-  if (f.id == kLogB.base_id) part = 1;
-  if (f.id == kLogC.base_id) part = 2;
+  if (f.extended) return false;
+  const int part = log_part(f);
   if (part < 0) return false;
+  if (part >= 3 && !arm_) arm_ = true;
+  if (part >= 3 && !*arm_) return true;  // a cycle without them came first: not this log's
   // seq and stale sit in the same bits of all three frames.
   const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, p::kLogASeq)));
   const bool stale = p::unpack(f.data, p::kLogAStale) != 0;
@@ -81,9 +89,14 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   } else if (part == 1) {
     s.q_rad[2] = scaled(p::kLogBQ3, p::unpack(f.data, p::kLogBQ3));
     s.tau_Nm[0] = scaled(p::kLogBTau1, p::unpack(f.data, p::kLogBTau1));
-  } else {
+  } else if (part == 2) {
     s.tau_Nm[1] = scaled(p::kLogCTau2, p::unpack(f.data, p::kLogCTau2));
     s.tau_Nm[2] = scaled(p::kLogCTau3, p::unpack(f.data, p::kLogCTau3));
+  } else if (part == 3) {
+    s.qa_rad[0] = scaled(p::kLogDQa1, p::unpack(f.data, p::kLogDQa1));
+    s.qa_rad[1] = scaled(p::kLogDQa2, p::unpack(f.data, p::kLogDQa2));
+  } else {
+    s.qa_rad[2] = scaled(p::kLogEQa3, p::unpack(f.data, p::kLogEQa3));
   }
   it->parts = static_cast<std::uint8_t>(it->parts | (1u << part));
   // Emit every complete sample in order; give up on those that fell out of
@@ -99,7 +112,8 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
   std::size_t i = 0;
   while (i < pending_.size()) {
     const Pending& x = pending_[i];
-    const bool complete = x.parts == 7;
+    if (!decided_whole(x)) break;
+    const bool complete = (x.parts & whole()) == whole();
     if (x.seq != *next_to_emit_) {
       // A seq is missing entirely; wait unless it is out of the window.
       if (*next_to_emit_ >= give_up_below) break;
@@ -124,6 +138,16 @@ void LogAssembler::emit_up_to(std::uint64_t give_up_below) {
   pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
+// Whether the cycle's frames can be judged: the first cycle with LOG_A..C
+// decides whether the log has LOG_D and LOG_E, once a frame of a later
+// cycle (or the end, finish()) shows that no more of its frames come.
+bool LogAssembler::decided_whole(const Pending& x) {
+  if (arm_ || (x.parts & 0x07) != 0x07) return true;
+  if (*last_seq_ <= x.seq) return false;
+  arm_ = false;
+  return true;
+}
+
 // Cycles given up on: lost, or, before the first complete one, cycles the
 // recording began inside (the log starts after them, so no gap).
 void LogAssembler::give_up(std::uint64_t first_seq, std::uint64_t count) {
@@ -144,11 +168,12 @@ std::vector<LogSample> LogAssembler::take_complete() {
 
 void LogAssembler::finish() {
   if (!next_to_emit_) return;
+  if (!arm_) arm_ = false;  // no LOG_D or LOG_E came
   // Cycles after the last complete one were cut off by the end of the
   // recording; the log has no gap for them.
   std::uint64_t end = *next_to_emit_;
   for (const Pending& x : pending_) {
-    if (x.parts == 7) end = std::max(end, x.seq + 1);
+    if ((x.parts & whole()) == whole()) end = std::max(end, x.seq + 1);
   }
   if (*last_seq_ >= end) {
     cut_off_ = {end, *last_seq_ - end + 1};

@@ -109,6 +109,7 @@ nlohmann::json json_summary(const RecordSummary& s) {
            {{"first_seq", s.started_inside.first}, {"count", s.started_inside.second}}},
           {"socket_drops", s.socket_drops},
           {"currents", s.currents},
+          {"arm_encoders", s.arm_encoders},
           {"samples_without_currents", s.samples_without_currents},
           {"emergencies", emergencies},
           {"emergencies_not_kept", s.emergencies_not_kept},

@@ -41,12 +41,84 @@ TEST(LogAssemblerTest, PairsTheThreeFramesOfACycleWithTheirScaling) {
   other.id = 0x181;
   other.dlc = 8;
   EXPECT_FALSE(a.feed(other));
+  // The first cycle is judged once a later one (or the end) shows that no
+  // arm-encoder frames (LOG_D, LOG_E) follow it.
+  EXPECT_TRUE(a.take_complete().empty());
+  a.finish();
+  EXPECT_FALSE(a.arm_encoders());
   const auto s = a.take_complete();
   ASSERT_EQ(s.size(), 1u);
   EXPECT_EQ(s[0].seq, 7u);
   EXPECT_NEAR(s[0].q_rad[1], -0.25, 1e-6);
   EXPECT_NEAR(s[0].q_rad[2], 1.1, 1e-6);
   EXPECT_NEAR(s[0].tau_Nm[2], -1.234, 1e-5);
+  EXPECT_EQ(a.lost_samples(), 0u);
+}
+
+// LOG_D and LOG_E of one cycle, as the controller sends them with
+// arm_encoders = true.
+std::array<delta::can::Frame, 2> arm_frames(std::uint32_t seq, const std::array<double, 3>& qa) {
+  std::array<std::int32_t, 3> qa_raw{};
+  for (unsigned j = 0; j < 3; ++j)
+    qa_raw[j] = static_cast<std::int32_t>(std::llround(qa[j] * 1048576.0));
+  const p::ArmLogPayloads payloads = p::pack_arm_log(seq, false, qa_raw);
+  std::array<delta::can::Frame, 2> f{};
+  f[0].id = p::kLogD.base_id;
+  f[0].dlc = p::kLogD.dlc;
+  f[0].data = payloads.data[0];
+  f[1].id = p::kLogE.base_id;
+  f[1].dlc = p::kLogE.dlc;
+  f[1].data = payloads.data[1];
+  return f;
+}
+
+// With arm-side encoders every cycle has five frames; a cycle that lacks
+// LOG_D or LOG_E is lost like one that lacks LOG_A, never written without
+// its arm angles.
+TEST(LogAssemblerTest, ArmEncoderFramesGiveTheArmAnglesAndAreThenNeededInEveryCycle) {
+  LogAssembler a;
+  for (std::uint32_t k = 10; k < 60; ++k) {
+    const double x = 0.01 * k;
+    for (const auto& f : log_frames(k, {x, -x, 0.5}, {})) a.feed(f);
+    const auto arm = arm_frames(k, {x + 0.001, -x - 0.002, 0.5 + 0.003});
+    if (k != 30) {
+      EXPECT_TRUE(a.feed(arm[0]));
+    }
+    if (k != 40) {
+      EXPECT_TRUE(a.feed(arm[1]));
+    }
+  }
+  a.finish();
+  EXPECT_TRUE(a.arm_encoders());
+  const auto s = a.take_complete();
+  ASSERT_EQ(s.size(), 48u);
+  using Run = std::pair<std::uint64_t, std::uint64_t>;
+  EXPECT_EQ(a.gaps(), (std::vector<Run>{{30, 1}, {40, 1}}));
+  for (const LogSample& x : s) {
+    const double q = 0.01 * static_cast<double>(x.seq);
+    ASSERT_NEAR(x.qa_rad[0], q + 0.001, 1e-6) << x.seq;
+    ASSERT_NEAR(x.qa_rad[1], -q - 0.002, 1e-6) << x.seq;
+    ASSERT_NEAR(x.qa_rad[2], 0.503, 1e-6) << x.seq;
+  }
+  // A frame of another length under LOG_E's ID is none of the log's.
+  delta::can::Frame odd = arm_frames(61, {})[1];
+  odd.dlc = 8;
+  EXPECT_FALSE(a.feed(odd));
+}
+
+// A recording whose first cycle came without them is a log without arm
+// angles, whatever comes later.
+TEST(LogAssemblerTest, ArmFramesAfterACycleWithoutThemAreNotTheLogs) {
+  LogAssembler a;
+  for (std::uint32_t k = 0; k < 20; ++k) {
+    for (const auto& f : log_frames(k, {}, {})) a.feed(f);
+    if (k >= 5) {
+      for (const auto& f : arm_frames(k, {1.0, 1.0, 1.0})) EXPECT_TRUE(a.feed(f));
+    }
+  }
+  a.finish();
+  EXPECT_FALSE(a.arm_encoders());
+  EXPECT_EQ(a.take_complete().size(), 20u);
   EXPECT_EQ(a.lost_samples(), 0u);
 }
 

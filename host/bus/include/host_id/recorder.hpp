@@ -28,10 +28,14 @@ struct LogSample {
   std::uint64_t seq{0};  // unwrapped
   std::array<double, 3> q_rad{};
   std::array<double, 3> tau_Nm{};
-  bool stale{false};  // marked stale by the controller: never emitted as a sample
+  std::array<double, 3> qa_rad{};  // the arm-side encoders, where the controller logs them
+  bool stale{false};               // marked stale by the controller: never emitted as a sample
 };
 
-// Pairs LOG_A, LOG_B and LOG_C frames into samples, in order.
+// Pairs LOG_A, LOG_B and LOG_C frames into samples, in order, with LOG_D
+// and LOG_E (the arm-side encoders) where the controller sends them: a
+// recording takes them when they come with its first cycle, and then
+// needs them in every cycle.
 class LogAssembler {
  public:
   // Feeds one frame; other IDs are ignored. Returns true if it was a log frame.
@@ -56,11 +60,13 @@ class LogAssembler {
   // The same at the start: incomplete cycles before the first complete one
   // (their first frames came before the recording listened).
   std::pair<std::uint64_t, std::uint64_t> started_inside() const { return started_inside_; }
+  // Whether the samples carry the arm-side encoders (qa_rad).
+  bool arm_encoders() const { return arm_.value_or(false); }
 
  private:
   struct Pending {
     std::uint64_t seq{0};
-    std::uint8_t parts{0};  // bit 0: A, 1: B, 2: C
+    std::uint8_t parts{0};  // bit 0: A, 1: B, 2: C, 3: D, 4: E
     LogSample sample;
   };
   std::uint64_t unwrap(std::uint32_t seq15);
@@ -78,6 +84,11 @@ class LogAssembler {
   std::pair<std::uint64_t, std::uint64_t> cut_off_{0, 0};
   std::pair<std::uint64_t, std::uint64_t> started_inside_{0, 0};
   bool emitted_any_{false};  // a complete cycle (sample or stale) was emitted
+  // Whether cycles have LOG_D and LOG_E: decided by the first cycle whose
+  // LOG_A..C came, once a later cycle's frame shows that it is over.
+  std::optional<bool> arm_;
+  std::uint8_t whole() const { return arm_encoders() ? 0x1F : 0x07; }
+  bool decided_whole(const Pending& x);
 };
 
 // The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
@@ -182,6 +193,7 @@ struct RecordSummary {
   std::uint64_t frames{0};
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
+  bool arm_encoders{false};       // the log has qa1..qa3 (the controller sent LOG_D and LOG_E)
   std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
   std::vector<SeenEmergency> emergencies;     // in the order they came
   std::uint64_t emergencies_not_kept{0};
