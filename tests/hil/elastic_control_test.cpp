@@ -7,10 +7,15 @@
 // N m/rad, up to 11 % off each), and the pick-and-place run with the
 // nominal feed-forward and with the fitted model: the emulator's `arm tracking` line, the arms'
 // own error that the controller cannot see, is at least 4 times lower.
+// path1 is recorded with arm_encoders = true: each drive's 0x60E4:1 in its
+// TPDO4, the controller's LOG_D and LOG_E, the recorder's qa1..qa3, from
+// which `fit --elastic` finds each gearbox's stiffness.
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -38,16 +43,47 @@ std::string pick_and_place(const std::vector<std::string>& sets) {
   return fw.err() + fw.out();
 }
 
+// The stiffness `fit --elastic` finds from the arm-side encoders of a
+// recorded log: in the drive's torque units, so the robot file's stiffness
+// over its torque constant ratio (the deflection is k tau_drive / K). The
+// log carries little deflection (a few encoder counts), so the bar is 10 %.
+void expect_stiffness_from_arm_encoders(const std::string& dir) {
+  std::ifstream log(dir + "/path1.csv");
+  std::string line;
+  while (std::getline(log, line) && line.starts_with("#")) {
+  }
+  EXPECT_TRUE(line.ends_with(",qa1,qa2,qa3")) << "the recorded log's columns: " << line;
+  hil::Child fit = hil::Child::spawn({kBin + "/host_id", "fit", dir + "/path1.csv", "--elastic",
+                                      "--json", "--out", dir + "/elastic.json", "--quiet"});
+  ASSERT_EQ(fit.wait(300s).value_or(-1), 0) << fit.err();
+  std::ifstream robot_file(kSource + "/tests/data/robots/elastic.json");
+  const nlohmann::json robot = nlohmann::json::parse(robot_file);
+  std::ifstream fitted_file(dir + "/elastic.json");
+  const nlohmann::json e = nlohmann::json::parse(fitted_file).at("elasticity");
+  ASSERT_TRUE(e.at("from_arm_encoders").get<bool>());
+  for (unsigned j = 0; j < 3; ++j) {
+    const nlohmann::json& joint = robot.at("joints").at(j);
+    const double truth = joint.at("gearbox_stiffness_Nm_per_rad").get<double>() /
+                         joint.at("torque_constant_ratio").get<double>();
+    const double found = 1.0 / e.at("compliance_rad_per_Nm").at(j).get<double>();
+    std::cout << "joint " << j + 1 << ": K from the arm encoders over CAN " << found
+              << " N m/rad, truth in drive units " << truth << "\n";
+    EXPECT_NEAR(found, truth, 0.1 * truth) << "joint " << j + 1;
+  }
+}
+
 TEST(ElasticControl, TheArmsTrackThePickAndPlaceFourTimesBetterWithTheFittedModel) {
   const testsupport::ScratchDirectory scratch{"delta_hil_elastic"};
   const std::string dir = scratch.path();
   hil::Child emu = hil::start_emulator({"--robot", kSource + "/tests/data/robots/elastic.json"});
   {
     hil::Child rec = hil::start_recorder(dir + "/path1.csv");
-    hil::Child fw = hil::start_path1_firmware({}, 1);  // one period of path1's 0.2 Hz
+    // one period of path1's 0.2 Hz
+    hil::Child fw = hil::start_path1_firmware({"--set", "arm_encoders=true"}, 1);
     ASSERT_EQ(fw.wait(300s).value_or(-1), 0) << fw.err();
     ASSERT_EQ(rec.wait(60s).value_or(-1), 0) << rec.err();
   }
+  expect_stiffness_from_arm_encoders(dir);
   hil::Child fit =
       hil::Child::spawn({kBin + "/host_id", "fit", dir + "/path1.csv", "--gearbox-stiffness",
                          "3000", "--out", dir + "/fit.json", "--quiet"});
