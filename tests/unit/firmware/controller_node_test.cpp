@@ -217,6 +217,45 @@ TEST(ControllerNodeTest, TheLogFramesMappingDescribesWhatTheyCarry) {
   EXPECT_EQ(rig.read(0x2102, 3), static_cast<std::uint32_t>(-(1 << 17)) & 0xFFFFFFu);
 }
 
+// TPDO5 and TPDO6 (LOG_D, LOG_E) are mapped in 0x1A04-0x1A05 onto 0x2100
+// and 0x2104, the latest record's arm angles; their COB-IDs are valid only
+// with arm_encoders = true (bit 31 set: the PDO does not exist on the bus).
+TEST(ControllerNodeTest, TheArmLogFramesMappingDescribesWhatTheyCarry) {
+  PortConfig c = NodeRig::unstored();
+  EXPECT_EQ(NodeRig(std::nullopt, c).read(0x1804, 1), 0x800001D0u);
+  c.arm_encoders = true;
+  NodeRig rig(std::nullopt, c);
+  rig.step();
+  EXPECT_EQ(rig.read(0x1804, 1), 0x1D0u);
+  EXPECT_EQ(rig.read(0x1805, 1), 0x2D0u);
+  const p::ArmLogPayloads frames = p::pack_arm_log(77, false, {1 << 20, -(1 << 18), 5});
+  rig.node.note_log_frames(p::pack_log(77, false, {}, {}).data);  // the same record's
+  rig.node.note_arm_log_frames(frames.data);
+  const unsigned counts[2] = {3, 2};
+  for (unsigned tpdo = 0; tpdo < 2; ++tpdo) {
+    const auto mapping = static_cast<std::uint16_t>(0x1A04 + tpdo);
+    ASSERT_EQ(rig.read(mapping, 0), counts[tpdo]) << mapping;
+    unsigned bit = 0;
+    for (std::uint8_t k = 1; k <= counts[tpdo]; ++k) {
+      const std::uint32_t entry = rig.read(mapping, k);
+      const unsigned bits = entry & 0xFF;
+      std::uint64_t carried = 0;
+      for (unsigned b = 0; b < bits; ++b) {
+        const unsigned at = bit + b;
+        carried |= std::uint64_t{(frames.data[tpdo][at / 8] >> (at % 8)) & 1u} << b;
+      }
+      EXPECT_EQ(
+          rig.read(static_cast<std::uint16_t>(entry >> 16), static_cast<std::uint8_t>(entry >> 8)),
+          carried)
+          << "TPDO" << tpdo + 5 << " entry " << int{k} << ": 0x" << std::hex << entry;
+      bit += bits;
+    }
+    EXPECT_EQ(bit, 8u * (tpdo == 0 ? p::kLogD.dlc : p::kLogE.dlc)) << "TPDO" << tpdo + 5;
+  }
+  EXPECT_EQ(rig.read(0x2104, 2), static_cast<std::uint32_t>(-(1 << 18)) & 0xFFFFFFu);
+  EXPECT_EQ(rig.read(0x2104, 3), 5u);
+}
+
 }  // namespace
 }  // namespace fw_linux
 

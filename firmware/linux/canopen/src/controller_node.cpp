@@ -76,6 +76,25 @@ std::uint32_t logged_value(const std::array<std::array<std::uint8_t, 8>, 3>& fra
   return static_cast<std::uint32_t>(p::unpack(frames[kFrame[value]], *kSignals[value])) & 0xFFFFFFu;
 }
 
+// TPDO5 and TPDO6's (0x1A04, 0x1A05): LOG_D and LOG_E, the sequence and
+// stale flag, then the arm angles 0x2104:1-3.
+constexpr std::uint32_t kArmLogMapping[2][3] = {
+    {kMapSeq, mapping_entry(0x2104, 1, 24), mapping_entry(0x2104, 2, 24)},
+    {kMapSeq, mapping_entry(0x2104, 3, 24), 0}};
+static_assert(p::kLogDQa1.start_bit == 16 && p::kLogDQa2.start_bit == 40 &&
+              p::kLogEQa3.start_bit == 16 && p::kLogEQa3.length == 24);
+
+std::uint32_t arm_logged_value(const std::array<std::array<std::uint8_t, 8>, 2>& frames,
+                               unsigned joint) {
+  static constexpr const p::Signal* kSignals[3] = {&p::kLogDQa1, &p::kLogDQa2, &p::kLogEQa3};
+  return static_cast<std::uint32_t>(p::unpack(frames[joint / 2], *kSignals[joint])) & 0xFFFFFFu;
+}
+
+// TPDO5 and TPDO6's COB-IDs: off (bit 31) without arm_encoders.
+std::uint32_t arm_log_cob_id(bool on, const p::Message& m) {
+  return m.base_id | (on ? 0u : 0x80000000u);
+}
+
 // TPDO4's mapping (0x1A03): the collision frame's four values, 0x2103:1-4.
 constexpr std::uint32_t kCollisionMapping[4] = {
     mapping_entry(0x2103, 1, 8), mapping_entry(0x2103, 2, 8), mapping_entry(0x2103, 3, 24),
@@ -151,6 +170,15 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1803, 0, 1, [](const Context&) { return 2u; }, nullptr},
       {0x1803, 1, 4, [](const Context&) { return std::uint32_t{p::kCollision.base_id}; }, nullptr},
       {0x1803, 2, 1, [](const Context&) { return 254u; }, nullptr},
+      // TPDO5 and TPDO6, the arm-side encoders' log frames (arm_encoders).
+      {0x1804, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1804, 1, 4,
+       [](const Context& c) { return arm_log_cob_id(c.node.arm_encoders_, p::kLogD); }, nullptr},
+      {0x1804, 2, 1, [](const Context&) { return 1u; }, nullptr},
+      {0x1805, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1805, 1, 4,
+       [](const Context& c) { return arm_log_cob_id(c.node.arm_encoders_, p::kLogE); }, nullptr},
+      {0x1805, 2, 1, [](const Context&) { return 1u; }, nullptr},
       {0x1A00, 0, 1, [](const Context&) { return 3u; }, nullptr},
       {0x1A00, 1, 4, [](const Context&) { return kLogMapping[0][0]; }, nullptr},
       {0x1A00, 2, 4, [](const Context&) { return kLogMapping[0][1]; }, nullptr},
@@ -168,6 +196,13 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x1A03, 2, 4, [](const Context&) { return kCollisionMapping[1]; }, nullptr},
       {0x1A03, 3, 4, [](const Context&) { return kCollisionMapping[2]; }, nullptr},
       {0x1A03, 4, 4, [](const Context&) { return kCollisionMapping[3]; }, nullptr},
+      {0x1A04, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x1A04, 1, 4, [](const Context&) { return kArmLogMapping[0][0]; }, nullptr},
+      {0x1A04, 2, 4, [](const Context&) { return kArmLogMapping[0][1]; }, nullptr},
+      {0x1A04, 3, 4, [](const Context&) { return kArmLogMapping[0][2]; }, nullptr},
+      {0x1A05, 0, 1, [](const Context&) { return 2u; }, nullptr},
+      {0x1A05, 1, 4, [](const Context&) { return kArmLogMapping[1][0]; }, nullptr},
+      {0x1A05, 2, 4, [](const Context&) { return kArmLogMapping[1][1]; }, nullptr},
       // Program download (CiA 302-3): one program, 0x1F50:1 (a domain, below).
       {0x1F50, 0, 1, [](const Context&) { return 1u; }, nullptr},
       {0x1F51, 0, 1, [](const Context&) { return 1u; }, nullptr},
@@ -209,6 +244,14 @@ std::span<const ControllerNode::Table::Scalar> ControllerNode::scalars() {
       {0x2103, 3, 3, [](const Context& c) { return collision_value(c.node.collision_frame_, 2); },
        nullptr, true},
       {0x2103, 4, 3, [](const Context& c) { return collision_value(c.node.collision_frame_, 3); },
+       nullptr, true},
+      // The latest record's arm angles, as TPDO5 and TPDO6 map them.
+      {0x2104, 0, 1, [](const Context&) { return 3u; }, nullptr},
+      {0x2104, 1, 3, [](const Context& c) { return arm_logged_value(c.node.arm_log_frames_, 0); },
+       nullptr, true},
+      {0x2104, 2, 3, [](const Context& c) { return arm_logged_value(c.node.arm_log_frames_, 1); },
+       nullptr, true},
+      {0x2104, 3, 3, [](const Context& c) { return arm_logged_value(c.node.arm_log_frames_, 2); },
        nullptr, true},
       // The feed-forward: the fit id of the model in use, the mode, the last
       // load's verdict (0x2200:1, the model itself, is a domain below).
@@ -281,6 +324,7 @@ ControllerNode::ControllerNode(FrameSink& bus, const PortConfig& c,
       sync_counter_overflow_(c.sync_counter_overflow),
       configured_heartbeat_ms_(static_cast<std::uint16_t>(c.heartbeat_ms)),
       heartbeat_ms_(configured_heartbeat_ms_),
+      arm_encoders_(c.arm_encoders),
       table_(Context{*this}, scalars(), texts(), domains()) {
   server_.emplace(table_);
 }

@@ -1,6 +1,6 @@
 // The core's hardware interface (fw/hardware.hpp) on Linux: the drives are
 // the CANopen master, the safety lines a SafetyIo backend, and the log sink
-// the controller's LOG_A..C frames on the same bus.
+// the controller's LOG_A..C frames (and LOG_D, LOG_E) on the same bus.
 #pragma once
 
 #include <atomic>
@@ -58,15 +58,20 @@ class LinuxHardware {
   }
   // With log frames switched off (Modbus log_enable 0) a record is dropped
   // here, and the core's sequence still counts it.
-  // The node's mapped objects (0x2100-0x2102) hold the latest record either way.
+  // The node's mapped objects (0x2100-0x2102, 0x2104) hold the latest record either way.
   bool log(const fw::LogRecord& r) {
     const delta::can::protocol::LogPayloads payloads = log_payloads(r);
-    if (node_ != nullptr) node_->note_log_frames(payloads.data);
+    const bool arm = drives_.arm_encoders();
+    const delta::can::protocol::ArmLogPayloads arm_payloads =
+        arm ? arm_log_payloads(r) : delta::can::protocol::ArmLogPayloads{};
+    if (node_ != nullptr) {
+      node_->note_log_frames(payloads.data);
+      if (arm) node_->note_arm_log_frames(arm_payloads.data);
+    }
     if (log_enabled_ != nullptr && !log_enabled_->load(std::memory_order_relaxed)) return true;
     if (node_ != nullptr && !node_->pdos_allowed()) return true;  // NMT: not operational
     const bool sent = send_log_frames(log_bus_, payloads);
-    if (!drives_.arm_encoders()) return sent;
-    return send_arm_log_frames(log_bus_, arm_log_payloads(r)) && sent;
+    return arm ? send_arm_log_frames(log_bus_, arm_payloads) && sent : sent;
   }
   void gate_log(const std::atomic<bool>* enabled) { log_enabled_ = enabled; }
   // The log frames are the controller node's TPDOs: sent while it is operational.

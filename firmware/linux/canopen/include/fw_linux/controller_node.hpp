@@ -62,6 +62,10 @@ class ControllerNode {
   void note_log_frames(const std::array<std::array<std::uint8_t, 8>, 3>& frames) {
     log_frames_ = frames;
   }
+  // The same for LOG_D and LOG_E (arm_encoders): 0x2104 maps them.
+  void note_arm_log_frames(const std::array<std::array<std::uint8_t, 8>, 2>& frames) {
+    arm_log_frames_ = frames;
+  }
 
   // CiA 301: PDOs only in operational.
   bool pdos_allowed() const { return nmt_ == kOperational; }
@@ -106,7 +110,9 @@ class ControllerNode {
   bool safe_to_update_{false};         // as of the last step
   bool revert_reported_{false};
   fw::Fault last_reported_{fw::Fault::kNone};
+  bool arm_encoders_;  // TPDO5 and TPDO6 (LOG_D, LOG_E) on
   std::array<std::array<std::uint8_t, 8>, 3> log_frames_{};
+  std::array<std::array<std::uint8_t, 8>, 2> arm_log_frames_{};
   std::array<std::uint8_t, 8> collision_frame_{};  // the last one sent
   Table table_;
   std::optional<delta::can::sdo::Server> server_;
