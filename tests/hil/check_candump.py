@@ -6,8 +6,9 @@
 - python-can (python3-can) reads the candump -L file;
 - canmatrix (python3-canmatrix) reads docs/delta.dbc and decodes every
   frame: each must have its message, with the message's length; the angles
-  and torques of LOG_A, LOG_B and LOG_C must equal the recorded log's, row
-  by row;
+  and torques of LOG_A, LOG_B and LOG_C (and the arm angles of LOG_D and
+  LOG_E, where the log has qa1..qa3) must equal the recorded log's, row by
+  row;
 - tshark's CANopen dissector (Debian's tshark) decodes the same file: no
   frame is malformed or flagged as an error, no SDO transfer is aborted,
   every SDO request is answered before the node's next one, the NMT start
@@ -66,7 +67,7 @@ def decode_with_dbc(dbc_path, frames):
         if f.dlc != message.size:
             fail(f"frame {n}: {message.name} has {f.dlc} bytes, the DBC says {message.size}")
         counts[message.name] = counts.get(message.name, 0) + 1
-        if message.name in ("LOG_A", "LOG_B", "LOG_C"):
+        if message.name in ("LOG_A", "LOG_B", "LOG_C", "LOG_D", "LOG_E"):
             values = {k: float(v.phys_value) for k, v in message.decode(bytes(f.data)).items()}
             seq = int(values.pop("seq"))
             base = last_seq.get(message.name, (0, -1))
@@ -87,7 +88,8 @@ def compare_with_log(log_path, records):
             got = records.get(seq)
             if got is None:
                 fail(f"{log_path}: seq {seq} has no log frames in the candump")
-            for column in ("q1", "q2", "q3", "tau1", "tau2", "tau3"):
+            arm = ("qa1", "qa2", "qa3") if "qa1" in row else ()
+            for column in ("q1", "q2", "q3", "tau1", "tau2", "tau3") + arm:
                 want = float(row[column])
                 if column not in got:
                     fail(f"{log_path}: seq {seq}: no {column} in the candump's log frames")
@@ -178,7 +180,8 @@ def main():
     rows = compare_with_log(a.log, records)
     nmt_start, first_sync = check_canopen(a.candump, frames)
     print(f"check_candump: {len(frames)} frames, every one a message of the DBC "
-          f"({len(counts)} messages seen); {rows} log rows equal the decoded LOG_A/B/C; "
+          f"({len(counts)} messages seen); {rows} log rows equal the decoded LOG_A/B/C"
+          f"{'/D/E' if counts.get('LOG_D') else ''}; "
           f"tshark: all CANopen, no malformed frame, no SDO abort, NMT start at frame "
           f"{nmt_start} after the bring-up SDOs, first SYNC at {first_sync}, drives "
           f"{', '.join(map(str, DRIVE_NODES))} operational")
