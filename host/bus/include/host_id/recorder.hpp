@@ -1,4 +1,4 @@
-// `host_id record`: the controller's log frames (LOG_A..C, docs/protocol.md)
+// `host_id record`: the controller's log frames (LOG_A..E, docs/protocol.md)
 // from a CAN bus into delta-log/1. Samples are paired by their 15-bit
 // sequence counter, unwrapped to 64 bits; a cycle with a missing frame is a
 // lost sample, reported and never bridged (the log keeps its seq column).

@@ -13,7 +13,9 @@ namespace {
 constexpr const char* kRecordDescription =
     "Records the controller's log frames (LOG_A..LOG_C, docs/protocol.md) from a CAN interface "
     "into delta-log/1, with the drives' motor currents (TPDO1) as columns i1..i3 when every "
-    "sample has them. Samples are paired by their sequence counter; a lost sample is reported "
+    "sample has them, and the arm-side encoders (LOG_D, LOG_E, sent with the controller's "
+    "arm_encoders = true) as columns qa1..qa3. Samples are paired by their sequence counter; a "
+    "lost sample is reported "
     "and the log keeps its seq column, so no gap is ever bridged. A cycle the controller marked "
     "stale (a drive's feedback missed it) is left out the same way and reported, but is not "
     "lost. A cycle the recording began or ended inside (incomplete before the first or after "
@@ -66,7 +68,8 @@ int run_record(const RecordArguments& a, std::ostream& out, std::ostream& err) {
   } else if (!a.quiet) {
     out << "host_id record: " << s.samples << " samples (" << s.frames << " frames) from "
         << r.iface << " in " << s.seconds << " s -> " << r.out_path
-        << (s.currents ? " (with the drives' currents i1..i3)" : "") << "\n";
+        << (s.currents ? " (with the drives' currents i1..i3)" : "")
+        << (s.arm_encoders ? " (with the arm-side encoders qa1..qa3)" : "") << "\n";
   }
   report_left_out(err, "host_id record", s);
   report_emergencies(err, "host_id record", s);
