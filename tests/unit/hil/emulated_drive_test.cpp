@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -287,6 +288,40 @@ TEST(EmulatedDriveTest, APdoMappingIsChangedOnlyByCiA301sRulesAndThePdoFollowsIt
                                       tpdo1->data[3] << 24),
             position);
   EXPECT_EQ(std::uint32_t{tpdo1->data[4]} | std::uint32_t{tpdo1->data[5]} << 8, statusword);
+}
+
+// The arm-side encoder, CiA 402's additional position actual value
+// 0x60E4:1, maps into TPDO4 (off and empty by default), which then goes on
+// every SYNC at 0x480 + node. On the rigid default robot the arm is where
+// the motor side is: the same count as 0x6064 (tests/hil's ElasticControl
+// checks an elastic one's through the stiffness it gives).
+TEST(EmulatedDriveTest, TheArmSideEncoderMapsIntoTpdo4) {
+  Bus bus;
+  const auto write = [&](std::uint16_t index, std::uint8_t sub, std::uint32_t v,
+                         std::uint8_t size) {
+    return bus.abort_code(sdo::download_request(index, sub, v, size));
+  };
+  EXPECT_EQ(bus.read(0x1803, 1), 0x80000481u);
+  EXPECT_EQ(bus.read(0x1A03, 0), 0u);
+  EXPECT_EQ(bus.read(0x60E4, 0), 1u);
+  EXPECT_EQ(write(0x1A03, 1, 0x60E40008, 4), sdo::kAbortNotMappable);  // its count
+  EXPECT_EQ(write(0x1A03, 1, 0x60E40120, 4), 0u);
+  EXPECT_EQ(write(0x1A03, 0, 1, 1), 0u);
+  EXPECT_EQ(write(0x1803, 1, 0x00000481, 4), 0u);
+  bus.nmt(p::kNmtStart, 1);
+  for (int cycle = 0; cycle < 3; ++cycle) {
+    bus.out.clear();
+    bus.send(p::cob_id(p::kSync, 0), 0, {});
+    std::optional<Frame> tpdo4;
+    for (const Frame& f : bus.out) {
+      if (f.id == p::cob_id(p::kTpdo4, 1)) tpdo4 = f;
+    }
+    ASSERT_TRUE(tpdo4) << "cycle " << cycle;
+    const auto position = static_cast<std::int32_t>(bus.read(0x6064, 0));
+    EXPECT_EQ(static_cast<std::int32_t>(bus.read(0x60E4, 1)), position);
+    EXPECT_EQ(tpdo4->dlc, 4);
+    EXPECT_EQ(p::unpack(tpdo4->data, p::kTpdo4ArmPositionActual), position);
+  }
 }
 
 // The second product's EDS gives another default mapping, which its
