@@ -227,6 +227,39 @@ TEST(InProcessPortTest, AMissedSampleDoesNotDoubleTheVelocityFromPositions) {
   EXPECT_EQ(rig.controller.state(), fw::State::kRunning);
 }
 
+// With arm_encoders the drives' TPDO4 carries the arm-side encoder, which
+// the master converts as it converts the position (on the rigid robot the
+// same angle) and needs in the cycle: a cycle without node 2's TPDO4 is
+// not a fresh sample of joint 2.
+TEST(InProcessPortTest, ArmEncodersComeInTpdo4AndAreNeededInTheCycle) {
+  namespace p = delta::can::protocol;
+  PortConfig c = Rig::config();
+  c.arm_encoders = true;
+  Rig rig(c, {});
+  ASSERT_TRUE(bring_up(rig)) << rig.master.last_problem();
+  ASSERT_TRUE(rig.controller.start(*named_trajectory("path1", c)).accepted);
+  for (int i = 0; i < 1500; ++i) {
+    rig.cycle();
+    ASSERT_NE(rig.controller.state(), fw::State::kFault) << rig.master.last_problem();
+    for (unsigned j = 0; j < 3; ++j) {
+      const fw::DriveFeedback& fb = rig.controller.feedback()[j];
+      ASSERT_TRUE(fb.fresh) << i;
+      ASSERT_EQ(fb.arm_position_rad.raw(), fb.position_rad.raw()) << "joint " << j + 1;
+    }
+  }
+  ASSERT_GT(std::fabs(rig.bus.emulator_.qd_rad_s()[1]), 0.05);
+  rig.bus.deliver(rig.master);
+  rig.master.begin_cycle(0);
+  std::erase_if(rig.bus.to_master_,
+                [](const delta::can::Frame& f) { return f.id == p::cob_id(p::kTpdo4, 2); });
+  rig.bus.deliver(rig.master);
+  rig.master.end_window();
+  rig.controller.step();
+  rig.master.send_commands();
+  EXPECT_TRUE(rig.controller.feedback()[0].fresh);
+  EXPECT_FALSE(rig.controller.feedback()[1].fresh);
+}
+
 // With a SYNC counter the SYNCs carry 1, 2, ... overflow, 1, ..., the
 // drives' TPDO3 echo it, and an excitation runs as without.
 TEST(InProcessPortTest, WithASyncCounterTheSyncsCountAndTheDrivesEchoThem) {
