@@ -46,7 +46,8 @@ std::string pick_and_place(const std::vector<std::string>& sets) {
 // The stiffness `fit --elastic` finds from the arm-side encoders of a
 // recorded log: in the drive's torque units, so the robot file's stiffness
 // over its torque constant ratio (the deflection is k tau_drive / K). The
-// log carries little deflection (a few encoder counts), so the bar is 10 %.
+// log carries little deflection (a few encoder counts): 0.3-0.8 % measured,
+// the bar 5 %.
 void expect_stiffness_from_arm_encoders(const std::string& dir) {
   std::ifstream log(dir + "/path1.csv");
   std::string line;
@@ -68,7 +69,7 @@ void expect_stiffness_from_arm_encoders(const std::string& dir) {
     const double found = 1.0 / e.at("compliance_rad_per_Nm").at(j).get<double>();
     std::cout << "joint " << j + 1 << ": K from the arm encoders over CAN " << found
               << " N m/rad, truth in drive units " << truth << "\n";
-    EXPECT_NEAR(found, truth, 0.1 * truth) << "joint " << j + 1;
+    EXPECT_NEAR(found, truth, 0.05 * truth) << "joint " << j + 1;
   }
 }
 
