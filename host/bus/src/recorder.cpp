@@ -161,6 +161,7 @@ class Session {
   }
   bool currents_seen() const { return currents_.any_seen(); }
   bool arm_encoders() const { return assembler_.arm_encoders(); }
+  const LogAssembler& assembler() const { return assembler_; }
   std::string& raw() { return raw_; }
 
  private:
@@ -293,10 +294,8 @@ Recording capture(const RecordOptions& o, const std::function<void()>& ready) {
   session.run(sock);
   RecordSummary summary = session.summary();
   if (session.samples().empty()) {
-    char id[8];
-    std::snprintf(id, sizeof id, "%03X", kLogA.base_id);
-    throw delta::InputError("record: no complete log sample arrived on " + o.iface +
-                            " (controller log frames 0x" + id + ".. ); nothing written");
+    throw delta::InputError("record: no complete log sample arrived on " + o.iface + " (" +
+                            missing_log_frames(session.assembler()) + "); nothing written");
   }
   DeltaLog log = session_log(o, session, summary);
   return Recording{std::move(log), summary, std::move(session.raw())};

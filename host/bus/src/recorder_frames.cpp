@@ -2,6 +2,8 @@
 // drives' currents matched to them, and the emergencies seen.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "delta/can/cia402.hpp"
 #include "delta/can/emcy.hpp"
@@ -68,6 +70,7 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   if (f.extended) return false;
   const int part = log_part(f);
   if (part < 0) return false;
+  parts_seen_ |= 1u << part;
   if (part >= 3 && !arm_) arm_ = true;
   if (part >= 3 && !*arm_) return true;  // a cycle without them came first: not this log's
   // seq and stale sit in the same bits of all three frames.
@@ -180,6 +183,24 @@ void LogAssembler::finish() {
     std::erase_if(pending_, [end](const Pending& x) { return x.seq >= end; });
   }
   emit_up_to(UINT64_MAX);  // gives up on every cycle still pending: each is lost
+}
+
+std::string missing_log_frames(const LogAssembler& a) {
+  const p::Message* parts[] = {&kLogA, &kLogB, &kLogC, &p::kLogD, &p::kLogE};
+  const unsigned wanted = a.arm_encoders() ? 0x1F : 0x07;
+  const unsigned seen = a.parts_seen();
+  if (seen == 0) return "no controller log frame came: LOG_A 0x190, LOG_B 0x290, LOG_C 0x390";
+  std::string missing;
+  for (unsigned i = 0; i < 5; ++i) {
+    if ((wanted >> i & 1u) == 0 || (seen >> i & 1u) != 0) continue;
+    char id[8];
+    std::snprintf(id, sizeof id, "%03X", parts[i]->base_id);
+    missing += std::string(missing.empty() ? "" : ", ") + parts[i]->name + " 0x" + id;
+  }
+  if (missing.empty()) return "each log frame came, but never all of one cycle";
+  return "these log frames never came: " + missing +
+         (a.arm_encoders() ? " (the arm encoders' frames did: is the recorder filtering them?)"
+                           : "");
 }
 
 void DriveCurrentTracker::feed(const delta::can::Frame& f) {

@@ -122,6 +122,34 @@ TEST(LogAssemblerTest, ArmFramesAfterACycleWithoutThemAreNotTheLogs) {
   EXPECT_EQ(a.lost_samples(), 0u);
 }
 
+// A recording without a complete sample says which frames never came: a
+// recorder whose filter lets LOG_D through but not LOG_E (as
+// host_id record's did before it asked for both) has the arm encoders'
+// first frame and never a whole cycle.
+TEST(LogAssemblerTest, WhyNoSampleWasCompleteNamesTheFramesThatNeverCame) {
+  LogAssembler none;
+  EXPECT_EQ(missing_log_frames(none),
+            "no controller log frame came: LOG_A 0x190, LOG_B 0x290, LOG_C 0x390");
+  LogAssembler arm;
+  for (std::uint32_t k = 0; k < 10; ++k) {
+    for (const auto& f : log_frames(k, {}, {})) arm.feed(f);
+    arm.feed(arm_frames(k, {})[0]);
+  }
+  arm.finish();
+  EXPECT_TRUE(arm.take_complete().empty());
+  EXPECT_EQ(missing_log_frames(arm),
+            "these log frames never came: LOG_E 0x2D0 (the arm encoders' frames did: is the "
+            "recorder filtering them?)");
+  LogAssembler no_c;
+  for (std::uint32_t k = 0; k < 10; ++k) {
+    const auto f = log_frames(k, {}, {});
+    no_c.feed(f[0]);
+    no_c.feed(f[1]);
+  }
+  no_c.finish();
+  EXPECT_EQ(missing_log_frames(no_c), "these log frames never came: LOG_C 0x390");
+}
+
 TEST(LogAssemblerTest, TheFifteenBitCounterWrapsWithoutAGap) {
   LogAssembler a;
   // Twice round the 32768 wrap; the frames carry seq modulo 32768.

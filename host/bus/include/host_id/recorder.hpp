@@ -62,6 +62,8 @@ class LogAssembler {
   std::pair<std::uint64_t, std::uint64_t> started_inside() const { return started_inside_; }
   // Whether the samples carry the arm-side encoders (qa_rad).
   bool arm_encoders() const { return arm_.value_or(false); }
+  // Bit i: a frame of part i (LOG_A .. LOG_E) came.
+  unsigned parts_seen() const { return parts_seen_; }
 
  private:
   struct Pending {
@@ -87,9 +89,15 @@ class LogAssembler {
   // Whether cycles have LOG_D and LOG_E: decided by the first cycle whose
   // LOG_A..C came, once a later cycle's frame shows that it is over.
   std::optional<bool> arm_;
+  unsigned parts_seen_{0};
   std::uint8_t whole() const { return arm_encoders() ? 0x1F : 0x07; }
   bool decided_whole(const Pending& x);
 };
+
+// Which of the log frames a recording needs never came, by name and COB-ID
+// (LOG_D and LOG_E where the arm encoders' frames came): why no sample
+// was complete.
+std::string missing_log_frames(const LogAssembler& a);
 
 // The drives' motor currents (TPDO1 of nodes 1..3, per mille of the rated
 // current) for each log record: a record gets the currents that all three
