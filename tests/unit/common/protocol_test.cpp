@@ -133,10 +133,13 @@ TEST(ProtocolTest, BusLoadDecidesTheCycleRate) {
   EXPECT_GT(bus_load_per_mille(cycle_bits(true, true, true), 400, kMbit), 700u);
   EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true, true), 250, kMbit), 440u);
   // Arm-side encoders: a 4-byte TPDO4 per drive, LOG_D (8 bytes) and LOG_E
-  // (5 bytes), 285 + 135 + 105 bits; 400 Hz no longer fits, 333 Hz does.
+  // (5 bytes), 285 + 135 + 105 bits; 400 Hz no longer fits, 320 Hz (a
+  // period of 3125 us, which divides one second) does, with the velocity
+  // PDO too.
   EXPECT_EQ(cycle_bits(false, true, false, true), 1795u);
   EXPECT_GT(bus_load_per_mille(cycle_bits(false, true, false, true), 400, kMbit), 700u);
-  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, false, true), 333, kMbit), 597u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, false, true), 320, kMbit), 574u);
+  EXPECT_EQ(bus_load_per_mille(cycle_bits(true, true, false, true), 320, kMbit), 665u);
   EXPECT_EQ(bus_load_per_mille(cycle_bits(false, true, false, true), 250, kMbit), 448u);
 }
 

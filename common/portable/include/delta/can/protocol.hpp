@@ -272,7 +272,7 @@ inline constexpr std::array<Message, 19> kMessages{{
        {"qa1", 16, 24, true, kLogAngle, "rad", "joint 1 arm angle (arm-side encoder)"},
        {"qa2", 40, 24, true, kLogAngle, "rad", "joint 2 arm angle (arm-side encoder)"},
        {"stale", 15, 1, false, kRaw, "",
-        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
+        "1: a drive's feedback missed this cycle, so qa is not a sample"}}},
      "controller log of the arm-side encoders, part 1 of 2 (TPDO5 of node 16); only with "
      "arm_encoders = true"},
     {"LOG_E",
@@ -285,7 +285,7 @@ inline constexpr std::array<Message, 19> kMessages{{
      {{{"seq", 0, 15, false, kRaw, "", "log sample counter, modulo 32768"},
        {"qa3", 16, 24, true, kLogAngle, "rad", "joint 3 arm angle (arm-side encoder)"},
        {"stale", 15, 1, false, kRaw, "",
-        "1: a drive's feedback missed this cycle, so q and tau are not a sample"}}},
+        "1: a drive's feedback missed this cycle, so qa is not a sample"}}},
      "controller log of the arm-side encoders, part 2 of 2 (TPDO6 of node 16); only with "
      "arm_encoders = true"},
 }};
