@@ -153,6 +153,7 @@ class Session {
     s.emergencies = emergencies_.seen();
     s.emergencies_not_kept = emergencies_.not_kept();
     s.collision = collisions_.seen();
+    s.arm_frames_left_out = assembler_.arm_frames_left_out();
     return s;
   }
   const std::vector<LogSample>& samples() const { return samples_; }

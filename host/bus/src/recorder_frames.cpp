@@ -72,7 +72,10 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
   if (part < 0) return false;
   parts_seen_ |= 1u << part;
   if (part >= 3 && !arm_) arm_ = true;
-  if (part >= 3 && !*arm_) return true;  // a cycle without them came first: not this log's
+  if (part >= 3 && !*arm_) {  // a cycle without them came first: not this log's
+    ++arm_frames_left_out_;
+    return true;
+  }
   // seq and stale sit in the same bits of all three frames.
   const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, p::kLogASeq)));
   const bool stale = p::unpack(f.data, p::kLogAStale) != 0;

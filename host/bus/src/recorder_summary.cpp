@@ -110,6 +110,7 @@ nlohmann::json json_summary(const RecordSummary& s) {
           {"socket_drops", s.socket_drops},
           {"currents", s.currents},
           {"arm_encoders", s.arm_encoders},
+          {"arm_frames_left_out", s.arm_frames_left_out},
           {"samples_without_currents", s.samples_without_currents},
           {"emergencies", emergencies},
           {"emergencies_not_kept", s.emergencies_not_kept},
@@ -132,6 +133,12 @@ void report_left_out(std::ostream& err, const std::string& who, const RecordSumm
   if (const auto [first, count] = s.cut_off; count > 0) {
     err << who << ": the recording ended inside " << count << " sample(s) from seq " << first
         << " (their log frames were incomplete): not written, no gap in the log\n";
+  }
+  if (s.arm_frames_left_out > 0) {
+    err << who << ": " << s.arm_frames_left_out
+        << " LOG_D/LOG_E frames (the arm-side encoders) came after cycles without them and are "
+           "not in the log, which has no qa1..qa3: start the recording once the controller "
+           "logs them\n";
   }
 }
 

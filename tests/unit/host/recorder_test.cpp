@@ -120,6 +120,17 @@ TEST(LogAssemblerTest, ArmFramesAfterACycleWithoutThemAreNotTheLogs) {
   EXPECT_FALSE(a.arm_encoders());
   EXPECT_EQ(a.take_complete().size(), 20u);
   EXPECT_EQ(a.lost_samples(), 0u);
+  // Counted, and said.
+  EXPECT_EQ(a.arm_frames_left_out(), 30u);
+  RecordSummary s;
+  s.arm_frames_left_out = a.arm_frames_left_out();
+  std::ostringstream err;
+  report_left_out(err, "host_id record", s);
+  EXPECT_EQ(err.str(),
+            "host_id record: 30 LOG_D/LOG_E frames (the arm-side encoders) came after cycles "
+            "without them and are not in the log, which has no qa1..qa3: start the recording "
+            "once the controller logs them\n");
+  EXPECT_EQ(json_summary(s)["arm_frames_left_out"], 30);
 }
 
 // A recording without a complete sample says which frames never came: a

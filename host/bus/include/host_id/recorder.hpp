@@ -64,6 +64,8 @@ class LogAssembler {
   bool arm_encoders() const { return arm_.value_or(false); }
   // Bit i: a frame of part i (LOG_A .. LOG_E) came.
   unsigned parts_seen() const { return parts_seen_; }
+  // LOG_D and LOG_E frames after a first cycle without them: left out.
+  std::uint64_t arm_frames_left_out() const { return arm_frames_left_out_; }
 
  private:
   struct Pending {
@@ -90,6 +92,7 @@ class LogAssembler {
   // LOG_A..C came, once a later cycle's frame shows that it is over.
   std::optional<bool> arm_;
   unsigned parts_seen_{0};
+  std::uint64_t arm_frames_left_out_{0};
   std::uint8_t whole() const { return arm_encoders() ? 0x1F : 0x07; }
   bool decided_whole(const Pending& x);
 };
@@ -202,6 +205,9 @@ struct RecordSummary {
   std::uint32_t socket_drops{0};  // frames the kernel dropped for this reader
   bool currents{false};           // the log has i1..i3 (every sample had its drives' currents)
   bool arm_encoders{false};       // the log has qa1..qa3 (the controller sent LOG_D and LOG_E)
+  // LOG_D and LOG_E frames that came after the first cycle without them:
+  // not in the log.
+  std::uint64_t arm_frames_left_out{0};
   std::uint64_t samples_without_currents{0};  // when drive PDOs were seen but some missed
   std::vector<SeenEmergency> emergencies;     // in the order they came
   std::uint64_t emergencies_not_kept{0};
