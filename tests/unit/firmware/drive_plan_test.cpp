@@ -249,7 +249,7 @@ TEST(DrivePlanTest, AMissingStatuswordIsNamed) {
             "joint1.eds (" + path + "): no object 0x6041:00 (statusword): TPDO1 must carry it");
 }
 
-// Without an EDS the plan is the generic profile's (docs/protocol.md):
+// Without an EDS the plan is the generic profile's (docs/drives.md):
 // the rated values read from the drive, nothing else assumed away.
 TEST(DrivePlanTest, WithoutAnEdsThePlanIsTheGenericProfiles) {
   const DrivePlan plan = plan_drives(PortConfig{}).drives[0];

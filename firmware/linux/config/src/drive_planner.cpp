@@ -153,7 +153,7 @@ void Planner::mode() {
   const auto modes = readable(kSupportedModes) ? value(kSupportedModes) : std::nullopt;
   bool confirm = false;
   if (eds_ == nullptr) {
-    plan_.mode_reason = "the generic profile (docs/protocol.md)";
+    plan_.mode_reason = "the generic profile (docs/drives.md)";
   } else if (!modes) {
     plan_.mode_reason = "0x6502 (supported drive modes) gives no value: 0x6061 confirms it";
     confirm = true;

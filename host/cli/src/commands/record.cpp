@@ -11,7 +11,7 @@ namespace host_id {
 namespace {
 
 constexpr const char* kRecordDescription =
-    "Records the controller's log frames (LOG_A..LOG_C, docs/protocol.md) from a CAN interface "
+    "Records the controller's log frames (LOG_A..LOG_E, docs/protocol.md) from a CAN interface "
     "into delta-log/1, with the drives' motor currents (TPDO1) as columns i1..i3 when every "
     "sample has them, and the arm-side encoders (LOG_D, LOG_E, sent with the controller's "
     "arm_encoders = true) as columns qa1..qa3. Samples are paired by their sequence counter; a "

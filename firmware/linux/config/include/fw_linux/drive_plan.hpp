@@ -6,7 +6,7 @@
 // prints it, or every problem that keeps a drive from serving.
 //
 // Without an EDS a drive is taken for the generic CiA 402 profile of
-// docs/protocol.md (the emulated drive): every object the bring-up uses is
+// docs/drives.md (the emulated drive): every object the bring-up uses is
 // assumed, and the rated values are read from the drive.
 #pragma once
 
