@@ -38,6 +38,24 @@ void append_run(std::vector<std::pair<std::uint64_t, std::uint64_t>>& runs, std:
   }
 }
 
+// The log frame's part (0 to 4: LOG_A to LOG_E), -1 for any other frame.
+int log_part(const delta::can::Frame& f) {
+  const p::Message* parts[] = {&kLogA, &kLogB, &kLogC, &p::kLogD, &p::kLogE};
+  for (int i = 0; i < 5; ++i) {
+    if (f.id == parts[i]->base_id && f.dlc == parts[i]->dlc) return i;
+  }
+  return -1;
+}
+
+// Every log frame's seq and stale are read with LOG_A's signals.
+constexpr bool same_bits(const p::Signal& a, const p::Signal& b) {
+  return a.start_bit == b.start_bit && a.length == b.length;
+}
+static_assert(same_bits(p::kLogASeq, p::kLogBSeq) && same_bits(p::kLogASeq, p::kLogCSeq) &&
+              same_bits(p::kLogASeq, p::kLogDSeq) && same_bits(p::kLogASeq, p::kLogESeq));
+static_assert(same_bits(p::kLogAStale, p::kLogBStale) && same_bits(p::kLogAStale, p::kLogCStale) &&
+              same_bits(p::kLogAStale, p::kLogDStale) && same_bits(p::kLogAStale, p::kLogEStale));
+
 }  // namespace
 
 std::uint64_t LogAssembler::unwrap(std::uint32_t seq15) {
@@ -57,15 +75,6 @@ std::uint64_t LogAssembler::unwrap(std::uint32_t seq15) {
   return candidate;
 }
 
-// The log frame's part (0 to 4: LOG_A to LOG_E), -1 for any other frame.
-int log_part(const delta::can::Frame& f) {
-  const p::Message* parts[] = {&kLogA, &kLogB, &kLogC, &p::kLogD, &p::kLogE};
-  for (int i = 0; i < 5; ++i) {
-    if (f.id == parts[i]->base_id && f.dlc == parts[i]->dlc) return i;
-  }
-  return -1;
-}
-
 bool LogAssembler::feed(const delta::can::Frame& f) {
   if (f.extended) return false;
   const int part = log_part(f);
@@ -76,7 +85,7 @@ bool LogAssembler::feed(const delta::can::Frame& f) {
     ++arm_frames_left_out_;
     return true;
   }
-  // seq and stale sit in the same bits of all three frames.
+  // seq and stale sit in the same bits of all five frames.
   const auto seq = unwrap(static_cast<std::uint32_t>(p::unpack(f.data, p::kLogASeq)));
   const bool stale = p::unpack(f.data, p::kLogAStale) != 0;
   if (!next_to_emit_) next_to_emit_ = seq;

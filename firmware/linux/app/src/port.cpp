@@ -89,30 +89,31 @@ p::ArmLogPayloads arm_log_payloads(const fw::LogRecord& r) {
   return p::pack_arm_log(r.seq, r.stale, qa);
 }
 
-bool send_arm_log_frames(FrameSink& bus, const p::ArmLogPayloads& payloads) {
-  const p::Message* messages[2] = {&p::kLogD, &p::kLogE};
+namespace {
+
+// Frames of the messages with the payloads, in order; false if any send failed.
+template <std::size_t N>
+bool send_frames(FrameSink& bus, const std::array<const p::Message*, N>& messages,
+                 const std::array<std::array<std::uint8_t, 8>, N>& payloads) {
   bool ok = true;
-  for (unsigned i = 0; i < 2; ++i) {
+  for (std::size_t i = 0; i < N; ++i) {
     delta::can::Frame f;
     f.id = messages[i]->base_id;
     f.dlc = messages[i]->dlc;
-    f.data = payloads.data[i];
+    f.data = payloads[i];
     ok = bus.send(f) && ok;
   }
   return ok;
 }
 
+}  // namespace
+
+bool send_arm_log_frames(FrameSink& bus, const p::ArmLogPayloads& payloads) {
+  return send_frames<2>(bus, {&p::kLogD, &p::kLogE}, payloads.data);
+}
+
 bool send_log_frames(FrameSink& bus, const p::LogPayloads& payloads) {
-  const p::Message* messages[3] = {&p::kLogA, &p::kLogB, &p::kLogC};
-  bool ok = true;
-  for (unsigned i = 0; i < 3; ++i) {
-    delta::can::Frame f;
-    f.id = messages[i]->base_id;
-    f.dlc = 8;
-    f.data = payloads.data[i];
-    ok = bus.send(f) && ok;
-  }
-  return ok;
+  return send_frames<3>(bus, {&p::kLogA, &p::kLogB, &p::kLogC}, payloads.data);
 }
 
 namespace {
