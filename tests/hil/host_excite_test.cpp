@@ -244,48 +244,43 @@ CollisionRun pick_and_place_with_detector(const std::string& model,
 }
 
 // Collision detection on vcan (docs/safety.md), with the model fitted from
-// the recorded path1 and the thresholds it carries: two clean
-// pick-and-place runs (the emulator's current noise seeded apart, so that
-// they differ) reach their end with
-// no detection; a 10 N contact on
-// the platform for 200 ms, in each of five directions at each of three
-// moments (2 s: holding; 3 s: at 2 rad/s; 5 s: accelerating at 5-7
-// rad/s^2), is detected within 10 ms of its onset (delta_fw's `collision`
-// line against the emulator's `contact` line, both in seconds since the
-// first SYNC; the controller ticks at 500 Hz), with fault 14 and exit
-// code 3.
+// the recorded path1 and the thresholds it carries: a clean pick-and-place
+// run reaches its end with no detection; a 10 N contact on the platform
+// for 200 ms, in each of five directions, spread over three moments (2 s:
+// holding; 3 s: at 2 rad/s; 5 s: accelerating at 5-7 rad/s^2), is
+// detected within 10 ms of its onset (delta_fw's `collision` line against
+// the emulator's `contact` line, both in seconds since the first SYNC; the
+// controller ticks at 500 Hz), with fault 14 and exit code 3. Each
+// direction at each moment, and two clean runs, are in one process in
+// ChainCollision (tests/unit), which the VM would take minutes over.
 TEST(HostExcite, ContactsWithTheRobotAreDetectedWithinTenMilliseconds) {
   MultibodySession& s = multibody_session();
   const std::string model = s.dir + "/fit.json";
   ASSERT_TRUE(std::ifstream(model).good()) << "the fitted model of the test before";
-  for (const char* seed : {"2", "3"}) {
-    SCOPED_TRACE(std::string("clean run, noise seed ") + seed);
-    const CollisionRun clean = pick_and_place_with_detector(model, {"--seed", seed});
-    EXPECT_EQ(clean.exit, 0) << clean.fw;
-    EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
-    EXPECT_NE(clean.fw.find("collision detection on: the model's thresholds (fit 0x"),
-              std::string::npos)
-        << clean.fw;
-  }
+  const CollisionRun clean = pick_and_place_with_detector(model, {"--seed", "2"});
+  EXPECT_EQ(clean.exit, 0) << clean.fw;
+  EXPECT_EQ(clean.fw.find("collision pick-and-place"), std::string::npos) << clean.fw;
+  EXPECT_NE(clean.fw.find("collision detection on: the model's thresholds (fit 0x"),
+            std::string::npos)
+      << clean.fw;
   double worst_ms = 0.0;
-  for (const char* moment : {"2", "3", "5"}) {
-    for (const char* direction : {"1,0,0", "-1,0,0", "0,1,0", "0,-1,0", "0,0,-1"}) {
-      SCOPED_TRACE(std::string(direction) + " at " + moment + " s");
-      const CollisionRun hit = pick_and_place_with_detector(
-          model, {"--inject", std::string("contact:10:") + direction + ":200@" + moment});
-      EXPECT_EQ(hit.exit, 3) << hit.fw;
-      EXPECT_NE(hit.fw.find("fault 14 (collision)"), std::string::npos) << hit.fw;
-      const double contact_s = number_after(hit.emu, "contact: t_s=");
-      const double detected_s = number_after(hit.fw, "collision pick-and-place: t_s=");
-      const double ms = (detected_s - contact_s) * 1e3;
-      std::cout << "contact 10 N along " << direction << " at " << contact_s << " s, detected at "
-                << detected_s << " s: " << ms << " ms\n";
-      EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
-      EXPECT_LE(ms, 10.0 + 1e-6) << hit.fw << hit.emu;
-      worst_ms = std::max(worst_ms, ms);
-    }
+  for (const char* contact :
+       {"1,0,0:200@2", "0,1,0:200@3", "-1,0,0:200@5", "0,-1,0:200@2", "0,0,-1:200@3"}) {
+    SCOPED_TRACE(contact);
+    const CollisionRun hit =
+        pick_and_place_with_detector(model, {"--inject", std::string("contact:10:") + contact});
+    EXPECT_EQ(hit.exit, 3) << hit.fw;
+    EXPECT_NE(hit.fw.find("fault 14 (collision)"), std::string::npos) << hit.fw;
+    const double contact_s = number_after(hit.emu, "contact: t_s=");
+    const double detected_s = number_after(hit.fw, "collision pick-and-place: t_s=");
+    const double ms = (detected_s - contact_s) * 1e3;
+    std::cout << "contact 10 N " << contact << ": at " << contact_s << " s, detected at "
+              << detected_s << " s: " << ms << " ms\n";
+    EXPECT_GE(detected_s, contact_s) << hit.fw << hit.emu;
+    EXPECT_LE(ms, 10.0 + 1e-6) << hit.fw << hit.emu;
+    worst_ms = std::max(worst_ms, ms);
   }
-  std::cout << "15 contacts of 10 N: detected within " << worst_ms << " ms at worst\n";
+  std::cout << "5 contacts of 10 N: detected within " << worst_ms << " ms at worst\n";
 }
 
 // A collision as the user's tools see it (the contact 6 s into the bus's
