@@ -387,6 +387,13 @@ TEST(CheckConfigTest, PrintsEachDrivesPlanOrEveryProblem) {
             std::string::npos)
       << ok.out;
   EXPECT_NE(ok.out.find("The configuration is sound"), std::string::npos) << ok.out;
+  EXPECT_NE(ok.out.find("bus load: 64.0 % of 1000 kbit/s"), std::string::npos) << ok.out;
+  EXPECT_EQ(ok.out.find("warning: bus load"), std::string::npos) << ok.out;
+  const CommandRun loaded = run_delta_fw("--check-config --set arm_encoders=true");
+  EXPECT_EQ(loaded.status, 0) << loaded.out;
+  EXPECT_NE(loaded.out.find("delta_fw --check-config: warning: bus load: 90.3 % of 1000 kbit/s"),
+            std::string::npos)
+      << loaded.out;
 
   const CommandRun bad = run_delta_fw("--check-config --set joint1.eds=" + drive("epos2.eds") +
                                       " --set joint2.eds=" + drive("epos4.eds") +

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "delta/can/socketcan.hpp"
+#include "fw_linux/bus_load.hpp"
 #include "fw_linux/config.hpp"
 #include "fw_linux/drive_plan.hpp"
 #include "fw_linux/exit_codes.hpp"
@@ -139,6 +140,10 @@ int check_config(const Arguments& a) {
     std::cout << fw_linux::describe_plan(plan);
     transfers += plan.actions.size();
   }
+  std::cout << fw_linux::describe_bus_load(config) << "\n";
+  if (const auto warning = fw_linux::bus_load_warning(config)) {
+    std::cerr << "delta_fw --check-config: warning: " << *warning << "\n";
+  }
   std::cout << "The configuration is sound: " << transfers
             << " SDO transfers bring the three drives up.\n";
   return 0;
@@ -173,6 +178,9 @@ int run(const fw_linux::PortConfig& config, fw_linux::RunOptions options) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGPIPE, SIG_IGN);  // a Modbus client that vanishes mid-reply
   try {
+    if (const auto warning = fw_linux::bus_load_warning(config)) {
+      std::cerr << "delta_fw: warning: " << *warning << "\n";
+    }
     const auto io = open_safety_io(config);
     fw_linux::ControlPanel panel;
     const auto modbus = open_modbus(config, panel, options.program);

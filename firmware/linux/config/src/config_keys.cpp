@@ -230,6 +230,7 @@ void add_joint_number(Setters& s, unsigned j, const std::string& key,
 // The cycle, the bus's timing and the heartbeats.
 void add_cycle_keys(Setters& s) {
   add_whole(s, "period_us", &PortConfig::period_us, 100, 1000000);
+  add_whole(s, "can_bitrate", &PortConfig::can_bitrate, 10000, 1000000);
   add_whole(s, "response_window_us", &PortConfig::response_window_us, 0, 1000000);
   add_whole(s, "lockstep_timeout_ms", &PortConfig::lockstep_timeout_ms, 1, 60000);
   add_whole(s, "heartbeat_timeout_ms", &PortConfig::heartbeat_timeout_ms, 1, 60000);

@@ -109,6 +109,9 @@ struct PortConfig {
   // Map each drive's arm-side encoder (0x60E4:1, in 0x6064's position
   // units) into its TPDO4 and log the arm angles (LOG_D, LOG_E).
   bool arm_encoders{false};
+  // The bus's bit rate, for the bus-load check only (fw_linux/bus_load.hpp):
+  // the interface's own is set outside delta_fw (ip link ... bitrate).
+  std::uint32_t can_bitrate{1000000};
   // CiA 301's 0x1019: 0, SYNC without data; 2..240, SYNC carries a counter
   // that wraps after this value, the drives' TPDO3 echoes it, and a cycle's
   // TPDOs count only with this cycle's counter (docs/protocol.md).
