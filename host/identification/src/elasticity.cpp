@@ -253,7 +253,7 @@ delta::Joint3 compliance_std(const ComplianceColumns& cc, const Model& model,
                                                 LsWeights::kNone, log_name, lags, options.threads);
   // With model error: the spread over the log's motions where it is the
   // larger (trust.md), as every other parameter's.
-  add_model_error(Equations(aug), lags, full);
+  add_model_error(Equations(aug), lags, full, options.threads);
   return {full.honest_std_dev(p), full.honest_std_dev(p + 1), full.honest_std_dev(p + 2)};
 }
 
@@ -304,7 +304,7 @@ double motion_spread_std(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
       correlation_lags_for(prepared.report.sample_rate_hz, options.prepare.cutoff_hz);
   LeastSquaresResult ls = solve_least_squares(Equations(r), infos, LsSolver::kQr, LsWeights::kNone,
                                               log.name, lags, options.threads);
-  add_model_error(Equations(r), lags, ls);
+  add_model_error(Equations(r), lags, ls, options.threads);
   return ls.honest_std_dev(0);
 }
 

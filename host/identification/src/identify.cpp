@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "host_id/friction_shape.hpp"
 #include "host_id/model_selection.hpp"
 #include "host_id/motion_spread.hpp"
+#include "host_id/parallel.hpp"
 #include "host_id/regression.hpp"
 
 namespace host_id {
@@ -194,12 +196,13 @@ void note_changing_parameters(const MotionSpread& spread, const LeastSquaresResu
 // the conditioning and the box.
 LeastSquaresResult estimate_on(const Equations& reg, const std::vector<ParameterInfo>& parameters,
                                const FitOptions& options, std::size_t lags,
-                               const std::string& log_name, FitResult& r, Box& box) {
+                               const std::string& log_name, const JointGrams* grams, FitResult& r,
+                               Box& box) {
   const bool pso = options.method == Method::kPso;
   LeastSquaresResult ls = solve_least_squares(reg, parameters, options.solver, options.weights,
-                                              log_name, lags, options.threads);
+                                              log_name, lags, options.threads, grams);
   check_torque_sign(ls, parameters, reg.rows(), log_name);
-  const MotionSpread spread = add_model_error(reg, lags, ls);
+  const MotionSpread spread = add_model_error(reg, lags, ls, options.threads);
   note_changing_parameters(spread, ls, parameters, r);
   if (pso) run_swarm(reg, ls, parameters, options, r, box);
   r.joint_weights = ls.joint_weights;
@@ -246,9 +249,10 @@ Eigen::VectorXd spread(const Eigen::VectorXd& v, const Identifiability& id, Eige
 // columns alone, each value standing for its combination, the dependent
 // parameters at 0 with no standard deviation.
 LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitOptions& options,
-                            std::size_t lags, const std::string& log_name, FitResult& r, Box& box) {
+                            std::size_t lags, const std::string& log_name, const JointGrams* grams,
+                            FitResult& r, Box& box) {
   try {
-    return estimate_on(reg, model.parameters(), options, lags, log_name, r, box);
+    return estimate_on(reg, model.parameters(), options, lags, log_name, grams, r, box);
   } catch (const RankDeficientError& e) {
     const Identifiability& id = e.identifiability();
     if (id.independent.empty()) throw;
@@ -259,7 +263,7 @@ LeastSquaresResult estimate(const Equations& reg, const Model& model, const FitO
     Box reduced_box;
     r.active_bounds.clear();
     LeastSquaresResult ls =
-        estimate_on(Equations(reduced), kept, options, lags, log_name, r, reduced_box);
+        estimate_on(Equations(reduced), kept, options, lags, log_name, nullptr, r, reduced_box);
     r.identifiability = id;
     r.beta = spread(r.beta, id, p, 0.0);
     box.lower = spread(reduced_box.lower, id, p, 0.0);
@@ -441,11 +445,9 @@ void note_preprocessing(const Preprocessed& pre, const DeltaLog& log, FitResult&
 }
 
 // The fit's residuals on its own log: the PSO's cost (checked to be at its
-// optimum), the RMSE of the filtered and of the measured torques, and the
-// log's prediction where kept.
-void note_fit_residuals(const Model& model, const Regression& all_rows, const Equations& reg,
-                        const std::string& log_name, unsigned threads, bool keep_predictions,
-                        FitResult& r) {
+// optimum), the RMSE of the filtered and of the measured torques.
+void note_fit_residuals(const Regression& all_rows, const Equations& reg,
+                        const std::string& log_name, unsigned threads, FitResult& r) {
   r.fit.log = log_name;
   r.fit.samples = all_rows.samples();
   const ResidualSquares squares = residual_squares(all_rows, reg.rows(), r.beta, threads);
@@ -460,10 +462,6 @@ void note_fit_residuals(const Model& model, const Regression& all_rows, const Eq
     r.fit.rms_torque_Nm[j] =
         n > 0 ? std::sqrt(all_rows.measured.tau_sq[j] / static_cast<double>(n)) : 0.0;
   }
-  if (keep_predictions) {
-    r.predictions.push_back(prediction_of(model, all_rows, r.beta, log_name));
-    r.predictions.back().role = "fit";
-  }
 }
 
 // The collision detector's thresholds from the fit's residual on its own
@@ -476,9 +474,9 @@ void note_collision_thresholds(const Prediction& fitted, FitResult& r) {
   if (r.collision_unavailable.empty()) r.collision = collision_thresholds_from(fitted, r.fit);
 }
 
-// The logged torque's lag behind the motion, a doubt where it matters.
-void note_torque_lag(const Prediction& fitted, FitResult& r) {
-  r.torque_lag = torque_lag(fitted);
+// The logged torque's lag behind the motion (r.torque_lag), a doubt where
+// it matters.
+void note_torque_lag(FitResult& r) {
   if (!r.torque_lag || r.torque_lag->error_drop < kTorqueLagDoubt) return;
   std::ostringstream m;
   m << "the logged torque lags the motion by " << r.torque_lag->lag_s * 1e3
@@ -501,20 +499,49 @@ Prediction controller_prediction(const Model& model, const Regression& all_rows,
 
 // What the fit's own log's prediction tells: the collision thresholds, the
 // torque's lag, and cogging the model lacks (searched where `angles` has
-// the log's angles).
-void note_fit_prediction(const Model& model, const Regression& all_rows,
-                         const std::string& log_name, const AngleTrack& angles, double cutoff_hz,
+// the log's angles). The lag and the rest are found side by side.
+void note_fit_prediction(const Model& model, const Regression& all_rows, const Prediction& fitted,
+                         const AngleTrack& angles, double cutoff_hz, unsigned threads,
                          FitResult& r) {
-  std::optional<Prediction> own;
-  if (r.predictions.empty()) own = prediction_of(model, all_rows, r.beta, log_name);
-  const Prediction& fitted = own ? *own : r.predictions.front();
-  if (model.cogging_columns().empty()) {
-    note_collision_thresholds(fitted, r);
-  } else {
-    note_collision_thresholds(controller_prediction(model, all_rows, log_name, r), r);
+  run_both(
+      threads,
+      [&] {
+        if (model.cogging_columns().empty()) {
+          note_collision_thresholds(fitted, r);
+        } else {
+          note_collision_thresholds(controller_prediction(model, all_rows, fitted.log, r), r);
+        }
+        if (!angles.t_s.empty()) r.cogging = find_cogging(fitted, angles, cutoff_hz);
+      },
+      [&] { r.torque_lag = torque_lag(fitted); });
+  note_torque_lag(r);
+}
+
+// What the fit tells of its own log: the Stribeck signature and the log's
+// prediction (side by side), the doubts, the residuals, and what the
+// prediction tells; the prediction kept where asked.
+void note_fitted_log(const Model& model, const Regression& all_rows, const Equations& reg,
+                     const std::string& log_name, const AngleTrack& angles,
+                     const FitOptions& options, bool keep_predictions, FitResult& r) {
+  Prediction fitted;
+  run_both(
+      options.threads,
+      [&] {
+        if (options.model.name != "paper14" && !(options.model.stribeck_velocity_rad_s > 0.0)) {
+          r.stribeck =
+              stribeck_signature(all_rows, reg.rows(), options.model.coulomb_smoothing_rad_s,
+                                 nyquist_step(r.std_dev_lags));
+        }
+      },
+      [&] { fitted = prediction_of(model, all_rows, r.beta, log_name); });
+  r.doubts = doubts_of(r);
+  note_fit_residuals(all_rows, reg, log_name, options.threads, r);
+  note_fit_prediction(model, all_rows, fitted, angles, options.prepare.cutoff_hz, options.threads,
+                      r);
+  if (keep_predictions) {
+    r.predictions.push_back(std::move(fitted));
+    r.predictions.back().role = "fit";
   }
-  note_torque_lag(fitted, r);
-  if (!angles.t_s.empty()) r.cogging = find_cogging(fitted, angles, cutoff_hz);
 }
 
 // A model with cogging terms: its held-out error with and without them.
@@ -573,27 +600,25 @@ FitResult fit_log(DeltaLog log, const FitOptions& given_options,
   const Equations reg(all_rows, pre.fast_rows);
   r.equations_used = reg.rows_per_joint();
   require_equations_per_joint(r, log.name, spans);
+  // The support's pass over the equations also sums their Gram matrices.
+  std::optional<JointGrams> grams;
   if (options.model.name != "paper14" && all_rows.samples() >= 20 * kSupportFolds) {
+    grams.emplace();
     r.support = judge_support(*model, options.model, all_rows, pre.fast_rows, kSupportFolds,
-                              options.threads);
+                              options.threads, &*grams);
   }
   note_cogging_support(*model, all_rows, pre.fast_rows, options.threads, r);
 
   const auto te = std::chrono::steady_clock::now();
   Box box;
-  const LeastSquaresResult ls = estimate(
-      reg, *model, options,
-      correlation_lags_for(pre.report.sample_rate_hz, options.prepare.cutoff_hz), log.name, r, box);
+  const LeastSquaresResult ls =
+      estimate(reg, *model, options,
+               correlation_lags_for(pre.report.sample_rate_hz, options.prepare.cutoff_hz), log.name,
+               grams ? &*grams : nullptr, r, box);
   r.seconds_estimator = seconds_since(te);
   r.parameters = parameter_estimates(*model, ls, r.beta, box, r.identifiability);
   r.correlation = ls.correlation;
-  if (options.model.name != "paper14" && !(options.model.stribeck_velocity_rad_s > 0.0)) {
-    r.stribeck = stribeck_signature(all_rows, reg.rows(), options.model.coulomb_smoothing_rad_s,
-                                    nyquist_step(r.std_dev_lags));
-  }
-  r.doubts = doubts_of(r);
-  note_fit_residuals(*model, all_rows, reg, log.name, options.threads, keep_predictions, r);
-  note_fit_prediction(*model, all_rows, log.name, angles, options.prepare.cutoff_hz, r);
+  note_fitted_log(*model, all_rows, reg, log.name, angles, options, keep_predictions, r);
   validate_fit(*model, options, validation, keep_predictions, r);
   r.seconds_total = seconds_since(t0);
   return r;

@@ -530,10 +530,12 @@ void bound(const Equations& r, const RowScale& scale, const std::vector<Paramete
 // regressor (Q has orthonormal columns).
 LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
                                   const std::vector<ParameterInfo>& parameters, LsSolver solver,
-                                  const std::string& log_name, std::size_t lags, unsigned threads) {
+                                  const std::string& log_name, std::size_t lags, unsigned threads,
+                                  const JointGrams* grams) {
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
-  const Eigen::MatrixXd gram = augmented_gram(r, scale, threads);
+  const Eigen::MatrixXd gram =
+      grams ? grams->weighted(scale.weights()) : augmented_gram(r, scale, threads);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
   const auto [rr, qt_tau] = scaled_factor(r, scale, gram, col_norm, !zero_columns.empty(), threads);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -673,9 +675,9 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name, std::size_t correlation_lags,
-                                       unsigned threads) {
+                                       unsigned threads, const JointGrams* grams) {
   LeastSquaresResult ols =
-      solve_ordinary(r, RowScale{}, parameters, solver, log_name, correlation_lags, threads);
+      solve_ordinary(r, RowScale{}, parameters, solver, log_name, correlation_lags, threads, grams);
   if (weights == LsWeights::kNone) return ols;
   const ResidualSquares squares = residual_squares(r, r.rows(), ols.beta, threads);
   const std::array<std::size_t, 3> rows = r.rows_per_joint();
@@ -690,7 +692,7 @@ LeastSquaresResult solve_least_squares(const Equations& r,
   RowScale scale;
   for (unsigned j = 0; j < 3; ++j) scale.by_joint[j] = std::sqrt(w[j]);
   LeastSquaresResult wls =
-      solve_ordinary(r, scale, parameters, solver, log_name, correlation_lags, threads);
+      solve_ordinary(r, scale, parameters, solver, log_name, correlation_lags, threads, grams);
   wls.joint_weights = w;
   return wls;
 }

@@ -12,6 +12,9 @@ void keep_freed_memory_for_reuse() {
   (void)mallopt(M_MMAP_THRESHOLD, kLargestHeapBlock);
   (void)mallopt(M_TRIM_THRESHOLD, kKeptAtTop);
 #endif
+#if defined(M_ARENA_MAX)
+  (void)mallopt(M_ARENA_MAX, 1);
+#endif
 }
 
 }  // namespace host_id

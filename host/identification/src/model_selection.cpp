@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
@@ -275,7 +276,9 @@ void fold_block_moments(const Regression& r, std::size_t first, std::size_t end,
       if (members.empty()) continue;
       const auto m = static_cast<Eigen::Index>(members.size());
       const auto k = static_cast<Eigen::Index>(own[j].size());
-      joint_rows.topLeftCorner(m, k) = chunk(members, own[j]);
+      // (Spans: an indexed view keeps a copy of a vector of indices.)
+      joint_rows.topLeftCorner(m, k) =
+          chunk(std::span<const Eigen::Index>(members), std::span<const Eigen::Index>(own[j]));
       sums[j].selfadjointView<Eigen::Lower>().rankUpdate(
           joint_rows.topLeftCorner(m, k).transpose());
       joint_blocks[j].rows += members.size();
@@ -309,11 +312,42 @@ std::vector<BlockMoments> block_moments(const Regression& r, std::size_t rows, u
     while (f < folds && r.sample[i] * folds / samples >= f) bounds[f++] = i;
   }
   const auto own = own_columns(r);
-  std::vector<BlockMoments> blocks(3 * folds);
-  run_tasks(folds, workers_for(rows, threads, 60000), [&](std::size_t, std::size_t f) {
-    fold_block_moments(r, bounds[f], bounds[f + 1], own, load_smoothing_rad_s, &blocks[3 * f]);
+  // Each fold in two halves, so that two threads share an odd number of
+  // folds evenly; the halves' sums are added in order.
+  std::vector<BlockMoments> halves(6 * folds);
+  run_tasks(2 * folds, workers_for(rows, threads, 60000), [&](std::size_t, std::size_t h) {
+    const std::size_t f = h / 2, middle = (bounds[f] + bounds[f + 1]) / 2;
+    const std::size_t first = h % 2 == 0 ? bounds[f] : middle;
+    const std::size_t end = h % 2 == 0 ? middle : bounds[f + 1];
+    fold_block_moments(r, first, end, own, load_smoothing_rad_s, &halves[3 * h]);
   });
+  std::vector<BlockMoments> blocks(3 * folds);
+  for (std::size_t f = 0; f < folds; ++f) {
+    for (unsigned j = 0; j < 3; ++j) {
+      BlockMoments& b = blocks[3 * f + j];
+      b = halves[6 * f + j];
+      const BlockMoments& second = halves[6 * f + 3 + j];
+      b.zz += second.zz;
+      b.z_tau += second.z_tau;
+      b.tau_tau += second.tau_tau;
+      b.rows += second.rows;
+    }
+  }
   return blocks;
+}
+
+// Each joint's Gram matrix of [Psi tau] over all the blocks, from the
+// blocks' moments of z = [Psi 1 load tau].
+JointGrams joint_grams(const std::vector<BlockMoments>& blocks, Eigen::Index p) {
+  std::vector<Eigen::Index> psi_and_tau(static_cast<std::size_t>(p) + 1);
+  for (Eigen::Index c = 0; c < p; ++c) psi_and_tau[static_cast<std::size_t>(c)] = c;
+  psi_and_tau.back() = p + kTauAfter;
+  JointGrams out;
+  for (unsigned j = 0; j < 3; ++j) out.of_joint[j] = Eigen::MatrixXd::Zero(p + 1, p + 1);
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    out.of_joint[b % 3] += blocks[b].zz(psi_and_tau, psi_and_tau);
+  }
+  return out;
 }
 
 // Where each of the superset's parameters comes from in a fitted model's
@@ -413,7 +447,7 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
 
 ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_options,
                              const Regression& r, std::size_t rows, unsigned folds,
-                             unsigned threads) {
+                             unsigned threads, JointGrams* grams) {
   if (fitted_options.name == "paper14") {
     throw delta::InputError("paper14 has no variants to judge");
   }
@@ -428,8 +462,10 @@ ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_opt
   largest.torque_gains = true;
   const auto superset = make_model(largest);
   const std::vector<Source> src = sources(*superset, fitted);
-  const std::vector<FoldMoments> moments = moments_from_blocks(
-      block_moments(r, rows, folds, fitted_options.coulomb_smoothing_rad_s, threads), src, folds);
+  const std::vector<BlockMoments> blocks =
+      block_moments(r, rows, folds, fitted_options.coulomb_smoothing_rad_s, threads);
+  if (grams) *grams = joint_grams(blocks, r.psi.cols());
+  const std::vector<FoldMoments> moments = moments_from_blocks(blocks, src, folds);
   ModelOptions base = fitted_options;
   base.per_joint = false;
   base.offsets = false;

@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include "host_id/parallel.hpp"
+
 namespace host_id {
 
 namespace {
@@ -130,7 +132,7 @@ void keep_larger(Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 }  // namespace
 
 MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& joint_weights,
-                           std::size_t step) {
+                           std::size_t step, unsigned threads) {
   step = std::max<std::size_t>(step, 1);
   const Rows rows = weighted_rows(r, joint_weights, step);
   const Eigen::MatrixXd a = rows.x.transpose() * rows.x;
@@ -144,12 +146,18 @@ MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& join
     return r.sample[static_cast<std::size_t>(i) * step] <
            r.sample[static_cast<std::size_t>(k) * step];
   });
+  // The partitions (time, then each column's values) are independent:
+  // shared out over the threads, each into its own place.
+  std::vector<Eigen::VectorXd> variance(static_cast<std::size_t>(p) + 1);
+  run_tasks(
+      variance.size(), workers_for(variance.size(), threads, 1), [&](std::size_t, std::size_t k) {
+        variance[k] = jackknife_variance(
+            rows, a, b, k == 0 ? cut(in_time) : bins_by(rows, static_cast<Eigen::Index>(k - 1)));
+      });
   MotionSpread out;
-  out.time_std_dev = jackknife_variance(rows, a, b, cut(in_time));
+  out.time_std_dev = variance[0];
   Eigen::VectorXd columns = Eigen::VectorXd::Constant(p, kNaN);
-  for (Eigen::Index k = 0; k < p; ++k) {
-    keep_larger(columns, jackknife_variance(rows, a, b, bins_by(rows, k)));
-  }
+  for (std::size_t k = 1; k < variance.size(); ++k) keep_larger(columns, variance[k]);
   Eigen::VectorXd largest = columns;
   keep_larger(largest, out.time_std_dev);
   out.std_dev = largest.cwiseSqrt().cwiseQuotient(rows.column_norm);
@@ -159,8 +167,9 @@ MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& join
 }
 
 MotionSpread add_model_error(const Equations& r, std::size_t correlation_lags,
-                             LeastSquaresResult& ls) {
-  const MotionSpread spread = motion_spread(r, ls.joint_weights, nyquist_step(correlation_lags));
+                             LeastSquaresResult& ls, unsigned threads) {
+  const MotionSpread spread =
+      motion_spread(r, ls.joint_weights, nyquist_step(correlation_lags), threads);
   ls.honest_std_dev = ls.std_dev;
   keep_larger(ls.honest_std_dev, spread.std_dev);
   return spread;

@@ -62,7 +62,7 @@ PayloadResult fit_payload(const Model& model, const Eigen::VectorXd& beta, const
   const Equations rows(payload);
   LeastSquaresResult ls =
       solve_least_squares(rows, info, LsSolver::kQr, LsWeights::kNone, log.name, lags, threads);
-  add_model_error(rows, lags, ls);
+  add_model_error(rows, lags, ls, threads);
   PayloadResult out;
   out.mass_kg = ls.beta(0);
   out.std_dev_kg = ls.honest_std_dev(0);
@@ -181,7 +181,7 @@ TorqueScaleResult fit_torque_scale(const Model& model, const DeltaLog& unloaded,
   const std::size_t lags = correlation_lags_for(a.sample_rate_hz, prepare.cutoff_hz);
   LeastSquaresResult ls = solve_least_squares(Equations(all), info, LsSolver::kQr, LsWeights::kNone,
                                               unloaded.name + " + " + loaded.name, lags, threads);
-  add_model_error(Equations(all), lags, ls);
+  add_model_error(Equations(all), lags, ls, threads);
   TorqueScaleResult out;
   take_torque_scales(ls, out);
   const Eigen::Index p = static_cast<Eigen::Index>(model.size());

@@ -1,6 +1,7 @@
 #include "preprocess_rows.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -149,10 +150,14 @@ struct RowFill {
     const std::size_t p = model.size();
     for (std::size_t c = 0; c < p; ++c) {
       double* column = &store.psi(0, static_cast<Eigen::Index>(c));
-      for (std::size_t t = 3 * first; t < 3 * last; ++t) {
-        const double v = chunk.rows[t * p + c];
-        column[chunk.to_row[t]] = v;
-        nz[(t % 3) * p + c] |= static_cast<unsigned char>(v != 0.0);
+      for (unsigned j = 0; j < 3; ++j) {
+        bool any = false;
+        for (std::size_t t = 3 * first + j; t < 3 * last; t += 3) {
+          const double v = chunk.rows[t * p + c];
+          column[chunk.to_row[t]] = v;
+          any = any || v != 0.0;
+        }
+        nz[j * p + c] |= static_cast<unsigned char>(any);
       }
     }
     for (std::size_t t = 3 * first; t < 3 * last; ++t) {
@@ -225,43 +230,79 @@ void fill_rows(const Model& model, const DeltaLog& log, const States& s, const R
   for (const MeasuredMoments& m : chunk_moments) r.measured.merge(m);
 }
 
+// One series of the regression: a column (p: tau) in one joint's rows.
+struct JointSeries {
+  std::size_t column;
+  unsigned joint;
+};
+
+// One sample's series as the filter's lanes: lane l is series lanes[l] in
+// the sample's row of its joint.
+struct SampleLanes {
+  std::array<double*, 3> row;  // each joint's row: its first column
+  std::array<double*, 3> tau;
+  std::ptrdiff_t column_step;  // from one column to the next
+  const JointSeries* lanes;
+  std::size_t p;
+  double& operator[](std::size_t l) const {
+    const JointSeries& x = lanes[l];
+    return x.column == p ? *tau[x.joint]
+                         : row[x.joint][static_cast<std::ptrdiff_t>(x.column) * column_step];
+  }
+};
+
+// A task filters about this many series side by side: enough that their
+// recurrences overlap, few enough that the tasks are many for the threads
+// to share.
+constexpr std::size_t kLanesPerTask = 6;
+
+// The series of one segment in tasks: each column's joints (those it is
+// not zero in, from fill_rows) in one task, so that a task reads whole
+// cache lines of the column-major regressor, and tau's alike.
+std::vector<std::vector<JointSeries>> series_tasks(const std::vector<unsigned char>& nonzero,
+                                                   std::size_t p) {
+  std::vector<std::vector<JointSeries>> tasks(1);
+  for (std::size_t c = 0; c <= p; ++c) {
+    std::vector<JointSeries> column;
+    for (unsigned j = 0; j < 3; ++j) {
+      if (c == p || nonzero[j * p + c]) column.push_back({c, j});
+    }
+    if (tasks.back().size() + column.size() > kLanesPerTask) tasks.emplace_back();
+    tasks.back().insert(tasks.back().end(), column.begin(), column.end());
+  }
+  return tasks;
+}
+
 // Filters every column of Psi and tau per segment and joint with the same
 // zero-phase filter as q ("parallel filtering": filtering is linear, so
 // filt(tau) = filt(Psi) beta holds exactly), through the trimmed ends too.
-// The series are independent: a task is one segment's (column, joint) pair
-// that is not zero throughout (a joint's row is zero in the other joints'
-// friction columns; nonzero from fill_rows), or one joint's tau, and the
-// tasks are shared out over the threads.
+// The series are independent: a task is a few of one segment's series
+// (series_tasks), filtered side by side, and the tasks are shared out over
+// the threads.
 void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
                     const RowLayout& layout, RowStore& store,
                     const std::vector<unsigned char>& nonzero, std::size_t samples,
                     unsigned threads) {
-  struct Task {
-    std::size_t segment;
-    unsigned joint;
-    bool tau;
-    std::size_t column;
-  };
-  std::vector<Task> tasks;
-  for (std::size_t si = 0; si < segments.size(); ++si) {
-    for (unsigned j = 0; j < 3; ++j) {
-      tasks.push_back({si, j, true, 0});
-      for (std::size_t c = 0; c < store.p; ++c) {
-        if (nonzero[j * store.p + c]) tasks.push_back({si, j, false, c});
-      }
-    }
-  }
-  const auto run = [&](const Task& t) {
-    const std::size_t len = segments[t.segment].end - segments[t.segment].begin;
-    filtfilt_lanes(d.filter, len, 1, d.pad, [&](std::size_t q) {
+  const std::vector<std::vector<JointSeries>> groups = series_tasks(nonzero, store.p);
+  const auto ld = static_cast<std::ptrdiff_t>(store.psi.outerStride());
+  const auto run = [&](std::size_t si, const std::vector<JointSeries>& lanes) {
+    const std::size_t len = segments[si].end - segments[si].begin;
+    filtfilt_lanes(d.filter, len, lanes.size(), d.pad, [&](std::size_t q) {
       bool side = false;
-      const std::size_t i = layout.place(t.segment, q, len, side);
-      const std::size_t row = side ? 3 * i + t.joint : layout.row(i, t.joint);
-      return t.tau ? &store.tau_at(side, row) : &store.at(side, row, t.column);
+      const std::size_t i = layout.place(si, q, len, side);
+      SampleLanes at{{}, {}, side ? 1 : ld, lanes.data(), store.p};
+      for (unsigned j = 0; j < 3; ++j) {
+        const std::size_t row = side ? 3 * i + j : layout.row(i, j);
+        at.row[j] =
+            side ? &store.side_rows[row * store.p] : &store.psi(static_cast<Eigen::Index>(row), 0);
+        at.tau[j] = side ? &store.side_tau[row] : &store.tau(static_cast<Eigen::Index>(row));
+      }
+      return at;
     });
   };
   const std::size_t workers = workers_for(samples, threads, kSamplesPerThread);
-  run_tasks(tasks.size(), workers, [&](std::size_t, std::size_t k) { run(tasks[k]); });
+  run_tasks(segments.size() * groups.size(), workers,
+            [&](std::size_t, std::size_t k) { run(k / groups.size(), groups[k % groups.size()]); });
 }
 
 }  // namespace

@@ -99,8 +99,16 @@ void filter_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, st
   for (unsigned j = 0; j < 3; ++j) {
     std::copy(log.q[j].begin() + static_cast<std::ptrdiff_t>(b),
               log.q[j].begin() + static_cast<std::ptrdiff_t>(e), q[j].begin());
-    filtfilt_in_place(d.state_filter, q[j], d.state_pad);
   }
+  // Sample k of the three joints, side by side.
+  struct Joints {
+    std::array<std::vector<double>, 3>& q;
+    std::size_t k;
+    double& operator[](std::size_t j) const { return q[j][k]; }
+  };
+  filtfilt_lanes(d.state_filter, e - b, 3, d.state_pad, [&q](std::size_t k) {
+    return Joints{q, k};
+  });
 }
 
 // Where the joint states of segment [b, e) come from: the log's q, qd and

@@ -287,12 +287,53 @@ TEST(IdentifyTest, SlowEquationsAreLeftOutOfTheEstimateButNotOfTheRmse) {
   // (The fit sums the rows fast ones first: the same sums in another order.)
   const auto rmse = rmse_per_joint(all, r.beta);
   for (unsigned j = 0; j < 3; ++j) EXPECT_NEAR(r.fit.rmse_filtered_Nm[j], rmse[j], 1e-13 * rmse[j]);
-  EXPECT_DOUBLE_EQ(r.cost_Nm2, direct_cost(fast, r.beta));
+  EXPECT_NEAR(r.cost_Nm2, direct_cost(fast, r.beta), 1e-13 * r.cost_Nm2);
   // paper14 keeps every sample unless told.
   FitOptions paper = least_squares();
   paper.model.name = "paper14";
   EXPECT_EQ(min_speed_for(paper), 0.0);
   EXPECT_EQ(min_speed_for(least_squares()), kDefaultMinSpeedRadS);
+}
+
+// A fit shares its passes out over threads (the regressor's filtering, the
+// support's folds, the motion spread's partitions, the analyses of the
+// fitted log side by side): on two threads it reports the same bits as on
+// one. The 45 s log makes every pass take two workers.
+TEST(IdentifyTest, AFitGivesTheSameBitsOnOneThreadAndOnTwo) {
+  const DeltaLog log = simulated(4, 0.015, 17, false, "fourier", 45.0);
+  FitOptions o = least_squares();
+  o.threads = 1;
+  const FitResult one = fit_log(log, o, {}, true);
+  o.threads = 2;
+  const FitResult two = fit_log(log, o, {}, true);
+  EXPECT_TRUE(one.beta == two.beta);
+  ASSERT_EQ(one.parameters.size(), two.parameters.size());
+  for (std::size_t c = 0; c < one.parameters.size(); ++c) {
+    EXPECT_EQ(one.parameters[c].std_dev, two.parameters[c].std_dev) << c;
+    EXPECT_EQ(one.parameters[c].ls_std_dev, two.parameters[c].ls_std_dev) << c;
+  }
+  ASSERT_TRUE(one.support && two.support);
+  for (std::size_t v = 0; v < one.support->variants.size(); ++v) {
+    EXPECT_EQ(one.support->variants[v].held_out_rmse_Nm, two.support->variants[v].held_out_rmse_Nm);
+  }
+  EXPECT_EQ(one.cost_Nm2, two.cost_Nm2);
+  EXPECT_EQ(one.fit.rmse_filtered_Nm, two.fit.rmse_filtered_Nm);
+  ASSERT_TRUE(one.torque_lag && two.torque_lag);
+  EXPECT_EQ(one.torque_lag->lag_s, two.torque_lag->lag_s);
+  EXPECT_EQ(one.torque_lag->error_drop, two.torque_lag->error_drop);
+  ASSERT_EQ(one.stribeck.has_value(), two.stribeck.has_value());
+  if (one.stribeck) {
+    EXPECT_EQ(one.stribeck->error_drop, two.stribeck->error_drop);
+  }
+  ASSERT_TRUE(one.collision && two.collision);
+  EXPECT_EQ(one.collision->thresholds.base_Nm, two.collision->thresholds.base_Nm);
+  EXPECT_EQ(one.collision->thresholds.per_speed_Nm_s_per_rad,
+            two.collision->thresholds.per_speed_Nm_s_per_rad);
+  ASSERT_EQ(one.predictions.size(), 1u);
+  ASSERT_EQ(two.predictions.size(), 1u);
+  EXPECT_EQ(one.predictions[0].role, "fit");
+  EXPECT_EQ(one.predictions[0].predicted_Nm, two.predictions[0].predicted_Nm);
+  EXPECT_EQ(one.doubts, two.doubts);
 }
 
 }  // namespace

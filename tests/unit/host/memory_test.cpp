@@ -5,6 +5,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <thread>
 
 #include "address_sanitizer.hpp"
 
@@ -38,6 +39,28 @@ TEST(MemoryTest, FreedBlocksAreKeptForTheNextOnceAsked) {
   ASSERT_NE(second, nullptr);
   EXPECT_EQ(mallinfo2().arena, held.arena) << "the next block took fresh memory";
   std::free(second);
+}
+
+// And a thread other than the one that freed a block takes it too (one
+// arena for all threads): by default a new thread's blocks come from a heap
+// of its own, and a block the main thread freed stays idle.
+TEST(MemoryTest, AnotherThreadTakesTheFreedBlockToo) {
+  keep_freed_memory_for_reuse();
+  constexpr std::size_t kBytes = std::size_t{8} << 20;
+  auto* first = static_cast<char*>(std::malloc(kBytes));
+  ASSERT_NE(first, nullptr);
+  std::memset(first, 1, kBytes);
+  std::free(first);
+  const std::size_t held = mallinfo2().arena;
+  std::size_t in_thread = 0;
+  std::thread([&] {
+    auto* second = static_cast<char*>(std::malloc(kBytes));
+    if (second == nullptr) return;
+    std::memset(second, 2, kBytes);
+    in_thread = mallinfo2().arena;
+    std::free(second);
+  }).join();
+  EXPECT_EQ(in_thread, held) << "the thread took fresh memory for its block";
 }
 #endif
 

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "fit_fixtures.hpp"
+#include "host_id/least_squares.hpp"
 #include "host_id/preprocess.hpp"
 #include "host_id/simulate.hpp"
 
@@ -138,6 +139,46 @@ TEST(ModelSelectionTest, ThePlainFitsJudgementFromItsOwnRowsIsSelectModels) {
                   1e-9 * reference.variants[v].held_out_rmse_Nm)
           << own.variants[v].name;
     }
+  }
+}
+
+// The support's pass also sums each joint's Gram matrix of [Psi tau] over
+// the equations (the fast rows, a slow joint's rows left out), and least
+// squares given them solves as with its own pass: the matrices are the
+// rows' own products, and the estimate, its cost and its standard
+// deviations agree to rounding, unweighted and weighted by joint.
+TEST(ModelSelectionTest, TheSupportsGramMatricesAreTheEquationsOwn) {
+  const DeltaLog log = lumped_log(delta::default_lumped_parameters(), 35);
+  FitOptions o;
+  const auto model = make_model(o.model);
+  PrepareOptions prepare;
+  prepare.slow_rows_last_below_rad_s = 0.2;
+  const Preprocessed pre = preprocess(*model, log, prepare);
+  const Equations eq(pre.regression, pre.fast_rows);
+  ASSERT_LT(eq.rows(), pre.regression.rows());
+  JointGrams grams;
+  judge_support(*model, o.model, pre.regression, pre.fast_rows, 5, 2, &grams);
+  const Eigen::Index p = eq.psi.cols();
+  for (unsigned j = 0; j < 3; ++j) {
+    Eigen::MatrixXd rows(0, p + 1);
+    for (std::size_t row = 0; row < eq.rows(); ++row) {
+      if (eq.joint[row] != j) continue;
+      rows.conservativeResize(rows.rows() + 1, Eigen::NoChange);
+      rows.row(rows.rows() - 1) << eq.psi.row(static_cast<Eigen::Index>(row)),
+          eq.tau(static_cast<Eigen::Index>(row));
+    }
+    const Eigen::MatrixXd own = rows.transpose() * rows;
+    EXPECT_LT((grams.of_joint[j] - own).norm(), 1e-12 * own.norm()) << "joint " << j;
+  }
+  for (const LsWeights weights : {LsWeights::kNone, LsWeights::kJoint}) {
+    const LeastSquaresResult pass =
+        solve_least_squares(eq, model->parameters(), LsSolver::kQr, weights, log.name, 50, 2);
+    const LeastSquaresResult given = solve_least_squares(eq, model->parameters(), LsSolver::kQr,
+                                                         weights, log.name, 50, 2, &grams);
+    EXPECT_LT((given.beta - pass.beta).norm(), 1e-12 * pass.beta.norm());
+    EXPECT_NEAR(given.cost, pass.cost, 1e-12 * pass.cost);
+    EXPECT_LT((given.std_dev - pass.std_dev).norm(), 1e-10 * pass.std_dev.norm());
+    EXPECT_LT((given.psi_t_psi - pass.psi_t_psi).norm(), 1e-12 * pass.psi_t_psi.norm());
   }
 }
 

@@ -66,6 +66,18 @@ struct LeastSquaresResult {
   double tau_t_tau{0};
 };
 
+// The Gram matrices [Psi tau]^T [Psi tau] of each joint's rows of a
+// regression ((p+1) x (p+1), full), where a pass over the rows has already
+// summed them (judge_support's): the least squares then adds them up,
+// weighted, instead of making its own pass.
+struct JointGrams {
+  std::array<Eigen::MatrixXd, 3> of_joint;
+  // The Gram matrix of the rows weighted by joint: joint j's times w[j].
+  Eigen::MatrixXd weighted(const std::array<double, 3>& w) const {
+    return w[0] * of_joint[0] + w[1] * of_joint[1] + w[2] * of_joint[2];
+  }
+};
+
 // Solves min |tau - Psi beta|^2 subject to beta_c >= 0 for each parameter
 // the model marks nonnegative (exactly: an active-set method on the
 // regressor's triangular factor). With kJoint, two steps: ordinary least
@@ -81,7 +93,9 @@ struct LeastSquaresResult {
 // Filtered residuals are correlated over about fs / f_cutoff samples, and
 // the white-noise formula (L = 0) then understates the spread several times.
 // The passes over the rows run on `threads` threads (0: one per core) for
-// long regressions, with the same result on any number of them.
+// long regressions, with the same result on any number of them. With
+// `grams` (of r's rows), the Gram matrix is their sum: equal to the pass's
+// to rounding.
 LeastSquaresResult solve_least_squares(const Equations& r, const Model& model, LsSolver solver,
                                        LsWeights weights, const std::string& log_name,
                                        std::size_t correlation_lags = 0, unsigned threads = 1);
@@ -90,7 +104,8 @@ LeastSquaresResult solve_least_squares(const Equations& r,
                                        const std::vector<ParameterInfo>& parameters,
                                        LsSolver solver, LsWeights weights,
                                        const std::string& log_name,
-                                       std::size_t correlation_lags = 0, unsigned threads = 1);
+                                       std::size_t correlation_lags = 0, unsigned threads = 1,
+                                       const JointGrams* grams = nullptr);
 
 // The cost (mean squared error) of the bounded optimum alone: no
 // covariance, for a search that solves many problems (variable projection).

@@ -29,10 +29,12 @@ ModelSelection select_model(const DeltaLog& log, const FitOptions& options, unsi
 // is 1 in its joint's rows (a filtered constant). rows: the equations the
 // fit took (the fast ones first). It agrees with select_model() on the same
 // log to rounding. Throws InputError for paper14 or too short a regression.
-// The folds' moments are taken on `threads` threads (0: all cores).
+// The folds' moments are taken on `threads` threads (0: all cores). With
+// `grams`, the first `rows` rows' Gram matrices per joint go there too
+// (for solve_least_squares, which then makes no pass of its own).
 ModelSelection judge_support(const Model& fitted, const ModelOptions& fitted_options,
                              const Regression& r, std::size_t rows, unsigned folds = 5,
-                             unsigned threads = 0);
+                             unsigned threads = 0, JointGrams* grams = nullptr);
 
 // The held-out torque RMSE of one model over `folds` time blocks of its
 // regression's first `rows` rows (each block predicted by the bounded fit

@@ -38,9 +38,11 @@ struct MotionSpread {
 
 // Every `step`-th row is used (rows filtered far below the sample rate
 // carry little more). A partition whose bins cannot each be left out with
-// every parameter still determined is skipped.
+// every parameter still determined is skipped. The partitions are shared
+// out over `threads` threads (0: one per core); the result is the same on
+// any number.
 MotionSpread motion_spread(const Equations& r, const std::array<double, 3>& joint_weights,
-                           std::size_t step);
+                           std::size_t step, unsigned threads);
 
 // The step that takes the rows at the Nyquist rate of the filtered
 // signals, fs / (2 f_cutoff), from the correlation lags (2 fs / f_cutoff).
@@ -51,6 +53,6 @@ inline std::size_t nyquist_step(std::size_t correlation_lags) {
 // ls.honest_std_dev: the larger of ls.std_dev and the motion spread, its
 // rows every nyquist_step(correlation_lags)-th.
 MotionSpread add_model_error(const Equations& r, std::size_t correlation_lags,
-                             LeastSquaresResult& ls);
+                             LeastSquaresResult& ls, unsigned threads);
 
 }  // namespace host_id

@@ -60,4 +60,18 @@ void run_tasks(std::size_t tasks, std::size_t workers, const Task& task) {
   if (failed) std::rethrow_exception(failed);
 }
 
+// Runs a() and b() side by side, on two threads where `threads` (0: one per
+// core) allows, else one after the other; as run_tasks, a task's exception
+// is rethrown here.
+template <class A, class B>
+void run_both(unsigned threads, const A& a, const B& b) {
+  run_tasks(2, workers_for(2, threads, 1), [&](std::size_t, std::size_t k) {
+    if (k == 0) {
+      a();
+    } else {
+      b();
+    }
+  });
+}
+
 }  // namespace host_id

@@ -2,6 +2,7 @@
 // signals, for logs without qd and qdd columns.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <vector>
@@ -18,6 +19,100 @@ struct Biquad {
 // pre-warping). Requires 0 < cutoff_hz < sample_rate_hz / 2.
 std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz);
 
+namespace filtfilt_detail {
+
+// The values at sample `at_sample` of the least-squares lines through
+// samples first .. first + m of each lane, so that a noisy end sample does
+// not pin the filtered signal.
+template <class At>
+std::vector<double> line_end_values(const At& at, std::size_t lanes, std::size_t first,
+                                    std::size_t m, double at_sample) {
+  double st = 0, stt = 0;
+  std::vector<double> sx(lanes, 0.0), stx(lanes, 0.0);
+  for (std::size_t i = 0; i < m; ++i) {
+    const double t = static_cast<double>(first + i);
+    const auto x = at(first + i);
+    st += t;
+    stt += t * t;
+    for (std::size_t l = 0; l < lanes; ++l) {
+      sx[l] += x[l];
+      stx[l] += t * x[l];
+    }
+  }
+  const double md = static_cast<double>(m);
+  const double den = md * stt - st * st;
+  const auto x = at(first);
+  std::vector<double> out(lanes);
+  for (std::size_t l = 0; l < lanes; ++l) {
+    if (!(den > 0.0)) {
+      out[l] = x[l];
+      continue;
+    }
+    const double slope = (md * stx[l] - st * sx[l]) / den;
+    out[l] = (sx[l] - slope * st) / md + slope * at_sample;
+  }
+  return out;
+}
+
+// At most this many lanes are stepped together (filtfilt_lanes takes more
+// this many at a time).
+constexpr std::size_t kMaxLanes = 8;
+
+// The two sections' states of each lane, stepped side by side. The states
+// are the object's own (on its thread's stack): in small blocks on the
+// heap, two threads' states could share a cache line, written each sample.
+class Cascade {
+ public:
+  Cascade(const std::array<Biquad, 2>& f, std::size_t lanes) : s_(f[0]), u_(f[1]), lanes_(lanes) {}
+  // The steady state for each lane's constant input x[l] (unity DC gain).
+  template <class X>
+  void start(const X& x) {
+    for (std::size_t l = 0; l < lanes_; ++l) {
+      const double v = x[l];
+      z1_[l] = v - s_.b0 * v;
+      z2_[l] = s_.b2 * v - s_.a2 * v;
+      w1_[l] = v - u_.b0 * v;
+      w2_[l] = u_.b2 * v - u_.a2 * v;
+    }
+  }
+  // One sample of each lane in, its output written over it.
+  template <class X>
+  void step(X&& x) {
+    for (std::size_t l = 0; l < lanes_; ++l) {
+      const double in = x[l];
+      const double mid = s_.b0 * in + z1_[l];
+      z1_[l] = s_.b1 * in - s_.a1 * mid + z2_[l];
+      z2_[l] = s_.b2 * in - s_.a2 * mid;
+      const double out = u_.b0 * mid + w1_[l];
+      w1_[l] = u_.b1 * mid - u_.a1 * out + w2_[l];
+      w2_[l] = u_.b2 * mid - u_.a2 * out;
+      x[l] = out;
+    }
+  }
+
+ private:
+  Biquad s_, u_;
+  std::size_t lanes_;
+  std::array<double, kMaxLanes> z1_{}, z2_{}, w1_{}, w2_{};
+};
+
+// Lanes first .. first + kMaxLanes of what at(k) gives.
+template <class At>
+struct SomeLanes {
+  At& at;
+  std::size_t first;
+  auto operator()(std::size_t k) const {
+    struct Lanes {
+      decltype(at(k)) all;
+      std::size_t first;
+      double& operator[](std::size_t l) const { return all[first + l]; }
+    };
+    return Lanes{at(k), first};
+  }
+};
+
+}  // namespace filtfilt_detail
+
 // Runs the filter forward and backward (zero phase, magnitude squared), in
 // place. The ends are extended by odd reflection over pad samples about
 // values from lines through the end samples, and each pass starts in its
@@ -28,23 +123,67 @@ void filtfilt_in_place(const std::array<Biquad, 2>& filter, std::vector<double>&
 std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<double> x,
                              std::size_t pad);
 
-// filtfilt_in_place on `lanes` series of n samples that lie where the caller
-// says: at(k)[l] is sample k of series l, read once and written once with
-// its filtered value. A series that is zero throughout is left as it is (its
-// filtered value is zero).
+namespace filtfilt_detail {
+
+// filtfilt_lanes on at most kMaxLanes lanes.
+template <class At>
+void filtfilt_few(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
+                  std::size_t pad_asked, const At& at) {
+  const std::size_t pad = std::min(pad_asked, n - 1);
+  // Odd reflection about robust end values (filtfilt_in_place): only the
+  // reflected ends are stored, lane by lane.
+  const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
+  std::vector<double> x0 = line_end_values(at, lanes, 0, m, 0.0);
+  std::vector<double> xn = line_end_values(at, lanes, n - m, m, static_cast<double>(n - 1));
+  std::vector<double> head(pad * lanes), tail(pad * lanes);
+  for (std::size_t i = 0; i < pad; ++i) {
+    const auto a = at(pad - i);
+    const auto b = at(n - 2 - i);
+    for (std::size_t l = 0; l < lanes; ++l) {
+      head[i * lanes + l] = 2.0 * x0[l] - a[l];
+      tail[i * lanes + l] = 2.0 * xn[l] - b[l];
+    }
+  }
+  Cascade forward(filter, lanes);
+  if (pad > 0) {
+    forward.start(&head[0]);
+    for (std::size_t i = 0; i < pad; ++i) forward.step(&head[i * lanes]);
+  } else {
+    forward.start(at(0));
+  }
+  for (std::size_t k = 0; k < n; ++k) forward.step(at(k));
+  for (std::size_t i = 0; i < pad; ++i) forward.step(&tail[i * lanes]);
+  // Backward from the end of the tail; only the series' samples are kept.
+  Cascade backward(filter, lanes);
+  if (pad > 0) {
+    backward.start(&tail[(pad - 1) * lanes]);
+    for (std::size_t i = pad; i-- > 0;) backward.step(&tail[i * lanes]);
+  } else {
+    backward.start(at(n - 1));
+  }
+  for (std::size_t k = n; k-- > 0;) backward.step(at(k));
+}
+
+}  // namespace filtfilt_detail
+
+// filtfilt_in_place on `lanes` series of n samples at once, each series'
+// samples where the caller says: at(k)[l] is sample k of series l (a
+// double&). The series are stepped side by side, sample by sample, so that
+// their filters' recurrences overlap; at(k) is asked once per sample and
+// pass for every kMaxLanes series. Each series' bits are
+// filtfilt_in_place's.
 template <class At>
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
                     std::size_t pad, At at) {
-  std::vector<double> x(n);
-  for (std::size_t l = 0; l < lanes; ++l) {
-    bool any = false;
-    for (std::size_t k = 0; k < n; ++k) {
-      x[k] = at(k)[l];
-      any = any || x[k] != 0.0;
-    }
-    if (!any) continue;
-    filtfilt_in_place(filter, x, pad);
-    for (std::size_t k = 0; k < n; ++k) at(k)[l] = x[k];
+  using filtfilt_detail::kMaxLanes;
+  if (n < 2) return;
+  if (lanes <= kMaxLanes) {
+    filtfilt_detail::filtfilt_few(filter, n, lanes, pad, at);
+    return;
+  }
+  for (std::size_t first = 0; first < lanes; first += kMaxLanes) {
+    filtfilt_detail::filtfilt_few(filter, n, std::min(kMaxLanes, lanes - first), pad,
+                                  filtfilt_detail::SomeLanes<At>{at, first});
   }
 }
 
