@@ -366,7 +366,7 @@ TriangularFactor scaled_qr(const Equations& reg, const RowScale& scale,
 
 // R and Q^T tau of the scaled regressor A = Psi D^-1 from its Gram matrix:
 // R^T R = A^T A (Cholesky), Q^T tau = R^-T A^T tau. One pass over the rows
-// (augmented_gram) against Householder's one per column. Its rounding error
+// (augmented_gram; none with JointGrams) against Householder's per column. Its rounding error
 // grows with the square of the condition number, so it is taken only below
 // kGramConditionLimit (at most about 1e3^2 * 1e-16 = 1e-10 of the estimate),
 // and one step of refinement (refine_from_residual) takes the error down to
@@ -535,7 +535,7 @@ LeastSquaresResult solve_ordinary(const Equations& r, const RowScale& scale,
   const Eigen::Index p = r.psi.cols();
   std::vector<std::size_t> zero_columns;
   const Eigen::MatrixXd gram =
-      grams ? grams->weighted(scale.weights()) : augmented_gram(r, scale, threads);
+      grams ? grams->weighted(scale.weights(), p) : augmented_gram(r, scale, threads);
   const Eigen::VectorXd col_norm = column_norms(gram, zero_columns);
   const auto [rr, qt_tau] = scaled_factor(r, scale, gram, col_norm, !zero_columns.empty(), threads);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(rr, Eigen::ComputeFullU | Eigen::ComputeFullV);

@@ -283,7 +283,7 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
                     const RowLayout& layout, RowStore& store,
                     const std::vector<unsigned char>& nonzero, std::size_t samples,
                     unsigned threads) {
-  const std::vector<std::vector<JointSeries>> groups = series_tasks(nonzero, store.p);
+  const std::vector<std::vector<JointSeries>> tasks = series_tasks(nonzero, store.p);
   const auto ld = static_cast<std::ptrdiff_t>(store.psi.outerStride());
   const auto run = [&](std::size_t si, const std::vector<JointSeries>& lanes) {
     const std::size_t len = segments[si].end - segments[si].begin;
@@ -301,8 +301,8 @@ void filter_columns(const FilterDesign& d, const std::vector<Segment>& segments,
     });
   };
   const std::size_t workers = workers_for(samples, threads, kSamplesPerThread);
-  run_tasks(segments.size() * groups.size(), workers,
-            [&](std::size_t, std::size_t k) { run(k / groups.size(), groups[k % groups.size()]); });
+  run_tasks(segments.size() * tasks.size(), workers,
+            [&](std::size_t, std::size_t k) { run(k / tasks.size(), tasks[k % tasks.size()]); });
 }
 
 }  // namespace

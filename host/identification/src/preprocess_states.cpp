@@ -91,9 +91,8 @@ bool uniform_steps(const double* t, std::size_t n, double h) {
   return worst <= 1e-6 * h;
 }
 
-// The three joints' q of segment [b, e) of the log, filtered, into q
-// (allocated by the caller, so that their memory returns to the caller's
-// heap, not to a worker thread's).
+// The three joints' q of segment [b, e) of the log, filtered side by side,
+// into q (allocated by the caller).
 void filter_joints(const DeltaLog& log, const FilterDesign& d, std::size_t b, std::size_t e,
                    std::array<std::vector<double>, 3>& q) {
   for (unsigned j = 0; j < 3; ++j) {

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cstddef>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -72,8 +73,14 @@ struct LeastSquaresResult {
 // weighted, instead of making its own pass.
 struct JointGrams {
   std::array<Eigen::MatrixXd, 3> of_joint;
-  // The Gram matrix of the rows weighted by joint: joint j's times w[j].
-  Eigen::MatrixXd weighted(const std::array<double, 3>& w) const {
+  // The Gram matrix of the rows weighted by joint: joint j's times w[j]
+  // (p: the regression's columns, which the matrices must have and tau).
+  Eigen::MatrixXd weighted(const std::array<double, 3>& w, Eigen::Index p) const {
+    for (const Eigen::MatrixXd& g : of_joint) {
+      if (g.rows() != p + 1 || g.cols() != p + 1) {
+        throw std::logic_error("JointGrams: Gram matrices of another regression");
+      }
+    }
     return w[0] * of_joint[0] + w[1] * of_joint[1] + w[2] * of_joint[2];
   }
 };

@@ -19,16 +19,30 @@ struct Biquad {
 // pre-warping). Requires 0 < cutoff_hz < sample_rate_hz / 2.
 std::array<Biquad, 2> butterworth4_lowpass(double cutoff_hz, double sample_rate_hz);
 
+// Runs the filter forward and backward (zero phase, magnitude squared), in
+// place. The ends are extended by odd reflection over pad samples about
+// values from lines through the end samples, and each pass starts in its
+// steady state, so that the ends carry no start-up transient. A series of
+// fewer than two samples is left as it is.
+void filtfilt_in_place(const std::array<Biquad, 2>& filter, std::vector<double>& x,
+                       std::size_t pad);
+std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<double> x,
+                             std::size_t pad);
+
 namespace filtfilt_detail {
+
+// At most this many lanes are stepped together: filtfilt_lanes takes more
+// in blocks of this many.
+constexpr std::size_t kMaxLanes = 8;
 
 // The values at sample `at_sample` of the least-squares lines through
 // samples first .. first + m of each lane, so that a noisy end sample does
 // not pin the filtered signal.
 template <class At>
-std::vector<double> line_end_values(const At& at, std::size_t lanes, std::size_t first,
-                                    std::size_t m, double at_sample) {
+std::array<double, kMaxLanes> line_end_values(const At& at, std::size_t lanes, std::size_t first,
+                                              std::size_t m, double at_sample) {
   double st = 0, stt = 0;
-  std::vector<double> sx(lanes, 0.0), stx(lanes, 0.0);
+  std::array<double, kMaxLanes> sx{}, stx{};
   for (std::size_t i = 0; i < m; ++i) {
     const double t = static_cast<double>(first + i);
     const auto x = at(first + i);
@@ -42,7 +56,7 @@ std::vector<double> line_end_values(const At& at, std::size_t lanes, std::size_t
   const double md = static_cast<double>(m);
   const double den = md * stt - st * st;
   const auto x = at(first);
-  std::vector<double> out(lanes);
+  std::array<double, kMaxLanes> out{};
   for (std::size_t l = 0; l < lanes; ++l) {
     if (!(den > 0.0)) {
       out[l] = x[l];
@@ -53,10 +67,6 @@ std::vector<double> line_end_values(const At& at, std::size_t lanes, std::size_t
   }
   return out;
 }
-
-// At most this many lanes are stepped together (filtfilt_lanes takes more
-// this many at a time).
-constexpr std::size_t kMaxLanes = 8;
 
 // The two sections' states of each lane, stepped side by side. The states
 // are the object's own (on its thread's stack): in small blocks on the
@@ -111,20 +121,6 @@ struct SomeLanes {
   }
 };
 
-}  // namespace filtfilt_detail
-
-// Runs the filter forward and backward (zero phase, magnitude squared), in
-// place. The ends are extended by odd reflection over pad samples about
-// values from lines through the end samples, and each pass starts in its
-// steady state, so that the ends carry no start-up transient. A series of
-// fewer than two samples is left as it is.
-void filtfilt_in_place(const std::array<Biquad, 2>& filter, std::vector<double>& x,
-                       std::size_t pad);
-std::vector<double> filtfilt(const std::array<Biquad, 2>& filter, std::vector<double> x,
-                             std::size_t pad);
-
-namespace filtfilt_detail {
-
 // filtfilt_lanes on at most kMaxLanes lanes.
 template <class At>
 void filtfilt_few(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
@@ -133,8 +129,8 @@ void filtfilt_few(const std::array<Biquad, 2>& filter, std::size_t n, std::size_
   // Odd reflection about robust end values (filtfilt_in_place): only the
   // reflected ends are stored, lane by lane.
   const std::size_t m = std::min(n, std::max<std::size_t>(3, pad / 3));
-  std::vector<double> x0 = line_end_values(at, lanes, 0, m, 0.0);
-  std::vector<double> xn = line_end_values(at, lanes, n - m, m, static_cast<double>(n - 1));
+  const auto x0 = line_end_values(at, lanes, 0, m, 0.0);
+  const auto xn = line_end_values(at, lanes, n - m, m, static_cast<double>(n - 1));
   std::vector<double> head(pad * lanes), tail(pad * lanes);
   for (std::size_t i = 0; i < pad; ++i) {
     const auto a = at(pad - i);
@@ -169,14 +165,13 @@ void filtfilt_few(const std::array<Biquad, 2>& filter, std::size_t n, std::size_
 // filtfilt_in_place on `lanes` series of n samples at once, each series'
 // samples where the caller says: at(k)[l] is sample k of series l (a
 // double&). The series are stepped side by side, sample by sample, so that
-// their filters' recurrences overlap; at(k) is asked once per sample and
-// pass for every kMaxLanes series. Each series' bits are
-// filtfilt_in_place's.
+// their filters' recurrences overlap (a block of kMaxLanes at a time). Each
+// series' bits are filtfilt_in_place's.
 template <class At>
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
                     std::size_t pad, At at) {
   using filtfilt_detail::kMaxLanes;
-  if (n < 2) return;
+  if (n < 2 || lanes == 0) return;
   if (lanes <= kMaxLanes) {
     filtfilt_detail::filtfilt_few(filter, n, lanes, pad, at);
     return;
