@@ -137,7 +137,7 @@ void add_estimator_options(CLI::App& c, FitArguments& a) {
       ->capture_default_str()
       ->group(g);
   c.add_option("--threads", a.fit.threads,
-               "threads for building the regressor and for least squares (0: all cores)")
+               "threads for the fit's passes over the log and its analyses (0: all cores)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str()
       ->group(g);

@@ -171,11 +171,7 @@ template <class At>
 void filtfilt_lanes(const std::array<Biquad, 2>& filter, std::size_t n, std::size_t lanes,
                     std::size_t pad, At at) {
   using filtfilt_detail::kMaxLanes;
-  if (n < 2 || lanes == 0) return;
-  if (lanes <= kMaxLanes) {
-    filtfilt_detail::filtfilt_few(filter, n, lanes, pad, at);
-    return;
-  }
+  if (n < 2) return;
   for (std::size_t first = 0; first < lanes; first += kMaxLanes) {
     filtfilt_detail::filtfilt_few(filter, n, std::min(kMaxLanes, lanes - first), pad,
                                   filtfilt_detail::SomeLanes<At>{at, first});
